@@ -1,0 +1,1 @@
+"""towerlink bridge package."""

@@ -1,0 +1,1 @@
+"""towerlink gcs package."""

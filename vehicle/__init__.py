@@ -1,0 +1,1 @@
+"""towerlink vehicle package."""
