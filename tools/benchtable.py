@@ -1,0 +1,50 @@
+"""Benchmark output: the machine line and side-by-side tables with ratios.
+
+Every benchmark prints through here so `make bench` reads as one report.
+"""
+from __future__ import annotations
+
+import os
+import platform
+import statistics
+import time
+from collections.abc import Callable, Sequence
+
+
+def machine() -> str:
+    """One line naming the machine the figures were measured on."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return (f"{platform.node()} | {cpu} | {os.cpu_count()} cores | "
+            f"Python {platform.python_version()} | {platform.system()} {platform.release()}")
+
+
+def median_time(fn: Callable[[], object], repeat: int, inner: int = 1) -> float:
+    """Median wall seconds of one call of `fn`, over `repeat` samples of `inner` calls."""
+    samples = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        for _ in range(inner):
+            fn()
+        samples.append((time.perf_counter() - t0) / inner)
+    return statistics.median(samples)
+
+
+def table(title: str, header: Sequence[str], rows: Sequence[Sequence[object]]) -> str:
+    """A plain-text table; numbers are formatted by the caller."""
+    cells = [list(map(str, header))] + [[str(c) for c in r] for r in rows]
+    widths = [max(len(r[i]) for r in cells) for i in range(len(header))]
+    line = "  ".join("-" * w for w in widths)
+    out = [title, line]
+    for k, r in enumerate(cells):
+        out.append("  ".join(c.rjust(w) if k else c.ljust(w) for c, w in zip(r, widths)))
+        if k == 0:
+            out.append(line)
+    return "\n".join(out)
