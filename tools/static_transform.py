@@ -1,0 +1,74 @@
+"""Validate a static transform and print it both ways, as tf_echo would.
+
+  towerlink static-transform X Y Z YAW PITCH ROLL FRAME_ID CHILD_FRAME_ID
+  towerlink static-transform X Y Z QX QY QZ QW FRAME_ID CHILD_FRAME_ID
+
+The arguments are static_transform_publisher's: the child's origin in the
+parent frame (metres) and its orientation, as yaw pitch roll in radians
+(R = Rz(yaw) Ry(pitch) Rx(roll); in NED a positive yaw turns x toward y,
+clockwise seen from above) or as a quaternion (x y z w). Example, the lab's
+tower (Checkpoint 0):
+
+  towerlink static-transform 72.72144 -131.19296 0 -0.5235987756 0 0 world tower
+
+prints `tf_echo world tower` (the pose of tower in world), `tf_echo tower world`
+(its inverse) and both 4x4 matrices. With --publish URL it also sends the
+transform to a running bridge, which adds it to its frame tree.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+
+from bridge.frames import InvalidArgumentException, TransformStamped
+from bridge.scenario import STATIC_TRANSFORM_USAGE, ScenarioError, parse_static_transform
+from tools.tf_format import format_tf_echo
+
+
+def describe(ts: TransformStamped) -> str:
+    """Both directions in tf_echo's shape, the 4x4 matrices, and how they relate."""
+    forward = ts.transform
+    inverse = forward.inverse()
+    parent, child = ts.frame_id, ts.child_frame_id
+    blocks = [
+        f"$ tf_echo {parent} {child}    # pose of {child} in {parent}; maps {child} points into {parent}",
+        format_tf_echo(forward, time=0.0),
+        "- Matrix:",
+        _matrix(forward.to_matrix()),
+        "",
+        f"$ tf_echo {child} {parent}    # the inverse: maps {parent} points into {child}",
+        format_tf_echo(inverse, time=0.0),
+        "- Matrix:",
+        _matrix(inverse.to_matrix()),
+        "",
+        "The two directions are inverses: the rotation is transposed (quaternion conjugated)",
+        "and the translation becomes -R^T t, so their matrices multiply to the identity.",
+    ]
+    return "\n".join(blocks)
+
+
+def _matrix(m: np.ndarray) -> str:
+    return "\n".join("    " + " ".join(f"{v:10.4f}" for v in row) for row in m)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("values", nargs="+", metavar="ARG",
+                        help=f"{STATIC_TRANSFORM_USAGE} (static_transform_publisher's order)")
+    parser.add_argument("--publish", metavar="URL",
+                        help="also send it to a running bridge's tower port, e.g. udpout:127.0.0.1:14600")
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        ts = parse_static_transform(args.values)
+    except (ScenarioError, InvalidArgumentException) as exc:
+        print(f"towerlink static-transform: {type(exc).__name__}: {exc}", file=sys.stderr)
+        return 2
+    print(describe(ts))
+    if args.publish:
+        from bridge.tf_stream import publish_static  # the bridge's own sender; imported only when used
+        publish_static(args.publish, ts)
+        print(f"\npublished {ts.frame_id} -> {ts.child_frame_id} to {args.publish}")
+    return 0
