@@ -1,0 +1,39 @@
+"""Run the benchmarks, each with its peer measured side by side in the same run.
+
+  towerlink bench                 all of them (what `make bench` runs)
+  towerlink bench frames flight   a selection
+
+frames: interpolated lookup vs pytransform3d, batched points vs scipy, inserts.
+flight: one drone vs RotorPy, 1000 batched drones, flight quality.
+world:  100 vehicles with full MAVLink telemetry at real time, CPU used.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import time
+
+from tools.benchtable import machine
+
+BENCHES = {
+    "frames": "tools.bench_frames",
+    "flight": "tools.bench_flight",
+    "world": "tools.bench_world",
+}
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("names", nargs="*", metavar="NAME",
+                        help=f"which benchmarks ({', '.join(BENCHES)}); default all")
+
+
+def run(args: argparse.Namespace) -> int:
+    names = args.names or list(BENCHES)
+    print(f"machine: {machine()}\n", flush=True)
+    status = 0
+    for name in names:
+        t0 = time.perf_counter()
+        print(f"== {name} ==", flush=True)
+        status |= int(importlib.import_module(BENCHES[name]).main([]) or 0)
+        print(f"({name}: {time.perf_counter() - t0:.0f} s)\n", flush=True)
+    return status
