@@ -29,6 +29,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     names = args.names or list(BENCHES)
+    unknown = [n for n in names if n not in BENCHES]
+    if unknown:
+        print(f"towerlink bench: unknown benchmark {unknown[0]!r}; choose from {', '.join(BENCHES)}")
+        return 2
     print(f"machine: {machine()}\n", flush=True)
     status = 0
     for name in names:
