@@ -1,0 +1,98 @@
+"""The towerlink MAVLink dialect (towerlink.xml, extends ardupilotmega) and helpers.
+
+The generated module ``bridge.dialect.towerlink`` is committed; it is produced by
+pymavlink's own generator (``pymavlink.generator.mavgen``, language Python, wire
+protocol 2.0) from ``towerlink.xml`` plus the XML definitions shipped inside the
+installed pymavlink (no network). Regenerate with::
+
+    python -m bridge.dialect            # rewrites bridge/dialect/towerlink.py
+    python -m bridge.dialect --check    # exit 1 if the committed module is out of date
+
+Other tools get a pymavlink connection that decodes (and can send) the dialect with::
+
+    from bridge.dialect import mavlink_connection, towerlink as tl
+    conn = mavlink_connection("udpin:127.0.0.1:14600", source_system=255)
+    msg = conn.recv_match(type="TOWERLINK_TRANSFORM", blocking=True, timeout=1)
+    conn.mav.towerlink_static_transform_send(0, 0, b"world", b"pad", [1, 2, 0], [0, 0, 0, 1])
+"""
+from __future__ import annotations
+
+import glob
+import io
+import os
+import shutil
+import tempfile
+from contextlib import redirect_stdout
+from pathlib import Path
+
+os.environ.setdefault("MAVLINK20", "1")
+
+HERE = Path(__file__).resolve().parent
+XML = HERE / "towerlink.xml"
+MODULE = HERE / "towerlink.py"
+
+#: Message ids of the dialect (also in towerlink.xml).
+DIALECT_IDS = {
+    "TOWERLINK_TRANSFORM": 43000,
+    "TOWERLINK_STATIC_TRANSFORM": 43001,
+    "TOWERLINK_POSITION_TARGET": 43002,
+    "TOWERLINK_FOLLOW_STATUS": 43003,
+    "TOWERLINK_BRIDGE_STATUS": 43004,
+}
+
+
+def generate(output: str | os.PathLike = MODULE, xml: str | os.PathLike = XML) -> Path:
+    """Run pymavlink's mavgen on towerlink.xml; write the Python module to `output`.
+
+    The includes (ardupilotmega.xml and what it includes) are taken from the XML files
+    that ship inside the installed pymavlink (pymavlink/dialects/v20/*.xml), copied with
+    towerlink.xml into a temporary directory so mavgen resolves them by relative path.
+    """
+    from pymavlink import dialects
+    from pymavlink.generator import mavgen, mavparse
+
+    src = Path(dialects.__file__).resolve().parent / "v20"
+    output = Path(output)
+    with tempfile.TemporaryDirectory() as tmp:
+        for f in glob.glob(str(src / "*.xml")):
+            shutil.copy(f, tmp)
+        shutil.copy(xml, Path(tmp) / "towerlink.xml")
+        opts = mavgen.Opts(str(Path(tmp) / "towerlink"), wire_protocol=mavparse.PROTOCOL_2_0,
+                           language="Python3", validate=False)
+        with redirect_stdout(io.StringIO()):
+            ok = mavgen.mavgen(opts, [str(Path(tmp) / "towerlink.xml")])
+        if ok is False:
+            raise RuntimeError("mavgen failed on towerlink.xml")
+        shutil.copy(Path(tmp) / "towerlink.py", output)
+    return output
+
+
+def mavlink_connection(url: str, **kw):
+    """``pymavlink.mavutil.mavlink_connection`` whose parser/encoder is the towerlink dialect.
+
+    Works for links (udpin/udpout/tcp/tcpin) and for log files (.tlog): the
+    connection's ``mav`` is replaced by a ``towerlink.MAVLink`` before any byte is read,
+    so ``recv_match(type="TOWERLINK_TRANSFORM")`` and ``conn.mav.towerlink_*_send`` work,
+    alongside every ardupilotmega/common message. MAVLink 2 is used for sending.
+    """
+    from pymavlink import mavutil
+
+    from . import towerlink as tl
+
+    kw.setdefault("dialect", "ardupilotmega")
+    conn = mavutil.mavlink_connection(url, **kw)
+    old = conn.mav
+    mav = tl.MAVLink(conn, srcSystem=conn.source_system, srcComponent=conn.source_component)
+    mav.robust_parsing = getattr(old, "robust_parsing", True)
+    mav.callback, mav.callback_args, mav.callback_kwargs = old.callback, old.callback_args, old.callback_kwargs
+    mav.send_callback, mav.send_callback_args, mav.send_callback_kwargs = (
+        old.send_callback, old.send_callback_args, old.send_callback_kwargs)
+    conn.mav = mav
+    conn.WIRE_PROTOCOL_VERSION = "2.0"
+    return conn
+
+
+def encoder(srcSystem: int = 250, srcComponent: int = 191):
+    """A file-less ``towerlink.MAVLink`` used only to pack messages to bytes."""
+    from . import towerlink as tl
+    return tl.MAVLink(None, srcSystem=srcSystem, srcComponent=srcComponent)
