@@ -1,0 +1,21 @@
+"""towerlink's frame library: rigid transforms and a tf2-grade, time-aware buffer.
+
+Pure (numpy/scipy only): no sockets, no clocks, no MAVLink. tf2 names and
+semantics; quaternions are (x, y, z, w). See :mod:`bridge.frames.buffer` for the
+buffer's semantics and :mod:`bridge.frames.transform` for the math.
+"""
+from .buffer import Buffer, EdgeStats
+from .errors import (ConnectivityException, ExtrapolationException,
+                     FutureExtrapolationException, InvalidArgumentException,
+                     LookupException, PastExtrapolationException, TimeoutException,
+                     TransformException)
+from .stamped import LATEST, PointStamped, PoseStamped, TransformStamped, VectorStamped
+from .transform import Transform
+
+__all__ = [
+    "Transform", "TransformStamped", "Buffer", "EdgeStats", "LATEST",
+    "PointStamped", "VectorStamped", "PoseStamped",
+    "TransformException", "LookupException", "ConnectivityException",
+    "ExtrapolationException", "PastExtrapolationException", "FutureExtrapolationException",
+    "InvalidArgumentException", "TimeoutException",
+]
