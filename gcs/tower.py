@@ -1,0 +1,315 @@
+"""The tower: a ground station that thinks in its own frame.
+
+It connects to the bridge's tower link, where positions are in the tower frame
+(the bridge translates LOCAL_POSITION_NED world -> tower on the way back and
+position targets tower -> world on the way in), and flies the lab mission:
+
+  1. wait for the drone's heartbeat (sysid 1)
+  2. set GUIDED, arm (PreArm: texts from the vehicle are printed while it retries)
+  3. NAV_TAKEOFF to the scenario altitude (9 m in the lab) and wait to reach it
+  4. send the goals one at a time, in tower coordinates; re-send the current goal
+     every --resend seconds (the link may lose packets); a goal is reached when a
+     fresh LOCAL_POSITION_NED sample (tower frame) is within --radius of it
+  5. land (or --finish rtl)
+
+Each goal is logged with its tower coordinates and its time to reach in sim
+seconds, from the drone's own time_boot_ms (the wall clock is used only for the
+per-goal deadline). Exit status 0 iff every goal was reached.
+
+Examples:
+  towerlink tower                                   # default scenario, bridge at udpout:127.0.0.1:14551
+  towerlink tower --goals "-131.04,73.52;-105.06,88.52" --radius 0.5 --finish rtl
+  towerlink tower --connect udpout:127.0.0.1:15551 --result out/tower.json --tlog out/tower.tlog
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
+
+DEFAULT_CONNECT = "udpout:127.0.0.1:14551"
+DRONE_SYSID = 1
+
+
+# ----------------------------------------------------------------------------- pure parts
+
+
+def parse_goals(text: str, altitude: float) -> list[tuple[float, float, float]]:
+    """Parse "x,y;x,y[,z];..." into goals (z defaults to -altitude, down)."""
+    goals = []
+    for k, item in enumerate(p for p in text.replace("\n", ";").split(";") if p.strip()):
+        parts = [v for v in item.replace(" ", ",").split(",") if v]
+        if len(parts) not in (2, 3):
+            raise ValueError(f"goal {k + 1} {item.strip()!r}: want x,y or x,y,z")
+        try:
+            vals = [float(v) for v in parts]
+        except ValueError:
+            raise ValueError(f"goal {k + 1} {item.strip()!r}: not numbers") from None
+        if not all(math.isfinite(v) for v in vals):
+            raise ValueError(f"goal {k + 1} {item.strip()!r}: not finite")
+        goals.append((vals[0], vals[1], vals[2] if len(vals) == 3 else -altitude))
+    if not goals:
+        raise ValueError("no goals given")
+    return goals
+
+
+def format_goals(goals: Sequence[Sequence[float]]) -> str:
+    """The inverse of parse_goals (x,y,z;...), for passing goals on a command line."""
+    return ";".join(",".join(f"{v:.6g}" for v in g) for g in goals)
+
+
+@dataclass
+class GoalResult:
+    """One goal of the mission, as the tower saw it (tower frame, sim seconds)."""
+    index: int                         # 1-based
+    goal: tuple[float, float, float]   # tower frame
+    frame: str = "tower"
+    sent_sim: float | None = None      # drone time_boot_ms / 1000 when first sent
+    reached_sim: float | None = None   # stamp of the first sample within the radius
+    reached: bool = False
+    distance: float | None = None      # at the reaching sample, or last seen on failure
+    position: tuple[float, float, float] | None = None
+    sends: int = 0
+    wall_s: float | None = None
+    error: str | None = None
+
+    @property
+    def time_to_reach(self) -> float | None:
+        if self.reached_sim is None or self.sent_sim is None:
+            return None
+        return self.reached_sim - self.sent_sim
+
+
+@dataclass
+class MissionResult:
+    ok: bool = False
+    goals: list[GoalResult] = field(default_factory=list)
+    takeoff_sim: float | None = None     # sim time when the height was reached
+    start_sim: float | None = None       # sim time when the mission began (armed)
+    end_sim: float | None = None         # sim time at the end (landed or failed)
+    finish: str = "land"
+    finished: bool = False               # the land/rtl completed
+    altitude: float = 0.0
+    radius: float = 0.0
+    error: str | None = None
+
+    def to_json(self) -> dict:
+        d = asdict(self)
+        for g, gd in zip(self.goals, d["goals"]):
+            gd["time_to_reach"] = g.time_to_reach
+        return d
+
+
+class Mission:
+    """The tower's sequence on a Client-like object (gcs.client.Client, or a test double).
+
+    Needs: wait_heartbeat, set_mode, arm, takeoff, goto / goto_named, wait_reached,
+    land, rtl, sim_time, position, system(sysid).
+    """
+
+    def __init__(self, client, goals: Sequence[Sequence[float]], *, altitude: float,
+                 radius: float, finish: str = "land", frame: str = "tower",
+                 goal_timeout: float = 120.0, resend: float = 1.0, sysid: int = DRONE_SYSID,
+                 connect_timeout: float = 60.0, arm_timeout: float = 60.0,
+                 log: Callable[[str], None] = print) -> None:
+        if finish not in ("land", "rtl", "none"):
+            raise ValueError(f"finish must be land, rtl or none, not {finish!r}")
+        self.c = client
+        self.goals = [tuple(float(v) for v in g) for g in goals]
+        self.altitude = altitude
+        self.radius = radius
+        self.finish = finish
+        self.frame = frame
+        self.goal_timeout = goal_timeout
+        self.resend = resend
+        self.sysid = sysid
+        self.connect_timeout = connect_timeout
+        self.arm_timeout = arm_timeout
+        self.log = log
+        self.result = MissionResult(finish=finish, altitude=altitude, radius=radius,
+                                    goals=[GoalResult(i + 1, g, frame) for i, g in enumerate(self.goals)])
+
+    def send_goal(self, g: GoalResult) -> None:
+        x, y, z = g.goal
+        if self.frame == "tower":   # the tower link's own frame: plain SET_POSITION_TARGET_LOCAL_NED
+            self.c.goto(x, y, z, self.sysid)
+        else:
+            self.c.goto_named(self.frame, x, y, z, self.sysid)
+        g.sends += 1
+
+    def run(self) -> MissionResult:
+        r = self.result
+        try:
+            self._prepare()
+            for g in r.goals:
+                if not self._fly_to(g):
+                    break
+            r.ok = all(g.reached for g in r.goals)
+            self._finish()
+        except KeyboardInterrupt:
+            r.error = "interrupted"
+            raise
+        except Exception as exc:  # noqa: BLE001 - every client error ends the mission, reported
+            r.error = f"{type(exc).__name__}: {exc}"
+            self.log(f"mission failed: {r.error}")
+            r.ok = all(g.reached for g in r.goals)  # a failed landing after the goals is logged
+            if r.takeoff_sim is not None and not r.finished:
+                try:
+                    self._finish()
+                except Exception as exc2:  # noqa: BLE001
+                    self.log(f"{self.finish} failed too: {exc2}")
+        r.end_sim = self.c.sim_time(self.sysid)
+        return r
+
+    def _prepare(self) -> None:
+        r, c, s = self.result, self.c, self.sysid
+        self.log(f"waiting for the drone (system {s}) ...")
+        c.wait_heartbeat(s, timeout=self.connect_timeout)
+        st = c.system(s)
+        self.log(f"drone: heartbeat, mode {st.mode_name}, {'armed' if st.armed else 'disarmed'}")
+        c.set_mode("GUIDED", s, timeout=self.arm_timeout)
+        self.log("mode GUIDED")
+        c.arm(s, timeout=self.arm_timeout)
+        r.start_sim = c.sim_time(s)
+        self.log(f"armed at t={r.start_sim:.2f} s (sim)")
+        p = c.takeoff(self.altitude, s, timeout=self.goal_timeout,
+                      tolerance=max(self.radius, 0.3))
+        r.takeoff_sim = p.t
+        self.log(f"takeoff: {self.altitude:g} m reached at t={p.t:.2f} s "
+                 f"({self.frame} [{p.x:.2f}, {p.y:.2f}, {p.z:.2f}])")
+
+    def _fly_to(self, g: GoalResult) -> bool:
+        n = len(self.goals)
+        c = self.c
+        g.sent_sim = c.sim_time(self.sysid)
+        after_ms = int(round(g.sent_sim * 1000))
+        self.send_goal(g)
+        self.log(f"goal {g.index}/{n} sent: {self.frame} {_fmt(g.goal)} at t={g.sent_sim:.2f} s")
+        t0 = time.monotonic()
+        try:
+            hit = c.wait_reached(g.goal, self.radius, self.goal_timeout, sysid=self.sysid,
+                                 resend=lambda: self.send_goal(g), resend_interval=self.resend,
+                                 after_ms=after_ms)
+        except Exception as exc:  # GoalTimeout and friends
+            g.error = str(exc)
+            g.distance = getattr(exc, "distance", None)
+            g.wall_s = time.monotonic() - t0
+            self.log(f"goal {g.index}/{n} FAILED: {exc}")
+            return False
+        g.wall_s = time.monotonic() - t0
+        g.reached = True
+        g.reached_sim = hit.position.t
+        g.distance = hit.distance
+        g.position = hit.position.xyz
+        self.log(f"goal {g.index}/{n} reached: {self.frame} {_fmt(g.goal)} in "
+                 f"{g.time_to_reach:.2f} s sim (at t={g.reached_sim:.2f} s, "
+                 f"{g.distance:.2f} m off, {g.sends} sends, {g.wall_s:.1f} s wall)")
+        return True
+
+    def _finish(self) -> None:
+        if self.finish == "none":
+            return
+        self.log(f"{self.finish} ...")
+        if self.finish == "land":
+            self.c.land(self.sysid, timeout=max(60.0, self.goal_timeout))
+        else:
+            self.c.rtl(self.sysid, timeout=max(120.0, 2 * self.goal_timeout))
+        self.result.finished = True
+        self.log(f"landed at t={self.c.sim_time(self.sysid):.2f} s")
+
+
+def _fmt(p: Sequence[float]) -> str:
+    return "[" + ", ".join(f"{v:.2f}" for v in p) + "]"
+
+
+# ----------------------------------------------------------------------------- CLI
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--connect", default=DEFAULT_CONNECT,
+                        help=f"the bridge's tower link (pymavlink spelling; default {DEFAULT_CONNECT})")
+    parser.add_argument("--scenario", default=None,
+                        help="scenario TOML (default: the built-in lab scenario)")
+    parser.add_argument("--goals", default=None,
+                        help='override the goals: "x,y;x,y[,z];..." in the goal frame (z down, '
+                             'default -altitude)')
+    parser.add_argument("--frame", default=None,
+                        help="frame the goals are written in (default: the scenario's goal_frame, "
+                             "'tower'); any other frame is sent as a named-frame goal")
+    parser.add_argument("--alt", type=float, default=None,
+                        help="takeoff altitude, m (default: the scenario's, 9 m in the lab); "
+                             "also the goals' height unless they give z")
+    parser.add_argument("--radius", type=float, default=None,
+                        help="a goal is reached within this distance, m (default: the scenario's)")
+    parser.add_argument("--finish", choices=("land", "rtl", "none"), default=None,
+                        help="what to do after the last goal (default: the scenario's)")
+    parser.add_argument("--goal-timeout", type=float, default=120.0,
+                        help="wall seconds allowed per goal (and for takeoff); default 120")
+    parser.add_argument("--connect-timeout", type=float, default=60.0,
+                        help="wall seconds to wait for the drone's heartbeat and to arm")
+    parser.add_argument("--resend", type=float, default=1.0,
+                        help="re-send the current goal every N wall seconds (default 1)")
+    parser.add_argument("--sysid", type=int, default=DRONE_SYSID, help="the drone's system id")
+    parser.add_argument("--result", default=None, help="write the mission result as JSON here")
+    parser.add_argument("--tlog", default=None, help="record this link (both ways) as a tlog")
+
+
+def run(args: argparse.Namespace) -> int:
+    from bridge.scenario import ScenarioError, load_scenario
+
+    from gcs.client import Client, ClientError
+
+    def log(msg: str) -> None:
+        print(f"tower: {msg}", flush=True)
+
+    try:
+        sc = load_scenario(args.scenario)
+    except ScenarioError as exc:
+        print(f"tower: {exc}", file=sys.stderr)
+        return 2
+    altitude = args.alt if args.alt is not None else sc.altitude
+    radius = args.radius if args.radius is not None else sc.radius
+    finish = args.finish or sc.finish
+    frame = args.frame or sc.goal_frame
+    try:
+        if args.goals:
+            goals = parse_goals(args.goals, altitude)
+        elif args.alt is not None:
+            goals = [(x, y, -altitude if abs(z + sc.altitude) < 1e-9 else z) for x, y, z in sc.goals]
+        else:
+            goals = list(sc.goals)
+    except ValueError as exc:
+        print(f"tower: --goals: {exc}", file=sys.stderr)
+        return 2
+    if not goals:
+        print("tower: the scenario has no goals", file=sys.stderr)
+        return 2
+    log(f"scenario {sc.name}: {len(goals)} goals in frame {frame!r}, altitude {altitude:g} m, "
+        f"radius {radius:g} m, finish {finish}; link {args.connect}")
+    try:
+        client = Client.connect(args.connect, log=log, tlog=args.tlog)
+    except ClientError as exc:
+        log(str(exc))
+        return 2
+    mission = Mission(client, goals, altitude=altitude, radius=radius, finish=finish, frame=frame,
+                      goal_timeout=args.goal_timeout, resend=args.resend, sysid=args.sysid,
+                      connect_timeout=args.connect_timeout, arm_timeout=args.connect_timeout,
+                      log=log)
+    try:
+        result = mission.run()
+    except KeyboardInterrupt:
+        result = mission.result
+        result.error = "interrupted"
+    finally:
+        client.close()
+    if args.result:
+        with open(args.result, "w") as f:
+            json.dump(result.to_json(), f, indent=2)
+    reached = sum(g.reached for g in result.goals)
+    log(f"{'MISSION OK' if result.ok else 'MISSION FAILED'}: {reached}/{len(goals)} goals reached"
+        + (f" ({result.error})" if result.error else ""))
+    return 0 if result.ok else (130 if result.error == "interrupted" else 1)
