@@ -1,0 +1,205 @@
+"""gcs.client against a tiny scripted autopilot over loopback UDP (no SITL needed).
+
+The fake answers like ArduPilot where the client depends on it: COMMAND_ACK for
+every command, PreArm STATUSTEXTs while not ready, mode/armed in the heartbeat,
+NAV_TAKEOFF only when armed, LOCAL_POSITION_NED stamped with its own clock. It can
+drop a fraction of packets both ways (seeded) to prove the client's retries.
+"""
+from __future__ import annotations
+
+import os
+import random
+import socket
+import threading
+import time
+
+import pytest
+
+os.environ.setdefault("MAVLINK20", "1")
+from pymavlink.dialects.v20 import ardupilotmega as apm  # noqa: E402
+
+from gcs.client import (ArmError, Client, CommandRejected, GoalTimeout,  # noqa: E402
+                        HeartbeatTimeout, ModeChangeError)
+from support import free_port  # noqa: E402
+
+
+class FakeCopter(threading.Thread):
+    def __init__(self, port, *, prearm_fails=2, loss=0.0, seed=1, speed=40.0, sim_rate=4.0,
+                 refuse_guided=False):
+        super().__init__(daemon=True)
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind(("127.0.0.1", port))
+        self.sock.settimeout(0.005)
+        self.mav = apm.MAVLink(None, srcSystem=1, srcComponent=1)
+        self.rx = apm.MAVLink(None)
+        self.rx.robust_parsing = True
+        self.peer = None
+        self.rng = random.Random(seed)
+        self.loss = loss
+        self.prearm_fails = prearm_fails
+        self.refuse_guided = refuse_guided
+        self.speed = speed          # m per sim s
+        self.sim_rate = sim_rate    # sim s per wall s
+        self.mode, self.armed = 0, False
+        self.pos = [0.0, 0.0, 0.0]
+        self.target = None
+        self.sim = 0.0
+        self.stop = threading.Event()
+        self.commands = []
+
+    def send(self, msg):
+        if self.peer and self.rng.random() >= self.loss:
+            self.sock.sendto(msg.pack(self.mav), self.peer)
+
+    def run(self):
+        last = time.monotonic()
+        next_hb = next_pos = 0.0
+        while not self.stop.is_set():
+            try:
+                data, addr = self.sock.recvfrom(2048)
+                self.peer = addr
+                if self.rng.random() >= self.loss:
+                    for m in self.rx.parse_buffer(data) or []:
+                        self.handle(m)
+            except socket.timeout:
+                pass
+            now = time.monotonic()
+            dt, last = (now - last) * self.sim_rate, now
+            self.sim += dt
+            if self.target is not None and self.armed:
+                d = [t - p for t, p in zip(self.target, self.pos)]
+                n = sum(v * v for v in d) ** 0.5
+                step = min(n, self.speed * dt)
+                if n > 1e-9:
+                    self.pos = [p + v / n * step for p, v in zip(self.pos, d)]
+            if self.sim >= next_hb:
+                next_hb = self.sim + 1.0
+                base = apm.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | (apm.MAV_MODE_FLAG_SAFETY_ARMED if self.armed else 0)
+                self.send(apm.MAVLink_heartbeat_message(apm.MAV_TYPE_QUADROTOR, apm.MAV_AUTOPILOT_ARDUPILOTMEGA,
+                                                        base, self.mode, apm.MAV_STATE_ACTIVE, 3))
+                landed = apm.MAV_LANDED_STATE_ON_GROUND if self.pos[2] > -0.1 else apm.MAV_LANDED_STATE_IN_AIR
+                self.send(apm.MAVLink_extended_sys_state_message(0, landed))
+            if self.sim >= next_pos:
+                next_pos = self.sim + 0.05
+                self.send(apm.MAVLink_local_position_ned_message(int(self.sim * 1000), *self.pos, 0, 0, 0))
+
+    def ack(self, cmd, result):
+        self.send(apm.MAVLink_command_ack_message(cmd, result, 0, 0, 255, 190))
+
+    def handle(self, m):
+        t = m.get_type()
+        if t == "COMMAND_LONG":
+            self.commands.append(m.command)
+            if m.command == apm.MAV_CMD_DO_SET_MODE:
+                if self.refuse_guided and int(m.param2) == 4:
+                    return self.ack(m.command, apm.MAV_RESULT_FAILED)
+                self.mode = int(m.param2)
+                if self.mode == 9:  # LAND
+                    self.target = [self.pos[0], self.pos[1], 0.0]
+                self.ack(m.command, apm.MAV_RESULT_ACCEPTED)
+            elif m.command == apm.MAV_CMD_COMPONENT_ARM_DISARM:
+                if m.param1 == 1 and self.prearm_fails > 0:
+                    self.prearm_fails -= 1
+                    self.send(apm.MAVLink_statustext_message(apm.MAV_SEVERITY_CRITICAL,
+                                                             b"PreArm: Need Position Estimate"))
+                    return self.ack(m.command, apm.MAV_RESULT_FAILED)
+                self.armed = m.param1 == 1
+                self.ack(m.command, apm.MAV_RESULT_ACCEPTED)
+            elif m.command == apm.MAV_CMD_NAV_TAKEOFF:
+                if not self.armed or self.pos[2] < -0.2:
+                    return self.ack(m.command, apm.MAV_RESULT_FAILED)
+                self.target = [self.pos[0], self.pos[1], -m.param7]
+                self.ack(m.command, apm.MAV_RESULT_ACCEPTED)
+            else:
+                self.ack(m.command, apm.MAV_RESULT_UNSUPPORTED)
+        elif t == "SET_POSITION_TARGET_LOCAL_NED" and self.mode == 4:
+            self.target = [m.x, m.y, m.z]
+
+
+@pytest.fixture
+def copter(request):
+    kw = getattr(request, "param", {})
+    port = free_port()
+    fc = FakeCopter(port, **kw)
+    fc.start()
+    yield fc, f"udpout:127.0.0.1:{port}"
+    fc.stop.set()
+    fc.join(2)
+    fc.sock.close()
+
+
+def test_full_sequence_with_prearm_feedback(copter):
+    fc, url = copter
+    logs = []
+    with Client.connect(url, log=logs.append) as c:
+        c.wait_heartbeat(1, timeout=5)
+        c.set_mode("GUIDED", 1, timeout=5)
+        assert c.system(1).mode_name == "GUIDED"
+        c.arm(1, timeout=10, retry_interval=0.1)
+        assert c.system(1).armed
+        assert any("PreArm: Need Position Estimate" in s for s in logs)
+        p = c.takeoff(9.0, 1, timeout=10)
+        assert p.z <= -8.5
+        c.goto(5.0, -3.0, -9.0, 1)
+        hit = c.wait_reached((5.0, -3.0, -9.0), 0.5, 10, sysid=1,
+                             resend=lambda: c.goto(5.0, -3.0, -9.0, 1), resend_interval=0.5)
+        assert hit.distance <= 0.5 and hit.position.t > p.t
+        c.land(1, timeout=10)
+        assert c.position(1).z > -0.2
+
+
+@pytest.mark.parametrize("copter", [{"loss": 0.2, "seed": 7, "prearm_fails": 1}], indirect=True)
+def test_sequence_survives_20_percent_loss(copter):
+    fc, url = copter
+    with Client.connect(url) as c:
+        c.wait_heartbeat(1, timeout=10)
+        c.set_mode("GUIDED", 1, timeout=10)
+        c.arm(1, timeout=15, retry_interval=0.1)
+        c.takeoff(5.0, 1, timeout=15)
+        g = (-4.0, -2.0, -5.0)
+        c.goto(*g, 1)
+        c.wait_reached(g, 0.5, 15, sysid=1, resend=lambda: c.goto(*g, 1), resend_interval=0.3)
+        c.land(1, timeout=15)
+
+
+@pytest.mark.parametrize("copter", [{"prearm_fails": 10**6}], indirect=True)
+def test_arm_error_carries_prearm_texts(copter):
+    fc, url = copter
+    with Client.connect(url) as c:
+        c.wait_heartbeat(1, timeout=5)
+        with pytest.raises(ArmError) as ei:
+            c.arm(1, timeout=1.5, retry_interval=0.1)
+        assert ei.value.prearm == ["PreArm: Need Position Estimate"]
+        assert "FAILED" in str(ei.value)
+
+
+@pytest.mark.parametrize("copter", [{"refuse_guided": True}], indirect=True)
+def test_mode_refused_is_typed(copter):
+    fc, url = copter
+    with Client.connect(url) as c:
+        c.wait_heartbeat(1, timeout=5)
+        with pytest.raises(ModeChangeError, match="FAILED"):
+            c.set_mode("GUIDED", 1, timeout=1.5)
+        with pytest.raises(CommandRejected):
+            c.command_long(1, 31999, [], timeout=2)
+
+
+def test_takeoff_refused_when_disarmed_and_goal_timeout(copter):
+    fc, url = copter
+    from gcs.client import TakeoffError
+    with Client.connect(url) as c:
+        c.wait_heartbeat(1, timeout=5)
+        with pytest.raises(TakeoffError, match="FAILED"):
+            c.takeoff(9.0, 1, timeout=3)
+        with pytest.raises(GoalTimeout) as ei:  # not in GUIDED: the target is ignored
+            c.wait_reached((50.0, 0, 0), 0.5, 0.5, sysid=1)
+        assert ei.value.distance == pytest.approx(50.0)
+
+
+def test_heartbeat_timeout_when_nobody_is_there():
+    with Client.connect(f"udpout:127.0.0.1:{free_port()}") as c:
+        t0 = time.monotonic()
+        with pytest.raises(HeartbeatTimeout):
+            c.wait_heartbeat(1, timeout=0.5)
+        assert time.monotonic() - t0 < 2.0
+        assert isinstance(HeartbeatTimeout("x"), TimeoutError)
