@@ -449,9 +449,13 @@ class Buffer:
                     timeout, f"transform from [{source_frame}] to [{target_frame}] at time "
                              f"{time if time is LATEST else _fmt(time)}")
                 return TransformStamped(target_frame, source_frame, t, _Transform_of(v))
-        with self._lock:
+        lock = self._lock
+        lock.acquire()
+        try:
             t, v = self._lookup_locked(target_frame, source_frame, time)
-        return TransformStamped(target_frame, source_frame, t, _Transform_of(v))
+        finally:
+            lock.release()
+        return _stamped(target_frame, source_frame, t, v)
 
     def _full_locked(self, target: str, target_time: Any, source: str, source_time: Any,
                      fixed: str) -> tuple[float, tuple]:
@@ -630,6 +634,25 @@ class Buffer:
 
     def __repr__(self) -> str:
         return f"Buffer(cache_time={self._cache_time}, frames={len(self._frames)})"
+
+
+_set_v = Transform.__dict__["_v"].__set__
+_set_frame_id = TransformStamped.__dict__["frame_id"].__set__
+_set_child_frame_id = TransformStamped.__dict__["child_frame_id"].__set__
+_set_stamp = TransformStamped.__dict__["stamp"].__set__
+_set_transform = TransformStamped.__dict__["transform"].__set__
+
+
+def _stamped(target: str, source: str, t: float, v: tuple) -> TransformStamped:
+    """TransformStamped(target, source, t, Transform(v)) without re-validating (hot path)."""
+    tr = _new(Transform)
+    _set_v(tr, v)
+    ts = _new(TransformStamped)
+    _set_frame_id(ts, target)
+    _set_child_frame_id(ts, source)
+    _set_stamp(ts, t)
+    _set_transform(ts, tr)
+    return ts
 
 
 def _ro(a):

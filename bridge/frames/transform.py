@@ -24,6 +24,8 @@ from .errors import InvalidArgumentException
 _isfinite = math.isfinite
 _sqrt = math.sqrt
 _fabs = math.fabs
+_acos = math.acos
+_sin = math.sin
 
 #: Relative tolerance on a quaternion's norm accepted (and normalised) on construction.
 QUAT_NORM_TOLERANCE = 0.01
@@ -85,6 +87,11 @@ def _inv_compose(a: Tuple7, b: Tuple7) -> Tuple7:
             qw * rw + qx * rx + qy * ry + qz * rz)
 
 
+#: Above this |<q0, q1>| (relative angle below ~3e-5 rad) SLERP is computed as a
+#: normalised lerp, which then agrees with SLERP to ~1e-15.
+SLERP_NLERP_DOT = 1.0 - 1e-10
+
+
 def _interpolate(a: Tuple7, b: Tuple7, s: float) -> Tuple7:
     """Linear translation, shortest-path SLERP rotation; s in [0, 1]."""
     ax, ay, az, p0, p1, p2, p3 = a
@@ -92,29 +99,24 @@ def _interpolate(a: Tuple7, b: Tuple7, s: float) -> Tuple7:
     d = p0 * q0 + p1 * q1 + p2 * q2 + p3 * q3
     if d < 0.0:  # q and -q are the same rotation: take the short way round
         d = -d
-        q0, q1, q2, q3 = -q0, -q1, -q2, -q3
-    if d > 0.9995:  # nearly parallel: normalised lerp is exact to ~1e-13 here
-        k0 = 1.0 - s
-        k1 = s
-        w0 = k0 * p0 + k1 * q0
-        w1 = k0 * p1 + k1 * q1
-        w2 = k0 * p2 + k1 * q2
-        w3 = k0 * p3 + k1 * q3
-        n = 1.0 / _sqrt(w0 * w0 + w1 * w1 + w2 * w2 + w3 * w3)
-        w0 *= n
-        w1 *= n
-        w2 *= n
-        w3 *= n
-    else:
-        th = math.acos(d)
-        si = 1.0 / math.sin(th)
-        k0 = math.sin((1.0 - s) * th) * si
-        k1 = math.sin(s * th) * si
-        w0 = k0 * p0 + k1 * q0
-        w1 = k0 * p1 + k1 * q1
-        w2 = k0 * p2 + k1 * q2
-        w3 = k0 * p3 + k1 * q3
-    return (ax + (bx - ax) * s, ay + (by - ay) * s, az + (bz - az) * s, w0, w1, w2, w3)
+        q0 = -q0
+        q1 = -q1
+        q2 = -q2
+        q3 = -q3
+    if d < SLERP_NLERP_DOT:
+        th = _acos(d)
+        si = 1.0 / _sin(th)
+        k0 = _sin((1.0 - s) * th) * si
+        k1 = _sin(s * th) * si
+        return (ax + (bx - ax) * s, ay + (by - ay) * s, az + (bz - az) * s,
+                k0 * p0 + k1 * q0, k0 * p1 + k1 * q1, k0 * p2 + k1 * q2, k0 * p3 + k1 * q3)
+    w0 = p0 + (q0 - p0) * s
+    w1 = p1 + (q1 - p1) * s
+    w2 = p2 + (q2 - p2) * s
+    w3 = p3 + (q3 - p3) * s
+    n = 1.0 / _sqrt(w0 * w0 + w1 * w1 + w2 * w2 + w3 * w3)
+    return (ax + (bx - ax) * s, ay + (by - ay) * s, az + (bz - az) * s,
+            w0 * n, w1 * n, w2 * n, w3 * n)
 
 
 def _matrix3(qx: float, qy: float, qz: float, qw: float) -> tuple[tuple[float, ...], ...]:
