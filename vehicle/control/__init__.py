@@ -1,0 +1,1 @@
+"""Pure controllers (copter cascade, rover steering/speed, kinematic shaping)."""

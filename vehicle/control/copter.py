@@ -1,0 +1,242 @@
+"""Copter position + attitude cascade (ArduPilot AC_PosControl / AC_AttitudeControl shape).
+
+  guidance target --shaping--> reference (pos, vel, acc; jerk/accel/speed limited)
+  position P (PSC_POSXY_P, PSC_POSZ_P)             -> velocity target (+ reference vel)
+  velocity PID (PSC_VELXY_*, PSC_VELZ_*)           -> acceleration (+ reference acc)
+  acceleration -> lean angles in the yaw frame (limited by ANGLE_MAX) + collective thrust
+  attitude P on the quaternion error (ATC_ANG_*)   -> body-rate target
+  rate PID (ATC_RAT_*) on normalised torque        -> quad-X mixer
+  mixer: roll/pitch fitted first (throttle shifted to make room), yaw gets what headroom
+  is left, motors clipped to [spin_min, 1]; thrust is linearised (rotor speed = sqrt).
+
+Backend-generic and component-wise (numpy (n,) arrays or floats, see vehicle.physics).
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from vehicle.control import shaping
+from vehicle.physics import NumpyOps, wrap_pi
+from vehicle.physics.multicopter import GRAVITY, QuadAirframe
+
+D2R = math.pi / 180.0
+
+
+class CopterGains:
+    """SI gains and limits from an ArduPilot-named parameter mapping."""
+
+    def __init__(self, p: Mapping[str, float]):
+        self.v_xy = p["WPNAV_SPEED"] / 100.0
+        self.v_up = p["WPNAV_SPEED_UP"] / 100.0
+        self.v_dn = p["WPNAV_SPEED_DN"] / 100.0
+        self.a_xy = p["WPNAV_ACCEL"] / 100.0
+        self.a_z = p["WPNAV_ACCEL_Z"] / 100.0
+        self.j_xy = p["PSC_JERK_XY"]
+        self.j_z = p["PSC_JERK_Z"]
+        self.angle_max = p["ANGLE_MAX"] / 100.0 * D2R
+        self.tan_angle_max = math.tan(self.angle_max)
+        self.land_speed = p["LAND_SPEED"] / 100.0
+        self.kp_xy = p["PSC_POSXY_P"]
+        self.kv_xy = p["PSC_VELXY_P"]
+        self.ki_xy = p["PSC_VELXY_I"]
+        self.kd_xy = p["PSC_VELXY_D"]
+        self.imax_xy = p["PSC_VELXY_IMAX"] / 100.0
+        self.kp_z = p["PSC_POSZ_P"]
+        self.kv_z = p["PSC_VELZ_P"]
+        self.ki_z = p["PSC_VELZ_I"]
+        self.imax_z = p["PSC_VELZ_IMAX"] / 100.0
+        self.ang_r, self.ang_p, self.ang_y = p["ATC_ANG_RLL_P"], p["ATC_ANG_PIT_P"], p["ATC_ANG_YAW_P"]
+        self.rat = [(p[f"ATC_RAT_{a}_P"], p[f"ATC_RAT_{a}_I"], p[f"ATC_RAT_{a}_D"], p[f"ATC_RAT_{a}_IMAX"])
+                    for a in ("RLL", "PIT", "YAW")]
+        self.rate_y_max = (p["ATC_RATE_Y_MAX"] or 90.0) * D2R
+        self.rate_rp_max = (p["ATC_RATE_RP_MAX"] or 360.0) * D2R
+        self.hover = p["MOT_THST_HOVER"]
+        self.spin_arm = p["MOT_SPIN_ARM"]
+        self.spin_min = p["MOT_SPIN_MIN"]
+        self.land_time = p["LAND_DETECT_TIME"]
+
+
+class SetpointArrays:
+    """Per-vehicle guidance targets, component-wise. use_pos_xy/use_pos_z select position
+    control per axis group; velocity and acceleration are targets (pos unused) or
+    feed-forward (pos used). level=True: STABILIZE-like, roll/pitch held level (no
+    horizontal control), altitude and yaw held."""
+
+    def __init__(self, n: int | None):
+        z = (lambda: 0.0) if n is None else (lambda: np.zeros(n))
+        b = (lambda v: v) if n is None else (lambda v: np.full(n, v, dtype=bool))
+        for f in ("px", "py", "pz", "vx", "vy", "vz", "ax", "ay", "az", "yaw", "yaw_rate"):
+            setattr(self, f, z())
+        self.use_pos_xy = b(False)
+        self.use_pos_z = b(False)
+        self.use_yaw = b(False)
+        self.level = b(False)
+
+
+class CopterCtrlState:
+    """Controller memory: shaped reference, yaw reference, integrators, D filters."""
+    FIELDS = ("px", "py", "pz", "vx", "vy", "vz", "ax", "ay", "az", "yaw",
+              "ivx", "ivy", "ivz", "evx", "evy", "dvx", "dvy",
+              "irx", "iry", "irz", "erx", "ery", "erz", "drx", "dry", "drz", "coll")
+
+    def __init__(self, n: int | None):
+        for f in self.FIELDS:
+            setattr(self, f, 0.0 if n is None else np.zeros(n))
+
+
+def quat_yaw(qx, qy, qz, qw, xp=NumpyOps):
+    return xp.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+
+
+def relax(c: CopterCtrlState, est, mask, xp=NumpyOps) -> None:
+    """Where mask: reset the reference to the estimate at rest and clear integrators
+    (ArduPilot relaxes its controllers while landed)."""
+    w = xp.where
+    c.px, c.py, c.pz = w(mask, est.px, c.px), w(mask, est.py, c.py), w(mask, est.pz, c.pz)
+    for f in ("vx", "vy", "vz", "ax", "ay", "az", "ivx", "ivy", "ivz", "evx", "evy", "dvx", "dvy",
+              "irx", "iry", "irz", "erx", "ery", "erz", "drx", "dry", "drz"):
+        setattr(c, f, w(mask, 0.0, getattr(c, f)))
+    c.yaw = w(mask, quat_yaw(est.qx, est.qy, est.qz, est.qw, xp), c.yaw)
+
+
+def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float, xp=NumpyOps):
+    """One controller step on the estimate ``est`` (attributes px..vz, qx..qw, wx..wz).
+
+    Returns the four rotor-speed fractions (0..1; multiply by omega_max) and stores the
+    collective thrust fraction in c.coll."""
+    w = xp.where
+    level = sp.level
+    # ---- shaping of the reference ------------------------------------------------
+    shaping.shape_xy(c, sp.px, sp.py, sp.use_pos_xy, sp.vx, sp.vy, sp.ax, sp.ay,
+                     g.v_xy, g.a_xy, g.j_xy, dt, xp)
+    shaping.shape_z(c, sp.pz, sp.use_pos_z, sp.vz, sp.az, g.v_up, g.v_dn, g.a_z, g.j_z, dt, xp)
+    # level mode: no horizontal control; the reference rides on the estimate
+    c.px, c.py = w(level, est.px, c.px), w(level, est.py, c.py)
+    c.vx, c.vy = w(level, est.vx, c.vx), w(level, est.vy, c.vy)
+    c.ax, c.ay = w(level, 0.0, c.ax), w(level, 0.0, c.ay)
+    # yaw reference: slew to the target yaw, or integrate a yaw rate
+    ymax = g.rate_y_max
+    dy = wrap_pi(sp.yaw - c.yaw, xp)
+    yr = w(sp.use_yaw, xp.clip(dy * g.ang_y, -ymax, ymax), xp.clip(sp.yaw_rate, -ymax, ymax))
+    yr = w(sp.use_yaw & (xp.abs(dy) < xp.abs(yr) * dt), dy / dt, yr)
+    c.yaw = wrap_pi(c.yaw + yr * dt, xp)
+
+    # ---- position / velocity -----------------------------------------------------
+    vtx = c.vx + g.kp_xy * (c.px - est.px)
+    vty = c.vy + g.kp_xy * (c.py - est.py)
+    evx = vtx - est.vx
+    evy = vty - est.vy
+    c.ivx = xp.clip(c.ivx + g.ki_xy * evx * dt, -g.imax_xy, g.imax_xy)
+    c.ivy = xp.clip(c.ivy + g.ki_xy * evy * dt, -g.imax_xy, g.imax_xy)
+    alpha = 1.0 - math.exp(-2.0 * math.pi * 5.0 * dt)        # 5 Hz D filter
+    c.dvx = c.dvx + ((evx - c.evx) / dt - c.dvx) * alpha
+    c.dvy = c.dvy + ((evy - c.evy) / dt - c.dvy) * alpha
+    c.evx, c.evy = evx, evy
+    atx = c.ax + g.kv_xy * evx + c.ivx + g.kd_xy * c.dvx
+    aty = c.ay + g.kv_xy * evy + c.ivy + g.kd_xy * c.dvy
+    atx = w(level, 0.0, atx)
+    aty = w(level, 0.0, aty)
+    c.ivx, c.ivy = w(level, 0.0, c.ivx), w(level, 0.0, c.ivy)
+
+    vtz = c.vz + g.kp_z * (c.pz - est.pz)
+    evz = vtz - est.vz
+    c.ivz = xp.clip(c.ivz + g.ki_z * evz * dt, -g.imax_z, g.imax_z)
+    atz = c.az + g.kv_z * evz + c.ivz
+    up_max = GRAVITY * (0.9 / g.hover - 1.0)
+    atz = xp.clip(atz, -up_max, 0.8 * GRAVITY)
+    g_eff = GRAVITY - atz
+
+    # horizontal acceleration limited by the lean-angle limit
+    ah = xp.sqrt(atx * atx + aty * aty)
+    ah_max = g_eff * g.tan_angle_max
+    s = xp.minimum(1.0, ah_max / xp.maximum(ah, 1e-9))
+    atx, aty = atx * s, aty * s
+
+    # ---- thrust vector + yaw -> attitude target -----------------------------------
+    qx, qy, qz, qw = est.qx, est.qy, est.qz, est.qw
+    cy, sy = xp.cos(c.yaw), xp.sin(c.yaw)   # lean angles in the target-yaw frame
+    a_f = atx * cy + aty * sy
+    a_r = -atx * sy + aty * cy
+    pitch = xp.atan(-a_f / g_eff)
+    roll = xp.atan(a_r * xp.cos(pitch) / g_eff)
+    hr, hp, hy = 0.5 * roll, 0.5 * pitch, 0.5 * c.yaw
+    cr, sr, cp, spp, cyy, syy = xp.cos(hr), xp.sin(hr), xp.cos(hp), xp.sin(hp), xp.cos(hy), xp.sin(hy)
+    dw = cr * cp * cyy + sr * spp * syy
+    dx = sr * cp * cyy - cr * spp * syy
+    dyq = cr * spp * cyy + sr * cp * syy
+    dz = cr * cp * syy - sr * spp * cyy
+    # error quaternion conj(q) (x) q_des
+    ew = qw * dw + qx * dx + qy * dyq + qz * dz
+    ex = qw * dx - qx * dw - qy * dz + qz * dyq
+    ey = qw * dyq + qx * dz - qy * dw - qz * dx
+    ez = qw * dz - qx * dyq + qy * dx - qz * dw
+    sgn = w(ew < 0.0, -2.0, 2.0)
+    rpm = g.rate_rp_max
+    rtx = xp.clip(g.ang_r * sgn * ex, -rpm, rpm)
+    rty = xp.clip(g.ang_p * sgn * ey, -rpm, rpm)
+    rtz = xp.clip(g.ang_y * sgn * ez, -ymax, ymax) + yr
+
+    # ---- rate PID -----------------------------------------------------------------
+    alpha_r = 1.0 - math.exp(-2.0 * math.pi * 20.0 * dt)    # 20 Hz D filter
+    (pr, ir, dr, mr), (pp, ip, dp, mp), (py, iy, dyy, my) = g.rat
+    erx = rtx - est.wx
+    ery = rty - est.wy
+    erz = rtz - est.wz
+    c.irx = xp.clip(c.irx + ir * erx * dt, -mr, mr)
+    c.iry = xp.clip(c.iry + ip * ery * dt, -mp, mp)
+    c.irz = xp.clip(c.irz + iy * erz * dt, -my, my)
+    c.drx = c.drx + ((erx - c.erx) / dt - c.drx) * alpha_r
+    c.dry = c.dry + ((ery - c.ery) / dt - c.dry) * alpha_r
+    c.drz = c.drz + ((erz - c.erz) / dt - c.drz) * alpha_r
+    c.erx, c.ery, c.erz = erx, ery, erz
+    u_r = pr * erx + c.irx + dr * c.drx
+    u_p = pp * ery + c.iry + dp * c.dry
+    u_y = py * erz + c.irz + dyy * c.drz
+
+    # ---- collective: required specific force projected on the current thrust axis --
+    r13 = 2.0 * (qx * qz + qw * qy)
+    r23 = 2.0 * (qy * qz - qw * qx)
+    r33 = 1.0 - 2.0 * (qx * qx + qy * qy)
+    f_proj = -(atx * r13 + aty * r23 + (atz - GRAVITY) * r33)
+    coll = xp.clip(g.hover * f_proj / GRAVITY, 0.0, 1.0)
+    c.coll = coll
+    return mix(coll, u_r, u_p, u_y, g.spin_min, xp)
+
+
+def mix(coll, u_r, u_p, u_y, spin_min, xp=NumpyOps):
+    """Quad-X mixer with saturation handling; returns 4 rotor-speed fractions."""
+    rp0 = -0.5 * u_r + 0.5 * u_p     # front-right
+    rp1 = 0.5 * u_r - 0.5 * u_p      # back-left
+    rp2 = 0.5 * u_r + 0.5 * u_p      # front-left
+    rp3 = -0.5 * u_r - 0.5 * u_p     # back-right
+    mx = xp.maximum(xp.maximum(rp0, rp1), xp.maximum(rp2, rp3))
+    mn = xp.minimum(xp.minimum(rp0, rp1), xp.minimum(rp2, rp3))
+    fmin = spin_min * spin_min
+    span_max = 1.0 - fmin
+    sc = xp.minimum(1.0, span_max / xp.maximum(mx - mn, 1e-9))
+    rp0, rp1, rp2, rp3, mx, mn = rp0 * sc, rp1 * sc, rp2 * sc, rp3 * sc, mx * sc, mn * sc
+    thr = xp.clip(coll, fmin - mn, 1.0 - mx)
+    # yaw: motors 0,1 get +y/2, motors 2,3 get -y/2; use only remaining headroom
+    a0, a1, a2, a3 = thr + rp0, thr + rp1, thr + rp2, thr + rp3
+    hi = 2.0 * xp.minimum(xp.minimum(1.0 - a0, 1.0 - a1), xp.minimum(a2 - fmin, a3 - fmin))
+    lo = -2.0 * xp.minimum(xp.minimum(a0 - fmin, a1 - fmin), xp.minimum(1.0 - a2, 1.0 - a3))
+    yaw = xp.clip(u_y, xp.minimum(lo, 0.0), xp.maximum(hi, 0.0))
+    hy = 0.5 * yaw
+    f0 = xp.clip(a0 + hy, fmin, 1.0)
+    f1 = xp.clip(a1 + hy, fmin, 1.0)
+    f2 = xp.clip(a2 - hy, fmin, 1.0)
+    f3 = xp.clip(a3 - hy, fmin, 1.0)
+    return xp.sqrt(f0), xp.sqrt(f1), xp.sqrt(f2), xp.sqrt(f3)
+
+
+def tilt(qx, qy, xp=NumpyOps):
+    """Tilt angle (rad) of the body z axis from vertical."""
+    r33 = 1.0 - 2.0 * (qx * qx + qy * qy)
+    return xp.atan2(xp.sqrt(xp.maximum(1.0 - r33 * r33, 0.0)), r33)
+
+
+def default_airframe() -> QuadAirframe:
+    return QuadAirframe()

@@ -1,0 +1,71 @@
+"""Rover guidance + steering/speed control (skid-steer), batched.
+
+  goal (pos, no feed-forward): speed = min(WP_SPEED or CRUISE_SPEED, sqrt(2 decel dist)),
+      towards the goal; within WP_RADIUS it stops and latches "reached" (until the goal
+      moves or it is pushed 2 WP_RADIUS away), so it never orbits the goal.
+  follow (pos + vel feed-forward): velocity = v_ff + ATC_SPEED_P * position error (capped).
+  velocity (vel only): drive at that velocity.   hold (neither): stop.
+  heading: turn rate = ATC_STR_ANG_P * heading error (<= ATC_STR_RAT_MAX); speed scaled
+      by cos(heading error), zero beyond PIVOT_TURN_ANGLE (turn in place). Stopped with a
+      yaw target: turn in place to it.
+  speed command slewed by ATC_ACCEL_MAX / ATC_DECEL_MAX.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from vehicle.physics import NumpyOps, wrap_pi
+
+D2R = math.pi / 180.0
+
+
+class RoverGains:
+    def __init__(self, p: Mapping[str, float], model=None):
+        self.cruise = p["WP_SPEED"] if p["WP_SPEED"] > 0 else p["CRUISE_SPEED"]
+        self.accel = p["ATC_ACCEL_MAX"] or 3.0
+        self.decel = p["ATC_DECEL_MAX"] or self.accel
+        self.max_rate = (p["ATC_STR_RAT_MAX"] or 120.0) * D2R
+        self.k_hdg = p["ATC_STR_ANG_P"]
+        self.k_pos = p["ATC_SPEED_P"]
+        self.pivot = p["PIVOT_TURN_ANGLE"] * D2R
+        self.radius = p["WP_RADIUS"]
+        self.max_speed = p["SIM_RVR_MAX_SPD"]
+
+
+class RoverSetpointArrays:
+    def __init__(self, n: int):
+        for f in ("px", "py", "vx", "vy", "yaw", "v_cmd"):
+            setattr(self, f, np.zeros(n))
+        self.use_pos = np.zeros(n, dtype=bool)
+        self.use_yaw = np.zeros(n, dtype=bool)
+        self.reached = np.zeros(n, dtype=bool)
+
+
+def step(est, sp: RoverSetpointArrays, g: RoverGains, dt: float, xp=NumpyOps):
+    """Returns (speed command m/s, turn-rate command rad/s) arrays."""
+    yaw = xp.atan2(2.0 * (est.qw * est.qz + est.qx * est.qy), 1.0 - 2.0 * (est.qy * est.qy + est.qz * est.qz))
+    ex = sp.px - est.px
+    ey = sp.py - est.py
+    dist = xp.sqrt(ex * ex + ey * ey)
+    ffm = xp.sqrt(sp.vx * sp.vx + sp.vy * sp.vy)
+    has_ff = ffm > 0.05
+    goto = sp.use_pos & ~has_ff
+    sp.reached = goto & ((dist < g.radius) | (sp.reached & (dist < 2.0 * g.radius)))
+    mag_goto = xp.minimum(g.cruise, xp.sqrt(1.2 * g.decel * xp.maximum(dist - 0.5 * g.radius, 0.0)))
+    mag_follow = xp.minimum(g.max_speed, g.k_pos * dist)
+    mag = xp.where(has_ff, mag_follow, xp.where(sp.reached, 0.0, mag_goto))
+    s = xp.where(sp.use_pos, mag / xp.maximum(dist, 1e-9), 0.0)
+    vx = sp.vx + ex * s
+    vy = sp.vy + ey * s
+    spd = xp.minimum(xp.sqrt(vx * vx + vy * vy), g.max_speed)
+    moving = spd > 0.05
+    hdg = xp.atan2(vy, vx)
+    herr = wrap_pi(xp.where(moving, hdg, xp.where(sp.use_yaw, sp.yaw, yaw)) - yaw, xp)
+    rate = xp.clip(g.k_hdg * herr, -g.max_rate, g.max_rate)
+    v = xp.where(xp.abs(herr) > g.pivot, 0.0, spd * xp.maximum(xp.cos(herr), 0.0))
+    v = xp.clip(v, sp.v_cmd - g.decel * dt, sp.v_cmd + g.accel * dt)
+    sp.v_cmd = v
+    return v, rate

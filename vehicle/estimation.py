@@ -1,0 +1,146 @@
+"""State estimation: what the autopilot believes, from noisy sensors (vehicle.sensors).
+
+Position/velocity: one filterpy ``KalmanFilter`` per vehicle, 9 states
+[p (3), v (3), b (3)] in world NED, where b is the accelerometer bias expressed in the
+world frame (slowly varying). The filter is predicted at ``kf_rate`` (100 Hz) with the
+IMU specific force rotated to world by the attitude estimate plus gravity, averaged
+over the steps since the last prediction, and corrected with GPS position + velocity
+(10 Hz) and baro altitude (50 Hz). Between filter epochs the output is dead-reckoned
+with the IMU every step (vectorised) and reset to the filter state at each epoch, like
+the output predictor of ArduPilot's EKF.
+
+Attitude: not filtered here. The attitude estimate is truth rotated by a small AHRS
+error, a first-order Gauss-Markov rotation vector (0.3 deg, 5 s), and the body rates
+are the gyro (noise + bias). This models a converged AHRS without simulating one.
+
+``ok`` (estimate_ok): at least ``min_gps`` GPS fixes fused and position variance below
+``ok_var`` on every axis.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from filterpy.kalman import KalmanFilter
+
+G = np.array([0.0, 0.0, 9.80665])
+
+
+def quat_to_R(q: np.ndarray) -> np.ndarray:
+    """(n,4) xyzw -> (n,3,3) body->world rotation matrices."""
+    x, y, z, w = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    R = np.empty((len(q), 3, 3))
+    R[:, 0, 0] = 1 - 2 * (y * y + z * z)
+    R[:, 0, 1] = 2 * (x * y - z * w)
+    R[:, 0, 2] = 2 * (x * z + y * w)
+    R[:, 1, 0] = 2 * (x * y + z * w)
+    R[:, 1, 1] = 1 - 2 * (x * x + z * z)
+    R[:, 1, 2] = 2 * (y * z - x * w)
+    R[:, 2, 0] = 2 * (x * z - y * w)
+    R[:, 2, 1] = 2 * (y * z + x * w)
+    R[:, 2, 2] = 1 - 2 * (x * x + y * y)
+    return R
+
+
+def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    ax, ay, az, aw = a[:, 0], a[:, 1], a[:, 2], a[:, 3]
+    bx, by, bz, bw = b[:, 0], b[:, 1], b[:, 2], b[:, 3]
+    return np.stack([aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx,
+                     aw * bz + ax * by - ay * bx + az * bw,
+                     aw * bw - ax * bx - ay * by - az * bz], axis=1)
+
+
+def make_kf(dt: float, pos0, accel_sigma: float, gps_pos_sigma: float, gps_alt_sigma: float,
+            gps_vel_sigma: float) -> KalmanFilter:
+    kf = KalmanFilter(dim_x=9, dim_z=6, dim_u=3)
+    F = np.eye(9)
+    F[0:3, 3:6] = np.eye(3) * dt
+    F[0:3, 6:9] = -np.eye(3) * 0.5 * dt * dt
+    F[3:6, 6:9] = -np.eye(3) * dt
+    kf.F = F
+    B = np.zeros((9, 3))
+    B[0:3] = np.eye(3) * 0.5 * dt * dt
+    B[3:6] = np.eye(3) * dt
+    kf.B = B
+    kf.H = np.hstack([np.eye(6), np.zeros((6, 3))])
+    kf.R = np.diag([gps_pos_sigma ** 2] * 2 + [gps_alt_sigma ** 2] + [gps_vel_sigma ** 2] * 3)
+    q_acc = (accel_sigma * 2.0) ** 2          # white acceleration uncertainty (incl. attitude error)
+    Q = np.zeros((9, 9))
+    Q[0:3, 0:3] = np.eye(3) * q_acc * dt ** 4 / 4
+    Q[0:3, 3:6] = Q[3:6, 0:3] = np.eye(3) * q_acc * dt ** 3 / 2
+    Q[3:6, 3:6] = np.eye(3) * q_acc * dt ** 2
+    Q[6:9, 6:9] = np.eye(3) * (1e-3) ** 2 * dt   # bias random walk
+    kf.Q = Q
+    kf.x = np.zeros(9)
+    kf.x[0:3] = pos0
+    kf.P = np.diag([25.0] * 3 + [4.0] * 3 + [0.1 ** 2] * 3)
+    return kf
+
+
+class Estimator:
+    """Batched front end over per-vehicle filterpy filters."""
+
+    def __init__(self, n: int, home: np.ndarray, spec, kf_rate: float = 100.0,
+                 min_gps: int = 10, ok_var: float = 0.5):
+        self.n = n
+        self.spec = spec
+        self.kf_dt = 1.0 / kf_rate
+        self.kfs = [make_kf(self.kf_dt, home[i], spec.accel_sigma, spec.gps_pos_sigma,
+                            spec.gps_alt_sigma, spec.gps_vel_sigma) for i in range(n)]
+        self.H_baro = np.zeros((1, 9))
+        self.H_baro[0, 2] = 1.0
+        self.R_baro = np.array([[spec.baro_sigma ** 2]])
+        self.pos = np.asarray(home, float).copy()
+        self.vel = np.zeros((n, 3))
+        self.bias = np.zeros((n, 3))
+        self.quat = np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))
+        self.rates = np.zeros((n, 3))
+        self.acc = np.zeros((n, 3))
+        self.ahrs_err = np.zeros((n, 3))
+        self.gps_count = np.zeros(n, dtype=int)
+        self.ok = np.zeros(n, dtype=bool)
+        self._acc_sum = np.zeros((n, 3))
+        self._acc_k = 0
+        self._t_kf = 0.0
+
+    def update(self, t: float, dt: float, sensors, true_quat: np.ndarray) -> None:
+        sp = self.spec
+        z = sensors.z
+        # AHRS: Gauss-Markov attitude error applied to truth
+        a = math.exp(-dt / sp.ahrs_tau)
+        self.ahrs_err = a * self.ahrs_err + sp.ahrs_sigma * math.sqrt(1 - a * a) * z[:, 13:16]
+        h = 0.5 * self.ahrs_err
+        dq = np.column_stack([h, np.ones(self.n)])
+        dq /= np.linalg.norm(dq, axis=1, keepdims=True)
+        self.quat = quat_mul(true_quat, dq)
+        self.rates = sensors.gyro
+        R = quat_to_R(self.quat)
+        acc_w = np.einsum("nij,nj->ni", R, sensors.accel) + G
+        self.acc = acc_w - self.bias
+        # output predictor: dead-reckon every step
+        self.vel = self.vel + self.acc * dt
+        self.pos = self.pos + self.vel * dt
+        self._acc_sum += acc_w
+        self._acc_k += 1
+        if t + 1e-9 < self._t_kf + self.kf_dt and not (sensors.gps_fresh or sensors.baro_fresh):
+            return
+        # filter epoch: predict with mean IMU acceleration, fuse what is fresh
+        u = self._acc_sum / max(self._acc_k, 1)
+        self._acc_sum[:] = 0.0
+        self._acc_k = 0
+        self._t_kf = t
+        gps = sensors.gps_fresh
+        baro = sensors.baro_fresh
+        for i, kf in enumerate(self.kfs):
+            kf.predict(u=u[i])
+            if gps:
+                kf.update(np.concatenate([sensors.gps_pos[i], sensors.gps_vel[i]]))
+            if baro:
+                kf.update(np.array([-sensors.baro_alt[i]]), R=self.R_baro, H=self.H_baro)
+            self.pos[i] = kf.x[0:3]
+            self.vel[i] = kf.x[3:6]
+            self.bias[i] = kf.x[6:9]
+            if gps:
+                self.gps_count[i] += 1
+                self.ok[i] = self.gps_count[i] >= 10 and bool(np.all(np.diag(kf.P)[0:3] < 0.5))

@@ -1,0 +1,68 @@
+"""Vehicle physics (pure, batched) and the two math backends the cores are written against.
+
+The cores are written component by component ("structure of arrays"): every state
+component is either a numpy array of shape (n,) (NumpyOps, the batched fleet) or a plain
+Python float (ScalarOps, the single-vehicle fast path that avoids numpy's per-call
+overhead). Only + - * /, comparisons, & | and the functions below are used, so one
+source serves both.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+class NumpyOps:
+    sqrt = staticmethod(np.sqrt)
+    sin = staticmethod(np.sin)
+    cos = staticmethod(np.cos)
+    atan = staticmethod(np.arctan)
+    atan2 = staticmethod(np.arctan2)
+    exp = staticmethod(np.exp)
+    abs = staticmethod(np.abs)
+    minimum = staticmethod(np.minimum)
+    maximum = staticmethod(np.maximum)
+    where = staticmethod(np.where)
+    lnot = staticmethod(np.logical_not)
+
+    @staticmethod
+    def clip(x, lo, hi):
+        return np.minimum(np.maximum(x, lo), hi)
+
+    @staticmethod
+    def zeros_like(x):
+        return np.zeros_like(x)
+
+
+class ScalarOps:
+    sqrt = staticmethod(math.sqrt)
+    sin = staticmethod(math.sin)
+    cos = staticmethod(math.cos)
+    atan = staticmethod(math.atan)
+    atan2 = staticmethod(math.atan2)
+    exp = staticmethod(math.exp)
+    abs = staticmethod(abs)
+    minimum = staticmethod(min)
+    maximum = staticmethod(max)
+
+    @staticmethod
+    def where(c, a, b):
+        return a if c else b
+
+    @staticmethod
+    def lnot(c):
+        return not c
+
+    @staticmethod
+    def clip(x, lo, hi):
+        return lo if x < lo else (hi if x > hi else x)
+
+    @staticmethod
+    def zeros_like(x):
+        return 0.0
+
+
+def wrap_pi(a, xp=NumpyOps):
+    """Wrap angle(s) to [-pi, pi)."""
+    return (a + math.pi) % (2.0 * math.pi) - math.pi

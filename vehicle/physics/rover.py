@@ -1,0 +1,61 @@
+"""Skid-steer rover kinematics, batched over vehicles (world NED, body FRD).
+
+Skid-steer (differential drive) was chosen over Ackermann: it can turn in place, so a
+rover can stop on a goal and face any heading without orbiting it. Unicycle kinematics:
+
+  speed'  = (speed_cmd - speed) / speed_tau, |speed'| <= max_accel, |speed| <= max_speed
+  rate'   = (rate_cmd - rate) / turn_tau,    |rate| <= max_turn_rate
+  yaw'    = rate;   x' = speed cos(yaw);   y' = speed sin(yaw);   z = home z
+
+Both lags are discretised exactly (1 - exp(-dt/tau)). No lateral slip.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from vehicle.physics import NumpyOps, wrap_pi
+
+
+@dataclass
+class RoverModel:
+    speed_tau: float = 0.25     # s
+    turn_tau: float = 0.1       # s
+    max_accel: float = 5.0      # m/s^2 physical limit (the controller uses ATC_ACCEL_MAX)
+
+
+class RoverState:
+    FIELDS = ("px", "py", "pz", "vx", "vy", "vz", "qx", "qy", "qz", "qw", "wx", "wy", "wz",
+              "ax", "ay", "az", "yaw", "speed", "rate")
+
+    def __init__(self, n: int, pos=None, yaw=None):
+        for f in self.FIELDS:
+            setattr(self, f, np.zeros(n))
+        if pos is not None:
+            pos = np.asarray(pos, float).reshape(n, 3)
+            self.px, self.py, self.pz = pos[:, 0].copy(), pos[:, 1].copy(), pos[:, 2].copy()
+        if yaw is not None:
+            self.yaw = np.broadcast_to(np.asarray(yaw, float), (n,)).copy()
+        self.qz, self.qw = np.sin(self.yaw / 2), np.cos(self.yaw / 2)
+        self.ground = np.ones(n, dtype=bool)
+
+
+def step(s: RoverState, speed_cmd, rate_cmd, m: RoverModel, gains, dt: float, xp=NumpyOps) -> None:
+    """gains supplies max_speed (m/s) and max_rate (rad/s)."""
+    ks = 1.0 - math.exp(-dt / m.speed_tau)
+    kr = 1.0 - math.exp(-dt / m.turn_tau)
+    cmd = xp.clip(speed_cmd, -gains.max_speed, gains.max_speed)
+    dv = xp.clip((cmd - s.speed) * ks, -m.max_accel * dt, m.max_accel * dt)
+    s.speed = s.speed + dv
+    s.rate = s.rate + (xp.clip(rate_cmd, -gains.max_rate, gains.max_rate) - s.rate) * kr
+    s.yaw = wrap_pi(s.yaw + s.rate * dt, xp)
+    vx = s.speed * xp.cos(s.yaw)
+    vy = s.speed * xp.sin(s.yaw)
+    s.ax, s.ay = (vx - s.vx) / dt, (vy - s.vy) / dt
+    s.vx, s.vy = vx, vy
+    s.px = s.px + vx * dt
+    s.py = s.py + vy * dt
+    s.qz, s.qw = xp.sin(0.5 * s.yaw), xp.cos(0.5 * s.yaw)
+    s.wz = s.rate
