@@ -89,6 +89,7 @@ class MissionResult:
     ok: bool = False
     goals: list[GoalResult] = field(default_factory=list)
     takeoff_sim: float | None = None     # sim time when the height was reached
+    takeoff_position: tuple[float, float, float] | None = None  # goal frame, at that time
     start_sim: float | None = None       # sim time when the mission began (armed)
     end_sim: float | None = None         # sim time at the end (landed or failed)
     finish: str = "land"
@@ -179,6 +180,7 @@ class Mission:
         p = c.takeoff(self.altitude, s, timeout=self.goal_timeout,
                       tolerance=max(self.radius, 0.3))
         r.takeoff_sim = p.t
+        r.takeoff_position = p.xyz
         self.log(f"takeoff: {self.altitude:g} m reached at t={p.t:.2f} s "
                  f"({self.frame} [{p.x:.2f}, {p.y:.2f}, {p.z:.2f}])")
 
