@@ -1,0 +1,146 @@
+"""towerlink bridge: route MAVLink between the tower and the vehicles, translate frames,
+publish the frame tree, and drive the rover to follow the drone.
+
+  towerlink bridge [--tower udpin:127.0.0.1:14600]
+                   [--drone udpout:127.0.0.1:14560] [--rover udpout:127.0.0.1:14570]
+                   [--out udpout:127.0.0.1:14610 ...] [--scenario FILE]
+                   [--follow-frame drone|drone_yaw] [--follow-offset=X,Y] [--no-follow]
+
+Links. The vehicles are reached with pymavlink connection strings (udpout to the
+world's UDP ports 14560/14570, or tcp:127.0.0.1:5760/5770). The tower GCS connects to
+--tower (default udpin:127.0.0.1:14600; the tower uses udpout:127.0.0.1:14600).
+Each --out is an extra GCS-side endpoint in the WORLD frame (no translation) that gets
+all vehicle traffic, the transform stream and the bridge's status; `towerlink tf-echo
+--connect udpin:127.0.0.1:14610` listens to `--out udpout:127.0.0.1:14610`.
+
+Routing (mavlink-router semantics). Vehicle messages go to the tower and the outs;
+GCS messages go to the vehicle named by target_system (all links for 0). Source
+sysid/compid/seq are preserved: packets are forwarded as received, and the few that
+are translated are re-encoded with the sender's ids. Malformed input (garbage, bad
+CRC, truncated, unknown ids) is counted per link and dropped.
+
+Frames. The buffer holds the scenario's static frames, statics added live
+(TOWERLINK_STATIC_TRANSFORM, e.g. `towerlink static-transform --publish`), world->drone
+and world->rover (body FRD, from LOCAL_POSITION_NED + ATTITUDE_QUATERNION paired by
+time_boot_ms and stamped time_boot_ms/1000) and world->drone_yaw / world->rover_yaw
+(yaw-only). On the tower link SET_POSITION_TARGET_LOCAL_NED (LOCAL_NED or
+LOCAL_OFFSET_NED) is mapped tower->world, LOCAL_POSITION_NED and
+POSITION_TARGET_LOCAL_NED world->tower. TOWERLINK_POSITION_TARGET names its frame.
+A goal whose transform is missing (or whose dynamic chain is older than
+--max-transform-age) waits and is retried every tick; it is never sent with a guess.
+Every transform is published as TOWERLINK_TRANSFORM (statics at 1 Hz, dynamic at up
+to --tf-rate sim Hz) to the tower and the outs.
+
+Follow. At --follow-rate sim Hz the rover (sysid 2) gets SET_POSITION_TARGET_LOCAL_NED
+(LOCAL_NED, z 0, drone velocity as feed-forward) = the ground point under the drone
+written in --follow-frame as (offset_x, offset_y, +height) and transformed to world.
+The bridge puts the rover in GUIDED and arms it. If the drone's telemetry stops for
+--follow-timeout sim seconds (judged on the rover's clock, or on wall time x
+--speedup when the rover is silent too) the rover is put in HOLD; following resumes
+when telemetry returns. Each tick sends TOWERLINK_FOLLOW_STATUS with the ground point
+through both frames and the attitude-free reference (the wobble figure).
+
+Give negative offsets with '=': --follow-offset=-2,0 (2 m behind).
+"""
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+
+
+def _offset(text: str) -> tuple[float, float]:
+    try:
+        x, y = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"offset must be X,Y in metres, got {text!r}") from None
+    return x, y
+
+
+def _url_or_none(text: str) -> str | None:
+    return None if text.lower() in ("none", "off", "") else text
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("links")
+    g.add_argument("--tower", default="udpin:127.0.0.1:14600",
+                   help="tower GCS endpoint, tower frame (default %(default)s)")
+    g.add_argument("--drone", type=_url_or_none, default="udpout:127.0.0.1:14560",
+                   help="drone endpoint (default %(default)s; 'none' to disable)")
+    g.add_argument("--rover", type=_url_or_none, default="udpout:127.0.0.1:14570",
+                   help="rover endpoint (default %(default)s; 'none' to disable)")
+    g.add_argument("--out", action="append", default=[], metavar="URL",
+                   help="extra world-frame GCS-side endpoint (repeatable), e.g. udpout:127.0.0.1:14610")
+    g.add_argument("--drone-sysid", type=int, default=1)
+    g.add_argument("--rover-sysid", type=int, default=2)
+    g.add_argument("--sysid", type=int, default=250, help="the bridge's own sysid (default %(default)s)")
+    g.add_argument("--compid", type=int, default=191, help="the bridge's compid (default %(default)s)")
+    f = p.add_argument_group("frames")
+    f.add_argument("--scenario", default=None, help="scenario TOML (default: the built-in lab scenario)")
+    f.add_argument("--tower-frame", default="tower", help="frame of the tower link (default %(default)s)")
+    f.add_argument("--static", action="append", default=[], metavar="'X Y Z YAW PITCH ROLL PARENT CHILD'",
+                   help="extra static transform, static_transform_publisher syntax (repeatable)")
+    f.add_argument("--tf-rate", type=float, default=20.0, help="max dynamic transform stream rate, sim Hz")
+    f.add_argument("--telemetry-rate", type=float, default=20.0,
+                   help="LOCAL_POSITION_NED/ATTITUDE_QUATERNION rate requested from the vehicles, sim Hz "
+                        "(0: do not request)")
+    f.add_argument("--cache-time", type=float, default=10.0, help="dynamic edge window, s")
+    f.add_argument("--max-transform-age", type=float, default=0.5,
+                   help="a dynamic chain older than this (sim s) is not used for goals")
+    w = p.add_argument_group("rover follow")
+    w.add_argument("--no-follow", dest="follow", action="store_false", help="do not drive the rover")
+    w.add_argument("--follow-frame", choices=("drone", "drone_yaw"), default=None,
+                   help="drone (checkpoint 2, full attitude) or drone_yaw (checkpoint 3); default: scenario")
+    w.add_argument("--follow-offset", type=_offset, default=None, metavar="X,Y",
+                   help="offset in the yaw-only drone frame, m (behind = negative x); default: scenario")
+    w.add_argument("--follow-rate", type=float, default=None, help="follow ticks per sim second (>= 10)")
+    w.add_argument("--follow-timeout", type=float, default=1.0,
+                   help="sim s without drone telemetry before the rover holds (default %(default)s)")
+    w.add_argument("--no-follow-ff", dest="follow_ff", action="store_false",
+                   help="no velocity feed-forward in rover targets")
+    w.add_argument("--speedup", type=float, default=1.0,
+                   help="world speedup, only for the wall-clock fallback of the follow timeout")
+    p.add_argument("-q", "--quiet", action="store_true", help="no log lines on stderr")
+    p.add_argument("--duration", type=float, default=None, help="stop after this many wall seconds")
+
+
+def config_from_args(args):
+    from bridge.router import BridgeConfig
+    from bridge.scenario import load_scenario, parse_static_transform
+
+    sc = load_scenario(args.scenario)
+    statics = list(sc.static_transforms) + [parse_static_transform(s) for s in args.static]
+    return BridgeConfig(
+        tower=args.tower, drone=args.drone, rover=args.rover, outs=list(args.out),
+        drone_sysid=args.drone_sysid, rover_sysid=args.rover_sysid, sysid=args.sysid,
+        compid=args.compid, tower_frame=args.tower_frame, statics=statics,
+        follow=args.follow,
+        follow_frame=args.follow_frame or sc.follow_frame,
+        follow_offset=tuple(args.follow_offset) if args.follow_offset is not None else tuple(sc.follow_offset),
+        follow_rate=max(args.follow_rate or sc.follow_rate_hz, 1.0),
+        follow_timeout=args.follow_timeout, follow_ff=args.follow_ff, speedup=args.speedup,
+        telemetry_rate=args.telemetry_rate, tf_rate=args.tf_rate, cache_time=args.cache_time,
+        max_transform_age=args.max_transform_age, quiet=args.quiet)
+
+
+def run(args) -> int:
+    from bridge.router import Bridge
+
+    try:
+        cfg = config_from_args(args)
+        bridge = Bridge(cfg)
+    except (ValueError, OSError) as exc:
+        print(f"towerlink bridge: {exc}", file=sys.stderr)
+        return 2
+    signal.signal(signal.SIGTERM, bridge.stop)
+    signal.signal(signal.SIGINT, bridge.stop)
+    bridge.log(f"tower {cfg.tower} ({cfg.tower_frame} frame); drone {cfg.drone}; rover {cfg.rover}; "
+               f"outs {cfg.outs or '-'}; follow {'off' if not cfg.follow else cfg.follow_frame} "
+               f"offset {cfg.follow_offset}; frames {[ts.child_frame_id for ts in cfg.statics]}")
+    try:
+        bridge.run(args.duration)
+    finally:
+        if not cfg.quiet:
+            print(bridge.summary(), file=sys.stderr, flush=True)
+        bridge.close()
+    return 0

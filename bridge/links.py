@@ -1,0 +1,435 @@
+"""MAVLink endpoints for the bridge: framing, CRC checks and non-blocking sockets.
+
+One idea per class:
+
+* :class:`Framer` cuts a byte stream (or one UDP datagram) into MAVLink 1/2 packets
+  without decoding payloads: header fields, CRC-16/MCRF4XX with the message's
+  CRC_EXTRA, and the ``target_system``/``target_component`` bytes read straight from
+  the payload (MAVLink 2 zero-truncation aware). Garbage runs, bad CRCs, truncated
+  packets and unknown message ids are counted in ``malformed`` and skipped; it
+  resynchronises on the next magic byte (as pymavlink's robust parser does).
+* :class:`Link` is one endpoint named by a pymavlink connection string
+  (``udpin:H:P``, ``udpout:H:P``, ``udp:H:P`` = udpin, ``tcp:H:P`` client with
+  reconnect, ``tcpin:H:P`` server). Sockets are non-blocking and are served by the
+  caller's ``selectors`` loop: ``fileobjs()`` to register, ``on_readable(sock)`` to
+  get packets, ``send(bytes)`` to write.
+
+udpin links answer every peer that wrote to them in the last ``PEER_TIMEOUT`` wall
+seconds (the most recent peer always), like the vehicles' UDP ports; udpout links
+send to their address and accept replies from anyone.
+"""
+from __future__ import annotations
+
+import binascii
+import errno
+import socket
+import struct
+import time
+from dataclasses import dataclass, field
+
+from bridge.dialect import towerlink as _tl
+
+try:  # pymavlink picks fastcrc when installed
+    from pymavlink.generator.mavcrc import mcrf4xx as _fast_crc
+except Exception:  # pragma: no cover
+    _fast_crc = None
+
+PEER_TIMEOUT = 30.0
+TCP_RETRY = 1.0
+MAX_STREAM_BUFFER = 1 << 20
+
+_REV = bytes(int(f"{i:08b}"[::-1], 2) for i in range(256))
+
+
+def crc_mcrf4xx(data: bytes) -> int:
+    """CRC-16/MCRF4XX (MAVLink's X.25 CRC), at C speed.
+
+    Uses fastcrc when pymavlink found it; otherwise the reflected CRC is computed as
+    the bit-reversal of CRC-CCITT (binascii.crc_hqx) over bit-reversed bytes.
+    """
+    if _fast_crc is not None:
+        return _fast_crc(bytes(data))
+    c = binascii.crc_hqx(bytes(data).translate(_REV), 0xFFFF)
+    return _REV[c & 0xFF] << 8 | _REV[c >> 8]
+
+
+def _field_offsets(cls) -> dict[str, int]:
+    """Byte offset of every wire-ordered field of a pymavlink message class."""
+    fmt = cls.unpacker.format
+    if isinstance(fmt, bytes):
+        fmt = fmt.decode()
+    tokens, num = [], ""
+    for ch in fmt[1:]:
+        if ch.isdigit():
+            num += ch
+        else:
+            tokens.append(num + ch)
+            num = ""
+    out, pos = {}, 0
+    for name, tok in zip(cls.ordered_fieldnames, tokens):
+        out[name] = pos
+        pos += struct.calcsize("<" + tok)
+    return out
+
+
+@dataclass(frozen=True, slots=True)
+class MsgInfo:
+    crc_extra: int
+    target_system_ofs: int      # -1: message has no target_system
+    target_component_ofs: int   # -1: none
+    name: str
+
+
+def _build_table(module=_tl) -> dict[int, MsgInfo]:
+    table = {}
+    for msgid, cls in module.mavlink_map.items():
+        ofs = _field_offsets(cls)
+        table[msgid] = MsgInfo(cls.crc_extra, ofs.get("target_system", -1),
+                               ofs.get("target_component", -1), cls.msgname)
+    return table
+
+
+MSG_TABLE: dict[int, MsgInfo] = _build_table()
+
+
+@dataclass(slots=True)
+class Packet:
+    """One CRC-checked MAVLink packet, not decoded."""
+    raw: bytes
+    msgid: int
+    sysid: int
+    compid: int
+    seq: int
+    target_system: int      # 0 when the message has none (broadcast)
+    target_component: int
+    v2: bool
+
+
+class Framer:
+    """Cut bytes into MAVLink packets; count and skip whatever is not one."""
+
+    __slots__ = ("buf", "malformed", "packets", "_skipping", "table")
+
+    def __init__(self, table: dict[int, MsgInfo] = MSG_TABLE) -> None:
+        self.buf = bytearray()
+        self.malformed = 0
+        self.packets = 0
+        self._skipping = False
+        self.table = table
+
+    def _bad(self) -> None:
+        if not self._skipping:
+            self.malformed += 1
+            self._skipping = True
+
+    def feed(self, data: bytes, datagram: bool = False) -> list[Packet]:
+        """Packets found in `data` (appended to what is pending).
+
+        datagram=True treats `data` as a whole UDP datagram: a partial packet left at
+        its end is truncated input (counted), not something to wait for.
+        """
+        buf = self.buf
+        buf += data
+        out: list[Packet] = []
+        i, n = 0, len(buf)
+        table = self.table
+        while i < n:
+            magic = buf[i]
+            if magic == 0xFD:
+                if n - i < 10:
+                    break
+                plen = buf[i + 1]
+                incompat = buf[i + 2]
+                total = 12 + plen + (13 if incompat & 0x01 else 0)
+                if incompat & ~0x01:
+                    self._bad(); i += 1; continue
+                if n - i < total:
+                    break
+                msgid = buf[i + 7] | buf[i + 8] << 8 | buf[i + 9] << 16
+                info = table.get(msgid)
+                if info is None:
+                    self._bad(); i += 1; continue
+                end_crc = i + 10 + plen
+                crc = crc_mcrf4xx(bytes(buf[i + 1:end_crc]) + bytes((info.crc_extra,)))
+                if crc != (buf[end_crc] | buf[end_crc + 1] << 8):
+                    self._bad(); i += 1; continue
+                pay0 = i + 10
+                ts = buf[pay0 + info.target_system_ofs] if 0 <= info.target_system_ofs < plen else 0
+                tc = buf[pay0 + info.target_component_ofs] if 0 <= info.target_component_ofs < plen else 0
+                out.append(Packet(bytes(buf[i:i + total]), msgid, buf[i + 5], buf[i + 6], buf[i + 4],
+                                  ts, tc, True))
+                i += total
+                self._skipping = False
+            elif magic == 0xFE:
+                if n - i < 6:
+                    break
+                plen = buf[i + 1]
+                total = 8 + plen
+                if n - i < total:
+                    break
+                msgid = buf[i + 5]
+                info = table.get(msgid)
+                if info is None:
+                    self._bad(); i += 1; continue
+                end_crc = i + 6 + plen
+                crc = crc_mcrf4xx(bytes(buf[i + 1:end_crc]) + bytes((info.crc_extra,)))
+                if crc != (buf[end_crc] | buf[end_crc + 1] << 8):
+                    self._bad(); i += 1; continue
+                pay0 = i + 6
+                ts = buf[pay0 + info.target_system_ofs] if 0 <= info.target_system_ofs < plen else 0
+                tc = buf[pay0 + info.target_component_ofs] if 0 <= info.target_component_ofs < plen else 0
+                out.append(Packet(bytes(buf[i:i + total]), msgid, buf[i + 3], buf[i + 4], buf[i + 2],
+                                  ts, tc, False))
+                i += total
+                self._skipping = False
+            else:
+                self._bad()
+                i += 1
+        del buf[:i]
+        if datagram and buf:
+            self._bad()
+            buf.clear()
+        if datagram:
+            self._skipping = False
+        if len(buf) > MAX_STREAM_BUFFER:
+            self._bad()
+            buf.clear()
+        self.packets += len(out)
+        return out
+
+
+def parse_url(url: str) -> tuple[str, str, int]:
+    """('udpin'|'udpout'|'tcp'|'tcpin', host, port) from a pymavlink connection string."""
+    try:
+        kind, rest = url.split(":", 1)
+        host, port = rest.rsplit(":", 1)
+        port_n = int(port)
+    except ValueError:
+        raise ValueError(f"bad connection string {url!r}; use udpin:HOST:PORT, udpout:HOST:PORT, "
+                         f"tcp:HOST:PORT or tcpin:HOST:PORT") from None
+    kind = kind.lower()
+    if kind == "udp":
+        kind = "udpin"
+    if kind not in ("udpin", "udpout", "tcp", "tcpin"):
+        raise ValueError(f"unsupported connection kind {kind!r} in {url!r}")
+    if not 0 < port_n < 65536:
+        raise ValueError(f"bad port in {url!r}")
+    return kind, host or "127.0.0.1", port_n
+
+
+@dataclass
+class LinkStats:
+    rx_packets: int = 0
+    tx_packets: int = 0
+    malformed: int = 0
+    unroutable: int = 0
+    translated: int = 0
+    deferred: int = 0
+    send_errors: int = 0
+
+
+class Link:
+    """One MAVLink endpoint on non-blocking sockets."""
+
+    def __init__(self, name: str, url: str, clock=time.monotonic) -> None:
+        self.name = name
+        self.url = url
+        self.kind, self.host, self.port = parse_url(url)
+        self.clock = clock
+        self.stats = LinkStats()
+        self.sysids: set[int] = set()          # systems seen behind this link
+        self.peers: dict[tuple, float] = {}    # udpin: addr -> last heard (wall)
+        self._last_peer = None
+        self._framers: dict[object, Framer] = {}
+        self._tcp_clients: list[socket.socket] = []
+        self._retry_at = 0.0
+        self._connecting = False
+        self.sock: socket.socket | None = None
+        self._open()
+
+    # ------------------------------------------------------------------ sockets
+    def _open(self) -> None:
+        addr = (self.host, self.port)
+        if self.kind in ("udpin", "udpout"):
+            s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            s.setblocking(False)
+            try:
+                s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 21)
+            except OSError:
+                pass
+            if self.kind == "udpin":
+                s.bind(addr)
+            else:
+                s.bind(("0.0.0.0" if self.host not in ("127.0.0.1", "localhost") else "127.0.0.1", 0))
+            self.sock = s
+            self._framers[s] = Framer()
+        elif self.kind == "tcpin":
+            s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+            s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            s.bind(addr)
+            s.listen(8)
+            s.setblocking(False)
+            self.sock = s
+        else:  # tcp client
+            self.sock = None
+            self._try_connect()
+
+    def _try_connect(self) -> None:
+        now = self.clock()
+        if now < self._retry_at:
+            return
+        self._retry_at = now + TCP_RETRY
+        s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        s.setblocking(False)
+        try:
+            s.connect((self.host, self.port))
+        except BlockingIOError:
+            pass
+        except OSError:
+            s.close()
+            return
+        self.sock = s
+        self._connecting = True
+        self._framers = {s: Framer()}
+
+    def fileobjs(self) -> list[socket.socket]:
+        """Sockets to watch for reading now (changes for tcp/tcpin; re-query each loop)."""
+        out = [self.sock] if self.sock is not None else []
+        out.extend(self._tcp_clients)
+        return out
+
+    def poll(self) -> None:
+        """Periodic upkeep: reconnect tcp clients."""
+        if self.kind == "tcp" and self.sock is None:
+            self._try_connect()
+
+    def _drop_tcp(self, s: socket.socket) -> None:
+        try:
+            s.close()
+        except OSError:
+            pass
+        self._framers.pop(s, None)
+        if s in self._tcp_clients:
+            self._tcp_clients.remove(s)
+        if s is self.sock and self.kind == "tcp":
+            self.sock = None
+            self._connecting = False
+
+    @property
+    def malformed(self) -> int:
+        return self.stats.malformed + sum(f.malformed for f in self._framers.values())
+
+    def on_readable(self, s: socket.socket) -> list[Packet]:
+        """Read what is waiting on socket `s`; return the valid packets."""
+        out: list[Packet] = []
+        if self.kind in ("udpin", "udpout"):
+            fr = self._framers[s]
+            for _ in range(256):
+                try:
+                    data, addr = s.recvfrom(65535)
+                except (BlockingIOError, InterruptedError):
+                    break
+                except OSError:   # ICMP port unreachable reported on a later read, etc.
+                    continue
+                if self.kind == "udpin":
+                    self.peers[addr] = self.clock()
+                    self._last_peer = addr
+                out.extend(fr.feed(data, datagram=True))
+        elif self.kind == "tcpin" and s is self.sock:
+            while True:
+                try:
+                    c, _addr = s.accept()
+                except (BlockingIOError, InterruptedError):
+                    break
+                except OSError:
+                    break
+                c.setblocking(False)
+                c.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+                self._tcp_clients.append(c)
+                self._framers[c] = Framer()
+        else:
+            fr = self._framers.get(s)
+            if fr is None:
+                return out
+            try:
+                data = s.recv(65536)
+            except (BlockingIOError, InterruptedError):
+                return out
+            except OSError:
+                self._fold(fr)
+                self._drop_tcp(s)
+                return out
+            if not data:
+                self._fold(fr)
+                self._drop_tcp(s)
+                return out
+            self._connecting = False
+            out.extend(fr.feed(data))
+        self.stats.rx_packets += len(out)
+        for p in out:
+            self.sysids.add(p.sysid)
+        return out
+
+    def _fold(self, fr: Framer) -> None:
+        self.stats.malformed += fr.malformed + (1 if fr.buf else 0)
+
+    def send(self, data: bytes) -> None:
+        """Write one packet (best effort; UDP drops, a broken TCP link reconnects)."""
+        st = self.stats
+        if self.kind == "udpout":
+            try:
+                self.sock.sendto(data, (self.host, self.port))
+                st.tx_packets += 1
+            except OSError:
+                st.send_errors += 1
+        elif self.kind == "udpin":
+            now = self.clock()
+            sent = False
+            for addr, seen in list(self.peers.items()):
+                if addr != self._last_peer and now - seen > PEER_TIMEOUT:
+                    del self.peers[addr]
+                    continue
+                try:
+                    self.sock.sendto(data, addr)
+                    sent = True
+                except OSError:
+                    st.send_errors += 1
+            if sent:
+                st.tx_packets += 1
+        else:
+            targets = self._tcp_clients if self.kind == "tcpin" else ([self.sock] if self.sock else [])
+            for s in list(targets):
+                try:
+                    s.sendall(data)  # small packets; non-blocking send of a few hundred bytes
+                except (BlockingIOError, InterruptedError):
+                    st.send_errors += 1
+                except OSError:
+                    if self._connecting:
+                        continue
+                    fr = self._framers.get(s)
+                    if fr is not None:
+                        self._fold(fr)
+                    self._drop_tcp(s)
+                    st.send_errors += 1
+                else:
+                    st.tx_packets += 1
+
+    @property
+    def connected(self) -> bool:
+        if self.kind == "udpout":
+            return True
+        if self.kind == "udpin":
+            return bool(self.peers)
+        if self.kind == "tcpin":
+            return bool(self._tcp_clients)
+        return self.sock is not None and not self._connecting
+
+    def close(self) -> None:
+        for s in self.fileobjs():
+            try:
+                s.close()
+            except OSError:
+                pass
+        self._tcp_clients.clear()
+        self.sock = None

@@ -1,0 +1,160 @@
+"""Test doubles for the bridge tests: a fake vehicle and a fake GCS on real UDP sockets.
+
+Both decode the towerlink dialect with pymavlink's generated code, keep every
+message they receive, and let a test wait on a condition with a deadline.
+"""
+from __future__ import annotations
+
+import socket
+import threading
+import time
+from contextlib import contextmanager
+
+from bridge.dialect import towerlink as tl
+from bridge.router import Bridge, BridgeConfig
+from support import wait_until
+
+
+class _Out:
+    def __init__(self, ep): self.ep = ep
+    def write(self, b): self.ep._send_raw(b)
+
+
+class Endpoint:
+    """A MAVLink peer on one UDP socket (udpin: bind `port`; udpout: send to `port`)."""
+
+    def __init__(self, sysid: int, compid: int, port: int, listen: bool, name: str = "ep") -> None:
+        self.name = name
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.listen = listen
+        if listen:
+            self.sock.bind(("127.0.0.1", port))
+            self.peer = None
+        else:
+            self.sock.bind(("127.0.0.1", 0))
+            self.peer = ("127.0.0.1", port)
+        self.sock.settimeout(0.05)
+        self.mav = tl.MAVLink(_Out(self), srcSystem=sysid, srcComponent=compid)
+        self.mav.robust_parsing = True
+        self.parser = tl.MAVLink(None)
+        self.parser.robust_parsing = True
+        self.msgs: list = []
+        self.lock = threading.Lock()
+        self.running = True
+        self.handlers = []
+        self.thread = threading.Thread(target=self._loop, daemon=True)
+        self.thread.start()
+
+    def _send_raw(self, b: bytes) -> None:
+        if self.peer is not None:
+            self.sock.sendto(bytes(b), self.peer)
+
+    def send_bytes(self, b: bytes) -> None:
+        self._send_raw(b)
+
+    def _loop(self) -> None:
+        while self.running:
+            try:
+                data, addr = self.sock.recvfrom(65535)
+            except socket.timeout:
+                continue
+            except OSError:
+                if not self.running:
+                    return
+                continue
+            if self.listen:
+                self.peer = addr
+            try:
+                msgs = self.parser.parse_buffer(data) or []
+            except Exception:
+                continue
+            for m in msgs:
+                if m.get_type() == "BAD_DATA":
+                    continue
+                m._recv_time = time.monotonic()
+                with self.lock:
+                    self.msgs.append(m)
+                for h in self.handlers:
+                    h(self, m)
+
+    def of_type(self, t: str, pred=None) -> list:
+        with self.lock:
+            return [m for m in self.msgs if m.get_type() == t and (pred is None or pred(m))]
+
+    def wait(self, t: str, pred=None, timeout: float = 5.0, what: str | None = None):
+        return wait_until(lambda: (self.of_type(t, pred) or [None])[-1], timeout, what or f"{self.name}: {t}")
+
+    def clear(self) -> None:
+        with self.lock:
+            self.msgs.clear()
+
+    def close(self) -> None:
+        self.running = False
+        self.thread.join(timeout=1)
+        self.sock.close()
+
+
+class FakeVehicle(Endpoint):
+    """Answers COMMAND_LONG (ACK; arm/mode applied), PARAM_REQUEST_READ; sends telemetry on demand."""
+
+    def __init__(self, sysid: int, port: int, mav_type=tl.MAV_TYPE_QUADROTOR, name="vehicle") -> None:
+        super().__init__(sysid, 1, port, listen=True, name=name)
+        self.sysid = sysid
+        self.mav_type = mav_type
+        self.mode = 0
+        self.armed = False
+        self.params = {"WPNAV_SPEED": 500.0, "SYSID_THISMAV": float(sysid)}
+        self.handlers.append(FakeVehicle._respond)
+
+    def _respond(self, m) -> None:
+        t = m.get_type()
+        if t == "COMMAND_LONG" and m.target_system in (0, self.sysid):
+            if m.command == tl.MAV_CMD_COMPONENT_ARM_DISARM:
+                self.armed = m.param1 > 0.5
+            elif m.command == tl.MAV_CMD_DO_SET_MODE:
+                self.mode = int(m.param2)
+            self.mav.command_ack_send(m.command, tl.MAV_RESULT_ACCEPTED, 0, 0,
+                                      m.get_srcSystem(), m.get_srcComponent())
+            self.heartbeat()
+        elif t == "PARAM_REQUEST_READ" and m.target_system == self.sysid:
+            name = m.param_id if isinstance(m.param_id, str) else m.param_id.decode()
+            if name in self.params:
+                idx = list(self.params).index(name)
+                self.mav.param_value_send(name.encode(), self.params[name], tl.MAV_PARAM_TYPE_REAL32,
+                                          len(self.params), idx)
+
+    def heartbeat(self) -> None:
+        base = tl.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | (tl.MAV_MODE_FLAG_SAFETY_ARMED if self.armed else 0)
+        self.mav.heartbeat_send(self.mav_type, tl.MAV_AUTOPILOT_ARDUPILOTMEGA, base, self.mode,
+                                tl.MAV_STATE_ACTIVE)
+
+    def pose(self, t_ms: int, xyz, q_wxyz=(1, 0, 0, 0), vel=(0, 0, 0), att=True, pos=True) -> None:
+        if pos:
+            self.mav.local_position_ned_send(t_ms, *xyz, *vel)
+        if att:
+            self.mav.attitude_quaternion_send(t_ms, *q_wxyz, 0, 0, 0)
+
+
+def bridge_config(tower_port, drone_port=None, rover_port=None, **kw) -> BridgeConfig:
+    from bridge.scenario import load_scenario
+    kw.setdefault("statics", list(load_scenario().static_transforms))
+    kw.setdefault("quiet", True)
+    return BridgeConfig(tower=f"udpin:127.0.0.1:{tower_port}",
+                        drone=f"udpout:127.0.0.1:{drone_port}" if drone_port else None,
+                        rover=f"udpout:127.0.0.1:{rover_port}" if rover_port else None, **kw)
+
+
+@contextmanager
+def running_bridge(cfg: BridgeConfig):
+    """A Bridge running on a thread of this process (so tests can read its counters)."""
+    logs: list[str] = []
+    b = Bridge(cfg, log=logs.append)
+    b.logs = logs
+    th = threading.Thread(target=b.run, daemon=True)
+    th.start()
+    try:
+        yield b
+    finally:
+        b.stop()
+        th.join(timeout=2)
+        b.close()
