@@ -8,7 +8,7 @@ when it passes. Telemetry times are the vehicle's own (time_boot_ms, sim time);
 the wall clock is only used for deadlines and resend intervals.
 
     from gcs.client import Client
-    with Client.connect("udpout:127.0.0.1:14551") as c:
+    with Client.connect("udpout:127.0.0.1:14600") as c:
         c.wait_heartbeat(sysid=1, timeout=30)
         c.set_mode("GUIDED", sysid=1)
         c.arm(sysid=1)                      # reports PreArm: texts while it retries
@@ -245,7 +245,7 @@ class Client:
     # -- construction
 
     @classmethod
-    def connect(cls, conn: str = "udpout:127.0.0.1:14551", *, source_system: int = 255,
+    def connect(cls, conn: str = "udpout:127.0.0.1:14600", *, source_system: int = 255,
                 source_component: int = 190, log: Callable[[str], None] | None = None,
                 tlog: str | None = None, factory: Callable[..., Any] | None = None) -> "Client":
         """Open `conn` (pymavlink spelling: udpout:H:P, udpin:H:P, tcp:H:P) as a GCS."""

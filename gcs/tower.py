@@ -17,9 +17,9 @@ seconds, from the drone's own time_boot_ms (the wall clock is used only for the
 per-goal deadline). Exit status 0 iff every goal was reached.
 
 Examples:
-  towerlink tower                                   # default scenario, bridge at udpout:127.0.0.1:14551
+  towerlink tower                                   # default scenario, bridge at udpout:127.0.0.1:14600
   towerlink tower --goals "-131.04,73.52;-105.06,88.52" --radius 0.5 --finish rtl
-  towerlink tower --connect udpout:127.0.0.1:15551 --result out/tower.json --tlog out/tower.tlog
+  towerlink tower --connect udpout:127.0.0.1:15600 --result out/tower.json --tlog out/tower.tlog
 """
 from __future__ import annotations
 
@@ -31,7 +31,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 
-DEFAULT_CONNECT = "udpout:127.0.0.1:14551"
+DEFAULT_CONNECT = "udpout:127.0.0.1:14600"
 DRONE_SYSID = 1
 
 

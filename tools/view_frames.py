@@ -16,7 +16,7 @@ matplotlib). The text form (tf2's allFramesAsYAML) is printed and written beside
 the drawing as .yaml.
 
 Examples:
-  towerlink view-frames                                   # listen on udpin:127.0.0.1:14600 for 5 s
+  towerlink view-frames                                   # listen on udpin:127.0.0.1:14610 for 5 s (bridge --out udpout:127.0.0.1:14610)
   towerlink view-frames --tlog runs/latest/bridge.tlog -o frames.png
   towerlink view-frames --scenario bridge/scenarios/default.toml -o frames.svg
 """
@@ -32,7 +32,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-DEFAULT_LISTEN = "udpin:127.0.0.1:14600"
+DEFAULT_LISTEN = "udpin:127.0.0.1:14610"
 
 
 # ----------------------------------------------------------------------------- sources
