@@ -263,3 +263,16 @@ def test_eq_hash_repr():
     assert a != Transform((1, 2, 3.5))
     assert "Transform(translation=(1, 2, 3)" in repr(a)
     assert Transform(rotation=(0, 0, 0, 1)).almost_equal(Transform(rotation=(0, 0, 0, -1)))
+
+
+@pytest.mark.parametrize("n", [8191, 8192, 8193, 3 * 8192 + 17, 100_000])
+def test_apply_large_batches_blockwise(n):
+    t = Transform.from_euler(0.3, -0.2, 0.1, (1.0, -2.0, 3.0))
+    pts = np.random.default_rng(n).uniform(-100, 100, (n, 3))
+    r = Rotation.from_quat(np.asarray(t.rotation))
+    np.testing.assert_allclose(t.apply_point(pts), r.apply(pts) + [1.0, -2.0, 3.0], atol=1e-9)
+    np.testing.assert_allclose(t.apply_vector(pts), r.apply(pts), atol=1e-9)
+    strided = np.asfortranarray(pts)
+    np.testing.assert_allclose(t.apply_point(strided), r.apply(pts) + [1.0, -2.0, 3.0], atol=1e-9)
+    np.testing.assert_allclose(t.apply_point(pts.astype(np.float32)),
+                               r.apply(pts) + [1.0, -2.0, 3.0], atol=1e-3)
