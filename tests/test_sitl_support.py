@@ -1,0 +1,113 @@
+"""Helpers for the SITL tests (no tests here): start `towerlink sitl` on free ports, connect
+pymavlink as an ArduPilot script would, wait for messages with deadlines."""
+from __future__ import annotations
+
+import os
+import threading
+import time
+
+os.environ.setdefault("MAVLINK20", "1")
+
+from pymavlink import mavutil  # noqa: E402
+
+from support import free_ports, wait_until  # noqa: E402
+
+mav = mavutil.mavlink
+
+
+class Sitl:
+    """A `towerlink sitl` subprocess; `udp[i]` / `tcp[i]` are vehicle i's ports."""
+
+    def __init__(self, processes, tmp_path, drones=1, rovers=1, speedup=10.0, extra=(), state_dir=None):
+        n = drones + rovers
+        ports = free_ports(n)
+        tports = free_ports(n, kind=__import__("socket").SOCK_STREAM)
+        self.udp, self.tcp = ports, tports
+        self.state_dir = str(state_dir or tmp_path / "state")
+        args = ["towerlink", "sitl", "--drones", str(drones), "--rovers", str(rovers),
+                "--speedup", str(speedup), "--state-dir", self.state_dir]
+        for i in range(n):
+            args += ["--endpoint", f"{i}=udpin:127.0.0.1:{ports[i]}", "--endpoint", f"{i}=tcpin:127.0.0.1:{tports[i]}"]
+        args += list(extra)
+        self.proc = processes.start(args)
+        self.processes = processes
+        self.lines: list[str] = []
+        threading.Thread(target=self._reader, daemon=True).start()
+        wait_until(lambda: any("vehicle" in l for l in self.lines) and len(self.lines) >= n + 1 or self.proc.poll() is not None,
+                   30, "sitl banner")
+        assert self.proc.poll() is None, "".join(self.lines)
+
+    def _reader(self) -> None:
+        for line in self.proc.stdout:
+            self.lines.append(line)
+
+    def stop(self) -> int:
+        self.processes.stop(self.proc)
+        return self.proc.returncode
+
+    def output(self) -> str:
+        return "".join(self.lines)
+
+
+def connect(port: int, tcp: bool = False, sysid: int = 255, timeout: float = 10.0):
+    """pymavlink connection like an ArduPilot script; returns after the first HEARTBEAT."""
+    url = f"tcp:127.0.0.1:{port}" if tcp else f"udpout:127.0.0.1:{port}"
+    m = mavutil.mavlink_connection(url, source_system=sysid, source_component=190 if sysid != 255 else 0)
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        m.mav.heartbeat_send(mav.MAV_TYPE_GCS, mav.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+        if m.wait_heartbeat(timeout=0.5):
+            return m
+    raise AssertionError(f"no HEARTBEAT from port {port}")
+
+
+def recv(m, types, timeout=5.0, cond=None, heartbeat_every=0.5):
+    """Next message of `types` satisfying `cond` within `timeout` wall s (keeps sending GCS heartbeats)."""
+    deadline = time.monotonic() + timeout
+    last_hb = 0.0
+    while True:
+        now = time.monotonic()
+        if now > deadline:
+            raise AssertionError(f"timed out waiting for {types}")
+        if heartbeat_every and now - last_hb > heartbeat_every:
+            m.mav.heartbeat_send(mav.MAV_TYPE_GCS, mav.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+            last_hb = now
+        msg = m.recv_match(type=types, blocking=True, timeout=min(0.2, max(0.01, deadline - now)))
+        if msg is not None and (cond is None or cond(msg)):
+            return msg
+
+
+def command(m, cmd, *params, timeout=5.0):
+    """COMMAND_LONG and its COMMAND_ACK result."""
+    p = list(params) + [0.0] * (7 - len(params))
+    m.mav.command_long_send(m.target_system, m.target_component, cmd, 0, *p)
+    return recv(m, "COMMAND_ACK", timeout, cond=lambda a: a.command == cmd).result
+
+
+def local_pos(m, timeout=5.0):
+    return recv(m, "LOCAL_POSITION_NED", timeout)
+
+
+def wait_position(m, target, tol, timeout, idx=(0, 1, 2)):
+    """Wait until LOCAL_POSITION_NED is within tol of target on the given axes."""
+    def near(p):
+        vals = (p.x, p.y, p.z)
+        return sum((vals[i] - target[i]) ** 2 for i in idx) ** 0.5 < tol
+    return recv(m, "LOCAL_POSITION_NED", timeout, cond=near)
+
+
+def set_mode(m, name, timeout=5.0):
+    m.set_mode(name)
+    ack = recv(m, "COMMAND_ACK", timeout, cond=lambda a: a.command == mav.MAV_CMD_DO_SET_MODE)
+    return ack.result
+
+
+def wait_armable(m, timeout=20.0):
+    return recv(m, "SYS_STATUS", timeout,
+                cond=lambda s: s.onboard_control_sensors_health & mav.MAV_SYS_STATUS_PREARM_CHECK)
+
+
+def goto_local(m, x, y, z, frame=None, mask=0b110111111000, yaw=0.0):
+    m.mav.set_position_target_local_ned_send(0, m.target_system, m.target_component,
+                                             frame or mav.MAV_FRAME_LOCAL_NED, mask,
+                                             x, y, z, 0, 0, 0, 0, 0, 0, yaw, 0)

@@ -1,0 +1,371 @@
+"""What Copter and Rover autopilots share: state read-back, arming and pre-arm checks,
+home, GUIDED targets and their timeout, commands, GCS failsafe, battery model.
+
+An Autopilot drives one vehicle of a batched fleet (vehicle/fleet.py) through Setpoints.
+It never touches sockets: the link layer (vehicle/link/) calls `command()`,
+`set_mode()`, `position_target_*()`, `gcs_heartbeat()` and reads its state for telemetry;
+the world calls `update(t)` at a fixed sim rate. Text for the GCS goes out through
+`self.text(severity, message)` (STATUSTEXT).
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+from vehicle.autopilot import geo, modes
+from vehicle.autopilot.guided import GuidedTarget, TargetError, decode_global, decode_local
+from vehicle.autopilot.params import ParamStore
+from vehicle.fleet import Setpoint
+
+ACCEPTED = mav.MAV_RESULT_ACCEPTED
+DENIED = mav.MAV_RESULT_DENIED
+FAILED = mav.MAV_RESULT_FAILED
+UNSUPPORTED = mav.MAV_RESULT_UNSUPPORTED
+TEMPORARILY_REJECTED = mav.MAV_RESULT_TEMPORARILY_REJECTED
+
+FORCE_MAGIC = 21196      # ArduPilot's param2 to force arm / disarm
+
+SEV_INFO = mav.MAV_SEVERITY_INFO
+SEV_NOTICE = mav.MAV_SEVERITY_NOTICE
+SEV_WARNING = mav.MAV_SEVERITY_WARNING
+SEV_CRITICAL = mav.MAV_SEVERITY_CRITICAL
+
+
+def _vec(state, *names, default=None):
+    for n in names:
+        v = getattr(state, n, None)
+        if v is not None:
+            return np.asarray(v, float)
+    return default
+
+
+class Autopilot:
+    kind = "?"
+    mav_type = 0
+    mode_names: dict[int, str] = {}
+    supported: set[int] = set()
+    armable: set[int] = set()
+    needs_position: set[int] = set()
+    guided_mode = -1
+
+    def __init__(self, fleet, index: int, params: ParamStore, origin: tuple[float, float, float],
+                 start_ned, text: Callable[[int, str], None] | None = None,
+                 push_params: Callable[[dict], None] | None = None) -> None:
+        self.fleet = fleet
+        self.i = index
+        self.params = params
+        self.origin = origin
+        self.start_ned = np.asarray(start_ned, float)
+        self.text = text or (lambda sev, msg: None)
+        self.push_params = push_params or (lambda p: None)
+        self.t = 0.0
+        self.armed = False
+        self.mode = self.initial_mode
+        self.home: np.ndarray | None = None          # world NED of home
+        self.target: GuidedTarget | None = None      # active GUIDED target
+        self.target_time = 0.0
+        self.hold_pos: np.ndarray | None = None
+        self.hold_yaw: float | None = None
+        self.echo: GuidedTarget | None = None        # for POSITION_TARGET_LOCAL_NED
+        self.last_gcs: float | None = None
+        self.gcs_failsafe = False
+        self.speed_override: float | None = None     # DO_CHANGE_SPEED (m/s)
+        self.consumed_mah = 0.0
+        self.current_a = 0.0
+        self.arm_time = 0.0
+        self.refresh()
+
+    # ----- state read-back ------------------------------------------------------------
+    def refresh(self) -> None:
+        est = self.fleet.estimate(self.i)
+        self.pos = _vec(est, "pos", "position", default=np.zeros(3))
+        self.vel = _vec(est, "vel", "velocity", default=np.zeros(3))
+        self.quat = _vec(est, "quat", "q", "attitude", default=np.array([0.0, 0.0, 0.0, 1.0]))
+        self.rates = _vec(est, "rates", "omega", "gyro", "ang_vel", default=np.zeros(3))
+        self.yaw = geo.yaw_of(self.quat)
+        self.est_ok = bool(self.fleet.estimate_ok(self.i))
+        self.on_ground = bool(self.fleet.landed(self.i))
+
+    def lla(self, ned=None) -> tuple[float, float, float]:
+        return geo.ned_to_lla(self.origin, self.pos if ned is None else ned)
+
+    def home_lla(self) -> tuple[float, float, float]:
+        return geo.ned_to_lla(self.origin, self.home if self.home is not None else self.start_ned)
+
+    @property
+    def sysid(self) -> int:
+        return int(self.params["SYSID_THISMAV"])
+
+    @property
+    def mode_name(self) -> str:
+        return self.mode_names.get(self.mode, str(self.mode))
+
+    def base_mode(self) -> int:
+        return modes.base_mode(self.kind, self.mode, self.armed)
+
+    def system_status(self) -> int:
+        if self.gcs_failsafe and self.armed:
+            return mav.MAV_STATE_CRITICAL
+        return mav.MAV_STATE_ACTIVE if self.armed else mav.MAV_STATE_STANDBY
+
+    # ----- periodic -----------------------------------------------------------------
+    def update(self, t: float) -> None:
+        dt = t - self.t
+        self.t = t
+        self.refresh()
+        if self.home is None and self.est_ok:
+            self.home = self.pos.copy()
+            self.home[2] = max(self.home[2], 0.0) if self.kind == "copter" else self.home[2]
+            self.text(SEV_INFO, "Home set")   # ArduPilot: EKF origin/home from GPS
+        self._battery(dt)
+        self._gcs_failsafe_check()
+        self.run_mode(dt)
+
+    def _battery(self, dt: float) -> None:
+        self.current_a = self.armed_current() if self.armed else 0.3
+        self.consumed_mah += self.current_a * dt / 3.6
+
+    def battery_remaining(self) -> int:
+        cap = max(1.0, float(self.params.get("BATT_CAPACITY", 3300)))
+        return int(max(0.0, min(100.0, 100.0 * (1.0 - self.consumed_mah / cap))))
+
+    def battery_voltage(self) -> float:
+        return 12.6 - 2.1 * (1.0 - self.battery_remaining() / 100.0) - 0.02 * self.current_a
+
+    def armed_current(self) -> float:
+        return 2.0
+
+    # ----- modes --------------------------------------------------------------------
+    initial_mode = 0
+
+    def set_mode(self, number: int, reason: str = "GCS") -> bool:
+        number = int(number)
+        if number == self.mode and number in self.supported:
+            return True
+        if number not in self.supported:
+            name = self.mode_names.get(number)
+            if name is None:
+                self.text(SEV_WARNING, f"Mode change to {number} failed: unknown mode")
+            else:
+                self.text(SEV_WARNING, f"Mode change to {name} failed: init failed")
+            return False
+        if number in self.needs_position and not self.est_ok:
+            self.text(SEV_WARNING, f"Mode change to {self.mode_names[number]} failed: requires position")
+            return False
+        self.mode = number
+        self.enter_mode(number)
+        return True
+
+    def enter_mode(self, number: int) -> None:
+        self.refresh()
+        self.target = None
+        self.hold_here()
+
+    def hold_here(self) -> None:
+        self.refresh()
+        self.hold_pos = self.pos.copy()
+        self.hold_yaw = self.yaw
+        self.echo = GuidedTarget("pos", self.hold_pos.copy(), None, None, self.hold_yaw, None)
+
+    def run_mode(self, dt: float) -> None:
+        raise NotImplementedError
+
+    # ----- arming -------------------------------------------------------------------
+    def prearm_failures(self) -> list[str]:
+        if self.params.get("ARMING_CHECK", 1) == 0:
+            return []
+        out = []
+        if not self.est_ok:
+            out.append("Need Position Estimate")
+        elif self.home is None:
+            out.append("Waiting for home")   # never long: home follows the first good estimate
+        if self.mode not in self.armable:
+            out.append("Mode not armable")
+        return out
+
+    def prearm_ok(self) -> bool:
+        return not self.prearm_failures()
+
+    def arm(self, force: bool = False) -> int:
+        if self.armed:
+            return ACCEPTED
+        self.refresh()
+        if not force:
+            fails = self.prearm_failures()
+            if fails:
+                for f in fails:
+                    self.text(SEV_CRITICAL, f"PreArm: {f}")
+                return FAILED
+        if self.home is None:
+            self.home = self.pos.copy()
+        self.armed = True
+        self.arm_time = self.t
+        self.fleet.set_armed(self.i, True)
+        self.hold_here()
+        self.on_armed()
+        self.text(SEV_INFO, "Arming motors")
+        return ACCEPTED
+
+    def on_armed(self) -> None:
+        pass
+
+    def disarm(self, force: bool = False, reason: str = "") -> int:
+        if not self.armed:
+            return ACCEPTED
+        self.refresh()
+        if not force and not self.may_disarm():
+            self.text(SEV_CRITICAL, "Disarm: not landed" if self.kind == "copter" else "Disarm: moving")
+            return FAILED
+        self.armed = False
+        self.fleet.set_armed(self.i, False)
+        self.target = None
+        self.on_disarmed()
+        self.text(SEV_INFO, f"Disarming motors{': ' + reason if reason else ''}")
+        return ACCEPTED
+
+    def may_disarm(self) -> bool:
+        return True
+
+    def on_disarmed(self) -> None:
+        pass
+
+    # ----- GUIDED targets -------------------------------------------------------------
+    def in_guided(self) -> bool:
+        return self.mode == self.guided_mode
+
+    def position_target_local(self, frame, type_mask, p, v, a, yaw, yaw_rate) -> bool:
+        if not self.in_guided():
+            return False
+        self.refresh()
+        try:
+            tgt = decode_local(frame, type_mask, p, v, a, yaw, yaw_rate, self.pos, self.yaw)
+        except TargetError as e:
+            return self._refuse(str(e))
+        return self.accept_target(tgt)
+
+    def position_target_global(self, frame, type_mask, lat_int, lon_int, alt, v, a, yaw, yaw_rate) -> bool:
+        if not self.in_guided():
+            return False
+        self.refresh()
+        home_alt = self.home_lla()[2]
+        try:
+            tgt = decode_global(frame, type_mask, lat_int, lon_int, alt, v, a, yaw, yaw_rate,
+                                lambda la, lo, al: geo.lla_to_ned(self.origin, la, lo, al),
+                                home_alt, self.yaw)
+        except TargetError as e:
+            return self._refuse(str(e))
+        return self.accept_target(tgt)
+
+    def _refuse(self, why: str) -> bool:
+        self.text(SEV_WARNING, why)
+        self.target = None
+        self.hold_here()
+        return False
+
+    def accept_target(self, tgt: GuidedTarget) -> bool:
+        self.target = tgt
+        self.target_time = self.t
+        self.echo = tgt
+        return True
+
+    def guided_timed_out(self) -> bool:
+        tgt = self.target
+        return (tgt is not None and tgt.kind in ("vel", "acc", "posvel")
+                and self.t - self.target_time > float(self.params.get("GUID_TIMEOUT", 3.0)))
+
+    # ----- commands -----------------------------------------------------------------
+    def command(self, cmd: int, p: list[float], frame: int | None = None,
+                x: int | None = None, y: int | None = None) -> int:
+        """COMMAND_LONG / COMMAND_INT (x, y = lat, lon * 1e7) -> MAV_RESULT."""
+        self.refresh()
+        if cmd == mav.MAV_CMD_COMPONENT_ARM_DISARM:
+            force = abs(p[1] - FORCE_MAGIC) < 0.5 or abs(p[1] - 2989) < 0.5
+            if p[0] == 1:
+                return self.arm(force)
+            if p[0] == 0:
+                return self.disarm(force)
+            return DENIED
+        if cmd == mav.MAV_CMD_DO_SET_MODE:
+            if int(p[0]) & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+                return ACCEPTED if self.set_mode(int(p[1])) else FAILED
+            return DENIED
+        if cmd == mav.MAV_CMD_NAV_RETURN_TO_LAUNCH:
+            return ACCEPTED if self.set_mode(self.rtl_mode) else FAILED
+        if cmd == mav.MAV_CMD_DO_SET_HOME:
+            return self.cmd_set_home(p, x, y, frame)
+        if cmd == mav.MAV_CMD_DO_CHANGE_SPEED:
+            return self.cmd_change_speed(p)
+        return self.vehicle_command(cmd, p, frame, x, y)
+
+    rtl_mode = -1
+
+    def vehicle_command(self, cmd, p, frame, x, y) -> int:
+        return UNSUPPORTED
+
+    def cmd_set_home(self, p, x, y, frame) -> int:
+        if p[0] == 1:
+            if not self.est_ok:
+                return FAILED
+            self.home = self.pos.copy()
+            self.text(SEV_INFO, "Home set")
+            return ACCEPTED
+        lat = x * 1e-7 if x is not None else p[4]
+        lon = y * 1e-7 if y is not None else p[5]
+        alt = p[6]
+        if not all(math.isfinite(v) for v in (lat, lon, alt)) or (lat == 0 and lon == 0) \
+                or abs(lat) > 90 or abs(lon) > 180:
+            return FAILED
+        if frame in (mav.MAV_FRAME_GLOBAL_RELATIVE_ALT, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT):
+            alt += self.home_lla()[2]
+        ned = geo.lla_to_ned(self.origin, lat, lon, alt)
+        if np.linalg.norm(ned) > 50_000:    # ArduPilot refuses a home far from the EKF origin
+            return FAILED
+        self.home = ned
+        self.text(SEV_INFO, "Home set")
+        return ACCEPTED
+
+    def cmd_change_speed(self, p) -> int:
+        speed = p[1]
+        if not math.isfinite(speed):
+            return FAILED
+        if speed == -1:
+            self.speed_override = None
+            self.apply_speed()
+            return ACCEPTED
+        if speed > 0:
+            self.speed_override = float(speed)
+            self.apply_speed()
+            return ACCEPTED
+        return FAILED
+
+    def apply_speed(self) -> None:
+        pass
+
+    # ----- GCS failsafe ---------------------------------------------------------------
+    def gcs_heartbeat(self) -> None:
+        self.last_gcs = self.t
+        if self.gcs_failsafe:
+            self.gcs_failsafe = False
+            self.text(SEV_INFO, "GCS Failsafe Cleared")
+
+    def _gcs_failsafe_check(self) -> None:
+        enable = int(self.params.get("FS_GCS_ENABLE", 0))
+        if enable == 0 or self.last_gcs is None or self.gcs_failsafe or not self.armed:
+            return
+        if self.t - self.last_gcs > float(self.params.get("FS_GCS_TIMEOUT", 5.0)):
+            self.gcs_failsafe = True
+            self.gcs_failsafe_action(enable)
+
+    def gcs_failsafe_action(self, enable: int) -> None:
+        raise NotImplementedError
+
+    # ----- telemetry helpers ----------------------------------------------------------
+    def landed_state(self) -> int:
+        return mav.MAV_LANDED_STATE_ON_GROUND
+
+    def setpoint(self, pos=None, vel=None, acc=None, yaw=None, yaw_rate=None, level=False) -> None:
+        self.fleet.set_setpoint(self.i, Setpoint(pos=pos, vel=vel, acc=acc, yaw=yaw, yaw_rate=yaw_rate,
+                                                 level=level))

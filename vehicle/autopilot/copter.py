@@ -1,0 +1,214 @@
+"""ArduCopter-like autopilot: STABILIZE, GUIDED (takeoff, targets), LOITER, RTL, LAND.
+
+Setpoints per mode (world NED, sent to the CopterFleet every autopilot tick):
+  GUIDED   on the ground: nothing (motors idle) until NAV_TAKEOFF; in the air: the last
+           target (position / position+velocity / velocity / acceleration, with yaw or yaw
+           rate), holding position when there is none; velocity and acceleration targets
+           expire after GUID_TIMEOUT (3 s) and the copter stops and holds.
+  LOITER   holds the position where it was entered.
+  RTL      climbs to RTL_ALT (or stays higher), flies home, descends and lands, disarms.
+  LAND     descends at LAND_SPEED (WPNAV_SPEED_DN / LAND_SPEED_HIGH above 10 m) over the point
+           where it was entered, disarms once landed.
+  STABILIZE with no RC: level attitude (zero horizontal acceleration) at constant altitude.
+DISARM_DELAY: disarms after that long landed without a takeoff in progress, as ArduPilot's
+auto-disarm does with throttle at zero.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+from vehicle.autopilot import modes
+from vehicle.autopilot.base import (ACCEPTED, FAILED, SEV_INFO, SEV_WARNING, Autopilot,
+                                    UNSUPPORTED)
+from vehicle.autopilot.guided import GuidedTarget
+
+LAND_ALT_LOW = 10.0     # m: below it LAND descends at LAND_SPEED
+
+
+class CopterAutopilot(Autopilot):
+    kind = "copter"
+    mav_type = mav.MAV_TYPE_QUADROTOR
+    mode_names = modes.COPTER_MODES
+    supported = modes.COPTER_SUPPORTED
+    armable = modes.COPTER_ARMABLE
+    needs_position = modes.COPTER_NEEDS_POSITION
+    guided_mode = modes.GUIDED
+    rtl_mode = modes.RTL
+    initial_mode = modes.STABILIZE
+
+    def __init__(self, *a, **kw) -> None:
+        self.takeoff_alt: float | None = None     # world z target of an active takeoff
+        self.rtl_stage = ""
+        self.landed_since: float | None = None
+        super().__init__(*a, **kw)
+
+    def armed_current(self) -> float:
+        return 15.0 if not self.on_ground else 3.0
+
+    def enter_mode(self, number: int) -> None:
+        super().enter_mode(number)
+        self.takeoff_alt = None
+        if number == modes.RTL:
+            self.rtl_stage = "climb"
+            rtl_alt = float(self.params.get("RTL_ALT", 1500)) / 100.0
+            home_z = self.home[2] if self.home is not None else 0.0
+            self.rtl_z = min(self.pos[2], home_z - rtl_alt)
+        if number == modes.LAND:
+            self.text(SEV_INFO, "Landing")
+
+    def may_disarm(self) -> bool:
+        return self.on_ground
+
+    def on_armed(self) -> None:
+        self.landed_since = self.t
+
+    def on_disarmed(self) -> None:
+        self.takeoff_alt = None
+        self.setpoint()
+
+    # ----- takeoff / land --------------------------------------------------------------
+    def vehicle_command(self, cmd, p, frame, x, y) -> int:
+        if cmd == mav.MAV_CMD_NAV_TAKEOFF:
+            alt = p[6]
+            if (not self.armed or not self.on_ground or self.mode != modes.GUIDED
+                    or not math.isfinite(alt) or alt <= 0 or alt > 1000):
+                return FAILED
+            self.takeoff_alt = self.pos[2] - alt
+            self.target = None
+            self.hold_pos = np.array([self.pos[0], self.pos[1], self.takeoff_alt])
+            self.hold_yaw = self.yaw
+            self.echo = GuidedTarget("pos", self.hold_pos.copy(), None, None, self.hold_yaw, None)
+            self.text(SEV_INFO, f"Takeoff to {alt:.1f} m")
+            return ACCEPTED
+        if cmd == mav.MAV_CMD_NAV_LAND:
+            return ACCEPTED if self.set_mode(modes.LAND) else FAILED
+        if cmd == mav.MAV_CMD_NAV_LOITER_UNLIM:
+            return ACCEPTED if self.set_mode(modes.LOITER) else FAILED
+        if cmd == mav.MAV_CMD_CONDITION_YAW:
+            if self.mode != modes.GUIDED or not all(math.isfinite(v) for v in p[:4]):
+                return FAILED
+            ang = math.radians(p[0])
+            if p[3]:
+                ang = self.yaw + (ang if p[2] >= 0 else -ang)
+            self.hold_yaw = (ang + math.pi) % (2 * math.pi) - math.pi
+            if self.target is not None:
+                self.target.yaw = self.hold_yaw
+            return ACCEPTED
+        return UNSUPPORTED
+
+    def landed_state(self) -> int:
+        if not self.armed:
+            return mav.MAV_LANDED_STATE_ON_GROUND
+        if self.takeoff_alt is not None:
+            return mav.MAV_LANDED_STATE_TAKEOFF
+        if self.on_ground:
+            return mav.MAV_LANDED_STATE_ON_GROUND
+        if self.mode == modes.LAND or (self.mode == modes.RTL and self.rtl_stage == "land"):
+            return mav.MAV_LANDED_STATE_LANDING
+        return mav.MAV_LANDED_STATE_IN_AIR
+
+    def apply_speed(self) -> None:
+        if self.speed_override is not None:
+            self.push_params({"WPNAV_SPEED": self.speed_override * 100.0})
+        else:
+            self.push_params({"WPNAV_SPEED": float(self.params.get("WPNAV_SPEED", 500))})
+
+    # ----- failsafe ------------------------------------------------------------------
+    def gcs_failsafe_action(self, enable: int) -> None:
+        if self.on_ground and self.takeoff_alt is None:
+            self.text(SEV_WARNING, "GCS Failsafe")
+            self.disarm(force=True, reason="GCS failsafe")
+            return
+        if enable in (4, 5):
+            self.text(SEV_WARNING, "GCS Failsafe On: LAND")
+            self.set_mode(modes.LAND, "GCS failsafe")
+        else:
+            self.text(SEV_WARNING, "GCS Failsafe On: RTL")
+            if not self.set_mode(modes.RTL, "GCS failsafe"):
+                self.set_mode(modes.LAND, "GCS failsafe")
+
+    # ----- the mode loop ---------------------------------------------------------------
+    def run_mode(self, dt: float) -> None:
+        if not self.armed:
+            self.setpoint()
+            return
+        if self.on_ground and self.takeoff_alt is None:
+            if self.mode in (modes.LAND, modes.RTL) and self.t - self.arm_time > 1.0:
+                self.disarm(force=True, reason="landed")
+                return
+            if self.landed_since is None:
+                self.landed_since = self.t
+            delay = float(self.params.get("DISARM_DELAY", 10))
+            if delay > 0 and self.t - self.landed_since >= delay:
+                self.disarm(force=True, reason="auto-disarm")
+                return
+            self.setpoint()            # idle on the ground until a takeoff
+            self.hold_here()
+            return
+        self.landed_since = None
+        m = self.mode
+        if m == modes.GUIDED:
+            self._guided()
+        elif m == modes.LOITER:
+            self.setpoint(pos=self.hold_pos, yaw=self.hold_yaw)
+        elif m == modes.LAND:
+            self._land(dt)
+        elif m == modes.RTL:
+            self._rtl(dt)
+        else:  # STABILIZE without RC: level, altitude and yaw held, horizontal drift free
+            self.setpoint(level=True, yaw=self.hold_yaw)
+            self.echo = GuidedTarget("acc", None, None, np.zeros(3), self.hold_yaw, None)
+
+    def _guided(self) -> None:
+        if self.takeoff_alt is not None:
+            if self.pos[2] <= self.takeoff_alt + 0.3 or self.target is not None:
+                self.takeoff_alt = None
+        tgt = self.target
+        if tgt is not None and self.guided_timed_out():
+            self.target = None
+            self.hold_here()
+            tgt = None
+        if tgt is None:
+            self.setpoint(pos=self.hold_pos, yaw=self.hold_yaw)
+            return
+        yaw = tgt.yaw if tgt.yaw is not None else (None if tgt.yaw_rate is not None else self.hold_yaw)
+        if tgt.yaw is not None:
+            self.hold_yaw = tgt.yaw
+        elif tgt.yaw_rate is not None:
+            self.hold_yaw = self.yaw
+        self.setpoint(pos=tgt.pos, vel=tgt.vel, acc=tgt.acc, yaw=yaw, yaw_rate=tgt.yaw_rate)
+
+    def _descent_speed(self) -> float:
+        home_z = self.home[2] if self.home is not None else 0.0
+        alt = home_z - self.pos[2]
+        if alt > LAND_ALT_LOW:
+            hi = float(self.params.get("LAND_SPEED_HIGH", 0)) or float(self.params.get("WPNAV_SPEED_DN", 150))
+            return hi / 100.0
+        return float(self.params.get("LAND_SPEED", 50)) / 100.0
+
+    def _land(self, dt: float) -> None:
+        speed = self._descent_speed()
+        x, y = self.hold_pos[0], self.hold_pos[1]
+        self.echo = GuidedTarget("posvel", np.array([x, y, self.pos[2]]), np.array([0.0, 0.0, speed]),
+                                 None, self.hold_yaw, None)
+        self.setpoint(pos=np.array([x, y, np.nan]), vel=np.array([0.0, 0.0, speed]), yaw=self.hold_yaw)
+
+    def _rtl(self, dt: float) -> None:
+        home = self.home if self.home is not None else self.start_ned
+        if self.rtl_stage == "climb":
+            tgt = np.array([self.hold_pos[0], self.hold_pos[1], self.rtl_z])
+            if abs(self.pos[2] - self.rtl_z) < 0.5:
+                self.rtl_stage = "return"
+        if self.rtl_stage == "return":
+            tgt = np.array([home[0], home[1], self.rtl_z])
+            if np.linalg.norm(self.pos[:2] - home[:2]) < 0.5 and np.linalg.norm(self.vel) < 0.3:
+                self.rtl_stage = "land"
+                self.hold_pos = np.array([home[0], home[1], self.pos[2]])
+        if self.rtl_stage == "land":
+            self._land(dt)
+            return
+        self.echo = GuidedTarget("pos", tgt, None, None, self.hold_yaw, None)
+        self.setpoint(pos=tgt, yaw=self.hold_yaw)

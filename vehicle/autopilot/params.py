@@ -1,0 +1,202 @@
+"""Parameter store: ArduPilot-named parameters with ranges, .parm files and persistence.
+
+Each vehicle owns one ParamStore. Its table is the cores' table (vehicle/params_core.py,
+physics/control/estimation tuning) plus the autopilot's own parameters below. Values come,
+lowest priority first, from: the table default, the world's `--params FILE` (ArduPilot
+.parm "NAME VALUE" lines; like SITL's --defaults), and the vehicle's saved file in the
+state dir (like SITL's eeprom.bin: every PARAM_SET is written there at once and loaded on
+restart). Indexes are stable: names are sorted alphabetically.
+"""
+from __future__ import annotations
+
+import math
+import os
+import re
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+
+@dataclass(frozen=True)
+class ParamDef:
+    name: str
+    default: float
+    lo: float
+    hi: float
+    integer: bool = False
+    doc: str = ""
+
+    @property
+    def mav_type(self) -> int:
+        return mav.MAV_PARAM_TYPE_INT32 if self.integer else mav.MAV_PARAM_TYPE_REAL32
+
+
+def _d(name, default, lo, hi, integer=False, doc=""):
+    return ParamDef(name, float(default), float(lo), float(hi), integer, doc)
+
+
+_STREAMS = [
+    # ArduPilot stream groups (Hz); defaults chosen like a SITL with MAVProxy attached.
+    _d("SR0_RAW_SENS", 0, 0, 50, True, "raw sensor stream rate (Hz)"),
+    _d("SR0_EXT_STAT", 2, 0, 50, True, "SYS_STATUS, GPS_RAW_INT, POSITION_TARGET_LOCAL_NED, EXTENDED_SYS_STATE (Hz)"),
+    _d("SR0_RC_CHAN", 0, 0, 50, True, "RC channel stream rate (Hz)"),
+    _d("SR0_RAW_CTRL", 0, 0, 50, True, "raw control stream rate (Hz)"),
+    _d("SR0_POSITION", 10, 0, 50, True, "GLOBAL_POSITION_INT, LOCAL_POSITION_NED (Hz)"),
+    _d("SR0_EXTRA1", 10, 0, 50, True, "ATTITUDE, ATTITUDE_QUATERNION, SIM_STATE (Hz)"),
+    _d("SR0_EXTRA2", 4, 0, 50, True, "VFR_HUD (Hz)"),
+    _d("SR0_EXTRA3", 1, 0, 50, True, "SYSTEM_TIME, BATTERY_STATUS, HOME_POSITION (Hz)"),
+    _d("SR0_PARAMS", 0, 0, 50, True, "parameter stream rate (unused)"),
+    _d("SR0_ADSB", 0, 0, 50, True, "ADSB stream rate (unused)"),
+]
+
+_COMMON = [
+    _d("SYSID_THISMAV", 1, 1, 255, True, "MAVLink system id of this vehicle"),
+    _d("SYSID_MYGCS", 255, 1, 255, True, "ground station system id (informational)"),
+    _d("FS_GCS_TIMEOUT", 5, 2, 120, False, "GCS failsafe timeout (s, sim time)"),
+    _d("ARMING_CHECK", 1, 0, 1, True, "1 run pre-arm checks, 0 skip them"),
+    _d("BATT_CAPACITY", 3300, 0, 100000, True, "battery capacity (mAh)"),
+    _d("GUID_TIMEOUT", 3, 0.1, 5, False, "GUIDED velocity/acceleration target timeout (s)"),
+]
+
+COPTER_TABLE = _STREAMS + _COMMON + [
+    _d("FS_GCS_ENABLE", 0, 0, 6, True,
+       "GCS failsafe: 0 off, 1 RTL, 2 RTL, 3 SmartRTL->RTL, 4 SmartRTL->LAND, 5 LAND, 6 RTL"),
+    _d("RTL_ALT", 1500, 30, 300000, True, "RTL return altitude (cm above home)"),
+    _d("RTL_SPEED", 0, 0, 2000, True, "RTL horizontal speed (cm/s), 0 = WPNAV_SPEED"),
+    _d("LAND_SPEED", 50, 30, 200, True, "final landing descent speed (cm/s)"),
+    _d("LAND_SPEED_HIGH", 0, 0, 2500, True, "descent speed above 10 m (cm/s), 0 = WPNAV_SPEED_DN"),
+    _d("DISARM_DELAY", 10, 0, 127, True, "auto-disarm after this long landed (s), 0 = never"),
+    _d("WPNAV_SPEED_DN", 150, 10, 500, False, "maximum descent speed (cm/s)"),
+    _d("WPNAV_SPEED", 500, 20, 2000, False, "horizontal speed (cm/s)"),
+]
+
+ROVER_TABLE = _STREAMS + _COMMON + [
+    _d("FS_GCS_ENABLE", 0, 0, 2, True, "GCS failsafe: 0 off, 1 on (action FS_ACTION), 2 on, continue in AUTO"),
+    _d("FS_ACTION", 2, 0, 4, True, "failsafe action: 0 none, 1 RTL, 2 Hold, 3 SmartRTL->RTL, 4 SmartRTL->Hold"),
+    _d("WP_RADIUS", 2, 0.1, 100, False, "waypoint radius (m): RTL done inside it"),
+    _d("WP_SPEED", 0, 0, 100, False, "waypoint speed (m/s), 0 = CRUISE_SPEED"),
+    _d("CRUISE_SPEED", 8, 0, 100, False, "cruise speed (m/s)"),
+]
+
+
+def core_table(kind: str) -> list[ParamDef]:
+    """The cores' parameters (vehicle/params_core.py) as ParamDefs; [] if not available."""
+    try:
+        from vehicle import params_core  # owned by the physics/control engineer
+    except ImportError:
+        return []
+    return list(_core_defs(params_core, kind))
+
+
+def _core_defs(params_core, kind: str) -> Iterable[ParamDef]:
+    fn = getattr(params_core, "param_table", None)
+    table = fn(kind) if callable(fn) else getattr(params_core, f"{kind.upper()}_PARAMS", {})
+    items = table.items() if isinstance(table, Mapping) else ((getattr(p, "name"), p) for p in table)
+    for name, p in items:
+        if isinstance(p, Mapping):
+            default, lo, hi = p["default"], p.get("min", -math.inf), p.get("max", math.inf)
+            integer, doc = bool(p.get("integer", False)), p.get("doc", "")
+        elif isinstance(p, (tuple, list)):
+            default, lo, hi = p[0], p[1], p[2]
+            integer, doc = (bool(p[3]) if len(p) > 3 else False), (p[4] if len(p) > 4 else "")
+        else:
+            default = getattr(p, "default")
+            lo, hi = getattr(p, "min", getattr(p, "lo", -math.inf)), getattr(p, "max", getattr(p, "hi", math.inf))
+            integer = bool(getattr(p, "integer", False))
+            doc = getattr(p, "doc", getattr(p, "description", ""))
+        yield ParamDef(str(name), float(default), float(lo), float(hi), integer, str(doc))
+
+
+def read_parm_file(path: str) -> dict[str, float]:
+    """ArduPilot .parm / MAVProxy param file: "NAME VALUE" (comma or spaces), # comments."""
+    out: dict[str, float] = {}
+    with open(path) as f:
+        for line in f:
+            line = line.split("#", 1)[0].strip()
+            if not line:
+                continue
+            parts = re.split(r"[\s,]+", line)
+            if len(parts) < 2:
+                continue
+            try:
+                out[parts[0].upper()] = float(parts[1])
+            except ValueError:
+                continue
+    return out
+
+
+def write_parm_file(path: str, values: Mapping[str, float]) -> None:
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    tmp = f"{path}.tmp{os.getpid()}"
+    with open(tmp, "w") as f:
+        for name in sorted(values):
+            v = values[name]
+            f.write(f"{name} {int(v) if float(v).is_integer() else repr(float(v))}\n")
+    os.replace(tmp, path)
+
+
+class ParamStore:
+    """Named values with ranges; set() refuses NaN/inf/out-of-range and persists on success."""
+
+    def __init__(self, table: Iterable[ParamDef], defaults: Mapping[str, float] | None = None,
+                 save_path: str | None = None) -> None:
+        self.defs: dict[str, ParamDef] = {}
+        for d in table:
+            self.defs.setdefault(d.name, d)         # first table wins (cores before autopilot)
+        self.names: list[str] = sorted(self.defs)
+        self.index = {n: i for i, n in enumerate(self.names)}
+        self.values: dict[str, float] = {n: d.default for n, d in self.defs.items()}
+        self.save_path = save_path
+        self.saved: dict[str, float] = {}
+        for source in (defaults or {}), self._load_saved():
+            for name, value in source.items():
+                if name in self.defs and self.check(name, value) is None:
+                    self.values[name] = self._coerce(name, value)
+        self.saved = {n: v for n, v in self._load_saved().items() if n in self.defs}
+
+    def _load_saved(self) -> dict[str, float]:
+        if self.save_path and os.path.exists(self.save_path):
+            try:
+                return read_parm_file(self.save_path)
+            except OSError:
+                return {}
+        return {}
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.defs
+
+    def __getitem__(self, name: str) -> float:
+        return self.values[name]
+
+    def get(self, name: str, default: float | None = None) -> float | None:
+        return self.values.get(name, default)
+
+    def _coerce(self, name: str, value: float) -> float:
+        return float(round(value)) if self.defs[name].integer else float(value)
+
+    def check(self, name: str, value: float) -> str | None:
+        """None if `value` is acceptable for `name`, else the reason."""
+        d = self.defs.get(name)
+        if d is None:
+            return f"unknown parameter {name}"
+        if not math.isfinite(value):
+            return f"{name}: value not finite"
+        v = self._coerce(name, value)
+        if v < d.lo or v > d.hi:
+            return f"{name} {value:g} out of range {d.lo:g}..{d.hi:g}"
+        return None
+
+    def set(self, name: str, value: float, save: bool = True) -> str | None:
+        """Set and persist; returns None on success, else the reason it was refused."""
+        why = self.check(name, value)
+        if why is not None:
+            return why
+        self.values[name] = self._coerce(name, value)
+        if save and self.save_path:
+            self.saved[name] = self.values[name]
+            write_parm_file(self.save_path, self.saved)
+        return None

@@ -1,0 +1,124 @@
+"""ArduRover-like autopilot: MANUAL, HOLD, GUIDED, RTL.
+
+Setpoints (world NED; z ignored by the RoverFleet):
+  MANUAL   no RC input, so throttle and steering are neutral: stopped.
+  HOLD     stopped.
+  GUIDED   position target (drive there and stop, as a Rover guided WP), velocity target
+           (heading and speed), yaw only (turn on the spot), yaw rate (+ speed); velocity
+           and rate targets expire after GUID_TIMEOUT and the rover stops.
+  RTL      drives home, says "Reached destination" inside WP_RADIUS and holds there.
+"""
+from __future__ import annotations
+
+import numpy as np
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+from vehicle.autopilot import modes
+from vehicle.autopilot.base import ACCEPTED, SEV_INFO, SEV_WARNING, Autopilot, UNSUPPORTED
+from vehicle.autopilot.guided import GuidedTarget
+
+ZERO = np.zeros(3)
+
+
+class RoverAutopilot(Autopilot):
+    kind = "rover"
+    mav_type = mav.MAV_TYPE_GROUND_ROVER
+    mode_names = modes.ROVER_MODES
+    supported = modes.ROVER_SUPPORTED
+    armable = modes.ROVER_ARMABLE
+    needs_position = modes.ROVER_NEEDS_POSITION
+    guided_mode = modes.R_GUIDED
+    rtl_mode = modes.R_RTL
+    initial_mode = modes.R_HOLD
+
+    def __init__(self, *a, **kw) -> None:
+        self.rtl_done = False
+        super().__init__(*a, **kw)
+
+    def armed_current(self) -> float:
+        return 1.0 + 2.0 * float(np.linalg.norm(self.vel[:2]))
+
+    def enter_mode(self, number: int) -> None:
+        super().enter_mode(number)
+        self.rtl_done = False
+
+    def landed_state(self) -> int:
+        return mav.MAV_LANDED_STATE_ON_GROUND
+
+    def vehicle_command(self, cmd, p, frame, x, y) -> int:
+        return UNSUPPORTED
+
+    def apply_speed(self) -> None:
+        speed = self.speed_override if self.speed_override is not None else float(self.params.get("CRUISE_SPEED", 8))
+        self.push_params({"WP_SPEED": speed})
+
+    def gcs_failsafe_action(self, enable: int) -> None:
+        action = int(self.params.get("FS_ACTION", 2))
+        if action in (1, 3) and self.set_mode(modes.R_RTL, "GCS failsafe"):
+            self.text(SEV_WARNING, "GCS Failsafe On: RTL")
+        elif action != 0:
+            self.set_mode(modes.R_HOLD, "GCS failsafe")
+            self.text(SEV_WARNING, "GCS Failsafe On: Hold")
+        else:
+            self.text(SEV_WARNING, "GCS Failsafe")
+
+    def _stop(self) -> None:
+        self.setpoint(vel=ZERO.copy(), yaw_rate=0.0)
+        self.echo = GuidedTarget("vel", None, ZERO.copy(), None, None, 0.0)
+
+    def run_mode(self, dt: float) -> None:
+        if not self.armed or self.mode in (modes.R_MANUAL, modes.R_HOLD):
+            self._stop()
+            return
+        if self.mode == modes.R_RTL:
+            home = self.home if self.home is not None else self.start_ned
+            if not self.rtl_done and np.linalg.norm(self.pos[:2] - home[:2]) < float(self.params.get("WP_RADIUS", 2)) + 0.5:
+                self.rtl_done = True
+                self.text(SEV_INFO, "Reached destination")
+                self.hold_here()
+            if self.rtl_done:
+                self._stop()
+            else:
+                tgt = np.array([home[0], home[1], self.pos[2]])
+                self.echo = GuidedTarget("pos", tgt, None, None, None, None)
+                self.setpoint(pos=tgt)
+            return
+        # GUIDED
+        tgt = self.target
+        if tgt is not None and self.guided_timed_out():
+            self.target = None
+            tgt = None
+        if tgt is None:
+            self._stop()
+            return
+        if tgt.kind == "acc":        # Rover has no acceleration targets: treat as a stop
+            self._stop()
+            return
+        if tgt.pos is None and tgt.vel is None:
+            self._stop()
+            return
+        yaw = tgt.yaw
+        if yaw is None and tgt.yaw_rate is not None:
+            # RoverFleet steers to headings: lead the heading so the P loop turns at yaw_rate
+            yaw = self.yaw + tgt.yaw_rate / max(0.1, float(self.params.get("ATC_STR_ANG_P", 2.5)))
+        self.setpoint(pos=tgt.pos, vel=tgt.vel, yaw=yaw, yaw_rate=tgt.yaw_rate)
+
+    def position_target_local(self, frame, type_mask, p, v, a, yaw, yaw_rate) -> bool:
+        """Rover also takes yaw-only and yaw-rate-only targets (turn in place), as ArduRover."""
+        import math as _m
+        from vehicle.autopilot.guided import ACC_BITS, POS_BITS, VEL_BITS, YAW_IGNORE, YAW_RATE_IGNORE
+        if (self.in_guided() and (type_mask & (POS_BITS | VEL_BITS | ACC_BITS)) == (POS_BITS | VEL_BITS | ACC_BITS)
+                and (type_mask & (YAW_IGNORE | YAW_RATE_IGNORE)) != (YAW_IGNORE | YAW_RATE_IGNORE)):
+            self.refresh()
+            y = yr = None
+            if not type_mask & YAW_IGNORE:
+                if not _m.isfinite(yaw):
+                    return self._refuse("Guided: yaw not finite")
+                rel = frame in (mav.MAV_FRAME_BODY_NED, mav.MAV_FRAME_BODY_OFFSET_NED)
+                y = (yaw + (self.yaw if rel else 0.0) + _m.pi) % (2 * _m.pi) - _m.pi
+            if not type_mask & YAW_RATE_IGNORE:
+                if not _m.isfinite(yaw_rate) or abs(yaw_rate) > 10:
+                    return self._refuse("Guided: bad yaw rate")
+                yr = float(yaw_rate)
+            return self.accept_target(GuidedTarget("vel", None, ZERO.copy(), None, y, yr))
+        return super().position_target_local(frame, type_mask, p, v, a, yaw, yaw_rate)

@@ -1,0 +1,132 @@
+"""Start the SITL world: ArduPilot-compatible drones and rovers over MAVLink 2.
+
+By default one drone (sysid 1, MAV_TYPE_QUADROTOR, ArduCopter mode numbers) and one rover
+(sysid 2, MAV_TYPE_GROUND_ROVER, ArduRover mode numbers) share one sim clock.
+
+Endpoints (pymavlink connection strings), for vehicle i (drones first, then rovers):
+  tcpin:127.0.0.1:{5760+10*i}    TCP server like ArduPilot SITL (several clients)
+  udpin:127.0.0.1:{14560+10*i}   UDP: write to it and the vehicle answers every peer that wrote
+  --out udpout:HOST:PORT          push every vehicle's stream (e.g. 14550 GCS, 14540 MAVSDK)
+so: mavproxy.py --master tcp:127.0.0.1:5760, or mavutil.mavlink_connection('udpout:127.0.0.1:14560').
+
+Parameters: ArduPilot names. --params FILE gives defaults ("NAME VALUE" lines, as SITL's
+--defaults); every PARAM_SET is saved to STATE_DIR/drone<j>.parm or rover<j>.parm and loaded
+on the next start (as SITL's eeprom.bin). FS_GCS_ENABLE defaults to 0 (off), as ArduPilot.
+
+Examples:
+  towerlink sitl                                  # drone + rover on the default ports
+  towerlink sitl --drones 2 --rovers 0 --speedup 5
+  towerlink sitl --endpoint 0=udpin:127.0.0.1:20000 --out udpout:127.0.0.1:14550
+"""
+from __future__ import annotations
+
+import argparse
+import asyncio
+import hashlib
+import signal
+import sys
+
+from vehicle.world import DEFAULT_HOME, DEFAULT_STATE_DIR, World, WorldConfig
+
+
+def _home(s: str) -> tuple[float, float, float]:
+    try:
+        lat, lon, alt = (float(x) for x in s.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError("expected LAT,LON,ALT")
+    if not (-90 <= lat <= 90 and -180 <= lon <= 180):
+        raise argparse.ArgumentTypeError("latitude/longitude out of range")
+    return lat, lon, alt
+
+
+def _endpoint(s: str) -> tuple[int, str]:
+    from vehicle.link import parse_endpoint
+    try:
+        i, spec = s.split("=", 1)
+        parse_endpoint(spec)
+        return int(i), spec
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(f"expected INDEX=udpin:HOST:PORT (or udpout/tcpin): {e}")
+
+
+def _out(s: str) -> str:
+    from vehicle.link import parse_endpoint
+    try:
+        parse_endpoint(s)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e))
+    return s
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--drones", type=int, default=1, metavar="N", help="number of drones (default 1)")
+    p.add_argument("--rovers", type=int, default=1, metavar="M", help="number of rovers (default 1)")
+    p.add_argument("--speedup", type=float, default=1.0, metavar="N",
+                   help="sim seconds per wall second, lockstep (default 1)")
+    p.add_argument("--rate", type=float, default=400.0, metavar="HZ", help="physics rate (default 400)")
+    p.add_argument("--home", type=_home, default=DEFAULT_HOME, metavar="LAT,LON,ALT",
+                   help="world origin = home (default %s,%s,%s, ArduPilot SITL's)" % DEFAULT_HOME)
+    p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
+    p.add_argument("--params", metavar="FILE", help="parameter defaults, ArduPilot .parm format")
+    p.add_argument("--state-dir", default=DEFAULT_STATE_DIR,
+                   help=f"where saved parameters live (default {DEFAULT_STATE_DIR})")
+    p.add_argument("--no-save", action="store_true", help="do not load or save parameters in the state dir")
+    p.add_argument("--out", action="append", default=[], type=_out, metavar="udpout:HOST:PORT",
+                   help="extra endpoint for every vehicle (repeatable)")
+    p.add_argument("--endpoint", action="append", default=[], type=_endpoint, metavar="I=SPEC",
+                   help="endpoint for vehicle I; replaces its defaults (repeatable)")
+    p.add_argument("--host", default="127.0.0.1", help="address of the default endpoints (default 127.0.0.1)")
+    p.add_argument("--base-port", "--tcp-base", dest="tcp_base", type=int, default=5760,
+                   help="TCP port of vehicle 0, +10 per vehicle (default 5760; 0: none)")
+    p.add_argument("--udp-base", type=int, default=14560,
+                   help="UDP port of vehicle 0, +10 per vehicle (default 14560; 0: none)")
+    p.add_argument("--sysid-base", type=int, default=1, help="sysid of vehicle 0 (default 1)")
+    p.add_argument("--signing-key", metavar="PASSPHRASE|HEX64",
+                   help="MAVLink 2 signing: 64 hex digits, or a passphrase hashed with SHA-256 "
+                        "(as MAVProxy's 'signing setup'); unsigned packets are then dropped")
+
+
+def signing_key(s: str | None) -> bytes | None:
+    if not s:
+        return None
+    if len(s) == 64:
+        try:
+            return bytes.fromhex(s)
+        except ValueError:
+            pass
+    return hashlib.sha256(s.encode()).digest()
+
+
+def config_from_args(a: argparse.Namespace) -> WorldConfig:
+    endpoints: dict[int, list[str]] = {}
+    for i, spec in a.endpoint:
+        endpoints.setdefault(i, []).append(spec)
+    return WorldConfig(drones=a.drones, rovers=a.rovers, speedup=a.speedup, rate=a.rate, home=a.home,
+                       seed=a.seed, params_file=a.params, state_dir=None if a.no_save else a.state_dir,
+                       tcp_base=a.tcp_base or None, udp_base=a.udp_base or None, host=a.host,
+                       outs=list(a.out), endpoints=endpoints, sysid_base=a.sysid_base,
+                       signing_key=signing_key(a.signing_key))
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.drones < 0 or args.rovers < 0 or args.drones + args.rovers == 0:
+        print("towerlink sitl: need at least one vehicle", file=sys.stderr)
+        return 2
+    if args.speedup <= 0 or args.rate < 50:
+        print("towerlink sitl: --speedup must be > 0 and --rate >= 50", file=sys.stderr)
+        return 2
+    world = World(config_from_args(args))
+
+    async def main() -> None:
+        loop = asyncio.get_running_loop()
+        for sig in (signal.SIGTERM, signal.SIGINT):
+            loop.add_signal_handler(sig, world.request_stop)
+        await world.run(started=lambda: print(world.banner(), flush=True))
+
+    try:
+        asyncio.run(main())
+    except OSError as e:
+        print(f"towerlink sitl: {e}", file=sys.stderr)
+        return 1
+    print(world.stats_line(), flush=True)
+    return 0

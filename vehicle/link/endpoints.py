@@ -1,0 +1,201 @@
+"""MAVLink endpoints on one asyncio event loop, named by pymavlink connection strings.
+
+  udpin:HOST:PORT    listen; every peer that has written gets everything the vehicle sends
+  udpout:HOST:PORT   push to a listener (a GCS on 14550, MAVSDK on 14540); its replies are read
+  tcpin:HOST:PORT    TCP server (ArduPilot SITL's 5760): several clients at once
+
+An endpoint hands each received chunk to `on_data(data, channel)`; a channel is where a
+reply goes (one UDP peer, one TCP client, or the udpout target). `send(buf)` goes to all.
+"""
+from __future__ import annotations
+
+import asyncio
+import socket
+from collections.abc import Callable
+
+Handler = Callable[[bytes, "Channel"], None]
+
+
+def parse_endpoint(spec: str) -> tuple[str, str, int]:
+    """'udpin:127.0.0.1:14560' -> ('udpin', '127.0.0.1', 14560); raises ValueError."""
+    parts = spec.strip().split(":")
+    if len(parts) != 3 or parts[0] not in ("udpin", "udpout", "tcpin"):
+        raise ValueError(f"endpoint {spec!r}: expected udpin:HOST:PORT, udpout:HOST:PORT or tcpin:HOST:PORT")
+    kind, host, port = parts
+    port_i = int(port)
+    if not 0 < port_i < 65536:
+        raise ValueError(f"endpoint {spec!r}: bad port")
+    return kind, host or "0.0.0.0", port_i
+
+
+class Channel:
+    """One reply path. `stream` is True for TCP (a parser keeps state across chunks)."""
+    stream = False
+
+    def __init__(self, name: str, sender: Callable[[bytes], None]) -> None:
+        self.name = name
+        self._send = sender
+        self.parser = None          # set by the link on first use (TCP only)
+
+    def send(self, buf: bytes) -> None:
+        try:
+            self._send(buf)
+        except (OSError, RuntimeError):
+            pass
+
+    def __repr__(self) -> str:
+        return f"<Channel {self.name}>"
+
+
+class Endpoint:
+    spec = ""
+
+    async def start(self) -> None: ...
+    def send(self, buf: bytes) -> None: ...
+    def close(self) -> None: ...
+
+
+class _UdpProto(asyncio.DatagramProtocol):
+    def __init__(self, owner) -> None:
+        self.owner = owner
+
+    def datagram_received(self, data: bytes, addr) -> None:
+        self.owner.received(data, addr)
+
+    def error_received(self, exc) -> None:   # ICMP port unreachable from a gone peer: ignore
+        pass
+
+
+class UdpIn(Endpoint):
+    """Listen; reply to every peer that has written (like ArduPilot's udpin / MAVProxy)."""
+
+    def __init__(self, host: str, port: int, on_data: Handler) -> None:
+        self.spec = f"udpin:{host}:{port}"
+        self.host, self.port, self.on_data = host, port, on_data
+        self.transport = None
+        self.peers: dict[tuple, Channel] = {}
+
+    async def start(self) -> None:
+        loop = asyncio.get_running_loop()
+        self.transport, _ = await loop.create_datagram_endpoint(
+            lambda: _UdpProto(self), local_addr=(self.host, self.port))
+
+    def received(self, data: bytes, addr) -> None:
+        ch = self.peers.get(addr)
+        if ch is None:
+            ch = Channel(f"{self.spec}<-{addr[0]}:{addr[1]}", lambda b, a=addr: self.transport.sendto(b, a))
+            self.peers[addr] = ch
+        self.on_data(data, ch)
+
+    def send(self, buf: bytes) -> None:
+        if self.transport is None:
+            return
+        for addr in self.peers:
+            try:
+                self.transport.sendto(buf, addr)
+            except OSError:
+                pass
+
+    def close(self) -> None:
+        if self.transport is not None:
+            self.transport.close()
+
+
+class UdpOut(Endpoint):
+    """Push to HOST:PORT from an ephemeral port; replies from the target are read."""
+
+    def __init__(self, host: str, port: int, on_data: Handler) -> None:
+        self.spec = f"udpout:{host}:{port}"
+        self.host, self.port, self.on_data = host, port, on_data
+        self.transport = None
+        self.channel = Channel(self.spec, self._sendto)
+
+    async def start(self) -> None:
+        loop = asyncio.get_running_loop()
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        sock.setblocking(False)
+        if self.host.endswith(".255"):
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
+        sock.bind(("0.0.0.0", 0))
+        self.addr = (socket.gethostbyname(self.host), self.port)
+        self.transport, _ = await loop.create_datagram_endpoint(lambda: _UdpProto(self), sock=sock)
+
+    def _sendto(self, buf: bytes) -> None:
+        if self.transport is not None:
+            self.transport.sendto(buf, self.addr)
+
+    def received(self, data: bytes, addr) -> None:
+        self.on_data(data, self.channel)
+
+    def send(self, buf: bytes) -> None:
+        try:
+            self._sendto(buf)
+        except OSError:
+            pass
+
+    def close(self) -> None:
+        if self.transport is not None:
+            self.transport.close()
+
+
+class TcpIn(Endpoint):
+    """TCP server; every connected client gets everything; each has its own parser."""
+    MAX_BUFFERED = 1 << 20    # a client that stops reading is dropped past this
+
+    def __init__(self, host: str, port: int, on_data: Handler) -> None:
+        self.spec = f"tcpin:{host}:{port}"
+        self.host, self.port, self.on_data = host, port, on_data
+        self.server = None
+        self.clients: dict[asyncio.StreamWriter, Channel] = {}
+
+    async def start(self) -> None:
+        self.server = await asyncio.start_server(self._client, self.host, self.port, reuse_address=True)
+
+    async def _client(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        peer = writer.get_extra_info("peername")
+        sock = writer.get_extra_info("socket")
+        if sock is not None:
+            try:
+                sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            except OSError:
+                pass
+        ch = Channel(f"{self.spec}<-{peer[0]}:{peer[1]}" if peer else self.spec,
+                     lambda b, w=writer: self._write(w, b))
+        ch.stream = True
+        self.clients[writer] = ch
+        try:
+            while True:
+                data = await reader.read(65536)
+                if not data:
+                    break
+                self.on_data(data, ch)
+        except (ConnectionError, OSError):
+            pass
+        finally:
+            self.clients.pop(writer, None)
+            writer.close()
+
+    def _write(self, w: asyncio.StreamWriter, buf: bytes) -> None:
+        if w.is_closing():
+            return
+        if w.transport.get_write_buffer_size() > self.MAX_BUFFERED:
+            self.clients.pop(w, None)
+            w.close()
+            return
+        w.write(buf)
+
+    def send(self, buf: bytes) -> None:
+        for w in list(self.clients):
+            self._write(w, buf)
+
+    def close(self) -> None:
+        for w in list(self.clients):
+            w.close()
+        self.clients.clear()
+        if self.server is not None:
+            self.server.close()
+
+
+def make_endpoint(spec: str, on_data: Handler) -> Endpoint:
+    kind, host, port = parse_endpoint(spec)
+    return {"udpin": UdpIn, "udpout": UdpOut, "tcpin": TcpIn}[kind](host, port, on_data)

@@ -1,0 +1,227 @@
+"""Telemetry: the messages a vehicle sends, built from its autopilot's state, and the
+stream groups (ArduPilot's SRx_ parameters) that schedule them.
+
+All time fields come from the world's sim clock: time_boot_ms / time_usec are sim time since
+the world started; SYSTEM_TIME.time_unix_usec is the wall time at start plus sim time.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+from vehicle.autopilot import geo
+
+# stream group parameter -> MAVLink message ids it schedules (ArduPilot's groups, plus
+# ATTITUDE_QUATERNION, EXTENDED_SYS_STATE, HOME_POSITION and SIM_STATE, which the bridge,
+# MAVSDK and the scorers want without asking)
+STREAM_GROUPS: dict[str, tuple[int, ...]] = {
+    "SR0_EXT_STAT": (mav.MAVLINK_MSG_ID_SYS_STATUS, mav.MAVLINK_MSG_ID_GPS_RAW_INT,
+                     mav.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED, mav.MAVLINK_MSG_ID_EXTENDED_SYS_STATE),
+    "SR0_POSITION": (mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED),
+    "SR0_EXTRA1": (mav.MAVLINK_MSG_ID_ATTITUDE, mav.MAVLINK_MSG_ID_ATTITUDE_QUATERNION,
+                   mav.MAVLINK_MSG_ID_SIM_STATE),
+    "SR0_EXTRA2": (mav.MAVLINK_MSG_ID_VFR_HUD,),
+    "SR0_EXTRA3": (mav.MAVLINK_MSG_ID_SYSTEM_TIME, mav.MAVLINK_MSG_ID_BATTERY_STATUS,
+                   mav.MAVLINK_MSG_ID_HOME_POSITION),
+}
+# REQUEST_DATA_STREAM stream ids -> group parameter
+DATA_STREAMS = {
+    mav.MAV_DATA_STREAM_RAW_SENSORS: "SR0_RAW_SENS",
+    mav.MAV_DATA_STREAM_EXTENDED_STATUS: "SR0_EXT_STAT",
+    mav.MAV_DATA_STREAM_RC_CHANNELS: "SR0_RC_CHAN",
+    mav.MAV_DATA_STREAM_RAW_CONTROLLER: "SR0_RAW_CTRL",
+    mav.MAV_DATA_STREAM_POSITION: "SR0_POSITION",
+    mav.MAV_DATA_STREAM_EXTRA1: "SR0_EXTRA1",
+    mav.MAV_DATA_STREAM_EXTRA2: "SR0_EXTRA2",
+    mav.MAV_DATA_STREAM_EXTRA3: "SR0_EXTRA3",
+}
+
+S = mav  # short alias for the sensor bits
+SENSORS_PRESENT = (S.MAV_SYS_STATUS_SENSOR_3D_GYRO | S.MAV_SYS_STATUS_SENSOR_3D_ACCEL
+                   | S.MAV_SYS_STATUS_SENSOR_3D_MAG | S.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
+                   | S.MAV_SYS_STATUS_SENSOR_GPS | S.MAV_SYS_STATUS_SENSOR_ANGULAR_RATE_CONTROL
+                   | S.MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION | S.MAV_SYS_STATUS_SENSOR_YAW_POSITION
+                   | S.MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL | S.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
+                   | S.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS | S.MAV_SYS_STATUS_AHRS
+                   | S.MAV_SYS_STATUS_SENSOR_BATTERY | S.MAV_SYS_STATUS_PREARM_CHECK)
+POSITION_DEPENDENT = S.MAV_SYS_STATUS_SENSOR_GPS | S.MAV_SYS_STATUS_AHRS | S.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
+
+CAPABILITIES = (mav.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT | mav.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
+                | mav.MAV_PROTOCOL_CAPABILITY_MISSION_INT | mav.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+                | mav.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
+                | mav.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
+                | mav.MAV_PROTOCOL_CAPABILITY_MAVLINK2 | mav.MAV_PROTOCOL_CAPABILITY_COMPASS_CALIBRATION * 0)
+FLIGHT_SW_VERSION = (4 << 24) | (5 << 16) | (0 << 8) | mav.FIRMWARE_VERSION_TYPE_OFFICIAL
+
+
+def _i(v: float, lo: int, hi: int) -> int:
+    if not math.isfinite(v):
+        return 0
+    return int(max(lo, min(hi, round(v))))
+
+
+class Telemetry:
+    """Builds messages for one vehicle; `link` gives mav (encoder), ap (autopilot), clock."""
+
+    def __init__(self, link) -> None:
+        self.link = link
+        self.builders = {
+            mav.MAVLINK_MSG_ID_HEARTBEAT: self.heartbeat,
+            mav.MAVLINK_MSG_ID_SYS_STATUS: self.sys_status,
+            mav.MAVLINK_MSG_ID_GPS_RAW_INT: self.gps_raw_int,
+            mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: self.global_position_int,
+            mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED: self.local_position_ned,
+            mav.MAVLINK_MSG_ID_ATTITUDE: self.attitude,
+            mav.MAVLINK_MSG_ID_ATTITUDE_QUATERNION: self.attitude_quaternion,
+            mav.MAVLINK_MSG_ID_VFR_HUD: self.vfr_hud,
+            mav.MAVLINK_MSG_ID_HOME_POSITION: self.home_position,
+            mav.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: self.extended_sys_state,
+            mav.MAVLINK_MSG_ID_SYSTEM_TIME: self.system_time,
+            mav.MAVLINK_MSG_ID_BATTERY_STATUS: self.battery_status,
+            mav.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED: self.position_target_local_ned,
+            mav.MAVLINK_MSG_ID_SIM_STATE: self.sim_state,
+            mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION: self.autopilot_version,
+        }
+
+    # time
+    def boot_ms(self) -> int:
+        return int(self.link.clock() * 1000.0) & 0xFFFFFFFF
+
+    def usec(self) -> int:
+        return int(self.link.clock() * 1e6)
+
+    def build(self, msgid: int):
+        """The message with this id, or None if not available now (unknown id, home unset)."""
+        b = self.builders.get(msgid)
+        return b() if b is not None else None
+
+    # messages
+    def heartbeat(self):
+        ap = self.link.ap
+        return mav.MAVLink_heartbeat_message(ap.mav_type, mav.MAV_AUTOPILOT_ARDUPILOTMEGA, ap.base_mode(),
+                                             ap.mode, ap.system_status(), 3)
+
+    def sys_status(self):
+        ap = self.link.ap
+        health = SENSORS_PRESENT & ~(S.MAV_SYS_STATUS_PREARM_CHECK)
+        if not ap.est_ok:
+            health &= ~POSITION_DEPENDENT
+        if ap.prearm_ok():
+            health |= S.MAV_SYS_STATUS_PREARM_CHECK
+        enabled = SENSORS_PRESENT
+        if not ap.armed:
+            enabled &= ~S.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
+        return mav.MAVLink_sys_status_message(
+            SENSORS_PRESENT, enabled, health, 100, _i(ap.battery_voltage() * 1000, 0, 65535),
+            _i(ap.current_a * 100, -1, 32767), ap.battery_remaining(), 0, 0, 0, 0, 0, 0, 0, 0, 0)
+
+    def gps_raw_int(self):
+        ap = self.link.ap
+        lat, lon, alt = ap.lla()
+        ok = ap.est_ok
+        gs = float(np.hypot(ap.vel[0], ap.vel[1]))
+        cog = math.degrees(math.atan2(ap.vel[1], ap.vel[0])) % 360.0 if gs > 0.2 else 0.0
+        return mav.MAVLink_gps_raw_int_message(
+            self.usec(), mav.GPS_FIX_TYPE_3D_FIX if ok else mav.GPS_FIX_TYPE_NO_FIX,
+            _i(lat * 1e7, -2**31, 2**31 - 1) if ok else 0, _i(lon * 1e7, -2**31, 2**31 - 1) if ok else 0,
+            _i(alt * 1000, -2**31, 2**31 - 1) if ok else 0, 121 if ok else 65535, 200 if ok else 65535,
+            _i(gs * 100, 0, 65534), _i(cog * 100, 0, 35999), 10 if ok else 0,
+            _i(alt * 1000, -2**31, 2**31 - 1), 300, 500, 100, 0, 0)
+
+    def global_position_int(self):
+        ap = self.link.ap
+        lat, lon, alt = ap.lla()
+        home_alt = ap.home_lla()[2]
+        hdg = math.degrees(ap.yaw) % 360.0
+        return mav.MAVLink_global_position_int_message(
+            self.boot_ms(), _i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1),
+            _i(alt * 1000, -2**31, 2**31 - 1), _i((alt - home_alt) * 1000, -2**31, 2**31 - 1),
+            _i(ap.vel[0] * 100, -32768, 32767), _i(ap.vel[1] * 100, -32768, 32767),
+            _i(ap.vel[2] * 100, -32768, 32767), _i(hdg * 100, 0, 35999))
+
+    def local_position_ned(self):
+        ap = self.link.ap
+        p, v = ap.pos, ap.vel
+        return mav.MAVLink_local_position_ned_message(self.boot_ms(), float(p[0]), float(p[1]), float(p[2]),
+                                                      float(v[0]), float(v[1]), float(v[2]))
+
+    def attitude(self):
+        ap = self.link.ap
+        r, p, y = geo.euler_of(ap.quat)
+        w = ap.rates
+        return mav.MAVLink_attitude_message(self.boot_ms(), r, p, y, float(w[0]), float(w[1]), float(w[2]))
+
+    def attitude_quaternion(self):
+        ap = self.link.ap
+        x, y, z, w = (float(v) for v in ap.quat)
+        r = ap.rates
+        return mav.MAVLink_attitude_quaternion_message(self.boot_ms(), w, x, y, z, float(r[0]), float(r[1]),
+                                                       float(r[2]), [0.0, 0.0, 0.0, 0.0])
+
+    def vfr_hud(self):
+        ap = self.link.ap
+        gs = float(np.hypot(ap.vel[0], ap.vel[1]))
+        thr = 0 if not ap.armed else (15 if ap.on_ground else 50)
+        return mav.MAVLink_vfr_hud_message(gs, gs, _i(math.degrees(ap.yaw) % 360.0, 0, 359), thr,
+                                           float(ap.lla()[2]), float(-ap.vel[2]))
+
+    def home_position(self):
+        ap = self.link.ap
+        if ap.home is None:
+            return None
+        lat, lon, alt = ap.home_lla()
+        h = ap.home
+        return mav.MAVLink_home_position_message(
+            _i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1), _i(alt * 1000, -2**31, 2**31 - 1),
+            float(h[0]), float(h[1]), float(h[2]), [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0, self.usec())
+
+    def extended_sys_state(self):
+        return mav.MAVLink_extended_sys_state_message(mav.MAV_VTOL_STATE_UNDEFINED, self.link.ap.landed_state())
+
+    def system_time(self):
+        return mav.MAVLink_system_time_message(int(self.link.unix_start_us + self.usec()), self.boot_ms())
+
+    def battery_status(self):
+        ap = self.link.ap
+        mv = _i(ap.battery_voltage() * 1000, 0, 65534)
+        return mav.MAVLink_battery_status_message(
+            0, mav.MAV_BATTERY_FUNCTION_ALL, mav.MAV_BATTERY_TYPE_LIPO, 32767, [mv] + [65535] * 9,
+            _i(ap.current_a * 100, -1, 32767), _i(ap.consumed_mah, -1, 2**31 - 1), -1, ap.battery_remaining(),
+            0, mav.MAV_BATTERY_CHARGE_STATE_OK, [0, 0, 0, 0], 0, 0)
+
+    def position_target_local_ned(self):
+        ap = self.link.ap
+        t = ap.echo
+        if t is None:
+            return None
+        p = t.pos if t.pos is not None else (0.0, 0.0, 0.0)
+        v = t.vel if t.vel is not None else (0.0, 0.0, 0.0)
+        a = t.acc if t.acc is not None else (0.0, 0.0, 0.0)
+        return mav.MAVLink_position_target_local_ned_message(
+            self.boot_ms(), mav.MAV_FRAME_LOCAL_NED, t.type_mask, float(p[0]), float(p[1]), float(p[2]),
+            float(v[0]), float(v[1]), float(v[2]), float(a[0]), float(a[1]), float(a[2]),
+            float(t.yaw or 0.0), float(t.yaw_rate or 0.0))
+
+    def sim_state(self):
+        ap = self.link.ap
+        tr = ap.fleet.truth(ap.i)
+        pos = np.asarray(getattr(tr, "pos", ap.pos), float)
+        vel = np.asarray(getattr(tr, "vel", ap.vel), float)
+        q = np.asarray(getattr(tr, "quat", ap.quat), float)
+        w = np.asarray(getattr(tr, "rates", ap.rates), float)
+        acc = np.asarray(getattr(tr, "acc", np.zeros(3)), float)
+        r, p, y = geo.euler_of(q)
+        lat, lon, alt = geo.ned_to_lla(ap.origin, pos)
+        return mav.MAVLink_sim_state_message(
+            float(q[3]), float(q[0]), float(q[1]), float(q[2]), r, p, y,
+            float(acc[0]), float(acc[1]), float(acc[2]), float(w[0]), float(w[1]), float(w[2]),
+            lat, lon, alt, 0.0, 0.0, float(vel[0]), float(vel[1]), float(vel[2]),
+            _i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1))
+
+    def autopilot_version(self):
+        ap = self.link.ap
+        return mav.MAVLink_autopilot_version_message(
+            CAPABILITIES, FLIGHT_SW_VERSION, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0,
+            0x746C0000 + ap.sysid, [0] * 18)

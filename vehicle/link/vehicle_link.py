@@ -1,0 +1,354 @@
+"""One vehicle's MAVLink side: parse what arrives on its endpoints, answer, stream telemetry.
+
+Parsing: pymavlink's MAVLink 2 parser in robust mode, one parser per TCP client, and a
+fresh parse of every UDP datagram (a datagram that ends inside a frame counts as truncated).
+Dropped and counted in `stats`: garbage bytes (bad prefix), bad CRC, bad length, truncated
+frames, unknown message ids, messages for another system, and (when signing is on) unsigned
+or badly signed packets. Counters also go out once a second as NAMED_VALUE_INT "RX_<KIND>"
+once non-zero.
+
+Every COMMAND_LONG / COMMAND_INT for us gets exactly one COMMAND_ACK on the channel it came
+from; replies (PARAM_VALUE for reads/lists, TIMESYNC, requested messages) go back there too;
+streams, STATUSTEXT and PARAM_VALUE after a PARAM_SET go to every endpoint.
+"""
+from __future__ import annotations
+
+import hashlib
+import math
+import struct
+import time
+from collections import Counter
+
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+from vehicle.link.endpoints import Channel, Endpoint, make_endpoint
+from vehicle.link.telemetry import DATA_STREAMS, STREAM_GROUPS, Telemetry
+
+COMP_ID = mav.MAV_COMP_ID_AUTOPILOT1
+SIGNING_EPOCH = 1420070400   # 2015-01-01, MAVLink signing timestamps count 10 us from here
+
+LINK_COMMANDS = {mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAV_CMD_GET_MESSAGE_INTERVAL,
+                 mav.MAV_CMD_REQUEST_MESSAGE, mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES}
+
+
+class _Out:
+    """pymavlink encoder needs a file; we pack ourselves, so nothing is written."""
+    def write(self, b):
+        pass
+
+
+def _param_id(s) -> str:
+    if isinstance(s, bytes):
+        s = s.decode("ascii", "replace")
+    return s.split("\x00", 1)[0].strip().upper()
+
+
+class VehicleLink:
+    def __init__(self, ap, clock, unix_start_us: int, endpoints: list[str],
+                 signing_key: bytes | None = None, params_changed=None) -> None:
+        self.ap = ap
+        self.clock = clock                    # () -> sim seconds since world start
+        self.unix_start_us = unix_start_us
+        self.specs = list(endpoints)
+        self.endpoints: list[Endpoint] = [make_endpoint(s, self.on_data) for s in endpoints]
+        self.mav = mav.MAVLink(_Out(), srcSystem=ap.sysid, srcComponent=COMP_ID)
+        self.udp_parser = self._parser()
+        self.telemetry = Telemetry(self)
+        self.stats: Counter = Counter()
+        self.params_changed = params_changed or (lambda names: None)
+        self.intervals: dict[int, float] = {}     # msgid -> seconds; <0 disabled (SET_MESSAGE_INTERVAL)
+        self.next_due: dict[int, float] = {}
+        self.schedule: dict[int, float] = {}
+        self.signing_key = signing_key
+        self.sign_ts: dict[tuple, int] = {}
+        if signing_key:
+            self.mav.signing.secret_key = signing_key
+            self.mav.signing.sign_outgoing = True
+            self.mav.signing.link_id = 0
+            self.mav.signing.timestamp = int((time.time() - SIGNING_EPOCH) * 1e5)
+        self._rebuild_schedule()
+        ap.text = self.statustext
+
+    def _parser(self):
+        p = mav.MAVLink(_Out(), srcSystem=0, srcComponent=0)
+        p.robust_parsing = True
+        return p
+
+    async def start(self) -> None:
+        for ep in self.endpoints:
+            await ep.start()
+
+    def close(self) -> None:
+        for ep in self.endpoints:
+            ep.close()
+
+    # ----- sending ----------------------------------------------------------------------
+    def send(self, msg, channel: Channel | None = None) -> None:
+        buf = msg.pack(self.mav)
+        self.mav.seq = (self.mav.seq + 1) % 256
+        self.stats["tx"] += 1
+        if channel is not None:
+            channel.send(buf)
+        else:
+            for ep in self.endpoints:
+                ep.send(buf)
+
+    def statustext(self, severity: int, text: str) -> None:
+        self.send(mav.MAVLink_statustext_message(severity, text.encode("ascii", "replace")[:50], 0, 0))
+
+    # ----- streams ----------------------------------------------------------------------
+    def _rebuild_schedule(self) -> None:
+        sched: dict[int, float] = {mav.MAVLINK_MSG_ID_HEARTBEAT: 1.0}
+        for group, ids in STREAM_GROUPS.items():
+            hz = float(self.ap.params.get(group, 0) or 0)
+            if hz > 0:
+                for i in ids:
+                    sched[i] = min(sched.get(i, math.inf), 1.0 / hz)
+        for i, iv in self.intervals.items():
+            if iv < 0:
+                sched.pop(i, None)
+            else:
+                sched[i] = iv
+        self.schedule = sched
+        now = self.clock()
+        for i in list(self.next_due):
+            if i not in sched:
+                del self.next_due[i]
+        for i in sched:
+            self.next_due.setdefault(i, now)
+
+    def update(self, t: float) -> None:
+        """Send whatever is due at sim time t (called at the autopilot rate)."""
+        due = self.next_due
+        for msgid, interval in self.schedule.items():
+            nd = due[msgid]
+            if t + 1e-9 >= nd:
+                msg = self.telemetry.build(msgid)
+                if msg is not None:
+                    self.send(msg)
+                nd += interval
+                due[msgid] = nd if nd > t else t + interval
+        if t >= self.next_stats:
+            self.next_stats = t + 1.0
+            for k in ("garbage", "bad_crc", "bad_length", "truncated", "unknown_id", "other_target",
+                      "bad_signature", "unsigned"):
+                if self.stats[k]:
+                    self.send(mav.MAVLink_named_value_int_message(
+                        self.telemetry.boot_ms(), f"RX_{k.upper()}"[:10].encode(), int(self.stats[k])))
+
+    next_stats = 0.0
+
+    # ----- receiving --------------------------------------------------------------------
+    def on_data(self, data: bytes, channel: Channel) -> None:
+        if channel.stream:
+            if channel.parser is None:
+                channel.parser = self._parser()
+            parser = channel.parser
+        else:
+            parser = self.udp_parser
+        try:
+            msgs = parser.parse_buffer(data) or []
+        except Exception:            # never let a malformed input escape
+            msgs = []
+            self.stats["garbage"] += 1
+            parser.buf = bytearray()
+            parser.buf_index = 0
+        if not channel.stream and parser.buf_len() > 0:
+            self.stats["truncated"] += 1
+            parser.buf = bytearray()
+            parser.buf_index = 0
+            parser.expected_length = mav.HEADER_LEN_V1 + 2
+        for m in msgs:
+            try:
+                self._classify_and_handle(m, channel)
+            except Exception as e:  # a handler bug must not kill the vehicle
+                self.stats["handler_error"] += 1
+                self.stats["last_error"] = 0
+                import traceback
+                traceback.print_exc()
+
+    def _classify_and_handle(self, m, channel: Channel) -> None:
+        if isinstance(m, mav.MAVLink_bad_data):
+            reason = str(getattr(m, "reason", ""))
+            if "CRC" in reason:
+                self.stats["bad_crc"] += 1
+            elif "prefix" in reason:
+                self.stats["garbage"] += 1
+            elif "length" in reason or "Bad message" in reason:
+                self.stats["bad_length"] += 1
+            else:
+                self.stats["bad_data"] += 1
+            return
+        if isinstance(m, mav.MAVLink_unknown):
+            self.stats["unknown_id"] += 1
+            return
+        if self.signing_key and not self._signature_ok(m):
+            return
+        self.stats["rx"] += 1
+        sysid = m.get_srcSystem()
+        if sysid == self.ap.sysid and m.get_srcComponent() == COMP_ID:
+            return                   # our own echo (e.g. a router reflecting us)
+        tgt = getattr(m, "target_system", None)
+        if tgt is not None and tgt not in (0, self.ap.sysid):
+            self.stats["other_target"] += 1
+            return
+        tc = getattr(m, "target_component", None)
+        if tc is not None and tc not in (0, COMP_ID) and m.get_type() not in ("HEARTBEAT",):
+            self.stats["other_target"] += 1
+            return
+        handler = getattr(self, "on_" + m.get_type(), None)
+        if handler is not None:
+            handler(m, channel)
+
+    def _signature_ok(self, m) -> bool:
+        """MAVLink 2 signing: verify the signature BEFORE recording the timestamp, so a
+        forged packet with a far-future timestamp cannot lock out the real sender."""
+        buf = bytes(m.get_msgbuf())
+        if len(buf) < 13 or not (buf[0] == 253 and buf[2] & mav.MAVLINK_IFLAG_SIGNED):
+            self.stats["unsigned"] += 1
+            return False
+        sig = hashlib.sha256(self.signing_key + buf[:-6]).digest()[:6]
+        if sig != buf[-6:]:
+            self.stats["bad_signature"] += 1
+            return False
+        link_id = buf[-13]
+        tlow, thigh = struct.unpack("<IH", buf[-12:-6])
+        ts = tlow + (thigh << 32)
+        key = (link_id, m.get_srcSystem(), m.get_srcComponent())
+        last = self.sign_ts.get(key)
+        if last is not None and ts <= last:
+            self.stats["bad_signature"] += 1     # replay
+            return False
+        if last is None and ts + 6_000_000 < self.mav.signing.timestamp:
+            self.stats["bad_signature"] += 1     # a new stream more than a minute old
+            return False
+        self.sign_ts[key] = ts
+        self.mav.signing.timestamp = max(self.mav.signing.timestamp, ts)
+        return True
+
+    # ----- handlers ----------------------------------------------------------------------
+    def on_HEARTBEAT(self, m, ch) -> None:
+        if m.type == mav.MAV_TYPE_GCS:
+            self.ap.gcs_heartbeat()
+
+    def ack(self, ch, command: int, result: int, m) -> None:
+        self.send(mav.MAVLink_command_ack_message(command, result, 0, 0, m.get_srcSystem(), m.get_srcComponent()), ch)
+
+    def on_COMMAND_LONG(self, m, ch) -> None:
+        p = [m.param1, m.param2, m.param3, m.param4, m.param5, m.param6, m.param7]
+        self.ack(ch, m.command, self._command(m.command, p, ch, m, None, None, None), m)
+
+    def on_COMMAND_INT(self, m, ch) -> None:
+        p = [m.param1, m.param2, m.param3, m.param4, float(m.x), float(m.y), m.z]
+        self.ack(ch, m.command, self._command(m.command, p, ch, m, m.frame, m.x, m.y), m)
+
+    def _command(self, cmd, p, ch, m, frame, x, y) -> int:
+        if cmd in LINK_COMMANDS:
+            return self._link_command(cmd, p, ch)
+        return int(self.ap.command(cmd, p, frame, x, y))
+
+    def _link_command(self, cmd, p, ch) -> int:
+        if not all(math.isfinite(v) for v in p[:2]):
+            return mav.MAV_RESULT_DENIED
+        if cmd == mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
+            self.send(self.telemetry.autopilot_version(), ch)
+            return mav.MAV_RESULT_ACCEPTED
+        msgid = int(p[0])
+        if cmd == mav.MAV_CMD_REQUEST_MESSAGE:
+            if msgid not in self.telemetry.builders:
+                return mav.MAV_RESULT_FAILED
+            msg = self.telemetry.build(msgid)
+            if msg is None:
+                return mav.MAV_RESULT_FAILED
+            self.send(msg, ch)
+            return mav.MAV_RESULT_ACCEPTED
+        if cmd == mav.MAV_CMD_GET_MESSAGE_INTERVAL:
+            if msgid not in self.telemetry.builders:
+                return mav.MAV_RESULT_DENIED
+            iv = self.schedule.get(msgid)
+            self.send(mav.MAVLink_message_interval_message(msgid, -1 if iv is None else int(iv * 1e6)), ch)
+            return mav.MAV_RESULT_ACCEPTED
+        # SET_MESSAGE_INTERVAL: p2 interval us; -1 disable; 0 default
+        if msgid not in self.telemetry.builders or msgid == mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
+            self.statustext(mav.MAV_SEVERITY_INFO, f"No ap_message for mavlink id ({msgid})")
+            return mav.MAV_RESULT_DENIED
+        us = p[1]
+        if us == 0:
+            self.intervals.pop(msgid, None)
+        elif us < 0:
+            self.intervals[msgid] = -1.0
+        else:
+            self.intervals[msgid] = max(us * 1e-6, 0.001)
+        self._rebuild_schedule()
+        return mav.MAV_RESULT_ACCEPTED
+
+    def on_SET_MODE(self, m, ch) -> None:
+        if m.base_mode & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+            result = mav.MAV_RESULT_ACCEPTED if self.ap.set_mode(m.custom_mode) else mav.MAV_RESULT_FAILED
+        else:
+            result = mav.MAV_RESULT_DENIED
+        self.ack(ch, mav.MAVLINK_MSG_ID_SET_MODE, result, m)
+
+    def on_SET_POSITION_TARGET_LOCAL_NED(self, m, ch) -> None:
+        self.ap.position_target_local(m.coordinate_frame, m.type_mask, (m.x, m.y, m.z), (m.vx, m.vy, m.vz),
+                                      (m.afx, m.afy, m.afz), m.yaw, m.yaw_rate)
+
+    def on_SET_POSITION_TARGET_GLOBAL_INT(self, m, ch) -> None:
+        self.ap.position_target_global(m.coordinate_frame, m.type_mask, m.lat_int, m.lon_int, m.alt,
+                                       (m.vx, m.vy, m.vz), (m.afx, m.afy, m.afz), m.yaw, m.yaw_rate)
+
+    def on_TIMESYNC(self, m, ch) -> None:
+        if m.tc1 == 0:
+            self.send(mav.MAVLink_timesync_message(int(self.clock() * 1e9), m.ts1), ch)
+
+    def on_REQUEST_DATA_STREAM(self, m, ch) -> None:
+        rate = m.req_message_rate if m.start_stop else 0
+        groups = list(DATA_STREAMS.values()) if m.req_stream_id == mav.MAV_DATA_STREAM_ALL \
+            else [DATA_STREAMS.get(m.req_stream_id)]
+        for g in groups:
+            if g is not None:
+                self.ap.params.set(g, min(max(rate, 0), 50), save=False)
+        self._rebuild_schedule()
+
+    def on_MISSION_REQUEST_LIST(self, m, ch) -> None:
+        # no missions (AUTO is not implemented): an empty list, so GCS downloads finish
+        self.send(mav.MAVLink_mission_count_message(m.get_srcSystem(), m.get_srcComponent(), 0,
+                                                    getattr(m, "mission_type", 0)), ch)
+
+    # ----- parameters ------------------------------------------------------------------------
+    def param_value(self, name: str):
+        ps = self.ap.params
+        return mav.MAVLink_param_value_message(name.encode(), float(ps[name]), ps.defs[name].mav_type,
+                                               len(ps), ps.index[name])
+
+    def on_PARAM_REQUEST_LIST(self, m, ch) -> None:
+        for name in self.ap.params.names:
+            self.send(self.param_value(name), ch)
+
+    def on_PARAM_REQUEST_READ(self, m, ch) -> None:
+        ps = self.ap.params
+        if m.param_index >= 0:
+            if m.param_index >= len(ps):
+                return
+            name = ps.names[m.param_index]
+        else:
+            name = _param_id(m.param_id)
+            if name not in ps:
+                return
+        self.send(self.param_value(name), ch)
+
+    def on_PARAM_SET(self, m, ch) -> None:
+        ps = self.ap.params
+        name = _param_id(m.param_id)
+        if name not in ps:
+            self.statustext(mav.MAV_SEVERITY_WARNING, f"Param set: unknown {name}"[:50])
+            return
+        why = ps.set(name, float(m.param_value))
+        if why is not None:
+            self.statustext(mav.MAV_SEVERITY_WARNING, why[:50])
+            self.send(self.param_value(name), ch)
+            return
+        self.send(self.param_value(name))
+        if name.startswith("SR0_"):
+            self._rebuild_schedule()
+        self.params_changed({name: ps[name]})
