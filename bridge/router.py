@@ -152,6 +152,7 @@ class Bridge:
         self._next_hb = 0.0
         self._last_mode_cmd = -1e9
         self._last_arm_cmd = -1e9
+        self.rover_mode_wanted: int | None = None
         self._warned: dict[str, float] = {}
         self.running = True
         self.sel = selectors.DefaultSelector()
@@ -480,12 +481,18 @@ class Bridge:
         rover.link.send(self._pack_own(msg))
         self.follow_ticks += 1
         self.last_goal = (gx, gy)
-        self.ensure_rover_mode(ROVER_GUIDED, arm=True)
+        self.want_rover_mode(ROVER_GUIDED)
         rp = rover.position or (math.nan, math.nan)
         self.send_own_to_gcs(tl.MAVLink_towerlink_follow_status_message(
             int(round(stamp * 1e6)), gp.ref[0], gp.ref[1], gp.full[0], gp.full[1], gp.yaw[0],
             gp.yaw[1], gx, gy, vx, vy, rp[0], rp[1], gp.height, gp.tilt, gp.err_full, gp.err_yaw,
             0 if cfg.follow_frame == "drone" else 1, self.follow_state))
+
+    def want_rover_mode(self, mode: int) -> None:
+        if self.rover_mode_wanted != mode:
+            self.rover_mode_wanted = mode
+            self._last_mode_cmd = -1e9
+        self.ensure_rover_mode(mode, arm=(mode == ROVER_GUIDED))
 
     def ensure_rover_mode(self, mode: int, arm: bool = False) -> None:
         rover = self.vehicles.get(self.cfg.rover_sysid)
@@ -506,16 +513,14 @@ class Bridge:
             return
         rover = self.vehicles[cfg.rover_sysid]
         now = self.clock()
-        if self.follow.holding:
-            self.ensure_rover_mode(ROVER_HOLD)
-            return
-        if self.follow.stale(now, rover.newest_stamp, rover.newest_stamp_wall):
+        if not self.follow.holding and self.follow.stale(now, rover.newest_stamp, rover.newest_stamp_wall):
             self.follow.holding = True
             self.follow_state = tl.TOWERLINK_FOLLOW_STATE_HOLDING
             self.log(f"follow: no drone telemetry for > {cfg.follow_timeout} s (sim); rover to HOLD")
             self.statustext("follow: drone lost, rover HOLD")
-            self._last_mode_cmd = -1e9
-            self.ensure_rover_mode(ROVER_HOLD)
+            self.want_rover_mode(ROVER_HOLD)
+        elif self.rover_mode_wanted is not None:
+            self.ensure_rover_mode(self.rover_mode_wanted, arm=(self.rover_mode_wanted == ROVER_GUIDED))
 
     # ------------------------------------------------------------------ periodic
     def request_streams(self, v: Vehicle, force: bool = False) -> None:
