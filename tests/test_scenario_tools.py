@@ -79,10 +79,10 @@ def test_scenario_errors_name_the_file_and_field(tmp_path):
     bad.write_text('static_transforms = ["0 0 0 0 0 0 world tower", "0 0 0 0 0 0 tower world"]\n')
     with pytest.raises(ScenarioError, match="bad.toml: static_transforms"):
         load_scenario(bad)
-    bad.write_text('[mission]\ngoals = [[1]]\n')
+    bad.write_text('[mission]\ngoal_frame = "world"\ngoals = [[1]]\n')
     with pytest.raises(ScenarioError, match=r"mission.goals\[0\]"):
         load_scenario(bad)
-    bad.write_text('[follow]\nframe = "rover"\n')
+    bad.write_text('[mission]\ngoal_frame = "world"\n[follow]\nframe = "rover"\n')
     with pytest.raises(ScenarioError, match="follow.frame"):
         load_scenario(bad)
     with pytest.raises(ScenarioError, match="no such scenario"):

@@ -24,7 +24,7 @@ import numpy as np
 
 from bridge.frames import InvalidArgumentException, TransformStamped
 from bridge.scenario import STATIC_TRANSFORM_USAGE, ScenarioError, parse_static_transform
-from tools.tf_format import format_tf_echo
+from tools.tf_format import format_number, format_tf_echo
 
 
 def describe(ts: TransformStamped) -> str:
@@ -50,7 +50,7 @@ def describe(ts: TransformStamped) -> str:
 
 
 def _matrix(m: np.ndarray) -> str:
-    return "\n".join("    " + " ".join(f"{v:10.4f}" for v in row) for row in m)
+    return "\n".join("    " + " ".join(format_number(v, 4).rjust(10) for v in row) for row in m)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-__all__ = ["format_tf_echo", "quat_to_rpy", "split_transform"]
+__all__ = ["format_tf_echo", "format_number", "quat_to_rpy", "split_transform"]
 
 
 def quat_to_rpy(q: Sequence[float]) -> tuple[float, float, float]:
@@ -73,11 +73,13 @@ def split_transform(obj) -> tuple[tuple[float, float, float], tuple[float, float
 
 
 def _fmt(vals, precision: int) -> str:
-    out = []
-    for v in vals:
-        s = f"{v:.{precision}f}"
-        out.append(s)
-    return "[" + ", ".join(out) + "]"
+    return "[" + ", ".join(format_number(v, precision) for v in vals) + "]"
+
+
+def format_number(v: float, precision: int = 3) -> str:
+    """Fixed-point text of v; a value that rounds to zero prints as 0, never -0."""
+    s = f"{v:.{precision}f}"
+    return s[1:] if s.startswith("-") and float(s) == 0.0 else s
 
 
 def format_tf_echo(stamped_or_transform, time: float | None = None, precision: int = 3) -> str:
