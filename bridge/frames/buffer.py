@@ -55,6 +55,7 @@ from .errors import (ConnectivityException, ExtrapolationException,
                      FutureExtrapolationException, InvalidArgumentException,
                      LookupException, PastExtrapolationException, TimeoutException,
                      TransformException)
+from . import _pathcode
 from .stamped import (LATEST, PointStamped, PoseStamped, TransformStamped, VectorStamped,
                       _Latest, check_time)
 from .transform import (IDENTITY7, Transform, _compose, _interpolate, _inv_compose,
@@ -118,6 +119,63 @@ def _fmt(t: float) -> str:
     return f"{t:.6f}"
 
 
+def _extrapolation(e: _Edge, t: float, target: str, source: str) -> ExtrapolationException:
+    stamps = e.stamps
+    s0, s1 = stamps[0], stamps[-1]
+    tail = (f" when looking up transform from frame [{source}] to frame [{target}]. "
+            f"Edge [{e.parent}] -> [{e.child}] holds data from {_fmt(s0)} to {_fmt(s1)} "
+            f"({len(stamps)} samples).")
+    if t < s0:
+        return PastExtrapolationException(
+            f"Lookup would require extrapolation into the past. Requested time {_fmt(t)} "
+            f"but the earliest data is at time {_fmt(s0)}," + tail,
+            target_frame=target, source_frame=source, edge=(e.parent, e.child),
+            requested=t, earliest=s0, latest=s1)
+    return FutureExtrapolationException(
+        f"Lookup would require extrapolation into the future. Requested time {_fmt(t)} "
+        f"but the latest data is at time {_fmt(s1)}," + tail,
+        target_frame=target, source_frame=source, edge=(e.parent, e.child),
+        requested=t, earliest=s0, latest=s1)
+
+
+def _sample_edge(e: _Edge, t: float, target: str, source: str) -> tuple:
+    stamps = e.stamps
+    if stamps is None:
+        return e.value
+    i = bisect_left(stamps, t)
+    if i < len(stamps):
+        s1 = stamps[i]
+        if s1 == t:
+            return e.values[i]
+        if i:
+            s0 = stamps[i - 1]
+            vals = e.values
+            return _interpolate(vals[i - 1], vals[i], (t - s0) / (s1 - s0))
+    raise _extrapolation(e, t, target, source)
+
+
+def _identity_ev(t: float) -> tuple:
+    return IDENTITY7
+
+
+def _eval_generic(src: tuple, tgt: tuple, t: float, target: str, source: str) -> tuple:
+    """Reference evaluation of a path with the helper functions (what the generated
+    code in _pathcode does inline)."""
+    acc_s = None
+    for e in src:
+        v = _sample_edge(e, t, target, source)
+        acc_s = v if acc_s is None else _compose(v, acc_s)
+    acc_t = None
+    for e in tgt:
+        v = _sample_edge(e, t, target, source)
+        acc_t = v if acc_t is None else _compose(v, acc_t)
+    if acc_t is None:
+        return IDENTITY7 if acc_s is None else acc_s
+    if acc_s is None:
+        return _inverse(acc_t)
+    return _inv_compose(acc_t, acc_s)
+
+
 def _check_frame_id(frame: Any, what: str) -> None:
     if type(frame) is not str:
         raise InvalidArgumentException(
@@ -159,6 +217,9 @@ class Buffer:
         self._frames: dict[str, None] = {}  # insertion-ordered set of known frame ids
         self._paths: dict[tuple[str, str], tuple] = {}
         self._version = 0
+        #: evaluate paths with the helper-function loop instead of generated code
+        #: (a reference for tests; set it before the first lookup)
+        self._generic = False
 
     # ------------------------------------------------------------------ properties
     @property
@@ -277,8 +338,9 @@ class Buffer:
 
     # ------------------------------------------------------------------ paths
     def _path(self, target: str, source: str, fn: str) -> tuple:
-        """(source edges up to the common ancestor, target edges likewise, dynamic edges,
-        frames that were used for the self-lookup case). Lock held."""
+        """(source edges up to the common ancestor, target edges likewise, the dynamic
+        edges among them, the compiled evaluator or None for a frame to itself).
+        Lock held."""
         key = (target, source)
         p = self._paths.get(key)
         if p is not None:
@@ -297,7 +359,7 @@ class Buffer:
         edges = self._edges
         if target == source:
             e = edges.get(source)
-            p = ((), (), (e,) if e is not None and e.stamps is not None else ())
+            p = ((), (), (e,) if e is not None and e.stamps is not None else (), _identity_ev)
         else:
             up: dict[str, int] = {source: 0}
             chain_s: list[_Edge] = []
@@ -322,38 +384,28 @@ class Buffer:
                 f = e.parent
             chain_s = chain_s[:up[f]]
             dyn = tuple(e for e in chain_s + chain_t if e.stamps is not None)
-            p = (tuple(chain_s), tuple(chain_t), dyn)
+            src_t, tgt_t = tuple(chain_s), tuple(chain_t)
+            if self._generic:
+                def ev(t, src_t=src_t, tgt_t=tgt_t):
+                    return _eval_generic(src_t, tgt_t, t, target, source)
+            else:
+                make = _pathcode.factory(tuple(e.stamps is None for e in chain_s),
+                                         tuple(e.stamps is None for e in chain_t), _extrapolation)
+                ev = make(*chain_s, *chain_t, target, source)
+            p = (src_t, tgt_t, dyn, ev)
         if len(self._paths) >= _PATH_CACHE_MAX:
             self._paths.clear()
         self._paths[key] = p
         return p
 
     # ------------------------------------------------------------------ core lookup
-    def _extrapolation(self, e: _Edge, t: float, target: str, source: str) -> ExtrapolationException:
-        stamps = e.stamps
-        s0, s1 = stamps[0], stamps[-1]
-        tail = (f" when looking up transform from frame [{source}] to frame [{target}]. "
-                f"Edge [{e.parent}] -> [{e.child}] holds data from {_fmt(s0)} to {_fmt(s1)} "
-                f"({len(stamps)} samples).")
-        if t < s0:
-            return PastExtrapolationException(
-                f"Lookup would require extrapolation into the past. Requested time {_fmt(t)} "
-                f"but the earliest data is at time {_fmt(s0)}," + tail,
-                target_frame=target, source_frame=source, edge=(e.parent, e.child),
-                requested=t, earliest=s0, latest=s1)
-        return FutureExtrapolationException(
-            f"Lookup would require extrapolation into the future. Requested time {_fmt(t)} "
-            f"but the latest data is at time {_fmt(s1)}," + tail,
-            target_frame=target, source_frame=source, edge=(e.parent, e.child),
-            requested=t, earliest=s0, latest=s1)
-
     def _lookup_locked(self, target: str, source: str, time: Any,
                        fn: str = "lookupTransform") -> tuple[float, tuple]:
         """(stamp used, 7-tuple of target <- source). Lock held."""
         p = self._paths.get((target, source))
         if p is None:
             p = self._path(target, source, fn)
-        src, tgt, dyn = p
+        src, tgt, dyn, ev = p
         if time is LATEST:
             t = 0.0
             if dyn:
@@ -364,51 +416,7 @@ class Buffer:
                         t = s
         else:
             t = time
-        acc_s = None
-        for e in src:
-            stamps = e.stamps
-            if stamps is None:
-                v = e.value
-            else:
-                i = bisect_left(stamps, t)
-                if i < len(stamps):
-                    s1 = stamps[i]
-                    if s1 == t:
-                        v = e.values[i]
-                    elif i:
-                        s0 = stamps[i - 1]
-                        vals = e.values
-                        v = _interpolate(vals[i - 1], vals[i], (t - s0) / (s1 - s0))
-                    else:
-                        raise self._extrapolation(e, t, target, source)
-                else:
-                    raise self._extrapolation(e, t, target, source)
-            acc_s = v if acc_s is None else _compose(v, acc_s)
-        acc_t = None
-        for e in tgt:
-            stamps = e.stamps
-            if stamps is None:
-                v = e.value
-            else:
-                i = bisect_left(stamps, t)
-                if i < len(stamps):
-                    s1 = stamps[i]
-                    if s1 == t:
-                        v = e.values[i]
-                    elif i:
-                        s0 = stamps[i - 1]
-                        vals = e.values
-                        v = _interpolate(vals[i - 1], vals[i], (t - s0) / (s1 - s0))
-                    else:
-                        raise self._extrapolation(e, t, target, source)
-                else:
-                    raise self._extrapolation(e, t, target, source)
-            acc_t = v if acc_t is None else _compose(v, acc_t)
-        if acc_t is None:
-            return t, (IDENTITY7 if acc_s is None else acc_s)
-        if acc_s is None:
-            return t, _inverse(acc_t)
-        return t, _inv_compose(acc_t, acc_s)
+        return t, ev(t)
 
     def _wait(self, attempt: Callable[[], Any], timeout: float, what: str) -> Any:
         """Retry `attempt` (lock held) each time the buffer changes, until `timeout` wall s."""
@@ -439,23 +447,44 @@ class Buffer:
         stamp=time used (LATEST resolved), transform). With ``timeout > 0`` (wall
         seconds) waits for the data to arrive, then raises TimeoutException.
         """
-        if time is not LATEST and (type(time) is not float or not _isfinite(time)):
-            time = check_time(time)
         if timeout:
             timeout = _check_timeout(timeout)
             if timeout > 0.0:
+                if time is not LATEST:
+                    time = check_time(time)
                 t, v = self._wait(
                     lambda: self._lookup_locked(target_frame, source_frame, time),
                     timeout, f"transform from [{source_frame}] to [{target_frame}] at time "
                              f"{time if time is LATEST else _fmt(time)}")
-                return TransformStamped(target_frame, source_frame, t, _Transform_of(v))
+                return _stamped(target_frame, source_frame, t, v)
         lock = self._lock
-        lock.acquire()
-        try:
-            t, v = self._lookup_locked(target_frame, source_frame, time)
-        finally:
-            lock.release()
-        return _stamped(target_frame, source_frame, t, v)
+        if type(time) is float and _isfinite(time):
+            # hot path: explicit time and a cached path; everything else goes the long way
+            lock.acquire()
+            try:
+                p = self._paths.get((target_frame, source_frame))
+                if p is not None:
+                    v = p[3](time)
+                else:
+                    time, v = self._lookup_locked(target_frame, source_frame, time)
+            finally:
+                lock.release()
+        else:
+            if time is not LATEST:
+                time = check_time(time)
+            lock.acquire()
+            try:
+                time, v = self._lookup_locked(target_frame, source_frame, time)
+            finally:
+                lock.release()
+        tr = _new(Transform)
+        _set_v(tr, v)
+        ts = _new(TransformStamped)
+        _set_frame_id(ts, target_frame)
+        _set_child_frame_id(ts, source_frame)
+        _set_stamp(ts, time)
+        _set_transform(ts, tr)
+        return ts
 
     def _full_locked(self, target: str, target_time: Any, source: str, source_time: Any,
                      fixed: str) -> tuple[float, tuple]:
@@ -529,7 +558,7 @@ class Buffer:
         """What LATEST resolves to for this pair (0.0 if the chain is all static).
         Raises LookupException / ConnectivityException like a lookup."""
         with self._lock:
-            _, _, dyn = self._path(target_frame, source_frame, "getLatestCommonTime")
+            _, _, dyn, _ = self._path(target_frame, source_frame, "getLatestCommonTime")
             return min((e.stamps[-1] for e in dyn), default=0.0)
 
     # ------------------------------------------------------------------ stamped helpers
@@ -565,7 +594,7 @@ class Buffer:
         """Frames on the path from source_frame up to the common ancestor and down to
         target_frame (both ends included)."""
         with self._lock:
-            src, tgt, _ = self._path(target_frame, source_frame, "chain")
+            src, tgt, _, _ = self._path(target_frame, source_frame, "chain")
             down = [e.child for e in tgt][::-1]
             if not src and not tgt:
                 return [source_frame]
