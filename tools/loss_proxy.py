@@ -37,7 +37,7 @@ class LossProxy(threading.Thread):
         self.client: tuple[str, int] | None = None
         self.passed = {"up": 0, "down": 0}
         self.dropped = {"up": 0, "down": 0}
-        self._stop = threading.Event()
+        self._halt = threading.Event()
 
     def _drop(self, way: str) -> bool:
         if self.rng.random() < self.loss:
@@ -51,7 +51,7 @@ class LossProxy(threading.Thread):
         sel.register(self.front, selectors.EVENT_READ, "up")
         sel.register(self.back, selectors.EVENT_READ, "down")
         try:
-            while not self._stop.is_set():
+            while not self._halt.is_set():
                 for key, _ in sel.select(timeout=0.1):
                     try:
                         data, addr = key.fileobj.recvfrom(65535)
@@ -74,7 +74,7 @@ class LossProxy(threading.Thread):
             pass  # nobody listening right now (e.g. the bridge restarting): a lost packet
 
     def stop(self) -> None:
-        self._stop.set()
+        self._halt.set()
         if self.is_alive():
             self.join(2.0)
         self.front.close()

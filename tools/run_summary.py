@@ -230,10 +230,15 @@ def load_run(run_dir: str | os.PathLike) -> RunData:
     """Read every tlog of a run folder (vehicles, bridge, tower) into one RunData."""
     run_dir = Path(run_dir)
     data = RunData()
-    for name in ("vehicles.tlog", "bridge.tlog"):
-        p = run_dir / name
-        if p.exists():
-            load_messages(read_tlog(p), data)
+    vehicles = run_dir / "vehicles.tlog"
+    if vehicles.exists():
+        load_messages(read_tlog(vehicles), data)
+    bridge = run_dir / "bridge.tlog"
+    if bridge.exists():
+        msgs = read_tlog(bridge)
+        if vehicles.exists():  # the bridge's out link repeats the vehicles' traffic: take its own
+            msgs = (m for m in msgs if m.get_type().startswith("TOWERLINK_"))
+        load_messages(msgs, data)
     return data
 
 

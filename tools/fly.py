@@ -1,0 +1,563 @@
+"""Fly the lab: start the SITL world, the bridge and the tower, watch, stop, summarise.
+
+The lab's fly.launch as one command (and the README's `make demo`):
+
+  towerlink fly                                  # default scenario, speedup 5, rover follows drone_yaw
+  towerlink fly my.toml --follow-frame drone     # the wobbling checkpoint-2 frame
+  towerlink fly --goals "-131.04,73.52;-105.06,88.52;-120.06,114.50" --seed 3
+
+Three processes on loopback with free ports (so several runs can share a machine):
+
+  towerlink sitl    drone (sysid 1) + rover (sysid 2), --speedup, --seed, pushing
+                    every vehicle's telemetry to this launcher (vehicles.tlog)
+  towerlink bridge  tower link <-> vehicles, tower <-> world translation, rover follow,
+                    transform stream pushed to this launcher (bridge.tlog)
+  towerlink tower   the mission in tower coordinates (tower.tlog, tower.json)
+
+While they run it prints one progress line a second (goal n/N, drone position,
+rover follow error from truth, sim time and the speedup achieved). At the end, on
+Ctrl-C, or on any failure, every process it started is stopped. Then it writes the
+run folder (--out, default runs/<timestamp>):
+
+  vehicles.tlog bridge.tlog tower.tlog   one tlog per link
+  tower.json meta.json                   the tower's result; how the run was made
+  summary.json summary.txt               the scores (also printed)
+  tracks.png                             drone, rover, goals, tower; follow error and wobble
+  frames.pdf frames.png frames.yaml      the frame tree, as view-frames draws it
+  sitl.log bridge.log tower.log          each process's output
+
+The summary gives per goal its tower and world coordinates, time to reach (sim s)
+and the ratio to the minimum time d/v + v/a + a/j (the drone's WPNAV_SPEED,
+WPNAV_ACCEL and PSC_JERK_XY); the rover's follow error (RMS and max against the
+drone's ground point, from truth); and the wobble figure for both follow frames
+(the bridge computes the ground point through the full-attitude and the yaw-only
+frame on every follow tick, whichever one it steers by).
+
+Exit status 0 iff the tower reached every goal.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import shlex
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+os.environ.setdefault("MAVLINK20", "1")
+
+DRONE, ROVER = 1, 2
+SCORING_PARAMS = ("WPNAV_SPEED", "WPNAV_ACCEL", "PSC_JERK_XY")
+
+
+def free_udp_ports(n: int, host: str = "127.0.0.1") -> list[int]:
+    socks = []
+    try:
+        for _ in range(n):
+            s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            s.bind((host, 0))
+            socks.append(s)
+        return [s.getsockname()[1] for s in socks]
+    finally:
+        for s in socks:
+            s.close()
+
+
+def towerlink_cmd(*args: str) -> list[str]:
+    """The command line that runs `towerlink ARGS` with this interpreter."""
+    return [sys.executable, "-m", "tools.cli", *args]
+
+
+# ----------------------------------------------------------------------------- monitor
+
+
+class Monitor(threading.Thread):
+    """Listens where the world and the bridge push, records a tlog per link, tracks progress."""
+
+    def __init__(self, run_dir: Path, ports: dict[str, int], host: str = "127.0.0.1") -> None:
+        super().__init__(daemon=True, name="fly-monitor")
+        from bridge.dialect import towerlink as tl
+        self.tl = tl
+        self.socks: dict[str, socket.socket] = {}
+        self.parsers = {}
+        self.tlogs = {}
+        for name, port in ports.items():
+            s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            s.bind((host, port))
+            s.setblocking(False)
+            self.socks[name] = s
+            p = tl.MAVLink(None)
+            p.robust_parsing = True
+            self.parsers[name] = p
+            self.tlogs[name] = open(run_dir / f"{name}.tlog", "wb")
+        self.peer: dict[str, tuple] = {}
+        self.encoder = tl.MAVLink(None, srcSystem=255, srcComponent=158)
+        self._halt = threading.Event()
+        self.lock = threading.Lock()
+        self.sim_ms = 0
+        self.origin: dict[int, tuple[float, float, float]] = {}
+        self.truth: dict[int, tuple[float, float, float]] = {}
+        self.estimate: dict[int, tuple[float, float, float]] = {}
+        self.params: dict[str, float] = {}
+        self.follow = None
+        self.counts = {name: 0 for name in ports}
+
+    def run(self) -> None:
+        import selectors
+        sel = selectors.DefaultSelector()
+        for name, s in self.socks.items():
+            sel.register(s, selectors.EVENT_READ, name)
+        try:
+            while not self._halt.is_set():
+                for key, _ in sel.select(timeout=0.1):
+                    name = key.data
+                    while True:
+                        try:
+                            data, addr = key.fileobj.recvfrom(65535)
+                        except (BlockingIOError, InterruptedError):
+                            break
+                        except OSError:
+                            break
+                        self.peer[name] = addr
+                        self._datagram(name, data)
+        finally:
+            sel.close()
+
+    def _datagram(self, name: str, data: bytes) -> None:
+        try:
+            msgs = self.parsers[name].parse_buffer(data) or []
+        except Exception:  # noqa: BLE001 - a monitor never dies of a bad packet
+            return
+        usec = struct.pack(">Q", int(time.time() * 1e6) & ~3)
+        f = self.tlogs[name]
+        for m in msgs:
+            if m.get_type() == "BAD_DATA":
+                continue
+            f.write(usec + m.get_msgbuf())
+            self.counts[name] += 1
+            self._track(m)
+
+    def _track(self, m) -> None:
+        t = m.get_type()
+        src = m.get_srcSystem()
+        ms = getattr(m, "time_boot_ms", None)
+        with self.lock:
+            if isinstance(ms, int) and src in (DRONE, ROVER) and t != "SET_POSITION_TARGET_LOCAL_NED":
+                self.sim_ms = max(self.sim_ms, ms)
+            if t == "HOME_POSITION":
+                self.origin[src] = (m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3, m.x, m.y, m.z)
+            elif t == "GPS_GLOBAL_ORIGIN":
+                self.origin[src] = (m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3, 0.0, 0.0, 0.0)
+            elif t == "SIM_STATE" and src in self.origin:
+                lat0, lon0, alt0, ox, oy, oz = self.origin[src]
+                lat = m.lat_int * 1e-7 if getattr(m, "lat_int", 0) else m.lat
+                lon = m.lon_int * 1e-7 if getattr(m, "lon_int", 0) else m.lon
+                k = 6378137.0 * math.pi / 180.0
+                self.truth[src] = ((lat - lat0) * k + ox,
+                                   (lon - lon0) * k * math.cos(math.radians(lat0)) + oy,
+                                   alt0 - m.alt + oz)
+            elif t == "LOCAL_POSITION_NED":
+                self.estimate[src] = (m.x, m.y, m.z)
+            elif t == "PARAM_VALUE" and src == DRONE:
+                pid = m.param_id if isinstance(m.param_id, str) else m.param_id.decode()
+                self.params[pid.rstrip("\x00")] = float(m.param_value)
+            elif t == "TOWERLINK_FOLLOW_STATUS":
+                self.follow = m
+
+    def request_params(self, names=SCORING_PARAMS) -> None:
+        """Ask the drone (through the world's push link) for the parameters the scoring needs."""
+        addr = self.peer.get("vehicles")
+        if addr is None:
+            return
+        for n in names:
+            if n in self.params:
+                continue
+            msg = self.tl.MAVLink_param_request_read_message(DRONE, 1, n.encode(), -1)
+            try:
+                self.socks["vehicles"].sendto(msg.pack(self.encoder), addr)
+            except OSError:
+                pass
+
+    def snapshot(self) -> dict:
+        with self.lock:
+            d = self.truth.get(DRONE) or self.estimate.get(DRONE)
+            r = self.truth.get(ROVER) or self.estimate.get(ROVER)
+            err = math.hypot(d[0] - r[0], d[1] - r[1]) if d and r else None
+            return {"sim": self.sim_ms / 1000.0, "drone": d, "rover": r, "follow_err": err}
+
+    def stop(self) -> None:
+        self._halt.set()
+        if self.is_alive():
+            self.join(2.0)
+        for s in self.socks.values():
+            s.close()
+        for f in self.tlogs.values():
+            f.close()
+
+
+# ----------------------------------------------------------------------------- launch
+
+
+class Launch:
+    """The three processes of a run and the monitor; `stop()` always leaves nothing behind.
+
+    Used by `towerlink fly` and by the full-system tests (which also kill and restart
+    the bridge, or put a lossy proxy on the tower link).
+    """
+
+    def __init__(self, run_dir: str | os.PathLike, *, scenario: str | None = None,
+                 speedup: float = 5.0, seed: int = 1, follow_frame: str | None = None,
+                 goals: str | None = None, alt: float | None = None, radius: float | None = None,
+                 finish: str | None = None, goal_timeout: float = 120.0, tower_loss: float = 0.0,
+                 loss_seed: int = 1, sitl_args: tuple[str, ...] = (), bridge_args: tuple[str, ...] = (),
+                 tower_args: tuple[str, ...] = (), echo: bool = False, host: str = "127.0.0.1") -> None:
+        self.dir = Path(run_dir)
+        self.dir.mkdir(parents=True, exist_ok=True)
+        self.scenario = str(Path(scenario).resolve()) if scenario else None
+        self.speedup = speedup
+        self.seed = seed
+        self.follow_frame = follow_frame
+        self.goals, self.alt, self.radius, self.finish = goals, alt, radius, finish
+        self.goal_timeout = goal_timeout
+        self.tower_loss = tower_loss
+        self.loss_seed = loss_seed
+        self.sitl_args, self.bridge_args, self.tower_args = sitl_args, bridge_args, tower_args
+        self.echo = echo
+        self.host = host
+        names = ("drone", "rover", "tower", "vehicles", "bridge", "proxy")
+        self.ports = dict(zip(names, free_udp_ports(len(names), host)))
+        self.procs: dict[str, subprocess.Popen] = {}
+        self.logs: dict[str, object] = {}
+        self.proxy = None
+        self.monitor: Monitor | None = None
+        self.tower_lines: list[str] = []
+        self.goal_state = {"n": 0, "total": None, "reached": 0, "last": ""}
+        self.t_wall0 = None
+        self.sim0 = None
+        self.bridge_restarts = 0
+
+    # -- processes
+
+    def _start(self, name: str, args: list[str]) -> subprocess.Popen:
+        log = open(self.dir / f"{name}.log", "a")
+        self.logs.setdefault(name, log)
+        log.write(f"$ {shlex.join(args)}\n")
+        log.flush()
+        env = dict(os.environ, PYTHONUNBUFFERED="1")
+        if name == "tower":
+            p = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                                 start_new_session=True, env=env, bufsize=1)
+            threading.Thread(target=self._read_tower, args=(p, log), daemon=True).start()
+        else:
+            p = subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT, start_new_session=True, env=env)
+        self.procs[name] = p
+        return p
+
+    def sitl_cmd(self) -> list[str]:
+        h = self.host
+        return towerlink_cmd("sitl", "--speedup", f"{self.speedup:g}", "--seed", str(self.seed),
+                             "--no-save", "--tcp-base", "0", "--udp-base", "0",
+                             "--endpoint", f"0=udpin:{h}:{self.ports['drone']}",
+                             "--endpoint", f"1=udpin:{h}:{self.ports['rover']}",
+                             "--out", f"udpout:{h}:{self.ports['vehicles']}", *self.sitl_args)
+
+    def bridge_cmd(self) -> list[str]:
+        h = self.host
+        cmd = towerlink_cmd("bridge", "--tower", f"udpin:{h}:{self.ports['tower']}",
+                            "--drone", f"udpout:{h}:{self.ports['drone']}",
+                            "--rover", f"udpout:{h}:{self.ports['rover']}",
+                            "--out", f"udpout:{h}:{self.ports['bridge']}",
+                            "--speedup", f"{self.speedup:g}")
+        if self.scenario:
+            cmd += ["--scenario", self.scenario]
+        if self.follow_frame:
+            cmd += ["--follow-frame", self.follow_frame]
+        return cmd + list(self.bridge_args)
+
+    def tower_url(self) -> str:
+        port = self.ports["proxy"] if self.tower_loss > 0 else self.ports["tower"]
+        return f"udpout:{self.host}:{port}"
+
+    def tower_cmd(self) -> list[str]:
+        cmd = towerlink_cmd("tower", "--connect", self.tower_url(),
+                            "--result", str(self.dir / "tower.json"), "--tlog", str(self.dir / "tower.tlog"),
+                            "--goal-timeout", f"{self.goal_timeout:g}")
+        for flag, v in (("--scenario", self.scenario), ("--goals", self.goals), ("--alt", self.alt),
+                        ("--radius", self.radius), ("--finish", self.finish)):
+            if v is not None:
+                cmd += [flag, str(v)]
+        return cmd + list(self.tower_args)
+
+    def _read_tower(self, p: subprocess.Popen, log) -> None:
+        import re
+        for line in p.stdout:
+            log.write(line)
+            log.flush()
+            line = line.rstrip("\n")
+            self.tower_lines.append(line)
+            m = re.search(r"goal (\d+)/(\d+) (sent|reached|FAILED)", line)
+            if m:
+                n, total, what = int(m.group(1)), int(m.group(2)), m.group(3)
+                self.goal_state.update(n=n, total=total, last=what)
+                if what == "reached":
+                    self.goal_state["reached"] = n
+            if self.echo:
+                print(f"  {line}", flush=True)
+
+    def start(self) -> None:
+        """World, monitor, bridge, (loss proxy), tower: in that order."""
+        self.t_wall0 = time.monotonic()
+        self.monitor = Monitor(self.dir, {"vehicles": self.ports["vehicles"], "bridge": self.ports["bridge"]},
+                               self.host)
+        self.monitor.start()
+        self._start("sitl", self.sitl_cmd())
+        self.start_bridge()
+        if self.tower_loss > 0:
+            from tools.loss_proxy import LossProxy
+            self.proxy = LossProxy(self.ports["proxy"], (self.host, self.ports["tower"]),
+                                   loss=self.tower_loss, seed=self.loss_seed, host=self.host)
+            self.proxy.start()
+        self._start("tower", self.tower_cmd())
+        self.write_meta()
+
+    def start_bridge(self) -> subprocess.Popen:
+        return self._start("bridge", self.bridge_cmd())
+
+    def kill_bridge(self, sig: int = signal.SIGKILL) -> None:
+        """Kill the bridge (SIGKILL by default: no goodbye), e.g. to prove the drone holds."""
+        p = self.procs.get("bridge")
+        if p is not None and p.poll() is None:
+            _signal_group(p, sig)
+            p.wait(5)
+
+    def restart_bridge(self) -> subprocess.Popen:
+        self.bridge_restarts += 1
+        return self.start_bridge()
+
+    def alive(self) -> dict[str, bool]:
+        return {k: p.poll() is None for k, p in self.procs.items()}
+
+    def wait(self, timeout: float, progress: float | None = 1.0, out=sys.stdout) -> int | None:
+        """Wait for the tower to finish (its exit status), printing progress; None on timeout."""
+        end = time.monotonic() + timeout
+        last_print = last_params = 0.0
+        tower = self.procs["tower"]
+        while True:
+            rc = tower.poll()
+            if rc is not None:
+                return rc
+            now = time.monotonic()
+            for name in ("sitl",):
+                p = self.procs.get(name)
+                if p is not None and p.poll() is not None:
+                    raise RuntimeError(f"{name} exited with status {p.returncode}; see {self.dir / (name + '.log')}")
+            if now - last_params > 2.0 and self.monitor is not None:
+                last_params = now
+                self.monitor.request_params()
+            if progress and now - last_print >= progress:
+                last_print = now
+                print(self.progress_line(), file=out, flush=True)
+            if now > end:
+                return None
+            time.sleep(0.05)
+
+    def achieved_speedup(self) -> float | None:
+        if self.monitor is None or self.t_wall0 is None:
+            return None
+        snap = self.monitor.snapshot()
+        if self.sim0 is None and snap["sim"] > 0:
+            self.sim0 = (snap["sim"], time.monotonic())
+            return None
+        if self.sim0 is None:
+            return None
+        ds, dw = snap["sim"] - self.sim0[0], time.monotonic() - self.sim0[1]
+        return ds / dw if dw > 0.5 else None
+
+    def progress_line(self) -> str:
+        snap = self.monitor.snapshot() if self.monitor else {"sim": 0, "drone": None, "follow_err": None}
+        gs = self.goal_state
+        goal = f"goal {gs['n']}/{gs['total']} {gs['last']}" if gs["total"] else "goal -/- (preparing)"
+        d = snap["drone"]
+        dtxt = f"drone [{d[0]:7.2f}, {d[1]:7.2f}, {d[2]:6.2f}]" if d else "drone [waiting]"
+        e = snap["follow_err"]
+        etxt = f"rover err {e:5.2f} m" if e is not None else "rover err   -  "
+        sp = self.achieved_speedup()
+        sptxt = f"{sp:.1f}x" if sp else "-"
+        return (f"[fly] t={snap['sim']:7.2f} s sim  {goal:<20} {dtxt}  {etxt}  "
+                f"speedup {sptxt} (asked {self.speedup:g}x)")
+
+    def write_meta(self) -> None:
+        meta = {"scenario": self.scenario, "speedup": self.speedup, "seed": self.seed,
+                "follow_frame": self.follow_frame, "goals": self.goals, "tower_loss": self.tower_loss,
+                "ports": self.ports,
+                "commands": {k: shlex.join(v) for k, v in
+                             (("sitl", self.sitl_cmd()), ("bridge", self.bridge_cmd()), ("tower", self.tower_cmd()))}}
+        (self.dir / "meta.json").write_text(json.dumps(meta, indent=2))
+
+    def stop(self) -> None:
+        """Stop everything this launch started (tower first, world last); idempotent."""
+        order = [("tower", signal.SIGINT), ("bridge", signal.SIGTERM), ("sitl", signal.SIGTERM)]
+        for name, sig in order:
+            p = self.procs.get(name)
+            if p is None:
+                continue
+            if p.poll() is None:
+                _signal_group(p, sig)
+                try:
+                    p.wait(5)
+                except subprocess.TimeoutExpired:
+                    _signal_group(p, signal.SIGKILL)
+                    p.wait(5)
+        if self.proxy is not None:
+            self.proxy.stop()
+        if self.monitor is not None:
+            self.monitor.stop()
+        for log in self.logs.values():
+            try:
+                log.close()
+            except Exception:  # noqa: BLE001
+                pass
+
+    # -- results
+
+    def finish_run(self, tower_rc: int | None) -> dict:
+        """After stop(): score, plot, draw the frames; returns the summary dict."""
+        from tools.run_summary import format_summary, summarize
+        tj = self.dir / "tower.json"
+        tower = json.loads(tj.read_text()) if tj.exists() else {"ok": False, "goals": [],
+                                                                "error": "the tower wrote no result"}
+        meta = {"seed": self.seed, "speedup": self.speedup, "tower_exit": tower_rc,
+                "follow_frame": self.follow_frame or _scenario_follow(self.scenario),
+                "run_dir": str(self.dir), "bridge_restarts": self.bridge_restarts,
+                "tower_loss": self.tower_loss}
+        if self.proxy is not None:
+            meta["proxy"] = {"passed": self.proxy.passed, "dropped": self.proxy.dropped}
+        if self.sim0 is not None and self.monitor is not None:
+            snap = self.monitor.snapshot()
+            meta["achieved_speedup"] = (snap["sim"] - self.sim0[0]) / max(1e-6, time.monotonic() - self.sim0[1])
+        s = summarize(self.dir, tower=tower, scenario_path=self.scenario, meta=meta)
+        s["ok"] = bool(s["ok"]) and tower_rc == 0
+        (self.dir / "summary.json").write_text(json.dumps(s, indent=2, default=_json_default))
+        text = format_summary(s)
+        extras = []
+        try:
+            from tools.plot_tracks import plot_run
+            plot_run(self.dir, scenario=self.scenario)
+            extras.append("tracks.png")
+        except Exception as exc:  # noqa: BLE001 - a plot failure must not hide the summary
+            extras.append(f"(tracks plot failed: {exc})")
+        try:
+            from tools.view_frames import buffer_from_tlog, write_drawing
+            buf, now = buffer_from_tlog(self.dir / "bridge.tlog")
+            if buf.edge_stats():
+                write_drawing(buf, self.dir / "frames.pdf", now=now, title=f"view_frames: {self.dir.name}")
+                write_drawing(buf, self.dir / "frames.png", now=now, title=f"view_frames: {self.dir.name}")
+                extras.append("frames.pdf")
+        except Exception as exc:  # noqa: BLE001
+            extras.append(f"(frames diagram failed: {exc})")
+        files = sorted(p.name for p in self.dir.iterdir())
+        text += f"\nrun folder {self.dir}: {' '.join(files)}"
+        (self.dir / "summary.txt").write_text(text + "\n")
+        s["text"] = text
+        return s
+
+
+def _signal_group(p: subprocess.Popen, sig: int) -> None:
+    try:
+        os.killpg(p.pid, sig)
+    except (ProcessLookupError, PermissionError):
+        pass
+
+
+def _scenario_follow(path: str | None) -> str:
+    from bridge.scenario import load_scenario
+    return load_scenario(path).follow_frame
+
+
+def _json_default(o):
+    try:
+        import numpy as np
+        if isinstance(o, np.generic):
+            return o.item()
+    except ImportError:  # pragma: no cover
+        pass
+    return str(o)
+
+
+# ----------------------------------------------------------------------------- CLI
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scenario", nargs="?", default=None,
+                        help="scenario TOML (default: the built-in lab scenario)")
+    parser.add_argument("--speedup", type=float, default=5.0,
+                        help="sim seconds per wall second (default 5; the machine may deliver less)")
+    parser.add_argument("--follow-frame", choices=("drone", "drone_yaw"), default=None,
+                        help="frame the rover's goal is written in (default: the scenario's)")
+    parser.add_argument("--seed", type=int, default=1, help="the world's noise seed (default 1)")
+    parser.add_argument("--goals", default=None, help='override the tower goals: "x,y;x,y;..." (tower frame)')
+    parser.add_argument("--alt", type=float, default=None, help="mission altitude, m (default: scenario)")
+    parser.add_argument("--radius", type=float, default=None, help="goal radius, m (default: scenario)")
+    parser.add_argument("--finish", choices=("land", "rtl"), default=None, help="after the goals")
+    parser.add_argument("--out", default=None, help="run folder (default runs/<timestamp>)")
+    parser.add_argument("--timeout", type=float, default=600.0, help="wall seconds for the whole run")
+    parser.add_argument("--goal-timeout", type=float, default=120.0, help="wall seconds per goal")
+    parser.add_argument("--tower-loss", type=float, default=0.0,
+                        help="drop this fraction of the tower link's packets (seeded proxy), e.g. 0.2")
+    parser.add_argument("-v", "--verbose", action="store_true", help="echo the tower's log lines")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+
+
+def run(args: argparse.Namespace) -> int:
+    out = Path(args.out) if args.out else Path("runs") / time.strftime("%Y%m%d-%H%M%S")
+    try:
+        from bridge.scenario import ScenarioError, load_scenario
+        load_scenario(args.scenario)
+    except ScenarioError as exc:
+        print(f"towerlink fly: {exc}", file=sys.stderr)
+        return 2
+    launch = Launch(out, scenario=args.scenario, speedup=args.speedup, seed=args.seed,
+                    follow_frame=args.follow_frame, goals=args.goals, alt=args.alt, radius=args.radius,
+                    finish=args.finish, goal_timeout=args.goal_timeout, tower_loss=args.tower_loss,
+                    echo=args.verbose)
+    print(f"towerlink fly: world + bridge + tower on 127.0.0.1 (ports {launch.ports}); run folder {out}",
+          flush=True)
+
+    def on_term(signum, frame):  # SIGTERM: same clean stop as Ctrl-C
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGTERM, on_term)
+    rc: int | None = None
+    interrupted = False
+    failure = None
+    try:
+        launch.start()
+        rc = launch.wait(args.timeout, progress=None if args.quiet else 1.0)
+        if rc is None:
+            failure = f"timed out after {args.timeout:g} s wall"
+    except KeyboardInterrupt:
+        interrupted = True
+        failure = "interrupted"
+    except Exception as exc:  # noqa: BLE001 - stop everything, then report
+        failure = str(exc)
+    finally:
+        launch.stop()
+        signal.signal(signal.SIGTERM, old)
+    if failure:
+        print(f"towerlink fly: {failure}; all processes stopped", file=sys.stderr, flush=True)
+    try:
+        s = launch.finish_run(rc)
+        print("\n" + s["text"], flush=True)
+    except Exception as exc:  # noqa: BLE001
+        print(f"towerlink fly: could not summarise the run: {exc}", file=sys.stderr)
+        return 1 if not interrupted else 130
+    if interrupted:
+        return 130
+    return 0 if (rc == 0 and s["ok"]) else 1
