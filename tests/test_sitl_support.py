@@ -111,3 +111,11 @@ def goto_local(m, x, y, z, frame=None, mask=0b110111111000, yaw=0.0):
     m.mav.set_position_target_local_ned_send(0, m.target_system, m.target_component,
                                              frame or mav.MAV_FRAME_LOCAL_NED, mask,
                                              x, y, z, 0, 0, 0, 0, 0, 0, yaw, 0)
+
+
+def collect(m, types, done, timeout=5.0):
+    """All messages of `types` until `done(list)` is true; returns the list."""
+    got = []
+    while not done(got):
+        got.append(recv(m, types, timeout))
+    return got

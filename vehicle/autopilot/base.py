@@ -298,6 +298,13 @@ class Autopilot:
             return self.cmd_set_home(p, x, y, frame)
         if cmd == mav.MAV_CMD_DO_CHANGE_SPEED:
             return self.cmd_change_speed(p)
+        if cmd == mav.MAV_CMD_PREFLIGHT_CALIBRATION:
+            # ArduPilot: "*preflight*, remember?" -> TEMPORARILY_REJECTED while armed; the
+            # simulated sensors need no calibration, so it succeeds at once otherwise
+            if self.armed:
+                return TEMPORARILY_REJECTED
+            self.text(SEV_INFO, "Calibration successful")
+            return ACCEPTED
         return self.vehicle_command(cmd, p, frame, x, y)
 
     rtl_mode = -1

@@ -4,8 +4,8 @@ Parsing: pymavlink's MAVLink 2 parser in robust mode, one parser per TCP client,
 fresh parse of every UDP datagram (a datagram that ends inside a frame counts as truncated).
 Dropped and counted in `stats`: garbage bytes (bad prefix), bad CRC, bad length, truncated
 frames, unknown message ids, messages for another system, and (when signing is on) unsigned
-or badly signed packets. Counters also go out once a second as NAMED_VALUE_INT "RX_<KIND>"
-once non-zero.
+or badly signed packets. Counters also go out once a second as NAMED_VALUE_INT
+once non-zero (names in STAT_NAMES).
 
 Every COMMAND_LONG / COMMAND_INT for us gets exactly one COMMAND_ACK on the channel it came
 from; replies (PARAM_VALUE for reads/lists, TIMESYNC, requested messages) go back there too;
@@ -29,6 +29,12 @@ SIGNING_EPOCH = 1420070400   # 2015-01-01, MAVLink signing timestamps count 10 u
 
 LINK_COMMANDS = {mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAV_CMD_GET_MESSAGE_INTERVAL,
                  mav.MAV_CMD_REQUEST_MESSAGE, mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES}
+
+
+# stats key -> NAMED_VALUE_INT name (10 characters at most)
+STAT_NAMES = {"garbage": b"RX_GARBAGE", "bad_crc": b"RX_BADCRC", "bad_length": b"RX_BADLEN",
+              "truncated": b"RX_TRUNC", "unknown_id": b"RX_UNKNOWN", "other_target": b"RX_OTHERTG",
+              "bad_signature": b"RX_BADSIG", "unsigned": b"RX_UNSIGND"}
 
 
 class _Out:
@@ -130,11 +136,10 @@ class VehicleLink:
                 due[msgid] = nd if nd > t else t + interval
         if t >= self.next_stats:
             self.next_stats = t + 1.0
-            for k in ("garbage", "bad_crc", "bad_length", "truncated", "unknown_id", "other_target",
-                      "bad_signature", "unsigned"):
+            for k, name in STAT_NAMES.items():
                 if self.stats[k]:
-                    self.send(mav.MAVLink_named_value_int_message(
-                        self.telemetry.boot_ms(), f"RX_{k.upper()}"[:10].encode(), int(self.stats[k])))
+                    self.send(mav.MAVLink_named_value_int_message(self.telemetry.boot_ms(), name,
+                                                                  int(self.stats[k])))
 
     next_stats = 0.0
 
@@ -236,11 +241,23 @@ class VehicleLink:
 
     def on_COMMAND_LONG(self, m, ch) -> None:
         p = [m.param1, m.param2, m.param3, m.param4, m.param5, m.param6, m.param7]
+        self._after_ack = []
         self.ack(ch, m.command, self._command(m.command, p, ch, m, None, None, None), m)
+        self._flush_after_ack(ch)
 
     def on_COMMAND_INT(self, m, ch) -> None:
         p = [m.param1, m.param2, m.param3, m.param4, float(m.x), float(m.y), m.z]
+        self._after_ack = []
         self.ack(ch, m.command, self._command(m.command, p, ch, m, m.frame, m.x, m.y), m)
+        self._flush_after_ack(ch)
+
+    _after_ack: list = []
+
+    def _flush_after_ack(self, ch) -> None:
+        # like ArduPilot: the ACK first, then the message a command asked for
+        msgs, self._after_ack = self._after_ack, []
+        for msg in msgs:
+            self.send(msg, ch)
 
     def _command(self, cmd, p, ch, m, frame, x, y) -> int:
         if cmd in LINK_COMMANDS:
@@ -251,7 +268,7 @@ class VehicleLink:
         if not all(math.isfinite(v) for v in p[:2]):
             return mav.MAV_RESULT_DENIED
         if cmd == mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
-            self.send(self.telemetry.autopilot_version(), ch)
+            self._after_ack.append(self.telemetry.autopilot_version())
             return mav.MAV_RESULT_ACCEPTED
         msgid = int(p[0])
         if cmd == mav.MAV_CMD_REQUEST_MESSAGE:
@@ -260,13 +277,13 @@ class VehicleLink:
             msg = self.telemetry.build(msgid)
             if msg is None:
                 return mav.MAV_RESULT_FAILED
-            self.send(msg, ch)
+            self._after_ack.append(msg)
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_GET_MESSAGE_INTERVAL:
             if msgid not in self.telemetry.builders:
                 return mav.MAV_RESULT_DENIED
             iv = self.schedule.get(msgid)
-            self.send(mav.MAVLink_message_interval_message(msgid, -1 if iv is None else int(iv * 1e6)), ch)
+            self._after_ack.append(mav.MAVLink_message_interval_message(msgid, -1 if iv is None else int(iv * 1e6)))
             return mav.MAV_RESULT_ACCEPTED
         # SET_MESSAGE_INTERVAL: p2 interval us; -1 disable; 0 default
         if msgid not in self.telemetry.builders or msgid == mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
