@@ -28,8 +28,8 @@ LOCAL_OFFSET_NED) is mapped tower->world, LOCAL_POSITION_NED and
 POSITION_TARGET_LOCAL_NED world->tower. TOWERLINK_POSITION_TARGET names its frame.
 A goal whose transform is missing (or whose dynamic chain is older than
 --max-transform-age) waits and is retried every tick; it is never sent with a guess.
-Every transform is published as TOWERLINK_TRANSFORM (statics at 1 Hz, dynamic at up
-to --tf-rate sim Hz) to the tower and the outs.
+Every transform is published as TOWERLINK_TRANSFORM (statics at 1 Hz wall, dynamic at
+the telemetry rate thinned by --tf-rate) to the tower and the outs.
 
 Follow. At --follow-rate sim Hz the rover (sysid 2) gets SET_POSITION_TARGET_LOCAL_NED
 (LOCAL_NED, z 0, drone velocity as feed-forward) = the ground point under the drone
@@ -80,7 +80,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     f.add_argument("--tower-frame", default="tower", help="frame of the tower link (default %(default)s)")
     f.add_argument("--static", action="append", default=[], metavar="'X Y Z YAW PITCH ROLL PARENT CHILD'",
                    help="extra static transform, static_transform_publisher syntax (repeatable)")
-    f.add_argument("--tf-rate", type=float, default=20.0, help="max dynamic transform stream rate, sim Hz")
+    f.add_argument("--tf-rate", type=float, default=20.0, help="dynamic transform stream thinning, sim Hz: a paired sample closer than half a period "
+                        "to the last published one is skipped (default %(default)s)")
     f.add_argument("--telemetry-rate", type=float, default=20.0,
                    help="LOCAL_POSITION_NED/ATTITUDE_QUATERNION rate requested from the vehicles, sim Hz "
                         "(0: do not request)")

@@ -348,6 +348,8 @@ class Bridge:
             v.newest_stamp_wall = now
 
     def translate_to_tower(self, msg, pkt: Packet, fn) -> bytes | None:
+        if not self.tower.connected:
+            return None
         try:
             T = self.buffer.lookup_transform(self.cfg.tower_frame, self.cfg.world_frame, LATEST)
         except TransformException as exc:
@@ -373,7 +375,7 @@ class Bridge:
             return
         if s.reset:
             v.last_tf_pub = None
-        if v.last_tf_pub is None or s.stamp >= v.last_tf_pub + 1.0 / self.cfg.tf_rate - 1e-6 \
+        if v.last_tf_pub is None or s.stamp >= v.last_tf_pub + 0.5 / self.cfg.tf_rate - 1e-6 \
                 or s.stamp < v.last_tf_pub:
             v.last_tf_pub = s.stamp
             self.send_own_to_gcs(transform_message(s.full))

@@ -56,9 +56,15 @@ def drone_at(t):
 
 
 def tfecho(*args):
-    r = subprocess.run([sys.executable, "-m", "tools.cli", "tf-echo", *args], capture_output=True,
-                       text=True, timeout=60)
-    return r.returncode, r.stdout, r.stderr
+    """Run `towerlink tf-echo ARGS` in this process: (exit status, stdout, stderr)."""
+    import contextlib
+    import io
+
+    from tools.cli import main
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        rc = main(["tf-echo", *args])
+    return rc, out.getvalue(), err.getvalue()
 
 
 def test_offline_from_tlog(tmp_path):
