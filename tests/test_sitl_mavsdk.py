@@ -1,0 +1,90 @@
+"""MAVSDK 4.x (the native `mavsdk` wheel) flies the SITL drone: discovery, health, arm,
+takeoff, Offboard position NED to a point (GUIDED on ArduPilot), land.
+
+The MAVSDK client runs in its own process (this file run as a script), so a hang in the
+native library cannot outlive the test: the `processes` fixture kills it at teardown.
+The vehicle pushes to it with --out udpout:127.0.0.1:PORT; MAVSDK listens on udpin.
+"""
+from __future__ import annotations
+
+import sys
+import threading
+import time
+
+import pytest
+
+
+def client(port: int) -> int:
+    from mavsdk import ComponentType, Configuration, Mavsdk
+    from mavsdk.plugins.action import Action
+    from mavsdk.plugins.offboard import Offboard, PositionNedYaw
+    from mavsdk.plugins.telemetry import Telemetry
+
+    def step(msg):
+        print("STEP", msg, flush=True)
+
+    def wait(cond, timeout, what):
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            try:
+                if cond():
+                    return
+            except Exception:
+                pass
+            time.sleep(0.1)
+        raise SystemExit(f"timeout: {what}")
+
+    sdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
+    sdk.add_any_connection(f"udpin://127.0.0.1:{port}")
+    system = sdk.first_autopilot(20.0)
+    if system is None:
+        raise SystemExit("no autopilot discovered")
+    step("discovered")
+    tel, act, off = Telemetry(system), Action(system), Offboard(system)
+
+    def healthy():
+        h = tel.health()
+        return h.is_global_position_ok and h.is_local_position_ok and h.is_home_position_ok and h.is_armable
+    wait(healthy, 30, "health")
+    step("health ok")
+    act.arm()
+    wait(lambda: tel.armed(), 10, "armed")
+    step("armed")
+    act.set_takeoff_altitude(5.0)
+    act.takeoff()
+    wait(lambda: tel.position_velocity_ned().position.down_m < -4.5, 40, "takeoff")
+    step("took off")
+    off.set_position_ned(PositionNedYaw(6.0, 4.0, -5.0, 0.0))
+    off.start()
+    def there():
+        p = tel.position_velocity_ned().position
+        return ((p.north_m - 6) ** 2 + (p.east_m - 4) ** 2 + (p.down_m + 5) ** 2) ** 0.5 < 0.5
+    wait(there, 40, "offboard goal")
+    step("goal reached")
+    try:
+        off.stop()
+    except Exception:
+        pass
+    act.land()
+    wait(lambda: not tel.armed(), 60, "landed and disarmed")
+    step("landed")
+    print("MAVSDK OK", flush=True)
+    return 0
+
+
+@pytest.mark.timeout(150)
+def test_mavsdk_flight(processes, tmp_path):
+    from support import free_ports, wait_until
+    from test_sitl_support import Sitl
+    (port,) = free_ports(1)
+    mav = processes.start([sys.executable, __file__, str(port)])
+    lines: list[str] = []
+    threading.Thread(target=lambda: [lines.append(l) for l in mav.stdout], daemon=True).start()
+    Sitl(processes, tmp_path, drones=1, rovers=0, speedup=5, extra=["--out", f"udpout:127.0.0.1:{port}"])
+    wait_until(lambda: mav.poll() is not None, 140, "MAVSDK client to finish")
+    out = "".join(lines)
+    assert mav.returncode == 0 and "MAVSDK OK" in out, out[-3000:]
+
+
+if __name__ == "__main__":
+    sys.exit(client(int(sys.argv[1])))
