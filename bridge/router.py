@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import math
 import selectors
-import signal
 import sys
 import time
 from dataclasses import dataclass, field
@@ -35,8 +34,7 @@ from dataclasses import dataclass, field
 from bridge.dialect import encoder
 from bridge.dialect import towerlink as tl
 from bridge.follow import FollowSupervisor, ground_points
-from bridge.frames import (LATEST, Buffer, Transform, TransformException,
-                           TransformStamped)
+from bridge.frames import LATEST, Buffer, TransformException, TransformStamped
 from bridge.links import Link, Packet
 from bridge.tf_stream import VehicleFrames, reset_edge, transform_message
 from bridge import translate
