@@ -292,7 +292,7 @@ class Launch:
         for flag, v in (("--scenario", self.scenario), ("--goals", self.goals), ("--alt", self.alt),
                         ("--radius", self.radius), ("--finish", self.finish)):
             if v is not None:
-                cmd += [flag, str(v)]
+                cmd.append(f"{flag}={v}")  # '=': goals may start with '-'
         return cmd + list(self.tower_args)
 
     def _read_tower(self, p: subprocess.Popen, log) -> None:
@@ -505,7 +505,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--goals", default=None, help='override the tower goals: "x,y;x,y;..." (tower frame)')
     parser.add_argument("--alt", type=float, default=None, help="mission altitude, m (default: scenario)")
     parser.add_argument("--radius", type=float, default=None, help="goal radius, m (default: scenario)")
-    parser.add_argument("--finish", choices=("land", "rtl"), default=None, help="after the goals")
+    parser.add_argument("--finish", choices=("land", "rtl", "none"), default=None,
+                        help="after the goals (default: the scenario's; none leaves the drone hovering)")
     parser.add_argument("--out", default=None, help="run folder (default runs/<timestamp>)")
     parser.add_argument("--timeout", type=float, default=600.0, help="wall seconds for the whole run")
     parser.add_argument("--goal-timeout", type=float, default=120.0, help="wall seconds per goal")

@@ -47,8 +47,8 @@ def plot(data: RunData, out: str | Path, *, goals=(), tower=None, buf=None, titl
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig = plt.figure(figsize=(13, 6.5), dpi=100)
-    ax = fig.add_axes([0.06, 0.09, 0.46, 0.8])
+    fig = plt.figure(figsize=(15, 6.5), dpi=100)
+    ax = fig.add_axes([0.05, 0.09, 0.42, 0.8])
     src = "truth" if data.truth else "estimate"
     tracks = data.truth or data.estimate
     pts = []
@@ -72,7 +72,7 @@ def plot(data: RunData, out: str | Path, *, goals=(), tower=None, buf=None, titl
     lo, hi = allp.min(axis=0) - 5, allp.max(axis=0) + 5
     ax.set_xlim(lo[1], hi[1])
     ax.set_ylim(lo[0], hi[0])
-    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel("east, world y (m)")
     ax.set_ylabel("north, world x (m)")
     ax.grid(alpha=0.3)
@@ -93,7 +93,7 @@ def plot(data: RunData, out: str | Path, *, goals=(), tower=None, buf=None, titl
                         xy=(tip[1], tip[0]), xytext=(c[1] + d[1] * s * 0.55, c[0] + d[0] * s * 0.55),
                         arrowprops=dict(arrowstyle="->", color="purple"), color="purple", fontsize=9,
                         ha="center")
-            ins = fig.add_axes([0.385, 0.665, 0.13, 0.21])
+            ins = fig.add_axes([0.5, 0.5, 0.16, 0.36])
             for tr, color in ((tracks.get(DRONE), "tab:blue"),):
                 if tr is not None and len(tr):
                     ins.plot(tr.xyz[:, 1], tr.xyz[:, 0], color=color, lw=1)
@@ -107,11 +107,11 @@ def plot(data: RunData, out: str | Path, *, goals=(), tower=None, buf=None, titl
             ins.set_aspect("equal", adjustable="datalim")
             ins.set_title("overview (tower x red, y green)", fontsize=7)
             ins.tick_params(labelsize=6)
-    ax.legend(loc="lower left", fontsize=8)
+    ax.legend(loc="center", fontsize=8)
     ax.set_title(title or "tracks (world, seen from above)", fontsize=11)
 
-    ax2 = fig.add_axes([0.6, 0.56, 0.37, 0.33])
-    ax3 = fig.add_axes([0.6, 0.09, 0.37, 0.33], sharex=ax2)
+    ax2 = fig.add_axes([0.71, 0.56, 0.26, 0.33])
+    ax3 = fig.add_axes([0.71, 0.09, 0.26, 0.33], sharex=ax2)
     dr, rv = data.truth.get(DRONE), data.truth.get(ROVER)
     if dr is not None and rv is not None and len(dr) and len(rv):
         m = (rv.t >= dr.t[0]) & (rv.t <= dr.t[-1])
@@ -127,7 +127,8 @@ def plot(data: RunData, out: str | Path, *, goals=(), tower=None, buf=None, titl
         ax3b.tick_params(labelsize=7, colors="gray")
     ax2.set_ylabel("follow error (m)")
     ax2.grid(alpha=0.3)
-    ax2.legend(fontsize=8, loc="upper right")
+    if ax2.get_legend_handles_labels()[0]:
+        ax2.legend(fontsize=8, loc="upper right")
     ax2.set_title("rover follow and wobble over sim time", fontsize=10)
     ax3.set_ylabel("attitude-caused\nground-point error (m)", fontsize=9)
     ax3.set_xlabel("sim time (s)")

@@ -450,7 +450,8 @@ def format_summary(s: dict) -> str:
     lim = s.get("limits", {})
     lines.append(f"minimum time d/v + v/a + a/j with v {lim.get('WPNAV_SPEED', 0):g} m/s, "
                  f"a {lim.get('WPNAV_ACCEL', 0):g} m/s², j {lim.get('PSC_JERK_XY', 0):g} m/s³ "
-                 "(exact S-curve on short legs)")
+                 "(exact S-curve on short legs); reach = first sample within the radius, "
+                 "before the drone has stopped, so a ratio can dip just under 1")
     lines.append("")
     lines.append(f"  {'goal':>5}  {'tower [x, y]':>18}  {'world [x, y]':>16}  {'leg m':>6}  "
                  f"{'reach s':>7}  {'min s':>6}  {'ratio':>5}  {'rover m':>7}")

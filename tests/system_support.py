@@ -1,0 +1,61 @@
+"""Helpers for the full-system tests: one `towerlink fly` launch per test, always stopped."""
+from __future__ import annotations
+
+import contextlib
+import json
+import time
+from pathlib import Path
+
+from tools.fly import Launch
+
+# world [-4, -2] (the lab's house), world [26, -2] (a 30 m leg: full cruise at 5 m/s),
+# world [26, 8]; as tower coordinates through the default scenario's static frame.
+def tower_goals(world_xy, scenario=None) -> str:
+    import numpy as np
+    from bridge.scenario import load_scenario
+    from gcs.tower import format_goals
+    sc = load_scenario(scenario)
+    T = sc.buffer().lookup_transform("tower", "world").transform
+    return format_goals([tuple(T.apply_point(np.array([x, y, -sc.altitude]))) for x, y in world_xy])
+
+
+HOUSE = (-4.0, -2.0)
+MISSION_WORLD = [HOUSE, (26.0, -2.0), (26.0, 8.0)]
+
+
+@contextlib.contextmanager
+def launched(run_dir: Path, **kw):
+    """Start a Launch; yield it; stop every process whatever happens."""
+    kw.setdefault("speedup", 5.0)
+    kw.setdefault("seed", 1)
+    kw.setdefault("goal_timeout", 60.0)
+    launch = Launch(run_dir, **kw)
+    try:
+        launch.start()
+        yield launch
+    finally:
+        launch.stop()
+
+
+def wait_goal(launch: Launch, n: int, what: str, timeout: float) -> None:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        gs = launch.goal_state
+        if gs["n"] > n or (gs["n"] == n and (what == "sent" or gs["last"] == what)):
+            return
+        if launch.procs["tower"].poll() is not None:
+            raise AssertionError("tower ended early:\n" + "\n".join(launch.tower_lines[-15:]))
+        time.sleep(0.05)
+    raise AssertionError(f"goal {n} not {what} in {timeout} s; tower said:\n" + "\n".join(launch.tower_lines[-15:]))
+
+
+def finish(launch: Launch, timeout: float) -> dict:
+    rc = launch.wait(timeout, progress=None)
+    launch.stop()
+    s = launch.finish_run(rc)
+    assert rc == 0, (f"tower exit {rc}\n" + "\n".join(launch.tower_lines[-20:]) + "\n" + s["text"])
+    return s
+
+
+def tower_result(run_dir: Path) -> dict:
+    return json.loads((run_dir / "tower.json").read_text())

@@ -1,0 +1,97 @@
+"""The lab's checkpoints, proven on the full system: `towerlink fly` over loopback at speedup.
+
+One mission (world, bridge, tower as processes; rover following the yaw-only drone
+frame) is flown once for this module; the three checkpoints read its run folder.
+The goals are sent by the tower in TOWER coordinates: the house at world [-4, -2],
+then a 30 m leg (long enough for the drone's 5 m/s cruise at 9 m), then a 10 m leg.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from system_support import MISSION_WORLD, finish, launched, tower_goals, tower_result
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    run_dir = tmp_path_factory.mktemp("mission")
+    with launched(run_dir, goals=tower_goals(MISSION_WORLD), follow_frame="drone_yaw",
+                  finish="land") as launch:
+        s = finish(launch, timeout=150)
+    return run_dir, s
+
+
+def test_checkpoint1_goals_sent_in_tower_frame_are_reached(run):
+    run_dir, s = run
+    t = tower_result(run_dir)
+    assert t["ok"] and t["finished"]
+    assert s["goals_reached"] == s["goals_total"] >= 3
+    for g, want in zip(s["goals"], MISSION_WORLD):
+        # the tower spoke tower coordinates; the drone went to the world point they name
+        assert g["world"][:2] == pytest.approx(want, abs=1e-3)
+        assert math.dist(g["tower"][:2], want) > 100     # tower coords are nothing like world ones
+        assert g["reached"] and 0 < g["time_to_reach"] < 30
+    for g in t["goals"]:   # judged from tower-frame telemetry, within the radius
+        assert g["distance"] <= t["radius"]
+        assert math.dist(g["position"], g["goal"]) <= t["radius"] + 1e-6
+    # and the truth agrees: the drone really was at the world goal at the sim time of arrival
+    from tools.run_summary import load_run
+    d = load_run(run_dir)
+    for g, want in zip(t["goals"], MISSION_WORLD):
+        p = d.truth[1].at(g["reached_sim"])
+        assert math.dist(p[:2], want) < t["radius"] + 0.5
+    # the ratio to the minimum time is sane (radius reached before stopping: can dip below 1)
+    leg = s["goals"][1]
+    assert 0.8 < leg["ratio"] < 2.0
+
+
+def test_checkpoint2_rover_follows_the_drone_to_the_goals(run):
+    run_dir, s = run
+    errs = [g["rover_error_at_arrival"] for g in s["goals"]]
+    assert all(e is not None for e in errs)
+    # at each goal arrival the rover is close to the ground point under the drone
+    assert max(errs) < 2.0, errs
+    # and it went the whole way: its track passes near every goal
+    from tools.run_summary import load_run
+    rv = load_run(run_dir).truth[2]
+    for want in MISSION_WORLD:
+        assert np.min(np.hypot(rv.xyz[:, 0] - want[0], rv.xyz[:, 1] - want[1])) < 1.5
+
+
+def test_checkpoint3_yaw_only_frame_removes_the_wobble(run):
+    run_dir, s = run
+    fl, w = s["flight"], s["wobble"]
+    assert fl["max_speed"] > 4.5 and abs(fl["mean_height"] - 9.0) < 1.0   # ~5 m/s cruise at 9 m
+    assert w["drone"]["n"] > 50 and w["drone_yaw"]["n"] == w["drone"]["n"]
+    # attitude makes the full frame's ground point swing by metres at this height and speed
+    assert w["drone"]["max"] > 1.0
+    assert w["drone"]["rms"] >= 10 * w["drone_yaw"]["rms"]
+    assert w["drone"]["max"] >= 10 * w["drone_yaw"]["max"]
+    # the same figure recomputed from the recorded transforms (world->drone, world->drone_yaw)
+    tf = w["from_transforms"]
+    assert tf["drone"]["rms"] >= 10 * max(tf["drone_yaw"]["rms"], 1e-9)
+    assert tf["drone"]["rms"] == pytest.approx(w["drone"]["rms"], rel=0.3)
+
+
+def test_checkpoint3_rover_follow_error_rms_within_1m(run):
+    run_dir, s = run
+    fe = s["follow_error"]
+    assert fe["source"].startswith("truth") and fe["n"] > 100
+    assert fe["rms"] <= 1.0, s["text"]
+
+
+def test_run_folder_is_complete(run):
+    run_dir, s = run
+    names = {p.name for p in run_dir.iterdir()}
+    for f in ("vehicles.tlog", "bridge.tlog", "tower.tlog", "tower.json", "summary.json",
+              "summary.txt", "tracks.png", "frames.pdf", "frames.png", "frames.yaml", "meta.json"):
+        assert f in names, f
+    y = (run_dir / "frames.yaml").read_text()
+    for frame in ("tower", "drone", "drone_yaw", "rover"):
+        assert f"{frame}: \n  parent: 'world'" in y
+    assert "MISSION OK" in s["text"]
