@@ -248,3 +248,38 @@ def reset_edge(buffer: Buffer, ts: TransformStamped, authority: str = "reset") -
     """
     buffer.set_transform_static(ts, authority)
     buffer.set_transform(ts, authority)
+
+
+def static_transform_message(ts: TransformStamped, target_system: int = 0):
+    """TOWERLINK_STATIC_TRANSFORM asking a bridge to add `ts` to its buffer."""
+    tr = ts.transform
+    return tl.MAVLink_towerlink_static_transform_message(
+        target_system, 0, _frame_bytes(ts.frame_id), _frame_bytes(ts.child_frame_id),
+        [float(v) for v in tr.translation], [float(v) for v in tr.rotation])
+
+
+def publish_static(url: str, ts: TransformStamped, timeout: float = 3.0, interval: float = 0.5) -> str:
+    """Send `ts` to a bridge's tower port and wait for the bridge's verdict.
+
+    UDP may lose the request, so it is repeated every `interval` wall seconds until
+    the bridge answers with its STATUSTEXT ("static tf ... added" / "refused: ...").
+    Returns the bridge's text; raises TimeoutError if nothing answered in `timeout`.
+    """
+    import time
+
+    from bridge.dialect import mavlink_connection
+
+    conn = mavlink_connection(url, source_system=255, source_component=190)
+    try:
+        deadline = time.monotonic() + timeout
+        next_send = 0.0
+        while time.monotonic() < deadline:
+            if time.monotonic() >= next_send:
+                conn.mav.send(static_transform_message(ts))
+                next_send = time.monotonic() + interval
+            msg = conn.recv_match(type="STATUSTEXT", blocking=True, timeout=0.1)
+            if msg is not None and msg.text.startswith("static tf"):
+                return msg.text
+        raise TimeoutError(f"no bridge answered at {url} within {timeout:.1f} s")
+    finally:
+        conn.close()

@@ -57,7 +57,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("values", nargs="+", metavar="ARG",
                         help=f"{STATIC_TRANSFORM_USAGE} (static_transform_publisher's order)")
     parser.add_argument("--publish", metavar="URL",
-                        help="also send it to a running bridge's tower port, e.g. udpout:127.0.0.1:14600")
+                        help="also send it to a running bridge's tower port, e.g. udpout:127.0.0.1:14600, "
+                             "and wait for the bridge to accept or refuse it")
+    parser.add_argument("--timeout", type=float, default=3.0, metavar="S",
+                        help="wall seconds to wait for the bridge's answer with --publish (default 3)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -69,6 +72,11 @@ def run(args: argparse.Namespace) -> int:
     print(describe(ts))
     if args.publish:
         from bridge.tf_stream import publish_static  # the bridge's own sender; imported only when used
-        publish_static(args.publish, ts)
-        print(f"\npublished {ts.frame_id} -> {ts.child_frame_id} to {args.publish}")
+        try:
+            verdict = publish_static(args.publish, ts, timeout=args.timeout)
+        except TimeoutError as exc:
+            print(f"towerlink static-transform: {exc}", file=sys.stderr)
+            return 1
+        print(f"\nbridge at {args.publish}: {verdict}")
+        return 0 if "added" in verdict else 1
     return 0
