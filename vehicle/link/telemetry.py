@@ -110,6 +110,7 @@ class Telemetry:
             health &= ~POSITION_DEPENDENT
         if ap.prearm_ok():
             health |= S.MAV_SYS_STATUS_PREARM_CHECK
+        health |= S.MAV_SYS_STATUS_GEOFENCE     # no fence, never breached (MAVProxy reads this bit)
         enabled = SENSORS_PRESENT
         if not ap.armed:
             enabled &= ~S.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
