@@ -36,7 +36,7 @@ def test_publish_adds_a_static_frame_the_bridge_then_streams(processes):
     finally:
         conn.close()
 
-    # A frame the bridge owns is refused, and the tool says so with a non-zero status.
-    tool[4:12] = ["0", "0", "0", "0", "0", "0", "world", "drone"]
+    # A static edge into world (the bridge's root) is refused, and the tool says so with a non-zero status.
+    tool[4:12] = ["0", "0", "0", "0", "0", "0", "house", "world"]
     refused = subprocess.run(tool, capture_output=True, text=True, timeout=60)
     assert refused.returncode == 1 and "refused" in refused.stdout
