@@ -4,7 +4,7 @@ Position/velocity: one filterpy ``KalmanFilter`` per vehicle, 9 states
 [p (3), v (3), b (3)] in world NED, where b is the accelerometer bias expressed in the
 world frame (slowly varying). The filter is predicted at ``kf_rate`` (100 Hz) with the
 IMU specific force rotated to world by the attitude estimate plus gravity, averaged
-over the steps since the last prediction, and corrected with GPS position + velocity
+sampled at the epoch, and corrected with GPS position + velocity
 (10 Hz) and baro altitude (50 Hz). Between filter epochs the output is dead-reckoned
 with the IMU every step (vectorised) and reset to the filter state at each epoch, like
 the output predictor of ArduPilot's EKF.
@@ -12,6 +12,8 @@ the output predictor of ArduPilot's EKF.
 Attitude: not filtered here. The attitude estimate is truth rotated by a small AHRS
 error, a first-order Gauss-Markov rotation vector (0.3 deg, 5 s), and the body rates
 are the gyro (noise + bias). This models a converged AHRS without simulating one.
+The gyro is sampled every step; accelerometer, GPS (10 Hz) and baro (50 Hz) at filter
+epochs, scheduled by step counts.
 
 ``ok`` (estimate_ok): at least ``min_gps`` GPS fixes fused and position variance below
 ``ok_var`` on every axis.
@@ -70,7 +72,7 @@ def make_kf(dt: float, pos0, accel_sigma: float, gps_pos_sigma: float, gps_alt_s
     Q[0:3, 0:3] = np.eye(3) * q_acc * dt ** 4 / 4
     Q[0:3, 3:6] = Q[3:6, 0:3] = np.eye(3) * q_acc * dt ** 3 / 2
     Q[3:6, 3:6] = np.eye(3) * q_acc * dt ** 2
-    Q[6:9, 6:9] = np.eye(3) * (1e-3) ** 2 * dt   # bias random walk
+    Q[6:9, 6:9] = np.eye(3) * (0.03) ** 2 * dt   # bias random walk (fast enough to absorb AHRS tilt error)
     kf.Q = Q
     kf.x = np.zeros(9)
     kf.x[0:3] = pos0
@@ -79,68 +81,113 @@ def make_kf(dt: float, pos0, accel_sigma: float, gps_pos_sigma: float, gps_alt_s
 
 
 class Estimator:
-    """Batched front end over per-vehicle filterpy filters."""
+    """Batched front end over per-vehicle filterpy filters.
+
+    Per step (cheap, ``output_step`` vectorised or ``output_step_scalar`` per vehicle):
+    dead-reckon pos/vel with the last epoch's world acceleration; rates = gyro; attitude
+    = truth (x) AHRS error. At filter epochs (``epoch``, every kf_rate^-1 s, counted in
+    steps): sample accelerometer/GPS/baro, predict + correct each filter, reset the
+    output to the filter state."""
 
     def __init__(self, n: int, home: np.ndarray, spec, kf_rate: float = 100.0,
                  min_gps: int = 10, ok_var: float = 0.5):
         self.n = n
         self.spec = spec
-        self.kf_dt = 1.0 / kf_rate
-        self.kfs = [make_kf(self.kf_dt, home[i], spec.accel_sigma, spec.gps_pos_sigma,
-                            spec.gps_alt_sigma, spec.gps_vel_sigma) for i in range(n)]
+        self.kf_rate = kf_rate
+        self.min_gps = min_gps
+        self.ok_var = ok_var
+        self.home = np.asarray(home, float).reshape(n, 3).copy()
+        self.kfs = None
         self.H_baro = np.zeros((1, 9))
         self.H_baro[0, 2] = 1.0
         self.R_baro = np.array([[spec.baro_sigma ** 2]])
-        self.pos = np.asarray(home, float).copy()
+        self.pos = self.home.copy()
         self.vel = np.zeros((n, 3))
         self.bias = np.zeros((n, 3))
-        self.quat = np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))
-        self.rates = np.zeros((n, 3))
         self.acc = np.zeros((n, 3))
+        self.quat = np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))
+        self.dq = np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))
+        self.rates = np.zeros((n, 3))
         self.ahrs_err = np.zeros((n, 3))
         self.gps_count = np.zeros(n, dtype=int)
         self.ok = np.zeros(n, dtype=bool)
-        self._acc_sum = np.zeros((n, 3))
-        self._acc_k = 0
-        self._t_kf = 0.0
+        self.k = 0
 
-    def update(self, t: float, dt: float, sensors, true_quat: np.ndarray) -> None:
+    def _setup(self, dt: float) -> None:
         sp = self.spec
-        z = sensors.z
-        # AHRS: Gauss-Markov attitude error applied to truth
-        a = math.exp(-dt / sp.ahrs_tau)
-        self.ahrs_err = a * self.ahrs_err + sp.ahrs_sigma * math.sqrt(1 - a * a) * z[:, 13:16]
-        h = 0.5 * self.ahrs_err
-        dq = np.column_stack([h, np.ones(self.n)])
-        dq /= np.linalg.norm(dq, axis=1, keepdims=True)
-        self.quat = quat_mul(true_quat, dq)
-        self.rates = sensors.gyro
-        R = quat_to_R(self.quat)
-        acc_w = np.einsum("nij,nj->ni", R, sensors.accel) + G
-        self.acc = acc_w - self.bias
-        # output predictor: dead-reckon every step
+        self.dt = dt
+        self.n_kf = max(1, round(1.0 / (self.kf_rate * dt)))
+        self.n_gps = self.n_kf * max(1, round(self.kf_rate / sp.gps_rate))
+        self.n_baro = self.n_kf * max(1, round(self.kf_rate / sp.baro_rate))
+        self.kf_dt = self.n_kf * dt
+        self.kfs = [make_kf(self.kf_dt, self.home[i], sp.accel_sigma, sp.gps_pos_sigma,
+                            sp.gps_alt_sigma, sp.gps_vel_sigma) for i in range(self.n)]
+
+    def advance(self, dt: float) -> bool:
+        """Count one step; True when this step is a filter epoch."""
+        if self.kfs is None:
+            self._setup(dt)
+        k = self.k
+        self.k += 1
+        return k % self.n_kf == 0
+
+    def output_step(self, truth_quat: np.ndarray, truth_rates: np.ndarray, gyro_err: np.ndarray, dt: float):
+        """Vectorised per-step output (non-epoch steps)."""
         self.vel = self.vel + self.acc * dt
         self.pos = self.pos + self.vel * dt
-        self._acc_sum += acc_w
-        self._acc_k += 1
-        if t + 1e-9 < self._t_kf + self.kf_dt and not (sensors.gps_fresh or sensors.baro_fresh):
-            return
-        # filter epoch: predict with mean IMU acceleration, fuse what is fresh
-        u = self._acc_sum / max(self._acc_k, 1)
-        self._acc_sum[:] = 0.0
-        self._acc_k = 0
-        self._t_kf = t
-        gps = sensors.gps_fresh
-        baro = sensors.baro_fresh
+        self.attitude(truth_quat, truth_rates, gyro_err)
+
+    def attitude(self, truth_quat, truth_rates, gyro_err):
+        self.rates = truth_rates + gyro_err
+        self.quat = quat_mul(truth_quat, self.dq)
+
+    def epoch(self, sensors, pos, vel, acc, quat, rates, gyro_err) -> None:
+        """Filter epoch from truth arrays (n,3)/(n,4) (via the sensor models)."""
+        sp = self.spec
+        k = self.k - 1
+        gps = k % self.n_gps == 0
+        baro = k % self.n_baro == 0
+        sensors.sample(gps, baro, pos, vel, acc, quat)
+        z = sensors.z
+        a = math.exp(-self.kf_dt / sp.ahrs_tau)
+        self.ahrs_err = a * self.ahrs_err + sp.ahrs_sigma * math.sqrt(1 - a * a) * z[:, 13:16]
+        dq = np.column_stack([0.5 * self.ahrs_err, np.ones(self.n)])
+        self.dq = dq / np.linalg.norm(dq, axis=1, keepdims=True)
+        self.attitude(quat, rates, gyro_err)
+        from vehicle.sensors import rotate
+        acc_w = rotate(self.quat, sensors.accel) + G
         for i, kf in enumerate(self.kfs):
-            kf.predict(u=u[i])
+            kf.predict(u=acc_w[i])
             if gps:
                 kf.update(np.concatenate([sensors.gps_pos[i], sensors.gps_vel[i]]))
             if baro:
                 kf.update(np.array([-sensors.baro_alt[i]]), R=self.R_baro, H=self.H_baro)
-            self.pos[i] = kf.x[0:3]
-            self.vel[i] = kf.x[3:6]
-            self.bias[i] = kf.x[6:9]
+            x = kf.x
+            self.pos[i] = x[0:3]
+            self.vel[i] = x[3:6]
+            self.bias[i] = x[6:9]
             if gps:
                 self.gps_count[i] += 1
-                self.ok[i] = self.gps_count[i] >= 10 and bool(np.all(np.diag(kf.P)[0:3] < 0.5))
+                self.ok[i] = self.gps_count[i] >= self.min_gps and bool(np.all(np.diag(kf.P)[0:3] < self.ok_var))
+        self.acc = acc_w - self.bias
+
+
+def output_step_scalar(o, ph, dq, ge, dt):
+    """Per-step output for one vehicle on floats: o has px..vz, ax..az (world accel),
+    qx..qw, wx..wz; ph is the true scalar state; dq the AHRS error (x,y,z,w); ge the gyro
+    error (3,)."""
+    o.vx += o.ax * dt
+    o.vy += o.ay * dt
+    o.vz += o.az * dt
+    o.px += o.vx * dt
+    o.py += o.vy * dt
+    o.pz += o.vz * dt
+    o.wx = ph.wx + ge[0]
+    o.wy = ph.wy + ge[1]
+    o.wz = ph.wz + ge[2]
+    ax, ay, az, aw = ph.qx, ph.qy, ph.qz, ph.qw
+    bx, by, bz, bw = dq
+    o.qx = aw * bx + ax * bw + ay * bz - az * by
+    o.qy = aw * by - ax * bz + ay * bw + az * bx
+    o.qz = aw * bz + ax * by - ay * bx + az * bw
+    o.qw = aw * bw - ax * bx - ay * by - az * bz

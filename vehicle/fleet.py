@@ -34,8 +34,8 @@ import numpy as np
 from vehicle import params_core
 from vehicle.control import copter as ccore
 from vehicle.control import rover as rcore
-from vehicle.estimation import Estimator, quat_to_R
-from vehicle.physics import NumpyOps
+from vehicle.estimation import Estimator, output_step_scalar
+from vehicle.physics import NumpyOps, ScalarOps
 from vehicle.physics import multicopter as mc
 from vehicle.physics import rover as rphys
 from vehicle.sensors import Sensors, SensorSpec, vehicle_rngs
@@ -187,11 +187,55 @@ class _FleetBase:
     def _sense_and_estimate(self, dt):
         if not self.use_estimator:
             return None
-        R = quat_to_R(self.quat)
-        self.sensors.sample(self.sim_time, self.pos, self.vel, self.acc, R, self.rates)
-        self.estimator.update(self.sim_time, dt, self.sensors, self.quat)
         e = self.estimator
+        ge = self.sensors.gyro_noise()
+        if e.advance(dt):
+            e.epoch(self.sensors, self.pos, self.vel, self.acc, self.quat, self.rates, ge)
+        else:
+            e.output_step(self.quat, self.rates, ge, dt)
         return _Est(e.pos, e.vel, e.quat, e.rates)
+
+
+def _copter_core(ph, c, est, sp, armed, landed, ground_z, g, af, dt, xp):
+    """Controller + physics for one step (backend-generic). Returns the 'running' mask."""
+    climb = xp.where(sp.use_pos_z, sp.pz < ground_z - 0.25, sp.vz < -0.05)
+    idle = landed & xp.lnot(climb)
+    stop = idle | xp.lnot(armed)
+    if xp.any(stop):
+        ccore.relax(c, est, stop, xp)
+    f = ccore.step(c, est, sp, g, dt, xp)
+    om = af.omega_max
+    idle_w = xp.where(armed, om * g.spin_arm, 0.0)
+    run = armed & xp.lnot(idle)
+    mc.step(ph, [xp.where(run, fi * om, idle_w) for fi in f], af, dt, ground_z, xp)
+    return run
+
+
+def _land_detect(c, e, ph, run, armed, landed, timer, g, dt, xp):
+    """ArduPilot-style land detector: armed, low thrust demand, not moving, for
+    LAND_DETECT_TIME. Cleared by a take-off (thrust demand near hover and moving).
+    Disarmed: landed = resting on the ground."""
+    coll = xp.where(run, c.coll, 0.0)
+    quiet = (coll < 0.8 * g.hover) & (xp.abs(e.vz) < 0.3) & (e.vx * e.vx + e.vy * e.vy < 1.0)
+    timer = xp.where(armed & quiet, timer + dt, 0.0)
+    took_off = run & (c.coll > 0.9 * g.hover) & xp.lnot(quiet)
+    landed = xp.where(armed, (landed & xp.lnot(took_off)) | (timer >= g.land_time), ph.ground)
+    return landed, timer
+
+
+class _ScalarEst:
+    __slots__ = ("px", "py", "pz", "vx", "vy", "vz", "ax", "ay", "az", "qx", "qy", "qz", "qw", "wx", "wy", "wz")
+
+
+class _SoA:
+    """Arrays (n,) per field assembled from a list of scalar objects."""
+
+    def __init__(self, objs, fields):
+        for f in fields:
+            setattr(self, f, np.array([getattr(o, f) for o in objs]))
+
+
+SCALAR_MAX = 8
 
 
 class CopterFleet(_FleetBase):
@@ -199,24 +243,64 @@ class CopterFleet(_FleetBase):
 
     seed: int (vehicle i seeded with [seed, i]) or a sequence of per-vehicle seeds.
     home: (n,3) world NED start positions; each vehicle's ground is at its home z.
-    estimator=False flies on truth with no sensor noise (the 1000-drone benchmark)."""
+    estimator=False flies on truth with no sensor noise (the 1000-drone benchmark).
+    scalar: None = automatic (n <= SCALAR_MAX): small fleets step vehicle by vehicle on
+    Python floats (same source code, ScalarOps backend), which is several times faster
+    than numpy for a handful of vehicles; large fleets step as numpy arrays."""
     kind = "copter"
 
     def __init__(self, n: int, params: Mapping[str, float] | None = None, seed: int | Sequence[int] = 0,
                  home: np.ndarray | None = None, estimator: bool = True, airframe: mc.QuadAirframe | None = None,
-                 sensor_spec: SensorSpec | None = None, yaw: np.ndarray | float | None = None):
+                 sensor_spec: SensorSpec | None = None, yaw: np.ndarray | float | None = None,
+                 scalar: bool | None = None):
         self._init_common(n, params, seed, home, estimator, sensor_spec)
         self.airframe = airframe or mc.QuadAirframe()
         self.ground_z = self.home[:, 2].copy()
-        self.phys = mc.QuadState(self.n, pos=self.home, yaw=yaw)
-        self.ctrl = ccore.CopterCtrlState(self.n)
-        self.sp = ccore.SetpointArrays(self.n)
         self.gains = ccore.CopterGains(self.params)
         self._landed = np.ones(self.n, dtype=bool)
         self._land_timer = np.zeros(self.n)
-        ccore.relax(self.ctrl, self.phys, np.ones(self.n, dtype=bool))
+        self._run = np.zeros(self.n, dtype=bool)
+        self.scalar = (self.n <= SCALAR_MAX) if scalar is None else bool(scalar)
+        yaws = np.broadcast_to(np.asarray(0.0 if yaw is None else yaw, float), (self.n,))
+        if self.scalar:
+            self._ps = [mc.QuadState(None, pos=self.home[i], yaw=float(yaws[i])) for i in range(self.n)]
+            self._cs = [ccore.CopterCtrlState(None) for _ in range(self.n)]
+            self._ss = [ccore.SetpointArrays(None) for _ in range(self.n)]
+            self._gz = [float(z) for z in self.ground_z]
+            self._ests = [None] * self.n
+            for i in range(self.n):
+                ccore.relax(self._cs[i], self._ps[i], True, ScalarOps)
+        else:
+            self._phys = mc.QuadState(self.n, pos=self.home, yaw=yaws)
+            self._ctrl = ccore.CopterCtrlState(self.n)
+            self.sp = ccore.SetpointArrays(self.n)
+            ccore.relax(self._ctrl, self._phys, np.ones(self.n, dtype=bool))
         for i in range(self.n):
             self.set_setpoint(i, Setpoint())
+
+    @property
+    def phys(self):
+        """Component arrays of the true state (QuadState fields, each (n,))."""
+        return _SoA(self._ps, mc.QuadState.FIELDS) if self.scalar else self._phys
+
+    @property
+    def ctrl(self):
+        """Component arrays of the controller state (reference, integrators, coll)."""
+        return _SoA(self._cs, ccore.CopterCtrlState.FIELDS) if self.scalar else self._ctrl
+
+    @property
+    def ref_pos(self) -> np.ndarray:
+        """(n,3) shaped position reference the controller tracks (POSITION_TARGET)."""
+        c = self.ctrl
+        return np.column_stack((c.px, c.py, c.pz))
+
+    def truth(self, i: int) -> VehicleState:
+        if not self.scalar:
+            return super().truth(i)
+        s = self._ps[i]
+        return VehicleState(np.array([s.px, s.py, s.pz]), np.array([s.vx, s.vy, s.vz]),
+                            np.array([s.qx, s.qy, s.qz, s.qw]), np.array([s.wx, s.wy, s.wz]),
+                            np.array([s.ax, s.ay, s.az]), self.sim_time)
 
     def set_params(self, params: Mapping[str, float]) -> None:
         for k, v in params.items():
@@ -226,7 +310,6 @@ class CopterFleet(_FleetBase):
 
     def set_setpoint(self, i: int, sp: Setpoint) -> None:
         self.setpoints[i] = sp
-        a = self.sp
         pos, vel, acc = _vec(sp.pos), _vec(sp.vel), _vec(sp.acc)
         vel = np.zeros(3) if vel is None else np.nan_to_num(vel)
         acc = np.zeros(3) if acc is None else np.nan_to_num(acc)
@@ -237,14 +320,21 @@ class CopterFleet(_FleetBase):
             use_xy = bool(np.isfinite(pos[0]) and np.isfinite(pos[1]))
             use_z = bool(np.isfinite(pos[2]))
             pos = np.nan_to_num(pos)
-        a.px[i], a.py[i], a.pz[i] = pos
-        a.vx[i], a.vy[i], a.vz[i] = vel
-        a.ax[i], a.ay[i], a.az[i] = acc
-        a.use_pos_xy[i], a.use_pos_z[i] = use_xy, use_z
-        a.level[i] = bool(sp.level)
-        a.use_yaw[i] = sp.yaw is not None
-        a.yaw[i] = 0.0 if sp.yaw is None else float(sp.yaw)
-        a.yaw_rate[i] = 0.0 if sp.yaw_rate is None else float(sp.yaw_rate)
+        vals = dict(px=pos[0], py=pos[1], pz=pos[2], vx=vel[0], vy=vel[1], vz=vel[2],
+                    ax=acc[0], ay=acc[1], az=acc[2],
+                    yaw=0.0 if sp.yaw is None else sp.yaw, yaw_rate=0.0 if sp.yaw_rate is None else sp.yaw_rate)
+        flags = dict(use_pos_xy=use_xy, use_pos_z=use_z, level=bool(sp.level), use_yaw=sp.yaw is not None)
+        if self.scalar:
+            o = self._ss[i]
+            for k, v in vals.items():
+                setattr(o, k, float(v))
+            for k, v in flags.items():
+                setattr(o, k, v)
+        else:
+            for k, v in vals.items():
+                getattr(self.sp, k)[i] = v
+            for k, v in flags.items():
+                getattr(self.sp, k)[i] = v
 
     def land_setpoint(self, i: int, xy: Sequence[float] | None = None) -> Setpoint:
         """Descend at LAND_SPEED over xy (default: where the estimate is)."""
@@ -261,37 +351,128 @@ class CopterFleet(_FleetBase):
 
     @property
     def thrust_demand(self) -> np.ndarray:
-        """Collective thrust fraction the controller asked for (0..1)."""
-        return np.asarray(self.ctrl.coll, float).copy()
+        """Collective thrust fraction the controller asked for (0..1; 0 when idle)."""
+        return np.where(self._run, self.ctrl.coll, 0.0)
 
     def step(self, dt: float) -> None:
-        g = self.gains
-        est = self._est_view
-        if est is None:
-            est = self.phys
-        sp = self.sp
-        climb = np.where(sp.use_pos_z, sp.pz < self.ground_z - 0.25, sp.vz < -0.05)
-        idle = self._landed & ~climb
-        ccore.relax(self.ctrl, est, idle | ~self.armed)
-        f = ccore.step(self.ctrl, est, sp, g, dt)
-        om = self.airframe.omega_max
-        idle_w = np.where(self.armed, om * g.spin_arm, 0.0)
-        run = self.armed & ~idle
-        cmd = [np.where(run, fi * om, idle_w) for fi in f]
-        mc.step(self.phys, cmd, self.airframe, dt, self.ground_z)
+        """Controller (on the estimate) -> physics -> sensors -> estimator -> land detector."""
+        if self.scalar:
+            self._step_scalar(dt)
+        else:
+            self._step_vec(dt)
+
+    def _step_vec(self, dt):
+        g, xp = self.gains, NumpyOps
+        est = self._est_view if self._est_view is not None else self._phys
+        run = _copter_core(self._phys, self._ctrl, est, self.sp, self.armed, self._landed,
+                           self.ground_z, g, self.airframe, dt, xp)
         self.sim_time += dt
         self._est_view = self._sense_and_estimate(dt)
-        # land detector (ArduPilot idea): low thrust demand, not moving, for LAND_DETECT_TIME
-        e = self._est_view if self._est_view is not None else self.phys
-        coll = np.where(run, self.ctrl.coll, 0.0)
-        quiet = (coll < 0.8 * g.hover) & (np.abs(e.vz) < 0.3) & (np.hypot(e.vx, e.vy) < 1.0)
-        self._land_timer = np.where(self.armed & quiet, self._land_timer + dt, 0.0)
-        took_off = run & (self.ctrl.coll > 0.9 * g.hover) & ~quiet
-        landed = np.where(self.armed, (self._landed & ~took_off) | (self._land_timer >= g.land_time),
-                          self.phys.ground)
-        self._landed = landed
+        e = self._est_view if self._est_view is not None else self._phys
+        self._landed, self._land_timer = _land_detect(self._ctrl, e, self._phys, run, self.armed, self._landed,
+                                                      self._land_timer, g, dt, xp)
+        self._run = run
+
+    def _step_scalar(self, dt):
+        g, af, xp = self.gains, self.airframe, ScalarOps
+        armed = self.armed.tolist()
+        landed = self._landed.tolist()
+        runs = []
+        for i in range(self.n):
+            est = self._ests[i] or self._ps[i]
+            runs.append(_copter_core(self._ps[i], self._cs[i], est, self._ss[i], armed[i], landed[i],
+                                     self._gz[i], g, af, dt, xp))
+        self.sim_time += dt
+        if self.use_estimator:
+            e = self.estimator
+            ge = self.sensors.gyro_noise()
+            if e.advance(dt):
+                e.epoch(self.sensors, self.pos, self.vel, self.acc, self.quat, self.rates, ge)
+                P, V, A = e.pos.tolist(), e.vel.tolist(), e.acc.tolist()
+                Q, W, D = e.quat.tolist(), e.rates.tolist(), e.dq.tolist()
+                for i in range(self.n):
+                    o = self._ests[i] or _ScalarEst()
+                    o.px, o.py, o.pz = P[i]
+                    o.vx, o.vy, o.vz = V[i]
+                    o.ax, o.ay, o.az = A[i]
+                    o.qx, o.qy, o.qz, o.qw = Q[i]
+                    o.wx, o.wy, o.wz = W[i]
+                    self._ests[i] = o
+                self._dqs = D
+            else:
+                ge = ge.tolist()
+                for i in range(self.n):
+                    output_step_scalar(self._ests[i], self._ps[i], self._dqs[i], ge[i], dt)
+        timer = self._land_timer.tolist()
+        for i in range(self.n):
+            e = self._ests[i] or self._ps[i]
+            landed[i], timer[i] = _land_detect(self._cs[i], e, self._ps[i], runs[i], armed[i], landed[i],
+                                               timer[i], g, dt, xp)
+        self._landed = np.array(landed, dtype=bool)
+        self._land_timer = np.array(timer, dtype=float)
+        self._run = np.array(runs, dtype=bool)
 
     _est_view = None
+
+    def estimate(self, i: int) -> VehicleState:
+        if not (self.scalar and self.use_estimator and self._ests[i] is not None):
+            return super().estimate(i)
+        o = self._ests[i]
+        return VehicleState(np.array([o.px, o.py, o.pz]), np.array([o.vx, o.vy, o.vz]),
+                            np.array([o.qx, o.qy, o.qz, o.qw]), np.array([o.wx, o.wy, o.wz]),
+                            np.array([o.ax, o.ay, o.az]), self.sim_time)
+
+    def _est_stack(self, names, base):
+        if self.scalar and self.use_estimator and self._ests[0] is not None:
+            return np.array([[getattr(o, k) for k in names] for o in self._ests], dtype=float)
+        return getattr(super(), base)
+
+    @property
+    def est_pos(self):
+        return self._est_stack(("px", "py", "pz"), "est_pos")
+
+    @property
+    def est_vel(self):
+        return self._est_stack(("vx", "vy", "vz"), "est_vel")
+
+    @property
+    def est_quat(self):
+        return self._est_stack(("qx", "qy", "qz", "qw"), "est_quat")
+
+    @property
+    def est_rates(self):
+        return self._est_stack(("wx", "wy", "wz"), "est_rates")
+
+    @property
+    def est_acc(self):
+        return self._est_stack(("ax", "ay", "az"), "est_acc")
+
+    # batched arrays: fast paths for the scalar store
+    def _stack(self, names):
+        if not self.scalar:
+            s = self._phys
+            return np.column_stack([getattr(s, k) for k in names])
+        return np.array([[getattr(o, k) for k in names] for o in self._ps], dtype=float)
+
+    @property
+    def pos(self):
+        return self._stack(("px", "py", "pz"))
+
+    @property
+    def vel(self):
+        return self._stack(("vx", "vy", "vz"))
+
+    @property
+    def quat(self):
+        return self._stack(("qx", "qy", "qz", "qw"))
+
+    @property
+    def rates(self):
+        return self._stack(("wx", "wy", "wz"))
+
+    @property
+    def acc(self):
+        return self._stack(("ax", "ay", "az"))
 
 
 class RoverFleet(_FleetBase):

@@ -55,20 +55,19 @@ def vehicle_rngs(seed: int | Sequence[int], n: int) -> list[np.random.Generator]
 
 
 class NoiseSource:
-    """Per-vehicle standard normals, one (n, ROW) slice per step."""
+    """Per-vehicle standard normals, one (n, width) slice per call, drawn in blocks."""
 
-    def __init__(self, rngs: list[np.random.Generator]):
+    def __init__(self, rngs: list[np.random.Generator], width: int):
         self.rngs = rngs
         self.n = len(rngs)
+        self.width = width
         self.k = BLOCK
-        self.block = np.empty((self.n, BLOCK, ROW))
-        # constant biases drawn first, from each vehicle's own stream
-        self.biases = np.array([r.standard_normal(6) for r in rngs]).reshape(self.n, 6)
+        self.block = np.empty((self.n, BLOCK, width))
 
     def next(self) -> np.ndarray:
         if self.k >= BLOCK:
             for i, r in enumerate(self.rngs):
-                self.block[i] = r.standard_normal((BLOCK, ROW))
+                self.block[i] = r.standard_normal((BLOCK, self.width))
             self.k = 0
         z = self.block[:, self.k, :]
         self.k += 1
@@ -76,39 +75,51 @@ class NoiseSource:
 
 
 class Sensors:
-    """Samples the sensors of n vehicles from truth arrays (n,3) each step."""
+    """Samples the sensors of n vehicles from truth arrays.
+
+    The gyro is sampled every step (``gyro_noise``: the rate controller uses it); the
+    accelerometer, GPS and baro at the estimator's epochs (``sample``), scheduled by
+    step counts so every vehicle and every run sees the same sample times."""
 
     def __init__(self, rngs, spec: SensorSpec | None = None):
         self.spec = spec or SensorSpec()
-        self.noise = NoiseSource(rngs)
+        biases = np.array([r.standard_normal(6) for r in rngs]).reshape(len(rngs), 6)
+        self.noise = NoiseSource(rngs, ROW)
+        self.gyro_src = NoiseSource(rngs, 3)
         sp = self.spec
-        self.accel_bias = self.noise.biases[:, 0:3] * sp.accel_bias_sigma
-        self.gyro_bias = self.noise.biases[:, 3:6] * sp.gyro_bias_sigma
-        self.next_gps = 0.0
-        self.next_baro = 0.0
+        self.accel_bias = biases[:, 0:3] * sp.accel_bias_sigma
+        self.gyro_bias = biases[:, 3:6] * sp.gyro_bias_sigma
         self.gps_pos = self.gps_vel = self.baro_alt = None
         self.gps_fresh = False
         self.baro_fresh = False
         self.z = None
 
-    def sample(self, t: float, pos, vel, acc_world, R, rates):
-        """pos, vel, acc_world: (n,3) world NED truth; R: (n,3,3) body->world; rates (n,3)
-        body truth. Produces accel (body specific force), gyro, and, when due, gps_* and
-        baro_alt (height above home, up positive)."""
+    def gyro_noise(self) -> np.ndarray:
+        """(n,3) gyro error this step: bias + white noise."""
+        return self.gyro_bias + self.spec.gyro_sigma * self.gyro_src.next()
+
+    def sample(self, gps: bool, baro: bool, pos, vel, acc_world, quat):
+        """pos, vel, acc_world: (n,3) world NED truth; quat (n,4) xyzw body->world.
+        Produces accel (body specific force) and, when asked, gps_pos/gps_vel and
+        baro_alt (up positive, world z)."""
         sp = self.spec
         z = self.noise.next()
         self.z = z
         f_world = acc_world - np.array([0.0, 0.0, 9.80665])
-        f_body = np.einsum("nji,nj->ni", R, f_world)
-        self.accel = f_body + self.accel_bias + sp.accel_sigma * z[:, _ACC:_ACC + 3]
-        self.gyro = rates + self.gyro_bias + sp.gyro_sigma * z[:, _GYR:_GYR + 3]
-        self.gps_fresh = t + 1e-9 >= self.next_gps
-        if self.gps_fresh:
-            self.next_gps += 1.0 / sp.gps_rate
+        self.accel = rotate(quat, f_world, inverse=True) + self.accel_bias + sp.accel_sigma * z[:, _ACC:_ACC + 3]
+        self.gps_fresh = gps
+        if gps:
             sig = np.array([sp.gps_pos_sigma, sp.gps_pos_sigma, sp.gps_alt_sigma])
             self.gps_pos = pos + sig * z[:, _GPS_P:_GPS_P + 3]
             self.gps_vel = vel + sp.gps_vel_sigma * z[:, _GPS_V:_GPS_V + 3]
-        self.baro_fresh = t + 1e-9 >= self.next_baro
-        if self.baro_fresh:
-            self.next_baro += 1.0 / sp.baro_rate
+        self.baro_fresh = baro
+        if baro:
             self.baro_alt = -pos[:, 2] + sp.baro_sigma * z[:, _BARO]
+
+
+def rotate(q: np.ndarray, v: np.ndarray, inverse: bool = False) -> np.ndarray:
+    """Rotate (n,3) vectors by (n,4) xyzw quaternions (body->world; inverse: world->body)."""
+    u = -q[:, :3] if inverse else q[:, :3]
+    w = q[:, 3:4]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)

@@ -25,6 +25,7 @@ class NumpyOps:
     maximum = staticmethod(np.maximum)
     where = staticmethod(np.where)
     lnot = staticmethod(np.logical_not)
+    any = staticmethod(np.any)
 
     @staticmethod
     def clip(x, lo, hi):
@@ -53,6 +54,8 @@ class ScalarOps:
     @staticmethod
     def lnot(c):
         return not c
+
+    any = staticmethod(bool)
 
     @staticmethod
     def clip(x, lo, hi):
