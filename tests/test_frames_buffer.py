@@ -120,6 +120,8 @@ def quat(draw):
 
 @given(quat(), quat(), st.floats(0.0, 1.0), st.floats(-50, 50), st.floats(0.01, 5.0))
 def test_interpolation_is_lerp_and_slerp(q0, q1, s, t0, dt):
+    # exactly 180 deg apart the shortest path is not unique (scipy may turn the other way)
+    assume(abs(np.dot(q0, q1)) > 1e-6)
     b = Buffer()
     p0, p1 = np.array([1.0, -2.0, 3.0]), np.array([4.0, 6.0, -9.0])
     b.set_transform(ts("world", "drone", t0, Transform(p0, q0)))
