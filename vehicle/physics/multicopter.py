@@ -138,12 +138,16 @@ def step(s: QuadState, cmd, af: QuadAirframe, dt: float, ground_z, xp=NumpyOps) 
     py_n = s.py + vy_n * dt
     pz_n = s.pz + vz_n * dt
 
-    # attitude: q <- q (x) [w dt / 2, 1], renormalised
+    # attitude: q <- q (x) exp(w dt / 2) (Taylor to 3rd order in the half angle), renormalised
     hx, hy, hz = 0.5 * dt * wx_n, 0.5 * dt * wy_n, 0.5 * dt * wz_n
-    nw = qw - qx * hx - qy * hy - qz * hz
-    nx = qx + qw * hx + qy * hz - qz * hy
-    ny = qy + qw * hy - qx * hz + qz * hx
-    nz = qz + qw * hz + qx * hy - qy * hx
+    hh = hx * hx + hy * hy + hz * hz
+    cw = 1.0 - 0.5 * hh
+    sv = 1.0 - hh / 6.0
+    hx, hy, hz = hx * sv, hy * sv, hz * sv
+    nw = qw * cw - qx * hx - qy * hy - qz * hz
+    nx = qx * cw + qw * hx + qy * hz - qz * hy
+    ny = qy * cw + qw * hy - qx * hz + qz * hx
+    nz = qz * cw + qw * hz + qx * hy - qy * hx
     inv = 1.0 / xp.sqrt(nx * nx + ny * ny + nz * nz + nw * nw)
     nx, ny, nz, nw = nx * inv, ny * inv, nz * inv, nw * inv
 
