@@ -181,28 +181,30 @@ class World:
     async def _lockstep(self) -> None:
         speedup, dt = self.cfg.speedup, self.dt
         chunk = 0.02                   # wall seconds of stepping before yielding to I/O
-        min_sleep = 0.004
+        min_sleep = 0.004              # fewer, larger sleeps: steps bunch up, sim time does not care
+        max_lag = max(0.1 * speedup, 4 * dt)
         wall0, sim0 = time.monotonic(), self.t
         while not self._stop.is_set():
             now = time.monotonic()
             target = sim0 + speedup * (now - wall0)
+            if target - self.t > max_lag:
+                # the CPU cannot keep up: forget the backlog beyond max_lag, so the world runs
+                # slower than asked, never skipping or stretching a step, and never bursting
+                self.behind_events += 1
+                wall0 = now - (self.t + max_lag - sim0) / speedup
+                target = self.t + max_lag
             deadline = now + chunk
             n = 0
             while self.t + 0.5 * dt <= target:
                 self.step()
                 n += 1
-                if (n & 7) == 0 and time.monotonic() > deadline:
+                if (n & 3) == 0 and time.monotonic() > deadline:
                     break
-            now = time.monotonic()
-            target = sim0 + speedup * (now - wall0)
-            if target - self.t > max(0.05 * speedup, 4 * dt):
-                # behind: re-anchor so we run slower rather than skip or burst
-                self.behind_events += 1
-                wall0, sim0 = now, self.t
-                await asyncio.sleep(0)
+            if self.t + 0.5 * dt <= target:
+                await asyncio.sleep(0)          # behind: serve I/O, then keep stepping
                 continue
             next_wall = wall0 + (self.t + dt - sim0) / speedup
-            await asyncio.sleep(max(min_sleep, next_wall - now))
+            await asyncio.sleep(max(min_sleep, next_wall - time.monotonic()))
 
     def request_stop(self) -> None:
         if self._loop is not None and self._stop is not None:

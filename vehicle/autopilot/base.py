@@ -373,6 +373,14 @@ class Autopilot:
     def landed_state(self) -> int:
         return mav.MAV_LANDED_STATE_ON_GROUND
 
+    _sp_key = None
+
     def setpoint(self, pos=None, vel=None, acc=None, yaw=None, yaw_rate=None, level=False) -> None:
+        """Give the fleet a Setpoint (skipped when identical to the last one: cheap at 100 vehicles)."""
+        key = (None if pos is None else tuple(pos), None if vel is None else tuple(vel),
+               None if acc is None else tuple(acc), yaw, yaw_rate, level)
+        if key == self._sp_key:
+            return
+        self._sp_key = key
         self.fleet.set_setpoint(self.i, Setpoint(pos=pos, vel=vel, acc=acc, yaw=yaw, yaw_rate=yaw_rate,
                                                  level=level))

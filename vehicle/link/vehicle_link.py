@@ -124,16 +124,25 @@ class VehicleLink:
             self.next_due.setdefault(i, now)
 
     def update(self, t: float) -> None:
-        """Send whatever is due at sim time t (called at the autopilot rate)."""
+        """Send whatever is due at sim time t (called at the autopilot rate). The messages of
+        one tick go out together: one UDP datagram (MAVLink allows several frames per
+        datagram; ArduPilot's UDP output does the same), one TCP write."""
         due = self.next_due
+        batch = []
         for msgid, interval in self.schedule.items():
             nd = due[msgid]
             if t + 1e-9 >= nd:
                 msg = self.telemetry.build(msgid)
                 if msg is not None:
-                    self.send(msg)
+                    batch.append(msg.pack(self.mav))
+                    self.mav.seq = (self.mav.seq + 1) % 256
                 nd += interval
                 due[msgid] = nd if nd > t else t + interval
+        if batch:
+            self.stats["tx"] += len(batch)
+            buf = b"".join(batch)
+            for ep in self.endpoints:
+                ep.send(buf)
         if t >= self.next_stats:
             self.next_stats = t + 1.0
             for k, name in STAT_NAMES.items():
