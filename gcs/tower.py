@@ -18,7 +18,7 @@ per-goal deadline). Exit status 0 iff every goal was reached.
 
 Examples:
   towerlink tower                                   # default scenario, bridge at udpout:127.0.0.1:14600
-  towerlink tower --goals "-131.04,73.52;-105.06,88.52" --radius 0.5 --finish rtl
+  towerlink tower --goals="-131.04,73.52;-105.06,88.52" --radius 0.5 --finish rtl
   towerlink tower --connect udpout:127.0.0.1:15600 --result out/tower.json --tlog out/tower.tlog
 """
 from __future__ import annotations
@@ -237,8 +237,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scenario", default=None,
                         help="scenario TOML (default: the built-in lab scenario)")
     parser.add_argument("--goals", default=None,
-                        help='override the goals: "x,y;x,y[,z];..." in the goal frame (z down, '
-                             'default -altitude)')
+                        help='override the goals: --goals="x,y;x,y[,z];..." in the goal frame (z down, '
+                             'default -altitude; use = since they start with -)')
     parser.add_argument("--frame", default=None,
                         help="frame the goals are written in (default: the scenario's goal_frame, "
                              "'tower'); any other frame is sent as a named-frame goal")

@@ -4,7 +4,7 @@ The lab's fly.launch as one command (and the README's `make demo`):
 
   towerlink fly                                  # default scenario, speedup 5, rover follows drone_yaw
   towerlink fly my.toml --follow-frame drone     # the wobbling checkpoint-2 frame
-  towerlink fly --goals "-131.04,73.52;-105.06,88.52;-120.06,114.50" --seed 3
+  towerlink fly --goals="-131.04,73.52;-105.06,88.52;-120.06,114.50" --seed 3
 
 Three processes on loopback with free ports (so several runs can share a machine):
 
@@ -502,7 +502,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--follow-frame", choices=("drone", "drone_yaw"), default=None,
                         help="frame the rover's goal is written in (default: the scenario's)")
     parser.add_argument("--seed", type=int, default=1, help="the world's noise seed (default 1)")
-    parser.add_argument("--goals", default=None, help='override the tower goals: "x,y;x,y;..." (tower frame)')
+    parser.add_argument("--goals", default=None, help='override the tower goals: --goals="x,y;x,y;..." (tower frame; use = since they start with -)')
     parser.add_argument("--alt", type=float, default=None, help="mission altitude, m (default: scenario)")
     parser.add_argument("--radius", type=float, default=None, help="goal radius, m (default: scenario)")
     parser.add_argument("--finish", choices=("land", "rtl", "none"), default=None,
