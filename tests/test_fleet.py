@@ -1,0 +1,118 @@
+"""Fleet contract and batching: n vehicles step like n independent ones."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from vehicle import params_core
+from vehicle.control.copter import CopterGains
+from vehicle.control.rover import RoverGains
+from vehicle.fleet import CopterFleet, RoverFleet, Setpoint, VehicleState
+
+DT = 1.0 / 400.0
+TARGETS = [np.array([5.0, 0.0, -4.0]), np.array([-3.0, 6.0, -8.0]), np.array([2.0, -2.0, -2.0])]
+
+
+def fly(f, n, secs):
+    for i in range(n):
+        f.set_armed(i, True)
+        f.set_setpoint(i, Setpoint(pos=f.home[i] + TARGETS[i]))
+    for _ in range(int(round(secs / DT))):
+        f.step(DT)
+
+
+@pytest.mark.parametrize("estimator", [False, True])
+@pytest.mark.parametrize("scalar", [False, True])
+def test_batched_equals_single_runs(estimator, scalar):
+    seeds = [5, 6, 7]
+    home = np.array([[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 10.0, -1.0]])
+    batch = CopterFleet(3, seed=seeds, home=home, estimator=estimator, scalar=scalar)
+    fly(batch, 3, 4.0)
+    for i in range(3):
+        one = CopterFleet(1, seed=[seeds[i]], home=home[i:i + 1], estimator=estimator)
+        one.set_armed(0, True)
+        one.set_setpoint(0, Setpoint(pos=home[i] + TARGETS[i]))
+        for _ in range(int(round(4.0 / DT))):
+            one.step(DT)
+        np.testing.assert_allclose(batch.truth(i).pos, one.truth(0).pos, atol=1e-6)
+        np.testing.assert_allclose(batch.estimate(i).pos, one.estimate(0).pos, atol=1e-6)
+        np.testing.assert_allclose(batch.truth(i).quat, one.truth(0).quat, atol=1e-6)
+
+
+def test_vehicles_are_independent():
+    """Changing vehicle 1's target does not change vehicle 0 at all."""
+    a = CopterFleet(2, seed=1)
+    b = CopterFleet(2, seed=1)
+    for f, tgt in ((a, [0, 5, -5.0]), (b, [9, -9, -3.0])):
+        for i in range(2):
+            f.set_armed(i, True)
+        f.set_setpoint(0, Setpoint(pos=[1, 1, -3.0]))
+        f.set_setpoint(1, Setpoint(pos=tgt))
+        for _ in range(1200):
+            f.step(DT)
+    assert np.array_equal(a.truth(0).pos, b.truth(0).pos)
+    assert not np.allclose(a.truth(1).pos, b.truth(1).pos)
+
+
+def test_contract_api_shapes_and_types():
+    f = CopterFleet(2, params={"WPNAV_SPEED": 300}, seed=0, home=np.zeros((2, 3)))
+    assert f.n == 2 and f.sim_time == 0.0
+    f.step(DT)
+    assert f.sim_time == pytest.approx(DT)
+    for arr, w in ((f.est_pos, 3), (f.est_vel, 3), (f.est_quat, 4), (f.est_rates, 3), (f.pos, 3), (f.quat, 4)):
+        assert arr.shape == (2, w)
+    s = f.estimate(1)
+    assert isinstance(s, VehicleState) and s.pos.shape == (3,) and s.quat.shape == (4,)
+    assert isinstance(s.yaw, float)
+    assert isinstance(f.landed(0), bool) and isinstance(f.estimate_ok(0), bool)
+    assert f.gains.v_xy == pytest.approx(3.0)
+    f.set_params({"WPNAV_SPEED": 800, "NOT_A_PARAM": 1})
+    assert f.gains.v_xy == pytest.approx(8.0)
+    r = RoverFleet(1, seed=0)
+    r.step(DT)
+    assert r.est_pos.shape == (1, 3) and r.truth(0).pos[2] == 0.0 and r.landed(0)
+
+
+def test_land_detection_in_a_batch():
+    f = CopterFleet(3, seed=2, scalar=False)
+    for i in range(3):
+        f.set_armed(i, True)
+        f.set_setpoint(i, Setpoint(pos=[0, 0, -3.0 - i]))
+    for _ in range(int(8 / DT)):
+        f.step(DT)
+    assert not f.landed_mask.any()
+    f.set_setpoint(1, f.land_setpoint(1))
+    for _ in range(int(12 / DT)):
+        f.step(DT)
+    assert list(f.landed_mask) == [False, True, False]
+    assert f.truth(1).pos[2] == 0.0
+
+
+def test_estimator_off_fleet_flies_on_truth():
+    f = CopterFleet(50, seed=0, estimator=False, home=np.column_stack([np.arange(50.0), np.zeros(50), np.zeros(50)]))
+    assert not f.scalar
+    for i in range(50):
+        f.set_armed(i, True)
+        f.set_setpoint(i, Setpoint(pos=f.home[i] + [0, 0, -5.0]))
+    for _ in range(int(8 / DT)):
+        f.step(DT)
+    np.testing.assert_allclose(f.est_pos, f.pos)
+    assert np.all(np.abs(f.pos[:, 2] + 5.0) < 0.05)
+
+
+def test_params_core_table():
+    for kind, table in (("copter", params_core.COPTER_PARAMS), ("rover", params_core.ROVER_PARAMS)):
+        for name, d in table.items():
+            assert name == name.upper() and len(name) <= 16          # MAVLink param_id limit
+            assert d.lo <= d.default <= d.hi, name
+            assert params_core.validate(kind, name, d.default)
+        assert not params_core.validate(kind, "NOPE", 1.0)
+    assert params_core.defaults()["WPNAV_SPEED"] == 500
+    assert params_core.defaults()["ANGLE_MAX"] == 3000
+    assert params_core.defaults("rover")["CRUISE_SPEED"] >= 6
+    assert not params_core.validate("copter", "ANGLE_MAX", 9000)
+    # every default set builds the cores' gains
+    CopterGains(params_core.defaults("copter"))
+    RoverGains(params_core.defaults("rover"))
