@@ -113,10 +113,12 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     shaping.shape_xy(c, sp.px, sp.py, sp.use_pos_xy, sp.vx, sp.vy, sp.ax, sp.ay,
                      g.v_xy, g.a_xy, g.j_xy, dt, xp)
     shaping.shape_z(c, sp.pz, sp.use_pos_z, sp.vz, sp.az, g.v_up, g.v_dn, g.a_z, g.j_z, dt, xp)
-    # level mode: no horizontal control; the reference rides on the estimate
-    c.px, c.py = w(level, est.px, c.px), w(level, est.py, c.py)
-    c.vx, c.vy = w(level, est.vx, c.vx), w(level, est.vy, c.vy)
-    c.ax, c.ay = w(level, 0.0, c.ax), w(level, 0.0, c.ay)
+    any_level = xp.any(level)
+    if any_level:
+        # level mode: no horizontal control; the reference rides on the estimate
+        c.px, c.py = w(level, est.px, c.px), w(level, est.py, c.py)
+        c.vx, c.vy = w(level, est.vx, c.vx), w(level, est.vy, c.vy)
+        c.ax, c.ay = w(level, 0.0, c.ax), w(level, 0.0, c.ay)
     # yaw reference: slew to the target yaw, or integrate a yaw rate
     ymax = g.rate_y_max
     dy = wrap_pi(sp.yaw - c.yaw, xp)
@@ -137,9 +139,10 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     c.evx, c.evy = evx, evy
     atx = c.ax + g.kv_xy * evx + c.ivx + g.kd_xy * c.dvx
     aty = c.ay + g.kv_xy * evy + c.ivy + g.kd_xy * c.dvy
-    atx = w(level, 0.0, atx)
-    aty = w(level, 0.0, aty)
-    c.ivx, c.ivy = w(level, 0.0, c.ivx), w(level, 0.0, c.ivy)
+    if any_level:
+        atx = w(level, 0.0, atx)
+        aty = w(level, 0.0, aty)
+        c.ivx, c.ivy = w(level, 0.0, c.ivx), w(level, 0.0, c.ivy)
 
     vtz = c.vz + g.kp_z * (c.pz - est.pz)
     evz = vtz - est.vz

@@ -51,6 +51,10 @@ class QuadAirframe:
     ang_damp: float = 0.003      # N m/(rad/s)
     ground_friction: float = 12.0  # 1/s decay of horizontal speed on the ground
 
+    def __post_init__(self):
+        self._kt = self.kt
+        self._arm_xy = self.arm_xy
+
     @property
     def max_thrust(self) -> float:
         """Full thrust of one motor, N."""
@@ -102,10 +106,10 @@ def step(s: QuadState, cmd, af: QuadAirframe, dt: float, ground_z, xp=NumpyOps) 
     m2 = s.m2 + (cmd[2] - s.m2) * k
     m3 = s.m3 + (cmd[3] - s.m3) * k
     s.m0, s.m1, s.m2, s.m3 = m0, m1, m2, m3
-    kt = af.kt
+    kt = af._kt
     t0, t1, t2, t3 = kt * m0 * m0, kt * m1 * m1, kt * m2 * m2, kt * m3 * m3
     thrust = t0 + t1 + t2 + t3
-    d = af.arm_xy
+    d = af._arm_xy
     tau_x = d * (-t0 + t1 + t2 - t3)           # -y_i T_i
     tau_y = d * (t0 - t1 + t2 - t3)            # +x_i T_i
     tau_z = af.yaw_coeff * (t0 + t1 - t2 - t3)
@@ -154,24 +158,25 @@ def step(s: QuadState, cmd, af: QuadAirframe, dt: float, ground_z, xp=NumpyOps) 
     # ground contact: pressed into the ground (at or below it and net force down)
     g = (pz_n >= ground_z) & (az >= 0.0)
     below = pz_n > ground_z
-    pz_n = xp.where(below | g, xp.minimum(pz_n, ground_z), pz_n)
-    vz_n = xp.where(g | (below & (vz_n > 0.0)), xp.minimum(vz_n, 0.0), vz_n)
-    fr = math.exp(-af.ground_friction * dt)
-    vx_n = xp.where(g, vx_n * fr, vx_n)
-    vy_n = xp.where(g, vy_n * fr, vy_n)
-    # level roll/pitch on the ground, keep yaw
-    yaw = xp.atan2(2.0 * (nw * nz + nx * ny), 1.0 - 2.0 * (ny * ny + nz * nz))
-    nx = xp.where(g, 0.0, nx)
-    ny = xp.where(g, 0.0, ny)
-    nz = xp.where(g, xp.sin(0.5 * yaw), nz)
-    nw = xp.where(g, xp.cos(0.5 * yaw), nw)
-    wx_n = xp.where(g, 0.0, wx_n)
-    wy_n = xp.where(g, 0.0, wy_n)
-    wz_n = xp.where(g, wz_n * fr, wz_n)
-
-    s.ax = xp.where(g, 0.0, ax)
-    s.ay = xp.where(g, 0.0, ay)
-    s.az = xp.where(g, 0.0, az)
+    if xp.any(g | below):
+        pz_n = xp.where(below | g, xp.minimum(pz_n, ground_z), pz_n)
+        vz_n = xp.where(g | (below & (vz_n > 0.0)), xp.minimum(vz_n, 0.0), vz_n)
+        fr = math.exp(-af.ground_friction * dt)
+        vx_n = xp.where(g, vx_n * fr, vx_n)
+        vy_n = xp.where(g, vy_n * fr, vy_n)
+        # level roll/pitch on the ground, keep yaw
+        yaw = xp.atan2(2.0 * (nw * nz + nx * ny), 1.0 - 2.0 * (ny * ny + nz * nz))
+        nx = xp.where(g, 0.0, nx)
+        ny = xp.where(g, 0.0, ny)
+        nz = xp.where(g, xp.sin(0.5 * yaw), nz)
+        nw = xp.where(g, xp.cos(0.5 * yaw), nw)
+        wx_n = xp.where(g, 0.0, wx_n)
+        wy_n = xp.where(g, 0.0, wy_n)
+        wz_n = xp.where(g, wz_n * fr, wz_n)
+        ax = xp.where(g, 0.0, ax)
+        ay = xp.where(g, 0.0, ay)
+        az = xp.where(g, 0.0, az)
+    s.ax, s.ay, s.az = ax, ay, az
     s.px, s.py, s.pz = px_n, py_n, pz_n
     s.vx, s.vy, s.vz = vx_n, vy_n, vz_n
     s.qx, s.qy, s.qz, s.qw = nx, ny, nz, nw
