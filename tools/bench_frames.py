@@ -93,8 +93,18 @@ def main(argv: list[str] | None = None) -> int:
     qt = qt[rng.permutation(len(qt))].tolist()
     lookup = buf.lookup_transform
 
+    # many short samples (100 lookups each): on a shared machine a preempted sample
+    # only spoils itself, and the median ignores it
+    batches = [qt[i:i + 100] for i in range(0, len(qt) - 99, 100)]
+    it = iter(())
+
     def towerlink_lookups():
-        for t in qt:
+        nonlocal it
+        batch = next(it, None)
+        if batch is None:
+            it = iter(batches)
+            batch = next(it)
+        for t in batch:
             lookup("tower", "drone_yaw", t)
 
     # correctness guard: the chain equals the product of its edges
@@ -105,7 +115,7 @@ def main(argv: list[str] | None = None) -> int:
     assert got.almost_equal(ref, 1e-9), (got, ref)
 
     towerlink_lookups()  # warm caches
-    tl_us = median_time(towerlink_lookups, repeat=rep) / len(qt) * 1e6
+    tl_us = median_time(towerlink_lookups, repeat=rep * 20) / 100 * 1e6
 
     rows = []
     try:
@@ -159,11 +169,13 @@ def main(argv: list[str] | None = None) -> int:
         for m_ in prebuilt:
             st(m_, "bench")
 
+    raw = [(s, t.xyz, t.xyzw) for s, t in zip(stamps, tfs)]  # as telemetry arrives: floats
+
     def build_and_insert():
         b = Buffer(cache_time=SECONDS)
         st = b.set_transform
-        for s, t in zip(stamps, tfs):
-            st(TransformStamped("world", "drone", s, t), "bench")
+        for s, p, q in raw:
+            st(TransformStamped("world", "drone", s, Transform(p, q)), "bench")
 
     irep = 3 if args.quick else 7
     i_rate = nins / median_time(inserts, repeat=irep)
@@ -171,7 +183,7 @@ def main(argv: list[str] | None = None) -> int:
     rows.append(["set_transform, pre-built TransformStamped", _fmt_rate(i_rate), "-", "-", "-",
                  f">= {INSERT_TARGET_PER_S / 1e3:.0f} k/s",
                  "met" if i_rate >= INSERT_TARGET_PER_S else "MISSED"])
-    rows.append(["set_transform incl. building the TransformStamped", _fmt_rate(ib_rate), "-", "-", "-",
+    rows.append(["set_transform incl. building Transform + TransformStamped", _fmt_rate(ib_rate), "-", "-", "-",
                  f">= {INSERT_TARGET_PER_S / 1e3:.0f} k/s",
                  "met" if ib_rate >= INSERT_TARGET_PER_S else "MISSED"])
 

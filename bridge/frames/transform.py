@@ -278,9 +278,37 @@ class Transform:
 
     def __init__(self, translation: Any = (0.0, 0.0, 0.0),
                  rotation: Any = (0.0, 0.0, 0.0, 1.0)) -> None:
-        t = _as_floats(translation, 3, "translation")
-        q = _checked_quat(_as_floats(rotation, 4, "rotation"))
-        _setattr(self, "_v", t + q)
+        # fast path: unpack 3 + 4 numbers, one isfinite each, one norm check
+        if type(translation) is np.ndarray:
+            translation = translation.tolist()
+        if type(rotation) is np.ndarray:
+            rotation = rotation.tolist()
+        try:
+            x, y, z = translation
+            qx, qy, qz, qw = rotation
+            x = float(x)
+            y = float(y)
+            z = float(z)
+            qx = float(qx)
+            qy = float(qy)
+            qz = float(qz)
+            qw = float(qw)
+        except (TypeError, ValueError):
+            t = _as_floats(translation, 3, "translation")  # raises the precise error
+            q = _as_floats(rotation, 4, "rotation")
+            raise InvalidArgumentException(f"invalid transform {t} {q}")  # pragma: no cover
+        n2 = qx * qx + qy * qy + qz * qz + qw * qw
+        if not (_isfinite(x) and _isfinite(y) and _isfinite(z) and _isfinite(n2)
+                and 0.9801 <= n2 <= 1.0201 and n2 != 1.0):
+            if n2 == 1.0 and _isfinite(x) and _isfinite(y) and _isfinite(z):
+                _setattr(self, "_v", (x, y, z, qx, qy, qz, qw))
+                return
+            t = _as_floats((x, y, z), 3, "translation")
+            q = _checked_quat(_as_floats((qx, qy, qz, qw), 4, "rotation"))
+            _setattr(self, "_v", t + q)
+            return
+        n = _sqrt(n2)
+        _setattr(self, "_v", (x, y, z, qx / n, qy / n, qz / n, qw / n))
 
     # fast internal constructor: no validation, for values computed from valid ones
     @classmethod
