@@ -127,6 +127,11 @@ def test_invalid_lookup_arguments(buf):
     for bad in (math.nan, math.inf, "now", None):
         with pytest.raises(InvalidArgumentException):
             buf.lookup_transform("world", "drone", bad)
+    for bad_frame in (["world"], None, 3):
+        with pytest.raises(InvalidArgumentException, match="must be str"):
+            buf.lookup_transform(bad_frame, "drone", 10.0)
+        with pytest.raises(InvalidArgumentException, match="must be str"):
+            buf.lookup_transform("world", bad_frame)
     with pytest.raises(InvalidArgumentException):
         buf.lookup_transform("world", "drone", 10.0, timeout=-1.0)
     with pytest.raises(InvalidArgumentException):

@@ -341,12 +341,12 @@ class Buffer:
         """(source edges up to the common ancestor, target edges likewise, the dynamic
         edges among them, the compiled evaluator or None for a frame to itself).
         Lock held."""
+        _check_frame_id(target, f"{fn} argument target_frame")
+        _check_frame_id(source, f"{fn} argument source_frame")
         key = (target, source)
         p = self._paths.get(key)
         if p is not None:
             return p
-        _check_frame_id(target, f"{fn} argument target_frame")
-        _check_frame_id(source, f"{fn} argument source_frame")
         frames = self._frames
         if target not in frames:
             raise LookupException(
@@ -402,7 +402,10 @@ class Buffer:
     def _lookup_locked(self, target: str, source: str, time: Any,
                        fn: str = "lookupTransform") -> tuple[float, tuple]:
         """(stamp used, 7-tuple of target <- source). Lock held."""
-        p = self._paths.get((target, source))
+        try:
+            p = self._paths.get((target, source))
+        except TypeError:  # unhashable frame id
+            p = None
         if p is None:
             p = self._path(target, source, fn)
         src, tgt, dyn, ev = p
@@ -462,7 +465,10 @@ class Buffer:
             # hot path: explicit time and a cached path; everything else goes the long way
             lock.acquire()
             try:
-                p = self._paths.get((target_frame, source_frame))
+                try:
+                    p = self._paths.get((target_frame, source_frame))
+                except TypeError:  # unhashable frame id: let _path say what is wrong
+                    p = None
                 if p is not None:
                     v = p[3](time)
                 else:
