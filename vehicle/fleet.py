@@ -205,9 +205,13 @@ def _copter_core(ph, c, est, sp, armed, landed, ground_z, g, af, dt, xp):
         ccore.relax(c, est, stop, xp)
     f = ccore.step(c, est, sp, g, dt, xp)
     om = af.omega_max
-    idle_w = xp.where(armed, om * g.spin_arm, 0.0)
     run = armed & xp.lnot(idle)
-    mc.step(ph, [xp.where(run, fi * om, idle_w) for fi in f], af, dt, ground_z, xp)
+    if xp.all(run):
+        cmd = [fi * om for fi in f]
+    else:
+        idle_w = xp.where(armed, om * g.spin_arm, 0.0)
+        cmd = [xp.where(run, fi * om, idle_w) for fi in f]
+    mc.step(ph, cmd, af, dt, ground_z, xp)
     return run
 
 
@@ -263,6 +267,11 @@ class CopterFleet(_FleetBase):
         self.scalar = (self.n <= SCALAR_MAX) if scalar is None else bool(scalar)
         yaws = np.broadcast_to(np.asarray(0.0 if yaw is None else yaw, float), (self.n,))
         if self.scalar:
+            # plain lists: the per-vehicle loop reads and writes them without numpy calls
+            self._landed = [True] * self.n
+            self._land_timer = [0.0] * self.n
+            self._run = [False] * self.n
+            self._armed_l = [False] * self.n
             self._ps = [mc.QuadState(None, pos=self.home[i], yaw=float(yaws[i])) for i in range(self.n)]
             self._cs = [ccore.CopterCtrlState(None) for _ in range(self.n)]
             self._ss = [ccore.SetpointArrays(None) for _ in range(self.n)]
@@ -347,12 +356,17 @@ class CopterFleet(_FleetBase):
 
     @property
     def landed_mask(self) -> np.ndarray:
-        return self._landed.copy()
+        return np.array(self._landed, dtype=bool)
 
     @property
     def thrust_demand(self) -> np.ndarray:
         """Collective thrust fraction the controller asked for (0..1; 0 when idle)."""
-        return np.where(self._run, self.ctrl.coll, 0.0)
+        return np.where(np.array(self._run, dtype=bool), self.ctrl.coll, 0.0)
+
+    def set_armed(self, i: int, armed: bool) -> None:
+        self.armed[i] = bool(armed)
+        if self.scalar:
+            self._armed_l[i] = bool(armed)
 
     def step(self, dt: float) -> None:
         """Controller (on the estimate) -> physics -> sensors -> estimator -> land detector."""
@@ -375,13 +389,13 @@ class CopterFleet(_FleetBase):
 
     def _step_scalar(self, dt):
         g, af, xp = self.gains, self.airframe, ScalarOps
-        armed = self.armed.tolist()
-        landed = self._landed.tolist()
-        runs = []
+        armed = self._armed_l
+        landed = self._landed
+        runs = self._run
         for i in range(self.n):
             est = self._ests[i] or self._ps[i]
-            runs.append(_copter_core(self._ps[i], self._cs[i], est, self._ss[i], armed[i], landed[i],
-                                     self._gz[i], g, af, dt, xp))
+            runs[i] = _copter_core(self._ps[i], self._cs[i], est, self._ss[i], armed[i], landed[i],
+                                   self._gz[i], g, af, dt, xp)
         self.sim_time += dt
         if self.use_estimator:
             e = self.estimator
@@ -403,14 +417,11 @@ class CopterFleet(_FleetBase):
                 ge = ge.tolist()
                 for i in range(self.n):
                     output_step_scalar(self._ests[i], self._ps[i], self._dqs[i], ge[i], dt)
-        timer = self._land_timer.tolist()
+        timer = self._land_timer
         for i in range(self.n):
             e = self._ests[i] or self._ps[i]
             landed[i], timer[i] = _land_detect(self._cs[i], e, self._ps[i], runs[i], armed[i], landed[i],
                                                timer[i], g, dt, xp)
-        self._landed = np.array(landed, dtype=bool)
-        self._land_timer = np.array(timer, dtype=float)
-        self._run = np.array(runs, dtype=bool)
 
     _est_view = None
 

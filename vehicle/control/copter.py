@@ -102,6 +102,16 @@ def relax(c: CopterCtrlState, est, mask, xp=NumpyOps) -> None:
     c.yaw = w(mask, quat_yaw(est.qx, est.qy, est.qz, est.qw, xp), c.yaw)
 
 
+_ALPHA = {}
+
+
+def _filter_alphas(dt: float) -> tuple[float, float]:
+    a = _ALPHA.get(dt)
+    if a is None:
+        a = _ALPHA[dt] = (1.0 - math.exp(-2.0 * math.pi * 5.0 * dt), 1.0 - math.exp(-2.0 * math.pi * 20.0 * dt))
+    return a
+
+
 def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float, xp=NumpyOps):
     """One controller step on the estimate ``est`` (attributes px..vz, qx..qw, wx..wz).
 
@@ -123,7 +133,6 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     ymax = g.rate_y_max
     dy = wrap_pi(sp.yaw - c.yaw, xp)
     yr = w(sp.use_yaw, xp.clip(dy * g.ang_y, -ymax, ymax), xp.clip(sp.yaw_rate, -ymax, ymax))
-    yr = w(sp.use_yaw & (xp.abs(dy) < xp.abs(yr) * dt), dy / dt, yr)
     c.yaw = wrap_pi(c.yaw + yr * dt, xp)
 
     # ---- position / velocity -----------------------------------------------------
@@ -133,7 +142,7 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     evy = vty - est.vy
     c.ivx = xp.clip(c.ivx + g.ki_xy * evx * dt, -g.imax_xy, g.imax_xy)
     c.ivy = xp.clip(c.ivy + g.ki_xy * evy * dt, -g.imax_xy, g.imax_xy)
-    alpha = 1.0 - math.exp(-2.0 * math.pi * 5.0 * dt)        # 5 Hz D filter
+    alpha, alpha_r = _filter_alphas(dt)                       # 5 Hz / 20 Hz D filters
     c.dvx = c.dvx + ((evx - c.evx) / dt - c.dvx) * alpha
     c.dvy = c.dvy + ((evy - c.evy) / dt - c.dvy) * alpha
     c.evx, c.evy = evx, evy
@@ -183,7 +192,6 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     rtz = xp.clip(g.ang_y * sgn * ez, -ymax, ymax) + yr
 
     # ---- rate PID -----------------------------------------------------------------
-    alpha_r = 1.0 - math.exp(-2.0 * math.pi * 20.0 * dt)    # 20 Hz D filter
     (pr, ir, dr, mr), (pp, ip, dp, mp), (py, iy, dyy, my) = g.rat
     erx = rtx - est.wx
     ery = rty - est.wy

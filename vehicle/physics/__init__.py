@@ -26,6 +26,7 @@ class NumpyOps:
     where = staticmethod(np.where)
     lnot = staticmethod(np.logical_not)
     any = staticmethod(np.any)
+    all = staticmethod(np.all)
 
     @staticmethod
     def clip(x, lo, hi):
@@ -56,6 +57,7 @@ class ScalarOps:
         return not c
 
     any = staticmethod(bool)
+    all = staticmethod(bool)
 
     @staticmethod
     def clip(x, lo, hi):
