@@ -6,7 +6,6 @@ import random
 
 import numpy as np
 import pytest
-import yaml
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation, Slerp
@@ -322,6 +321,7 @@ def test_static_dynamic_switch_replaces_edge():
 
 
 def test_introspection_and_clear():
+    yaml = pytest.importorskip("yaml")  # PyYAML: in the venv, not a declared test dependency
     b = Buffer()
     b.set_transform_static(ts("world", "tower", 0.0, Transform((1, 0, 0))), authority="scenario")
     for i in range(11):
