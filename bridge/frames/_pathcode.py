@@ -11,7 +11,9 @@ shape, and binds it to a path's edge objects with a closure.
 
 The generated code is equivalent to ``Buffer._eval_generic`` (the tests check
 chains against independent matrix products, and the buffer tests run both).
-Edges are read at call time (``E.value``, ``E.stamps``, ``E.values``), so new
+SLERP constants per segment come from ``E.segs`` (computed on insert, see
+``buffer._segment``). Edges are read at call time (``E.value``, ``E.stamps``,
+``E.values``, ``E.segs``), so new
 samples and updated static values are seen without regenerating; a change of
 tree structure drops the path cache and so rebinds.
 """
@@ -44,27 +46,19 @@ def _sample(lines: list[str], k: int, static: bool, o: str) -> None:
         "        s = (t - s0) / (st[i] - s0)",
         "        x0, y0, z0, p0, p1, p2, p3 = vs[i - 1]",
         "        x1, y1, z1, q0, q1, q2, q3 = vs[i]",
-        "        d = p0 * q0 + p1 * q1 + p2 * q2 + p3 * q3",
-        "        if d < 0.0:",
-        "            d = -d",
-        "            q0 = -q0",
-        "            q1 = -q1",
-        "            q2 = -q2",
-        "            q3 = -q3",
-        "        if d < _NL:",
-        "            th = _acos(d)",
-        "            si = 1.0 / _sin(th)",
-        "            k0 = _sin((1.0 - s) * th) * si",
-        "            k1 = _sin(s * th) * si",
+        f"        th, sp, sq = E{k}.segs[i]",
+        "        if th:",
+        "            k0 = _sin((1.0 - s) * th) * sp",
+        "            k1 = _sin(s * th) * sq",
         f"            {o}3 = k0 * p0 + k1 * q0",
         f"            {o}4 = k0 * p1 + k1 * q1",
         f"            {o}5 = k0 * p2 + k1 * q2",
         f"            {o}6 = k0 * p3 + k1 * q3",
         "        else:",
-        "            w0 = p0 + (q0 - p0) * s",
-        "            w1 = p1 + (q1 - p1) * s",
-        "            w2 = p2 + (q2 - p2) * s",
-        "            w3 = p3 + (q3 - p3) * s",
+        "            w0 = p0 + (sq * q0 - p0) * s",
+        "            w1 = p1 + (sq * q1 - p1) * s",
+        "            w2 = p2 + (sq * q2 - p2) * s",
+        "            w3 = p3 + (sq * q3 - p3) * s",
         "            m = 1.0 / _sqrt(w0 * w0 + w1 * w1 + w2 * w2 + w3 * w3)",
         f"            {o}3 = w0 * m",
         f"            {o}4 = w1 * m",

@@ -58,7 +58,7 @@ from .errors import (ConnectivityException, ExtrapolationException,
 from . import _pathcode
 from .stamped import (LATEST, PointStamped, PoseStamped, TransformStamped, VectorStamped,
                       _Latest, check_time)
-from .transform import (IDENTITY7, Transform, _compose, _interpolate, _inv_compose,
+from .transform import (IDENTITY7, SLERP_NLERP_DOT, Transform, _compose, _interpolate, _inv_compose,
                         _inverse)
 
 _isfinite = math.isfinite
@@ -96,7 +96,7 @@ class EdgeStats:
 
 
 class _Edge:
-    __slots__ = ("child", "parent", "stamps", "values", "value", "authority",
+    __slots__ = ("child", "parent", "stamps", "values", "segs", "value", "authority",
                  "inserts", "rejected_old", "static_stamp")
 
     def __init__(self, child: str, parent: str, static: bool, authority: str) -> None:
@@ -104,6 +104,9 @@ class _Edge:
         self.parent = parent
         self.stamps: list[float] | None = None if static else []
         self.values: list[tuple] | None = None if static else []
+        # segs[i] = SLERP constants of the segment values[i-1] -> values[i] (see _segment);
+        # segs[0] is unused. Kept parallel to stamps/values.
+        self.segs: list[tuple] | None = None if static else []
         self.value: tuple = IDENTITY7
         self.authority = authority
         self.inserts = 0
@@ -152,6 +155,26 @@ def _sample_edge(e: _Edge, t: float, target: str, source: str) -> tuple:
             vals = e.values
             return _interpolate(vals[i - 1], vals[i], (t - s0) / (s1 - s0))
     raise _extrapolation(e, t, target, source)
+
+
+_NO_SEGMENT = (0.0, 1.0, 1.0)
+
+
+def _segment(a: tuple, b: tuple) -> tuple[float, float, float]:
+    """SLERP constants for interpolating from sample a to sample b, computed on insert
+    so lookups skip the dot product, acos and one sin: (theta, 1/sin(theta),
+    +-1/sin(theta)), the sign taking the short way round (q vs -q). Below the nlerp
+    threshold theta is 0.0 and the last entry is just the sign."""
+    d = a[3] * b[3] + a[4] * b[4] + a[5] * b[5] + a[6] * b[6]
+    sign = 1.0
+    if d < 0.0:
+        d = -d
+        sign = -1.0
+    if d < SLERP_NLERP_DOT:
+        th = math.acos(d)
+        si = 1.0 / math.sin(th)
+        return (th, si, sign * si)
+    return (0.0, 1.0, sign)
 
 
 def _identity_ev(t: float) -> tuple:
@@ -294,24 +317,33 @@ class Buffer:
             if e is None or e.parent != parent or e.stamps is None:
                 e = self._replace_edge(child, parent, False, authority)
             stamps = e.stamps
+            values = e.values
+            segs = e.segs
             if not stamps or stamp > stamps[-1]:
+                segs.append(_segment(values[-1], v) if values else _NO_SEGMENT)
                 stamps.append(stamp)
-                e.values.append(v)
+                values.append(v)
                 cutoff = stamp - self._cache_time
                 if stamps[0] < cutoff:
                     k = bisect_left(stamps, cutoff)
                     del stamps[:k]
-                    del e.values[:k]
+                    del values[:k]
+                    del segs[:k]
             else:
                 if stamp < stamps[-1] - self._cache_time:
                     e.rejected_old += 1
                     return False
                 i = bisect_left(stamps, stamp)
                 if stamps[i] == stamp:
-                    e.values[i] = v
+                    values[i] = v
                 else:
                     stamps.insert(i, stamp)
-                    e.values.insert(i, v)
+                    values.insert(i, v)
+                    segs.insert(i, _NO_SEGMENT)
+                if i:
+                    segs[i] = _segment(values[i - 1], v)
+                if i + 1 < len(values):
+                    segs[i + 1] = _segment(v, values[i + 1])
             e.authority = authority
             e.inserts += 1
             if self._waiting:
