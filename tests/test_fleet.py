@@ -116,3 +116,25 @@ def test_params_core_table():
     # every default set builds the cores' gains
     CopterGains(params_core.defaults("copter"))
     RoverGains(params_core.defaults("rover"))
+
+
+@pytest.mark.parametrize("estimator", [False, True])
+def test_rover_batched_equals_single_runs(estimator):
+    seeds = [3, 4]
+    home = np.array([[0.0, 0.0, 0.0], [5.0, 5.0, 0.0]])
+    goals = [np.array([20.0, -10.0, 0.0]), np.array([-15.0, 8.0, 0.0])]
+    batch = RoverFleet(2, seed=seeds, home=home, estimator=estimator, scalar=False)
+    for i in range(2):
+        batch.set_armed(i, True)
+        batch.set_setpoint(i, Setpoint(pos=goals[i]))
+    for _ in range(int(5 / DT)):
+        batch.step(DT)
+    for i in range(2):
+        one = RoverFleet(1, seed=[seeds[i]], home=home[i:i + 1], estimator=estimator)
+        assert one.scalar
+        one.set_armed(0, True)
+        one.set_setpoint(0, Setpoint(pos=goals[i]))
+        for _ in range(int(5 / DT)):
+            one.step(DT)
+        np.testing.assert_allclose(batch.truth(i).pos, one.truth(0).pos, atol=1e-6)
+        np.testing.assert_allclose(batch.estimate(i).pos, one.estimate(0).pos, atol=1e-6)

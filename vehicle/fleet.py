@@ -90,101 +90,165 @@ class _Est:
         self.wx, self.wy, self.wz = rates[:, 0], rates[:, 1], rates[:, 2]
 
 
-class _FleetBase:
-    kind = "copter"
+class _ScalarEst:
+    __slots__ = ("px", "py", "pz", "vx", "vy", "vz", "ax", "ay", "az", "qx", "qy", "qz", "qw", "wx", "wy", "wz")
 
-    def _init_common(self, n, params, seed, home, estimator, sensor_spec):
+
+class _SoA:
+    """Arrays (n,) per field assembled from a list of scalar objects."""
+
+    def __init__(self, objs, fields):
+        for f in fields:
+            setattr(self, f, np.array([getattr(o, f) for o in objs]))
+
+
+SCALAR_MAX = 8
+
+
+class _FleetBase:
+    """Shared storage and accessors. Two stores, one source of truth each:
+    vector (numpy (n,) arrays per component, ``self._phys``) for big fleets, scalar
+    (a list of per-vehicle float states, ``self._ps``) for small ones (n <= SCALAR_MAX),
+    where Python floats beat numpy's per-call overhead several times over."""
+    kind = "copter"
+    STATE_FIELDS: tuple[str, ...] = ()
+
+    def _init_common(self, n, params, seed, home, estimator, sensor_spec, scalar):
         self.n = int(n)
         self.home = np.zeros((self.n, 3)) if home is None else np.array(home, float).reshape(self.n, 3)
         self.params = params_core.merged(self.kind, params)
         self.sim_time = 0.0
         self.armed = np.zeros(self.n, dtype=bool)
+        self._armed_l = [False] * self.n
         self.use_estimator = bool(estimator)
         self.spec = sensor_spec or SensorSpec()
+        self.scalar = (self.n <= SCALAR_MAX) if scalar is None else bool(scalar)
         if self.use_estimator:
             rngs = vehicle_rngs(seed, self.n)
             self.sensors = Sensors(rngs, self.spec)
             self.estimator = Estimator(self.n, self.home, self.spec)
+        self._ests = [None] * self.n
+        self._dqs = None
+        self._est_view = None
         self.setpoints: list[Setpoint] = [Setpoint() for _ in range(self.n)]
 
-    # ---- batched arrays (n,3)/(n,4) ----------------------------------------------
+    # ---- true state --------------------------------------------------------------
+    @property
+    def phys(self):
+        """Component arrays of the true state (each (n,))."""
+        return _SoA(self._ps, self.STATE_FIELDS) if self.scalar else self._phys
+
+    def _stack(self, names):
+        if not self.scalar:
+            s = self._phys
+            return np.column_stack([getattr(s, k) for k in names])
+        return np.array([[getattr(o, k) for k in names] for o in self._ps], dtype=float)
+
     @property
     def pos(self) -> np.ndarray:
-        s = self.phys
-        return np.column_stack((s.px, s.py, s.pz))
+        """(n,3) true positions (scoring); est_pos is what the autopilot should use."""
+        return self._stack(("px", "py", "pz"))
 
     @property
     def vel(self) -> np.ndarray:
-        s = self.phys
-        return np.column_stack((s.vx, s.vy, s.vz))
+        return self._stack(("vx", "vy", "vz"))
 
     @property
     def quat(self) -> np.ndarray:
-        s = self.phys
-        return np.column_stack((s.qx, s.qy, s.qz, s.qw))
+        return self._stack(("qx", "qy", "qz", "qw"))
 
     @property
     def rates(self) -> np.ndarray:
-        s = self.phys
-        return np.column_stack((s.wx, s.wy, s.wz))
+        return self._stack(("wx", "wy", "wz"))
 
     @property
     def acc(self) -> np.ndarray:
-        s = self.phys
-        return np.column_stack((s.ax, s.ay, s.az))
+        return self._stack(("ax", "ay", "az"))
+
+    def truth(self, i: int) -> VehicleState:
+        """True state of vehicle i (for scoring; the autopilot uses estimate())."""
+        if self.scalar:
+            s = self._ps[i]
+            return VehicleState(np.array([s.px, s.py, s.pz]), np.array([s.vx, s.vy, s.vz]),
+                                np.array([s.qx, s.qy, s.qz, s.qw]), np.array([s.wx, s.wy, s.wz]),
+                                np.array([s.ax, s.ay, s.az]), self.sim_time)
+        s = self._phys
+        return VehicleState(np.array([s.px[i], s.py[i], s.pz[i]]), np.array([s.vx[i], s.vy[i], s.vz[i]]),
+                            np.array([s.qx[i], s.qy[i], s.qz[i], s.qw[i]]),
+                            np.array([s.wx[i], s.wy[i], s.wz[i]]), np.array([s.ax[i], s.ay[i], s.az[i]]),
+                            self.sim_time)
+
+    # ---- estimate ----------------------------------------------------------------
+    def _scalar_est_live(self) -> bool:
+        return self.scalar and self.use_estimator and self._ests[0] is not None
+
+    def _est_stack(self, names, arr_name):
+        if not self.use_estimator:
+            return self._stack(names)
+        if self._scalar_est_live():
+            return np.array([[getattr(o, k) for k in names] for o in self._ests], dtype=float)
+        return getattr(self.estimator, arr_name).copy()
 
     @property
     def est_pos(self) -> np.ndarray:
-        return self.estimator.pos.copy() if self.use_estimator else self.pos
+        """(n,3) estimated positions, world NED."""
+        return self._est_stack(("px", "py", "pz"), "pos")
 
     @property
     def est_vel(self) -> np.ndarray:
-        return self.estimator.vel.copy() if self.use_estimator else self.vel
+        return self._est_stack(("vx", "vy", "vz"), "vel")
 
     @property
     def est_quat(self) -> np.ndarray:
-        return self.estimator.quat.copy() if self.use_estimator else self.quat
+        """(n,4) estimated attitude, x,y,z,w body(FRD)->world(NED)."""
+        return self._est_stack(("qx", "qy", "qz", "qw"), "quat")
 
     @property
     def est_rates(self) -> np.ndarray:
-        return self.estimator.rates.copy() if self.use_estimator else self.rates
+        return self._est_stack(("wx", "wy", "wz"), "rates")
 
     @property
     def est_acc(self) -> np.ndarray:
-        return self.estimator.acc.copy() if self.use_estimator else self.acc
+        return self._est_stack(("ax", "ay", "az"), "acc")
 
     @property
     def est_yaw(self) -> np.ndarray:
         q = self.est_quat
         return np.arctan2(2 * (q[:, 3] * q[:, 2] + q[:, 0] * q[:, 1]), 1 - 2 * (q[:, 1] ** 2 + q[:, 2] ** 2))
 
-    def truth(self, i: int) -> VehicleState:
-        """True state of vehicle i (for scoring; the autopilot uses estimate())."""
-        s = self.phys
-        return VehicleState(np.array([s.px[i], s.py[i], s.pz[i]]), np.array([s.vx[i], s.vy[i], s.vz[i]]),
-                            np.array([s.qx[i], s.qy[i], s.qz[i], s.qw[i]]),
-                            np.array([s.wx[i], s.wy[i], s.wz[i]]), np.array([s.ax[i], s.ay[i], s.az[i]]),
-                            self.sim_time)
-
     def estimate(self, i: int) -> VehicleState:
         """What the autopilot believes about vehicle i."""
         if not self.use_estimator:
             return self.truth(i)
+        if self._scalar_est_live():
+            o = self._ests[i]
+            return VehicleState(np.array([o.px, o.py, o.pz]), np.array([o.vx, o.vy, o.vz]),
+                                np.array([o.qx, o.qy, o.qz, o.qw]), np.array([o.wx, o.wy, o.wz]),
+                                np.array([o.ax, o.ay, o.az]), self.sim_time)
         e = self.estimator
         return VehicleState(e.pos[i].copy(), e.vel[i].copy(), e.quat[i].copy(), e.rates[i].copy(),
                             e.acc[i].copy(), self.sim_time)
 
     def estimate_ok(self, i: int) -> bool:
+        """Position estimate good (pre-arm): always True when flying on truth."""
         return True if not self.use_estimator else bool(self.estimator.ok[i])
 
     def set_armed(self, i: int, armed: bool) -> None:
         self.armed[i] = bool(armed)
+        self._armed_l[i] = bool(armed)
 
     def setpoint(self, i: int) -> Setpoint:
         """The last Setpoint given to vehicle i."""
         return self.setpoints[i]
 
-    def _sense_and_estimate(self, dt):
+    def set_params(self, params: Mapping[str, float]) -> None:
+        """Live tuning by ArduPilot name; names this kind does not use are ignored."""
+        for k, v in params.items():
+            if k in self.params:
+                self.params[k] = float(v)
+        self._make_gains()
+
+    def _sense_and_estimate_vec(self, dt):
         if not self.use_estimator:
             return None
         e = self.estimator
@@ -194,6 +258,30 @@ class _FleetBase:
         else:
             e.output_step(self.quat, self.rates, ge, dt)
         return _Est(e.pos, e.vel, e.quat, e.rates)
+
+    def _sense_and_estimate_scalar(self, dt) -> None:
+        """Estimator for the scalar store: epochs vectorised, output steps on floats."""
+        if not self.use_estimator:
+            return
+        e = self.estimator
+        ge = self.sensors.gyro_noise()
+        if e.advance(dt):
+            e.epoch(self.sensors, self.pos, self.vel, self.acc, self.quat, self.rates, ge)
+            P, V, A = e.pos.tolist(), e.vel.tolist(), e.acc.tolist()
+            Q, W = e.quat.tolist(), e.rates.tolist()
+            for i in range(self.n):
+                o = self._ests[i] or _ScalarEst()
+                o.px, o.py, o.pz = P[i]
+                o.vx, o.vy, o.vz = V[i]
+                o.ax, o.ay, o.az = A[i]
+                o.qx, o.qy, o.qz, o.qw = Q[i]
+                o.wx, o.wy, o.wz = W[i]
+                self._ests[i] = o
+            self._dqs = e.dq.tolist()
+        else:
+            ge = ge.tolist()
+            for i in range(self.n):
+                output_step_scalar(self._ests[i], self._ps[i], self._dqs[i], ge[i], dt)
 
 
 def _copter_core(ph, c, est, sp, armed, landed, ground_z, g, af, dt, xp):
@@ -227,21 +315,6 @@ def _land_detect(c, e, ph, run, armed, landed, timer, g, dt, xp):
     return landed, timer
 
 
-class _ScalarEst:
-    __slots__ = ("px", "py", "pz", "vx", "vy", "vz", "ax", "ay", "az", "qx", "qy", "qz", "qw", "wx", "wy", "wz")
-
-
-class _SoA:
-    """Arrays (n,) per field assembled from a list of scalar objects."""
-
-    def __init__(self, objs, fields):
-        for f in fields:
-            setattr(self, f, np.array([getattr(o, f) for o in objs]))
-
-
-SCALAR_MAX = 8
-
-
 class CopterFleet(_FleetBase):
     """n quad-X copters. params: ArduPilot names (vehicle.params_core.COPTER_PARAMS).
 
@@ -249,37 +322,35 @@ class CopterFleet(_FleetBase):
     home: (n,3) world NED start positions; each vehicle's ground is at its home z.
     estimator=False flies on truth with no sensor noise (the 1000-drone benchmark).
     scalar: None = automatic (n <= SCALAR_MAX): small fleets step vehicle by vehicle on
-    Python floats (same source code, ScalarOps backend), which is several times faster
-    than numpy for a handful of vehicles; large fleets step as numpy arrays."""
+    Python floats (same source code, ScalarOps backend); large fleets step as numpy
+    arrays. Both give the same numbers (tests/test_fleet.py)."""
     kind = "copter"
+    STATE_FIELDS = mc.QuadState.FIELDS
 
     def __init__(self, n: int, params: Mapping[str, float] | None = None, seed: int | Sequence[int] = 0,
                  home: np.ndarray | None = None, estimator: bool = True, airframe: mc.QuadAirframe | None = None,
                  sensor_spec: SensorSpec | None = None, yaw: np.ndarray | float | None = None,
                  scalar: bool | None = None):
-        self._init_common(n, params, seed, home, estimator, sensor_spec)
+        self._init_common(n, params, seed, home, estimator, sensor_spec, scalar)
         self.airframe = airframe or mc.QuadAirframe()
         self.ground_z = self.home[:, 2].copy()
-        self.gains = ccore.CopterGains(self.params)
-        self._landed = np.ones(self.n, dtype=bool)
-        self._land_timer = np.zeros(self.n)
-        self._run = np.zeros(self.n, dtype=bool)
-        self.scalar = (self.n <= SCALAR_MAX) if scalar is None else bool(scalar)
+        self._make_gains()
         yaws = np.broadcast_to(np.asarray(0.0 if yaw is None else yaw, float), (self.n,))
         if self.scalar:
             # plain lists: the per-vehicle loop reads and writes them without numpy calls
             self._landed = [True] * self.n
             self._land_timer = [0.0] * self.n
             self._run = [False] * self.n
-            self._armed_l = [False] * self.n
             self._ps = [mc.QuadState(None, pos=self.home[i], yaw=float(yaws[i])) for i in range(self.n)]
             self._cs = [ccore.CopterCtrlState(None) for _ in range(self.n)]
             self._ss = [ccore.SetpointArrays(None) for _ in range(self.n)]
             self._gz = [float(z) for z in self.ground_z]
-            self._ests = [None] * self.n
             for i in range(self.n):
                 ccore.relax(self._cs[i], self._ps[i], True, ScalarOps)
         else:
+            self._landed = np.ones(self.n, dtype=bool)
+            self._land_timer = np.zeros(self.n)
+            self._run = np.zeros(self.n, dtype=bool)
             self._phys = mc.QuadState(self.n, pos=self.home, yaw=yaws)
             self._ctrl = ccore.CopterCtrlState(self.n)
             self.sp = ccore.SetpointArrays(self.n)
@@ -287,10 +358,8 @@ class CopterFleet(_FleetBase):
         for i in range(self.n):
             self.set_setpoint(i, Setpoint())
 
-    @property
-    def phys(self):
-        """Component arrays of the true state (QuadState fields, each (n,))."""
-        return _SoA(self._ps, mc.QuadState.FIELDS) if self.scalar else self._phys
+    def _make_gains(self):
+        self.gains = ccore.CopterGains(self.params)
 
     @property
     def ctrl(self):
@@ -299,25 +368,18 @@ class CopterFleet(_FleetBase):
 
     @property
     def ref_pos(self) -> np.ndarray:
-        """(n,3) shaped position reference the controller tracks (POSITION_TARGET)."""
+        """(n,3) shaped position reference the controller tracks (for POSITION_TARGET_*)."""
         c = self.ctrl
         return np.column_stack((c.px, c.py, c.pz))
 
-    def truth(self, i: int) -> VehicleState:
-        if not self.scalar:
-            return super().truth(i)
-        s = self._ps[i]
-        return VehicleState(np.array([s.px, s.py, s.pz]), np.array([s.vx, s.vy, s.vz]),
-                            np.array([s.qx, s.qy, s.qz, s.qw]), np.array([s.wx, s.wy, s.wz]),
-                            np.array([s.ax, s.ay, s.az]), self.sim_time)
-
-    def set_params(self, params: Mapping[str, float]) -> None:
-        for k, v in params.items():
-            if k in self.params:
-                self.params[k] = float(v)
-        self.gains = ccore.CopterGains(self.params)
+    @property
+    def ref_vel(self) -> np.ndarray:
+        c = self.ctrl
+        return np.column_stack((c.vx, c.vy, c.vz))
 
     def set_setpoint(self, i: int, sp: Setpoint) -> None:
+        """Give vehicle i a new guidance target (see the module docstring for modes).
+        pos components that are NaN leave that axis group (xy or z) velocity-controlled."""
         self.setpoints[i] = sp
         pos, vel, acc = _vec(sp.pos), _vec(sp.vel), _vec(sp.acc)
         vel = np.zeros(3) if vel is None else np.nan_to_num(vel)
@@ -352,6 +414,8 @@ class CopterFleet(_FleetBase):
         return Setpoint(pos=np.array([xy[0], xy[1], np.nan]), vel=np.array([0.0, 0.0, self.gains.land_speed]))
 
     def landed(self, i: int) -> bool:
+        """On the ground: land detector when armed (~LAND_DETECT_TIME s of low thrust and
+        no motion), resting on the ground when disarmed."""
         return bool(self._landed[i])
 
     @property
@@ -362,11 +426,6 @@ class CopterFleet(_FleetBase):
     def thrust_demand(self) -> np.ndarray:
         """Collective thrust fraction the controller asked for (0..1; 0 when idle)."""
         return np.where(np.array(self._run, dtype=bool), self.ctrl.coll, 0.0)
-
-    def set_armed(self, i: int, armed: bool) -> None:
-        self.armed[i] = bool(armed)
-        if self.scalar:
-            self._armed_l[i] = bool(armed)
 
     def step(self, dt: float) -> None:
         """Controller (on the estimate) -> physics -> sensors -> estimator -> land detector."""
@@ -381,7 +440,7 @@ class CopterFleet(_FleetBase):
         run = _copter_core(self._phys, self._ctrl, est, self.sp, self.armed, self._landed,
                            self.ground_z, g, self.airframe, dt, xp)
         self.sim_time += dt
-        self._est_view = self._sense_and_estimate(dt)
+        self._est_view = self._sense_and_estimate_vec(dt)
         e = self._est_view if self._est_view is not None else self._phys
         self._landed, self._land_timer = _land_detect(self._ctrl, e, self._phys, run, self.armed, self._landed,
                                                       self._land_timer, g, dt, xp)
@@ -389,147 +448,83 @@ class CopterFleet(_FleetBase):
 
     def _step_scalar(self, dt):
         g, af, xp = self.gains, self.airframe, ScalarOps
-        armed = self._armed_l
-        landed = self._landed
-        runs = self._run
+        armed, landed, runs, timer = self._armed_l, self._landed, self._run, self._land_timer
+        ps, cs, ss, ests = self._ps, self._cs, self._ss, self._ests
         for i in range(self.n):
-            est = self._ests[i] or self._ps[i]
-            runs[i] = _copter_core(self._ps[i], self._cs[i], est, self._ss[i], armed[i], landed[i],
+            runs[i] = _copter_core(ps[i], cs[i], ests[i] or ps[i], ss[i], armed[i], landed[i],
                                    self._gz[i], g, af, dt, xp)
         self.sim_time += dt
-        if self.use_estimator:
-            e = self.estimator
-            ge = self.sensors.gyro_noise()
-            if e.advance(dt):
-                e.epoch(self.sensors, self.pos, self.vel, self.acc, self.quat, self.rates, ge)
-                P, V, A = e.pos.tolist(), e.vel.tolist(), e.acc.tolist()
-                Q, W, D = e.quat.tolist(), e.rates.tolist(), e.dq.tolist()
-                for i in range(self.n):
-                    o = self._ests[i] or _ScalarEst()
-                    o.px, o.py, o.pz = P[i]
-                    o.vx, o.vy, o.vz = V[i]
-                    o.ax, o.ay, o.az = A[i]
-                    o.qx, o.qy, o.qz, o.qw = Q[i]
-                    o.wx, o.wy, o.wz = W[i]
-                    self._ests[i] = o
-                self._dqs = D
-            else:
-                ge = ge.tolist()
-                for i in range(self.n):
-                    output_step_scalar(self._ests[i], self._ps[i], self._dqs[i], ge[i], dt)
-        timer = self._land_timer
+        self._sense_and_estimate_scalar(dt)
         for i in range(self.n):
-            e = self._ests[i] or self._ps[i]
-            landed[i], timer[i] = _land_detect(self._cs[i], e, self._ps[i], runs[i], armed[i], landed[i],
+            landed[i], timer[i] = _land_detect(cs[i], ests[i] or ps[i], ps[i], runs[i], armed[i], landed[i],
                                                timer[i], g, dt, xp)
-
-    _est_view = None
-
-    def estimate(self, i: int) -> VehicleState:
-        if not (self.scalar and self.use_estimator and self._ests[i] is not None):
-            return super().estimate(i)
-        o = self._ests[i]
-        return VehicleState(np.array([o.px, o.py, o.pz]), np.array([o.vx, o.vy, o.vz]),
-                            np.array([o.qx, o.qy, o.qz, o.qw]), np.array([o.wx, o.wy, o.wz]),
-                            np.array([o.ax, o.ay, o.az]), self.sim_time)
-
-    def _est_stack(self, names, base):
-        if self.scalar and self.use_estimator and self._ests[0] is not None:
-            return np.array([[getattr(o, k) for k in names] for o in self._ests], dtype=float)
-        return getattr(super(), base)
-
-    @property
-    def est_pos(self):
-        return self._est_stack(("px", "py", "pz"), "est_pos")
-
-    @property
-    def est_vel(self):
-        return self._est_stack(("vx", "vy", "vz"), "est_vel")
-
-    @property
-    def est_quat(self):
-        return self._est_stack(("qx", "qy", "qz", "qw"), "est_quat")
-
-    @property
-    def est_rates(self):
-        return self._est_stack(("wx", "wy", "wz"), "est_rates")
-
-    @property
-    def est_acc(self):
-        return self._est_stack(("ax", "ay", "az"), "est_acc")
-
-    # batched arrays: fast paths for the scalar store
-    def _stack(self, names):
-        if not self.scalar:
-            s = self._phys
-            return np.column_stack([getattr(s, k) for k in names])
-        return np.array([[getattr(o, k) for k in names] for o in self._ps], dtype=float)
-
-    @property
-    def pos(self):
-        return self._stack(("px", "py", "pz"))
-
-    @property
-    def vel(self):
-        return self._stack(("vx", "vy", "vz"))
-
-    @property
-    def quat(self):
-        return self._stack(("qx", "qy", "qz", "qw"))
-
-    @property
-    def rates(self):
-        return self._stack(("wx", "wy", "wz"))
-
-    @property
-    def acc(self):
-        return self._stack(("ax", "ay", "az"))
 
 
 class RoverFleet(_FleetBase):
     """n skid-steer rovers (see vehicle.physics.rover). Same contract as CopterFleet;
-    setpoint z is ignored and the rover stays at its home z."""
+    setpoint z is ignored and the rover stays at its home z. landed() is always True."""
     kind = "rover"
+    STATE_FIELDS = rphys.RoverState.FIELDS
 
     def __init__(self, n: int, params: Mapping[str, float] | None = None, seed: int | Sequence[int] = 0,
                  home: np.ndarray | None = None, estimator: bool = True, model: rphys.RoverModel | None = None,
-                 sensor_spec: SensorSpec | None = None, yaw: np.ndarray | float | None = None):
-        self._init_common(n, params, seed, home, estimator, sensor_spec)
+                 sensor_spec: SensorSpec | None = None, yaw: np.ndarray | float | None = None,
+                 scalar: bool | None = None):
+        self._init_common(n, params, seed, home, estimator, sensor_spec, scalar)
         self.model = model or rphys.RoverModel()
-        self.phys = rphys.RoverState(self.n, pos=self.home, yaw=yaw)
-        self.gains = rcore.RoverGains(self.params, self.model)
-        self.sp = rcore.RoverSetpointArrays(self.n)
+        self._make_gains()
+        yaws = np.broadcast_to(np.asarray(0.0 if yaw is None else yaw, float), (self.n,))
+        if self.scalar:
+            self._ps = [rphys.RoverState(None, pos=self.home[i], yaw=float(yaws[i])) for i in range(self.n)]
+            self._ss = [rcore.RoverSetpointArrays(None) for _ in range(self.n)]
+        else:
+            self._phys = rphys.RoverState(self.n, pos=self.home, yaw=yaws)
+            self.sp = rcore.RoverSetpointArrays(self.n)
         for i in range(self.n):
             self.set_setpoint(i, Setpoint())
 
-    def set_params(self, params: Mapping[str, float]) -> None:
-        for k, v in params.items():
-            if k in self.params:
-                self.params[k] = float(v)
+    def _make_gains(self):
         self.gains = rcore.RoverGains(self.params, self.model)
 
     def set_setpoint(self, i: int, sp: Setpoint) -> None:
         self.setpoints[i] = sp
-        a = self.sp
         pos, vel = _vec(sp.pos), _vec(sp.vel)
-        a.use_pos[i] = pos is not None and bool(np.all(np.isfinite(pos[:2])))
-        a.px[i], a.py[i] = (pos[0], pos[1]) if a.use_pos[i] else (0.0, 0.0)
-        a.vx[i], a.vy[i] = (0.0, 0.0) if vel is None else np.nan_to_num(vel[:2])
-        a.use_yaw[i] = sp.yaw is not None
-        a.yaw[i] = 0.0 if sp.yaw is None else float(sp.yaw)
+        use_pos = pos is not None and bool(np.all(np.isfinite(pos[:2])))
+        vals = dict(px=float(pos[0]) if use_pos else 0.0, py=float(pos[1]) if use_pos else 0.0,
+                    vx=0.0 if vel is None else float(np.nan_to_num(vel[0])),
+                    vy=0.0 if vel is None else float(np.nan_to_num(vel[1])),
+                    yaw=0.0 if sp.yaw is None else float(sp.yaw))
+        flags = dict(use_pos=use_pos, use_yaw=sp.yaw is not None, reached=False)
+        if self.scalar:
+            o = self._ss[i]
+            for k, v in {**vals, **flags}.items():
+                setattr(o, k, v)
+        else:
+            for k, v in {**vals, **flags}.items():
+                getattr(self.sp, k)[i] = v
 
     def landed(self, i: int) -> bool:
         return True
 
     def step(self, dt: float) -> None:
-        est = self._est_view
-        if est is None:
-            est = self.phys
+        """Controller (on the estimate) -> kinematics -> sensors -> estimator."""
+        if self.scalar:
+            xp, g, m = ScalarOps, self.gains, self.model
+            ps, ss, ests, armed = self._ps, self._ss, self._ests, self._armed_l
+            for i in range(self.n):
+                v, r = rcore.step(ests[i] or ps[i], ss[i], g, dt, xp)
+                if not armed[i]:
+                    v = r = 0.0
+                    ss[i].v_cmd = 0.0
+                rphys.step(ps[i], v, r, m, g, dt, xp)
+            self.sim_time += dt
+            self._sense_and_estimate_scalar(dt)
+            return
+        est = self._est_view if self._est_view is not None else self._phys
         v_cmd, r_cmd = rcore.step(est, self.sp, self.gains, dt)
         v_cmd = np.where(self.armed, v_cmd, 0.0)
         r_cmd = np.where(self.armed, r_cmd, 0.0)
-        rphys.step(self.phys, v_cmd, r_cmd, self.model, self.gains, dt)
+        self.sp.v_cmd = np.where(self.armed, self.sp.v_cmd, 0.0)
+        rphys.step(self._phys, v_cmd, r_cmd, self.model, self.gains, dt)
         self.sim_time += dt
-        self._est_view = self._sense_and_estimate(dt)
-
-    _est_view = None
+        self._est_view = self._sense_and_estimate_vec(dt)

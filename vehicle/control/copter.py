@@ -223,13 +223,12 @@ def mix(coll, u_r, u_p, u_y, spin_min, xp=NumpyOps):
     rp1 = 0.5 * u_r - 0.5 * u_p      # back-left
     rp2 = 0.5 * u_r + 0.5 * u_p      # front-left
     rp3 = -0.5 * u_r - 0.5 * u_p     # back-right
-    mx = xp.maximum(xp.maximum(rp0, rp1), xp.maximum(rp2, rp3))
-    mn = xp.minimum(xp.minimum(rp0, rp1), xp.minimum(rp2, rp3))
+    mx = 0.5 * (xp.abs(u_r) + xp.abs(u_p))     # largest motor offset; the smallest is -mx
     fmin = spin_min * spin_min
     span_max = 1.0 - fmin
-    sc = xp.minimum(1.0, span_max / xp.maximum(mx - mn, 1e-9))
-    rp0, rp1, rp2, rp3, mx, mn = rp0 * sc, rp1 * sc, rp2 * sc, rp3 * sc, mx * sc, mn * sc
-    thr = xp.clip(coll, fmin - mn, 1.0 - mx)
+    sc = xp.minimum(1.0, span_max / xp.maximum(2.0 * mx, 1e-9))
+    rp0, rp1, rp2, rp3, mx = rp0 * sc, rp1 * sc, rp2 * sc, rp3 * sc, mx * sc
+    thr = xp.clip(coll, fmin + mx, 1.0 - mx)
     # yaw: motors 0,1 get +y/2, motors 2,3 get -y/2; use only remaining headroom
     a0, a1, a2, a3 = thr + rp0, thr + rp1, thr + rp2, thr + rp3
     hi = 2.0 * xp.minimum(xp.minimum(1.0 - a0, 1.0 - a1), xp.minimum(a2 - fmin, a3 - fmin))

@@ -36,12 +36,13 @@ class RoverGains:
 
 
 class RoverSetpointArrays:
-    def __init__(self, n: int):
+    """Per-vehicle targets and guidance memory: (n,) arrays, or floats/bools (n=None)."""
+
+    def __init__(self, n: int | None):
         for f in ("px", "py", "vx", "vy", "yaw", "v_cmd"):
-            setattr(self, f, np.zeros(n))
-        self.use_pos = np.zeros(n, dtype=bool)
-        self.use_yaw = np.zeros(n, dtype=bool)
-        self.reached = np.zeros(n, dtype=bool)
+            setattr(self, f, 0.0 if n is None else np.zeros(n))
+        for f in ("use_pos", "use_yaw", "reached"):
+            setattr(self, f, False if n is None else np.zeros(n, dtype=bool))
 
 
 def step(est, sp: RoverSetpointArrays, g: RoverGains, dt: float, xp=NumpyOps):
@@ -52,7 +53,7 @@ def step(est, sp: RoverSetpointArrays, g: RoverGains, dt: float, xp=NumpyOps):
     dist = xp.sqrt(ex * ex + ey * ey)
     ffm = xp.sqrt(sp.vx * sp.vx + sp.vy * sp.vy)
     has_ff = ffm > 0.05
-    goto = sp.use_pos & ~has_ff
+    goto = sp.use_pos & xp.lnot(has_ff)
     sp.reached = goto & ((dist < g.radius) | (sp.reached & (dist < 2.0 * g.radius)))
     mag_goto = xp.minimum(g.cruise, xp.sqrt(1.2 * g.decel * xp.maximum(dist - 0.5 * g.radius, 0.0)))
     mag_follow = xp.minimum(g.max_speed, g.k_pos * dist)

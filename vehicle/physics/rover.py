@@ -30,7 +30,18 @@ class RoverState:
     FIELDS = ("px", "py", "pz", "vx", "vy", "vz", "qx", "qy", "qz", "qw", "wx", "wy", "wz",
               "ax", "ay", "az", "yaw", "speed", "rate")
 
-    def __init__(self, n: int, pos=None, yaw=None):
+    def __init__(self, n: int | None, pos=None, yaw=None):
+        """n=None builds a scalar (float) state; else arrays of length n."""
+        if n is None:
+            for f in self.FIELDS:
+                setattr(self, f, 0.0)
+            if pos is not None:
+                self.px, self.py, self.pz = (float(v) for v in pos)
+            if yaw is not None:
+                self.yaw = float(yaw)
+            self.qz, self.qw = math.sin(self.yaw / 2), math.cos(self.yaw / 2)
+            self.ground = True
+            return
         for f in self.FIELDS:
             setattr(self, f, np.zeros(n))
         if pos is not None:
