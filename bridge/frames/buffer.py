@@ -3,11 +3,14 @@
 Storage
     The frames form a forest: every child frame has at most one parent edge.
     A dynamic edge keeps parallel Python lists ``stamps`` (sorted floats, searched
-    with :mod:`bisect`) and ``values`` (7-tuples of floats); a static edge keeps a
-    single 7-tuple. Lookups do plain-float math (see :mod:`.transform`) and build
-    one :class:`Transform` at the end, so an interpolated 3-hop lookup costs a few
-    microseconds. Frame paths are cached per ``(target, source)`` and the cache is
-    dropped whenever the tree changes (``structure_version`` counts those changes).
+    with :mod:`bisect`), ``values`` (7-tuples of floats) and ``segs`` (SLERP
+    constants of each segment between neighbouring samples, computed on insert); a
+    static edge keeps a single 7-tuple. Lookups do plain-float math and build one
+    :class:`Transform` at the end, so an interpolated 3-hop lookup costs a few
+    microseconds. Frame paths are cached per ``(target, source)`` together with a
+    straight-line evaluator generated for the path's shape (:mod:`._pathcode`); the
+    cache is dropped whenever the tree changes (``structure_version`` counts those
+    changes).
 
 Semantics (tf2's unless stated)
     * ``lookup_transform(target, source, t)`` maps data expressed in ``source`` into
@@ -57,8 +60,9 @@ from .errors import (ConnectivityException, ExtrapolationException,
                      TransformException)
 from . import _pathcode
 from .stamped import (LATEST, PointStamped, PoseStamped, TransformStamped, VectorStamped,
-                      _Latest, check_time)
-from .transform import (IDENTITY7, SLERP_NLERP_DOT, Transform, _compose, _interpolate, _inv_compose,
+                      check_time)
+from .transform import (IDENTITY7, SLERP_NLERP_DOT, Transform, _compose, _interpolate,
+                        _inv_compose,
                         _inverse)
 
 _isfinite = math.isfinite
