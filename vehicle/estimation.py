@@ -45,6 +45,13 @@ def quat_to_R(q: np.ndarray) -> np.ndarray:
 
 
 def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(n,4) x (n,4) Hamilton product, xyzw."""
+    if len(a) <= 8:                       # small batches: floats beat numpy's per-call cost
+        out = []
+        for (ax, ay, az, aw), (bx, by, bz, bw) in zip(a.tolist(), b.tolist()):
+            out.append((aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
+                        aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz))
+        return np.array(out, dtype=float).reshape(len(a), 4)
     ax, ay, az, aw = a[:, 0], a[:, 1], a[:, 2], a[:, 3]
     bx, by, bz, bw = b[:, 0], b[:, 1], b[:, 2], b[:, 3]
     return np.stack([aw * bx + ax * bw + ay * bz - az * by,

@@ -57,17 +57,24 @@ def vehicle_rngs(seed: int | Sequence[int], n: int) -> list[np.random.Generator]
 class NoiseSource:
     """Per-vehicle standard normals, one (n, width) slice per call, drawn in blocks."""
 
-    def __init__(self, rngs: list[np.random.Generator], width: int):
+    def __init__(self, rngs: list[np.random.Generator], width: int, scale=1.0, offset=None):
         self.rngs = rngs
         self.n = len(rngs)
         self.width = width
         self.k = BLOCK
         self.block = np.empty((self.n, BLOCK, width))
+        self.scale = scale
+        self.offset = None if offset is None else np.asarray(offset, float)[:, None, :]
 
     def next(self) -> np.ndarray:
+        """(n, width) = offset + scale * standard normals (each vehicle from its own stream)."""
         if self.k >= BLOCK:
             for i, r in enumerate(self.rngs):
                 self.block[i] = r.standard_normal((BLOCK, self.width))
+            if self.scale != 1.0:
+                self.block *= self.scale
+            if self.offset is not None:
+                self.block += self.offset
             self.k = 0
         z = self.block[:, self.k, :]
         self.k += 1
@@ -84,11 +91,11 @@ class Sensors:
     def __init__(self, rngs, spec: SensorSpec | None = None):
         self.spec = spec or SensorSpec()
         biases = np.array([r.standard_normal(6) for r in rngs]).reshape(len(rngs), 6)
-        self.noise = NoiseSource(rngs, ROW)
-        self.gyro_src = NoiseSource(rngs, 3)
         sp = self.spec
         self.accel_bias = biases[:, 0:3] * sp.accel_bias_sigma
         self.gyro_bias = biases[:, 3:6] * sp.gyro_bias_sigma
+        self.noise = NoiseSource(rngs, ROW)
+        self.gyro_src = NoiseSource(rngs, 3, scale=sp.gyro_sigma, offset=self.gyro_bias)
         self.gps_pos = self.gps_vel = self.baro_alt = None
         self.gps_fresh = False
         self.baro_fresh = False
@@ -96,7 +103,7 @@ class Sensors:
 
     def gyro_noise(self) -> np.ndarray:
         """(n,3) gyro error this step: bias + white noise."""
-        return self.gyro_bias + self.spec.gyro_sigma * self.gyro_src.next()
+        return self.gyro_src.next()
 
     def sample(self, gps: bool, baro: bool, pos, vel, acc_world, quat):
         """pos, vel, acc_world: (n,3) world NED truth; quat (n,4) xyzw body->world.
@@ -121,6 +128,16 @@ def rotate(q: np.ndarray, v: np.ndarray, inverse: bool = False) -> np.ndarray:
     """Rotate (n,3) vectors by (n,4) xyzw quaternions (body->world; inverse: world->body).
     v' = v + 2w (u x v) + 2 u x (u x v), written out (np.cross is slow on small arrays)."""
     s = -1.0 if inverse else 1.0
+    if len(q) <= 8:                       # small batches: floats beat numpy's per-call cost
+        out = []
+        for (ux, uy, uz, w), (vx, vy, vz) in zip(q.tolist(), v.tolist()):
+            ux, uy, uz = s * ux, s * uy, s * uz
+            tx = 2.0 * (uy * vz - uz * vy)
+            ty = 2.0 * (uz * vx - ux * vz)
+            tz = 2.0 * (ux * vy - uy * vx)
+            out.append((vx + w * tx + uy * tz - uz * ty, vy + w * ty + uz * tx - ux * tz,
+                        vz + w * tz + ux * ty - uy * tx))
+        return np.array(out, dtype=float).reshape(len(q), 3)
     ux, uy, uz, w = s * q[:, 0], s * q[:, 1], s * q[:, 2], q[:, 3]
     vx, vy, vz = v[:, 0], v[:, 1], v[:, 2]
     tx = 2.0 * (uy * vz - uz * vy)
