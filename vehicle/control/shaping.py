@@ -25,10 +25,10 @@ EPS = 1e-9
 
 
 def sqrt_controller(err, k, lim, dt, xp=NumpyOps):
-    """Correction magnitude for a non-negative error magnitude ``err``."""
-    lin = lim / (k * k)
-    out = xp.where(err > lin, xp.sqrt(2.0 * lim * xp.maximum(err - 0.5 * lin, 0.0)), k * err)
-    return xp.minimum(out, err / dt)
+    """Correction magnitude for a non-negative error magnitude ``err``: k*err near zero,
+    sqrt(2 lim (err - lim/2k^2)) beyond lim/k^2, never more than err/dt.
+    (Implemented per backend: NumpyOps.sqrt_controller / ScalarOps.sqrt_controller.)"""
+    return xp.sqrt_controller(err, k, lim, dt)
 
 
 _GAINS = {}
@@ -59,14 +59,14 @@ def shape_xy(r, tpx, tpy, use_pos, tvx, tvy, tax, tay, vmax, amax, jmax, dt, xp=
     ex = tpx - r.px
     ey = tpy - r.py
     e = xp.sqrt(ex * ex + ey * ey)
-    vm = xp.minimum(sqrt_controller(e, kp, adec, dt, xp), vmax)
+    vm = xp.minimum(xp.sqrt_controller(e, kp, adec, dt), vmax)
     s = xp.where(use_pos, vm / xp.maximum(e, EPS), 0.0)
     vcx = ex * s + tvx
     vcy = ey * s + tvy
     dvx = vcx - r.vx
     dvy = vcy - r.vy
     dv = xp.sqrt(dvx * dvx + dvy * dvy)
-    am = xp.minimum(sqrt_controller(dv, kv, jmax, dt, xp), amax)
+    am = xp.minimum(xp.sqrt_controller(dv, kv, jmax, dt), amax)
     s = am / xp.maximum(dv, EPS)
     acx = dvx * s + tax
     acy = dvy * s + tay
@@ -88,11 +88,11 @@ def shape_z(r, tpz, use_pos, tvz, taz, v_up, v_dn, amax, jmax, dt, xp=NumpyOps):
     kp, kv, adec = gains(amax, jmax)
     ez = tpz - r.pz
     e = xp.abs(ez)
-    vm = sqrt_controller(e, kp, adec, dt, xp)
+    vm = xp.sqrt_controller(e, kp, adec, dt)
     vc = xp.where(ez < 0.0, -xp.minimum(vm, v_up), xp.minimum(vm, v_dn))
     vc = xp.where(use_pos, vc, 0.0) + tvz
     dv = vc - r.vz
-    am = xp.minimum(sqrt_controller(xp.abs(dv), kv, jmax, dt, xp), amax)
+    am = xp.minimum(xp.sqrt_controller(xp.abs(dv), kv, jmax, dt), amax)
     ac = xp.where(dv < 0.0, -am, am) + taz
     j = xp.clip((ac - r.az) / dt, -jmax, jmax)
     r.az = r.az + j * dt

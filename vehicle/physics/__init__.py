@@ -33,6 +33,14 @@ class NumpyOps:
         return np.minimum(np.maximum(x, lo), hi)
 
     @staticmethod
+    def sqrt_controller(err, k, lim, dt):
+        """ArduPilot's sqrt controller on a non-negative error magnitude (see
+        vehicle.control.shaping); the scalar version below computes the same numbers."""
+        lin = lim / (k * k)
+        out = np.where(err > lin, np.sqrt(2.0 * lim * np.maximum(err - 0.5 * lin, 0.0)), k * err)
+        return np.minimum(out, err / dt)
+
+    @staticmethod
     def zeros_like(x):
         return np.zeros_like(x)
 
@@ -62,6 +70,13 @@ class ScalarOps:
     @staticmethod
     def clip(x, lo, hi):
         return lo if x < lo else (hi if x > hi else x)
+
+    @staticmethod
+    def sqrt_controller(err, k, lim, dt):
+        lin = lim / (k * k)
+        out = math.sqrt(2.0 * lim * (err - 0.5 * lin)) if err > lin else k * err
+        m = err / dt
+        return out if out < m else m
 
     @staticmethod
     def zeros_like(x):
