@@ -230,9 +230,12 @@ def mix(coll, u_r, u_p, u_y, spin_min, xp=NumpyOps):
     rp0, rp1, rp2, rp3, mx = rp0 * sc, rp1 * sc, rp2 * sc, rp3 * sc, mx * sc
     thr = xp.clip(coll, fmin + mx, 1.0 - mx)
     # yaw: motors 0,1 get +y/2, motors 2,3 get -y/2; use only remaining headroom
+    # (rp1 = -rp0 and rp3 = -rp2, so each pair's extreme is thr +- |rp|)
     a0, a1, a2, a3 = thr + rp0, thr + rp1, thr + rp2, thr + rp3
-    hi = 2.0 * xp.minimum(xp.minimum(1.0 - a0, 1.0 - a1), xp.minimum(a2 - fmin, a3 - fmin))
-    lo = -2.0 * xp.minimum(xp.minimum(a0 - fmin, a1 - fmin), xp.minimum(1.0 - a2, 1.0 - a3))
+    m01 = xp.abs(rp0)
+    m23 = xp.abs(rp2)
+    hi = 2.0 * xp.minimum(1.0 - thr - m01, thr - m23 - fmin)
+    lo = -2.0 * xp.minimum(thr - m01 - fmin, 1.0 - thr - m23)
     yaw = xp.clip(u_y, xp.minimum(lo, 0.0), xp.maximum(hi, 0.0))
     hy = 0.5 * yaw
     f0 = xp.clip(a0 + hy, fmin, 1.0)
