@@ -98,3 +98,50 @@ def test_rover_estimator_tracks():
     run(f, 10.0, lambda f: errs.append(np.linalg.norm(f.estimate(0).pos[:2] - f.truth(0).pos[:2])))
     assert f.estimate_ok(0)
     assert math.sqrt(np.mean(np.square(errs[-2000:]))) < 0.25
+
+
+def test_batched_kf_matches_filterpy():
+    """BatchedKF (big fleets) runs filterpy's equations: same numbers as filterpy."""
+    from vehicle.estimation import BatchedKF, make_kf
+    rng = np.random.default_rng(4)
+    n = 5
+    p0 = rng.normal(size=(n, 3))
+    kfs = [make_kf(0.01, p0[i], 0.08, 0.3, 0.45, 0.1) for i in range(n)]
+    b = BatchedKF(make_kf(0.01, np.zeros(3), 0.08, 0.3, 0.45, 0.1), p0)
+    Hb = np.zeros((1, 9))
+    Hb[0, 2] = 1.0
+    Rb = np.array([[0.01]])
+    for k in range(60):
+        u = rng.normal(size=(n, 3))
+        b.predict(u)
+        for i in range(n):
+            kfs[i].predict(u=u[i])
+        if k % 10 == 0:
+            z = rng.normal(size=(n, 6))
+            b.update(z)
+            for i in range(n):
+                kfs[i].update(z[i])
+        if k % 2 == 0:
+            zb = rng.normal(size=(n, 1))
+            b.update(zb, R=Rb, H=Hb)
+            for i in range(n):
+                kfs[i].update(zb[i], R=Rb, H=Hb)
+    for i in range(n):
+        np.testing.assert_allclose(b.x[i], kfs[i].x, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(b.P[i], kfs[i].P, rtol=1e-9, atol=1e-12)
+
+
+def test_fleet_filterpy_and_batched_estimators_agree():
+    a = CopterFleet(3, seed=[1, 2, 3], estimator="filterpy")
+    b = CopterFleet(3, seed=[1, 2, 3], estimator="batched")
+    assert not a.estimator.batched and b.estimator.batched
+    for f in (a, b):
+        for i in range(3):
+            f.set_armed(i, True)
+            f.set_setpoint(i, Setpoint(pos=[i, -i, -4.0]))
+        run(f, 3.0)
+    np.testing.assert_allclose(a.est_pos, b.est_pos, atol=1e-6)
+    assert [a.estimate_ok(i) for i in range(3)] == [b.estimate_ok(i) for i in range(3)] == [True] * 3
+    assert a.estimator.kfs and not b.estimator.kfs
+    assert not CopterFleet(2, seed=0).estimator.batched      # the SITL-size default is filterpy
+    assert CopterFleet(20, seed=0).estimator.batched         # big fleets: BatchedKF

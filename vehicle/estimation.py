@@ -1,6 +1,7 @@
 """State estimation: what the autopilot believes, from noisy sensors (vehicle.sensors).
 
-Position/velocity: one filterpy ``KalmanFilter`` per vehicle, 9 states
+Position/velocity: one filterpy ``KalmanFilter`` per vehicle (or, for big fleets,
+``BatchedKF``: the same equations over a vehicle axis, checked against filterpy), 9 states
 [p (3), v (3), b (3)] in world NED, where b is the accelerometer bias expressed in the
 world frame (slowly varying). The filter is predicted at ``kf_rate`` (100 Hz) with the
 IMU specific force rotated to world by the attitude estimate plus gravity, averaged
@@ -87,6 +88,37 @@ def make_kf(dt: float, pos0, accel_sigma: float, gps_pos_sigma: float, gps_alt_s
     return kf
 
 
+class BatchedKF:
+    """The same filter as ``make_kf`` for n vehicles at once: filterpy's equations
+    (predict x = Fx + Bu, P = FPF' + Q; update with K = PH' inv(S) and the Joseph form
+    P = (I-KH)P(I-KH)' + KRK'), written over a leading vehicle axis. Used for fleets
+    too big for per-vehicle filterpy objects; tests check it against filterpy."""
+
+    def __init__(self, template: KalmanFilter, x0: np.ndarray):
+        n = len(x0)
+        self.F, self.B, self.Q = template.F.copy(), template.B.copy(), template.Q.copy()
+        self.H, self.R = template.H.copy(), template.R.copy()
+        self.x = np.tile(template.x, (n, 1))
+        self.x[:, 0:3] = x0
+        self.P = np.tile(template.P, (n, 1, 1))
+        self._I = np.eye(template.dim_x)
+
+    def predict(self, u: np.ndarray) -> None:
+        self.x = self.x @ self.F.T + u @ self.B.T
+        self.P = self.F @ self.P @ self.F.T + self.Q
+
+    def update(self, z: np.ndarray, R: np.ndarray | None = None, H: np.ndarray | None = None) -> None:
+        R = self.R if R is None else R
+        H = self.H if H is None else H
+        y = z - self.x @ H.T
+        PHT = self.P @ H.T
+        S = H @ PHT + R
+        K = PHT @ np.linalg.inv(S)
+        self.x = self.x + np.einsum("nij,nj->ni", K, y)
+        I_KH = self._I - K @ H
+        self.P = I_KH @ self.P @ I_KH.transpose(0, 2, 1) + K @ R @ K.transpose(0, 2, 1)
+
+
 class Estimator:
     """Batched front end over per-vehicle filterpy filters.
 
@@ -97,8 +129,9 @@ class Estimator:
     output to the filter state."""
 
     def __init__(self, n: int, home: np.ndarray, spec, kf_rate: float = 100.0,
-                 min_gps: int = 10, ok_var: float = 0.5):
+                 min_gps: int = 10, ok_var: float = 0.5, batched: bool = False):
         self.n = n
+        self.batched = bool(batched)
         self.spec = spec
         self.kf_rate = kf_rate
         self.min_gps = min_gps
@@ -127,8 +160,13 @@ class Estimator:
         self.n_gps = self.n_kf * max(1, round(self.kf_rate / sp.gps_rate))
         self.n_baro = self.n_kf * max(1, round(self.kf_rate / sp.baro_rate))
         self.kf_dt = self.n_kf * dt
-        self.kfs = [make_kf(self.kf_dt, self.home[i], sp.accel_sigma, sp.gps_pos_sigma,
-                            sp.gps_alt_sigma, sp.gps_vel_sigma) for i in range(self.n)]
+        mk = lambda p0: make_kf(self.kf_dt, p0, sp.accel_sigma, sp.gps_pos_sigma,  # noqa: E731
+                                sp.gps_alt_sigma, sp.gps_vel_sigma)
+        if self.batched:
+            self.kfs = []
+            self.bkf = BatchedKF(mk(np.zeros(3)), self.home)
+        else:
+            self.kfs = [mk(self.home[i]) for i in range(self.n)]
 
     def advance(self, dt: float) -> bool:
         """Count one step; True when this step is a filter epoch."""
@@ -163,6 +201,22 @@ class Estimator:
         self.attitude(quat, rates, gyro_err)
         from vehicle.sensors import rotate
         acc_w = rotate(self.quat, sensors.accel) + G
+        if self.batched:
+            b = self.bkf
+            b.predict(acc_w)
+            if gps:
+                b.update(np.hstack([sensors.gps_pos, sensors.gps_vel]))
+            if baro:
+                b.update(-sensors.baro_alt[:, None], R=self.R_baro, H=self.H_baro)
+            self.pos = b.x[:, 0:3].copy()
+            self.vel = b.x[:, 3:6].copy()
+            self.bias = b.x[:, 6:9].copy()
+            if gps:
+                self.gps_count += 1
+                pv = np.diagonal(b.P, axis1=1, axis2=2)[:, 0:3]
+                self.ok = (self.gps_count >= self.min_gps) & np.all(pv < self.ok_var, axis=1)
+            self.acc = acc_w - self.bias
+            return
         for i, kf in enumerate(self.kfs):
             kf.predict(u=acc_w[i])
             if gps:

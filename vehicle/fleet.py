@@ -103,6 +103,7 @@ class _SoA:
 
 
 SCALAR_MAX = 8
+BATCHED_KF_MIN = 8     # estimator=True: per-vehicle filterpy up to this many vehicles, BatchedKF above
 
 
 class _FleetBase:
@@ -120,13 +121,16 @@ class _FleetBase:
         self.sim_time = 0.0
         self.armed = np.zeros(self.n, dtype=bool)
         self._armed_l = [False] * self.n
-        self.use_estimator = bool(estimator)
+        if estimator not in (True, False, "filterpy", "batched"):
+            raise ValueError(f"estimator must be True, False, 'filterpy' or 'batched', not {estimator!r}")
+        self.use_estimator = estimator is not False
         self.spec = sensor_spec or SensorSpec()
         self.scalar = (self.n <= SCALAR_MAX) if scalar is None else bool(scalar)
         if self.use_estimator:
             rngs = vehicle_rngs(seed, self.n)
             self.sensors = Sensors(rngs, self.spec)
-            self.estimator = Estimator(self.n, self.home, self.spec)
+            batched = estimator == "batched" or (estimator is True and self.n > BATCHED_KF_MIN)
+            self.estimator = Estimator(self.n, self.home, self.spec, batched=batched)
         self._ests = [None] * self.n
         self._dqs = None
         self._est_view = None
@@ -320,7 +324,9 @@ class CopterFleet(_FleetBase):
 
     seed: int (vehicle i seeded with [seed, i]) or a sequence of per-vehicle seeds.
     home: (n,3) world NED start positions; each vehicle's ground is at its home z.
-    estimator=False flies on truth with no sensor noise (the 1000-drone benchmark).
+    estimator: True = sensors + Kalman filter (per-vehicle filterpy KalmanFilter for
+    n <= BATCHED_KF_MIN, else the identical-math numpy BatchedKF); 'filterpy' or 'batched'
+    force one; False flies on truth with no sensor noise (the 1000-drone benchmark).
     scalar: None = automatic (n <= SCALAR_MAX): small fleets step vehicle by vehicle on
     Python floats (same source code, ScalarOps backend); large fleets step as numpy
     arrays. Both give the same numbers (tests/test_fleet.py)."""
