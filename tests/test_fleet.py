@@ -138,3 +138,23 @@ def test_rover_batched_equals_single_runs(estimator):
             one.step(DT)
         np.testing.assert_allclose(batch.truth(i).pos, one.truth(0).pos, atol=1e-6)
         np.testing.assert_allclose(batch.estimate(i).pos, one.estimate(0).pos, atol=1e-6)
+
+
+def test_bad_setpoints_never_fly_somewhere_odd():
+    f = CopterFleet(1, seed=0)
+    f.set_armed(0, True)
+    f.set_setpoint(0, Setpoint(pos=[0, 0, -5.0]))
+    for _ in range(int(8 / DT)):
+        f.step(DT)
+    f.set_setpoint(0, Setpoint(pos=[np.nan, np.nan, -5.0], vel=[np.inf, 0, 0], yaw=np.nan, yaw_rate=np.inf))
+    for _ in range(int(3 / DT)):
+        f.step(DT)
+    st = f.truth(0)
+    assert np.all(np.isfinite(st.pos)) and np.all(np.isfinite(st.quat))
+    assert np.linalg.norm(st.pos - [0, 0, -5.0]) < 0.5
+    r = RoverFleet(1, seed=0)
+    r.set_armed(0, True)
+    r.set_setpoint(0, Setpoint(pos=[np.nan, 1, 0], vel=[np.nan, np.inf, 0], yaw=np.nan))
+    for _ in range(400):
+        r.step(DT)
+    assert np.linalg.norm(r.truth(0).pos) < 1e-9

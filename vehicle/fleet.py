@@ -80,6 +80,15 @@ def _vec(v) -> np.ndarray | None:
     return None if v is None else np.asarray(v, dtype=float).reshape(3)
 
 
+def _angle(a) -> float | None:
+    """A finite angle/rate as float, else None (not commanded): a NaN yaw must never
+    reach the controller."""
+    if a is None:
+        return None
+    a = float(a)
+    return a if math.isfinite(a) else None
+
+
 class _Est:
     """Component view of estimator arrays for the controller."""
 
@@ -388,19 +397,20 @@ class CopterFleet(_FleetBase):
         pos components that are NaN leave that axis group (xy or z) velocity-controlled."""
         self.setpoints[i] = sp
         pos, vel, acc = _vec(sp.pos), _vec(sp.vel), _vec(sp.acc)
-        vel = np.zeros(3) if vel is None else np.nan_to_num(vel)
-        acc = np.zeros(3) if acc is None else np.nan_to_num(acc)
+        yaw, yaw_rate = _angle(sp.yaw), _angle(sp.yaw_rate)
+        vel = np.zeros(3) if vel is None else np.nan_to_num(vel, posinf=0.0, neginf=0.0)
+        acc = np.zeros(3) if acc is None else np.nan_to_num(acc, posinf=0.0, neginf=0.0)
         if pos is None:
             use_xy = use_z = False
             pos = np.zeros(3)
         else:
             use_xy = bool(np.isfinite(pos[0]) and np.isfinite(pos[1]))
             use_z = bool(np.isfinite(pos[2]))
-            pos = np.nan_to_num(pos)
+            pos = np.where(np.isfinite(pos), pos, 0.0)
         vals = dict(px=pos[0], py=pos[1], pz=pos[2], vx=vel[0], vy=vel[1], vz=vel[2],
                     ax=acc[0], ay=acc[1], az=acc[2],
-                    yaw=0.0 if sp.yaw is None else sp.yaw, yaw_rate=0.0 if sp.yaw_rate is None else sp.yaw_rate)
-        flags = dict(use_pos_xy=use_xy, use_pos_z=use_z, level=bool(sp.level), use_yaw=sp.yaw is not None)
+                    yaw=0.0 if yaw is None else yaw, yaw_rate=0.0 if yaw_rate is None else yaw_rate)
+        flags = dict(use_pos_xy=use_xy, use_pos_z=use_z, level=bool(sp.level), use_yaw=yaw is not None)
         if self.scalar:
             o = self._ss[i]
             for k, v in vals.items():
@@ -494,13 +504,12 @@ class RoverFleet(_FleetBase):
 
     def set_setpoint(self, i: int, sp: Setpoint) -> None:
         self.setpoints[i] = sp
-        pos, vel = _vec(sp.pos), _vec(sp.vel)
+        pos, vel, yaw = _vec(sp.pos), _vec(sp.vel), _angle(sp.yaw)
         use_pos = pos is not None and bool(np.all(np.isfinite(pos[:2])))
+        vel = np.zeros(3) if vel is None else np.nan_to_num(vel, posinf=0.0, neginf=0.0)
         vals = dict(px=float(pos[0]) if use_pos else 0.0, py=float(pos[1]) if use_pos else 0.0,
-                    vx=0.0 if vel is None else float(np.nan_to_num(vel[0])),
-                    vy=0.0 if vel is None else float(np.nan_to_num(vel[1])),
-                    yaw=0.0 if sp.yaw is None else float(sp.yaw))
-        flags = dict(use_pos=use_pos, use_yaw=sp.yaw is not None, reached=False)
+                    vx=float(vel[0]), vy=float(vel[1]), yaw=0.0 if yaw is None else yaw)
+        flags = dict(use_pos=use_pos, use_yaw=yaw is not None, reached=False)
         if self.scalar:
             o = self._ss[i]
             for k, v in {**vals, **flags}.items():

@@ -69,7 +69,7 @@ class ScalarOps:
 
     @staticmethod
     def clip(x, lo, hi):
-        return lo if x < lo else (hi if x > hi else x)
+        return lo if x < lo else hi if x > hi else x
 
     @staticmethod
     def sqrt_controller(err, k, lim, dt):

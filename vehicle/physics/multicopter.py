@@ -34,9 +34,10 @@ MOTOR_Y = (1.0, -1.0, -1.0, 1.0)     # right
 MOTOR_SPIN = (1.0, 1.0, -1.0, -1.0)  # +1 CCW rotor -> positive yaw reaction torque
 
 
-@dataclass
+@dataclass(frozen=True)
 class QuadAirframe:
-    """A 1.8 kg, 500 mm class quad. hover_throttle sets the maximum thrust."""
+    """A 1.8 kg, 500 mm class quad. hover_throttle sets the maximum thrust. Immutable
+    (derived constants are cached); build a new one with dataclasses.replace."""
     mass: float = 1.8            # kg
     arm: float = 0.25            # m, centre to motor
     ixx: float = 0.021           # kg m^2
@@ -52,8 +53,8 @@ class QuadAirframe:
     ground_friction: float = 12.0  # 1/s decay of horizontal speed on the ground
 
     def __post_init__(self):
-        self._kt = self.kt
-        self._arm_xy = self.arm_xy
+        object.__setattr__(self, "_kt", self.kt)
+        object.__setattr__(self, "_arm_xy", self.arm_xy)
 
     @property
     def max_thrust(self) -> float:
