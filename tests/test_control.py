@@ -272,6 +272,12 @@ def test_rover_velocity_and_hold_and_yaw():
     run(f, 6.0)
     assert np.linalg.norm(f.truth(0).vel) < 0.05
     assert math.degrees(f.truth(0).yaw) == pytest.approx(-90.0, abs=3.0)
+    f.set_setpoint(0, Setpoint(yaw_rate=math.radians(45)))
+    y0 = f.truth(0).yaw
+    run(f, 2.0)
+    turned = (f.truth(0).yaw - y0 + math.pi) % (2 * math.pi) - math.pi
+    assert math.degrees(turned) == pytest.approx(90.0, abs=5.0)
+    assert np.linalg.norm(f.truth(0).vel) < 0.05
     f.set_armed(0, False)
     f.set_setpoint(0, Setpoint(vel=[3.0, 0.0, 0.0]))
     run(f, 2.0)

@@ -26,7 +26,8 @@ Non-finite parts of a Setpoint count as not commanded.
 
 Rover (skid-steer): Setpoint(pos=p) drive there and stop (WP_RADIUS, no orbiting);
 Setpoint(pos=p, vel=v) follow a moving target; Setpoint(vel=v) drive at a velocity;
-Setpoint() stop and hold; Setpoint(yaw=psi) turns in place when stopped. z is ignored.
+Setpoint() stop and hold; Setpoint(yaw=psi) turns in place when stopped, as does
+Setpoint(yaw_rate=r) (yaw wins when both are given). z is ignored.
 
 Speed: fleets of n <= SCALAR_MAX step vehicle by vehicle on Python floats (the same core
 source on the ScalarOps backend) -- ~30 us per copter step on truth, ~65 us with sensors
@@ -514,12 +515,13 @@ class RoverFleet(_FleetBase):
 
     def set_setpoint(self, i: int, sp: Setpoint) -> None:
         self.setpoints[i] = sp
-        pos, vel, yaw = _vec(sp.pos), _vec(sp.vel), _angle(sp.yaw)
+        pos, vel, yaw, yaw_rate = _vec(sp.pos), _vec(sp.vel), _angle(sp.yaw), _angle(sp.yaw_rate)
         use_pos = pos is not None and bool(np.all(np.isfinite(pos[:2])))
         vel = np.zeros(3) if vel is None else np.nan_to_num(vel, posinf=0.0, neginf=0.0)
         vals = dict(px=float(pos[0]) if use_pos else 0.0, py=float(pos[1]) if use_pos else 0.0,
-                    vx=float(vel[0]), vy=float(vel[1]), yaw=0.0 if yaw is None else yaw)
-        flags = dict(use_pos=use_pos, use_yaw=yaw is not None, reached=False)
+                    vx=float(vel[0]), vy=float(vel[1]), yaw=0.0 if yaw is None else yaw,
+                    yaw_rate=0.0 if yaw_rate is None else yaw_rate)
+        flags = dict(use_pos=use_pos, use_yaw=yaw is not None, use_yaw_rate=yaw_rate is not None, reached=False)
         if self.scalar:
             o = self._ss[i]
             for k, v in {**vals, **flags}.items():

@@ -7,7 +7,7 @@
   velocity (vel only): drive at that velocity.   hold (neither): stop.
   heading: turn rate = ATC_STR_ANG_P * heading error (<= ATC_STR_RAT_MAX); speed scaled
       by cos(heading error), zero beyond PIVOT_TURN_ANGLE (turn in place). Stopped with a
-      yaw target: turn in place to it.
+      yaw target: turn in place to it; stopped with only a yaw rate: turn at that rate.
   speed command slewed by ATC_ACCEL_MAX / ATC_DECEL_MAX.
 """
 from __future__ import annotations
@@ -39,9 +39,9 @@ class RoverSetpointArrays:
     """Per-vehicle targets and guidance memory: (n,) arrays, or floats/bools (n=None)."""
 
     def __init__(self, n: int | None):
-        for f in ("px", "py", "vx", "vy", "yaw", "v_cmd"):
+        for f in ("px", "py", "vx", "vy", "yaw", "yaw_rate", "v_cmd"):
             setattr(self, f, 0.0 if n is None else np.zeros(n))
-        for f in ("use_pos", "use_yaw", "reached"):
+        for f in ("use_pos", "use_yaw", "use_yaw_rate", "reached"):
             setattr(self, f, False if n is None else np.zeros(n, dtype=bool))
 
 
@@ -66,6 +66,9 @@ def step(est, sp: RoverSetpointArrays, g: RoverGains, dt: float, xp=NumpyOps):
     hdg = xp.atan2(vy, vx)
     herr = wrap_pi(xp.where(moving, hdg, xp.where(sp.use_yaw, sp.yaw, yaw)) - yaw, xp)
     rate = xp.clip(g.k_hdg * herr, -g.max_rate, g.max_rate)
+    # stopped with only a yaw rate commanded: turn in place at that rate
+    rate = xp.where(sp.use_yaw_rate & xp.lnot(sp.use_yaw | moving),
+                    xp.clip(sp.yaw_rate, -g.max_rate, g.max_rate), rate)
     v = xp.where(xp.abs(herr) > g.pivot, 0.0, spd * xp.maximum(xp.cos(herr), 0.0))
     v = xp.clip(v, sp.v_cmd - g.decel * dt, sp.v_cmd + g.accel * dt)
     sp.v_cmd = v
