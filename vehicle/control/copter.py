@@ -65,6 +65,9 @@ class SetpointArrays:
     feed-forward (pos used). level=True: STABILIZE-like, roll/pitch held level (no
     horizontal control), altitude and yaw held."""
 
+    __slots__ = ("px", "py", "pz", "vx", "vy", "vz", "ax", "ay", "az", "yaw", "yaw_rate",
+                 "use_pos_xy", "use_pos_z", "use_yaw", "level")
+
     def __init__(self, n: int | None):
         z = (lambda: 0.0) if n is None else (lambda: np.zeros(n))
         b = (lambda v: v) if n is None else (lambda v: np.full(n, v, dtype=bool))
@@ -81,6 +84,7 @@ class CopterCtrlState:
     FIELDS = ("px", "py", "pz", "vx", "vy", "vz", "ax", "ay", "az", "yaw",
               "ivx", "ivy", "ivz", "evx", "evy", "dvx", "dvy",
               "irx", "iry", "irz", "erx", "ery", "erz", "drx", "dry", "drz", "coll")
+    __slots__ = FIELDS
 
     def __init__(self, n: int | None):
         for f in self.FIELDS:

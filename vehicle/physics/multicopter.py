@@ -74,6 +74,7 @@ class QuadState:
     """Component-wise state of n quads (arrays of shape (n,)) or of one (floats)."""
     FIELDS = ("px", "py", "pz", "vx", "vy", "vz", "qx", "qy", "qz", "qw",
               "wx", "wy", "wz", "m0", "m1", "m2", "m3", "ax", "ay", "az", "ground")
+    __slots__ = FIELDS
 
     def __init__(self, n: int | None = None, pos=None, yaw=None):
         """n=None builds a scalar (float) state; else arrays of length n."""

@@ -28,7 +28,8 @@ class RoverModel:
 
 class RoverState:
     FIELDS = ("px", "py", "pz", "vx", "vy", "vz", "qx", "qy", "qz", "qw", "wx", "wy", "wz",
-              "ax", "ay", "az", "yaw", "speed", "rate")
+              "ax", "ay", "az", "yaw", "speed", "rate", "ground")
+    __slots__ = FIELDS
 
     def __init__(self, n: int | None, pos=None, yaw=None):
         """n=None builds a scalar (float) state; else arrays of length n."""
