@@ -19,10 +19,11 @@ from collections.abc import Mapping
 import numpy as np
 
 from vehicle.control import shaping
-from vehicle.physics import NumpyOps, wrap_pi
+from vehicle.physics import NumpyOps
 from vehicle.physics.multicopter import GRAVITY, QuadAirframe
 
 D2R = math.pi / 180.0
+TAU = 2.0 * math.pi
 
 
 class CopterGains:
@@ -135,9 +136,9 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
         c.ax, c.ay = w(level, 0.0, c.ax), w(level, 0.0, c.ay)
     # yaw reference: slew to the target yaw, or integrate a yaw rate
     ymax = g.rate_y_max
-    dy = wrap_pi(sp.yaw - c.yaw, xp)
+    dy = (sp.yaw - c.yaw + math.pi) % TAU - math.pi          # wrapped to [-pi, pi)
     yr = w(sp.use_yaw, xp.clip(dy * g.ang_y, -ymax, ymax), xp.clip(sp.yaw_rate, -ymax, ymax))
-    c.yaw = wrap_pi(c.yaw + yr * dt, xp)
+    c.yaw = (c.yaw + yr * dt + math.pi) % TAU - math.pi
 
     # ---- position / velocity -----------------------------------------------------
     vtx = c.vx + g.kp_xy * (c.px - est.px)
