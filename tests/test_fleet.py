@@ -1,7 +1,6 @@
 """Fleet contract and batching: n vehicles step like n independent ones."""
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pytest
