@@ -354,7 +354,7 @@ class CopterFleet(_FleetBase):
     STATE_FIELDS = mc.QuadState.FIELDS
 
     def __init__(self, n: int, params: Mapping[str, float] | None = None, seed: int | Sequence[int] = 0,
-                 home: np.ndarray | None = None, estimator: bool = True, airframe: mc.QuadAirframe | None = None,
+                 home: np.ndarray | None = None, estimator: bool | str = True, airframe: mc.QuadAirframe | None = None,
                  sensor_spec: SensorSpec | None = None, yaw: np.ndarray | float | None = None,
                  scalar: bool | None = None):
         self._init_common(n, params, seed, home, estimator, sensor_spec, scalar)
@@ -494,7 +494,7 @@ class RoverFleet(_FleetBase):
     STATE_FIELDS = rphys.RoverState.FIELDS
 
     def __init__(self, n: int, params: Mapping[str, float] | None = None, seed: int | Sequence[int] = 0,
-                 home: np.ndarray | None = None, estimator: bool = True, model: rphys.RoverModel | None = None,
+                 home: np.ndarray | None = None, estimator: bool | str = True, model: rphys.RoverModel | None = None,
                  sensor_spec: SensorSpec | None = None, yaw: np.ndarray | float | None = None,
                  scalar: bool | None = None):
         self._init_common(n, params, seed, home, estimator, sensor_spec, scalar)
