@@ -44,7 +44,8 @@ def table(title: str, header: Sequence[str], rows: Sequence[Sequence[object]]) -
     line = "  ".join("-" * w for w in widths)
     out = [title, line]
     for k, r in enumerate(cells):
-        out.append("  ".join(c.rjust(w) if k else c.ljust(w) for c, w in zip(r, widths)))
+        out.append("  ".join(c.ljust(w) if i == 0 or k == 0 else c.rjust(w)
+                             for i, (c, w) in enumerate(zip(r, widths))))
         if k == 0:
             out.append(line)
     return "\n".join(out)
