@@ -52,9 +52,12 @@ def test_twenty_percent_loss_on_the_tower_link(tmp_path):
         s = finish(launch, timeout=120)
     assert s["ok"] and s["goals_reached"] == 3
     p = s["proxy"]
-    for way in ("up", "down"):   # the proxy really dropped about a fifth each way (seeded)
-        n = p["passed"][way] + p["dropped"][way]
-        assert n > 50 and 0.1 < p["dropped"][way] / n < 0.3, p
+    # The proxy really lost packets both ways. The tower sends only a few dozen datagrams in a
+    # short mission, too few to pin a rate on; the rate itself is tested in test_loss_proxy.py,
+    # and here on the downlink and in total, where thousands of datagrams pass.
+    assert p["dropped"]["up"] >= 1 and p["passed"]["up"] >= 10, p
+    down = p["passed"]["down"] + p["dropped"]["down"]
+    assert down > 1000 and 0.15 < p["dropped"]["down"] / down < 0.25, p
     total = sum(p["passed"].values()) + sum(p["dropped"].values())
     assert 0.15 < sum(p["dropped"].values()) / total < 0.25, p
     import json
