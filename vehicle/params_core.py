@@ -77,12 +77,15 @@ COPTER_PARAMS: dict[str, ParamDef] = {
 ROVER_PARAMS: dict[str, ParamDef] = {
     "CRUISE_SPEED": _p(8.0, 0, 100, "m/s", "target speed in auto/guided (skid-steer rover)"),
     "WP_SPEED": _p(0.0, 0, 100, "m/s", "waypoint speed; 0 = use CRUISE_SPEED"),
-    "ATC_ACCEL_MAX": _p(3.0, 0, 10, "m/s/s", "speed-up acceleration limit"),
+    # The sim rover is an agile small skid-steer UGV (about 0.5 g, a 4.2 rad/s spin like a
+    # Clearpath Jackal's) so that it can follow a 5 m/s multicopter through stop-and-turn
+    # corners within 1 m RMS; ArduPilot's own defaults suit larger, slower rovers.
+    "ATC_ACCEL_MAX": _p(5.0, 0, 10, "m/s/s", "speed-up acceleration limit (5 = the model's traction limit)"),
     "ATC_DECEL_MAX": _p(0.0, 0, 10, "m/s/s", "slow-down limit; 0 = ATC_ACCEL_MAX"),
-    "ATC_STR_RAT_MAX": _p(120, 0, 1000, "deg/s", "turn-rate limit"),
+    "ATC_STR_RAT_MAX": _p(240, 0, 1000, "deg/s", "turn-rate limit"),
     "ATC_STR_ANG_P": _p(2.5, 1, 10, "1/s", "heading error -> turn rate"),
-    "ATC_SPEED_P": _p(0.5, 0, 2, "1/s", "towerlink: position error -> speed correction (follow)"),
-    "PIVOT_TURN_ANGLE": _p(60, 0, 360, "deg", "heading error above which the rover turns in place"),
+    "ATC_SPEED_P": _p(1.0, 0, 2, "1/s", "towerlink: position error -> speed correction (follow)"),
+    "PIVOT_TURN_ANGLE": _p(90, 0, 360, "deg", "heading error above which the rover turns in place"),
     "WP_RADIUS": _p(0.3, 0.1, 100, "m", "towerlink: stop within this distance of a position goal"),
     "SIM_RVR_MAX_SPD": _p(12.0, 1, 30, "m/s", "towerlink sim: rover top speed"),
 }

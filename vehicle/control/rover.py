@@ -3,7 +3,8 @@
   goal (pos, no feed-forward): speed = min(WP_SPEED or CRUISE_SPEED, sqrt(2 decel dist)),
       towards the goal; within WP_RADIUS it stops and latches "reached" (until the goal
       moves or it is pushed 2 WP_RADIUS away), so it never orbits the goal.
-  follow (pos + vel feed-forward): velocity = v_ff + ATC_SPEED_P * position error (capped).
+  follow (pos + vel feed-forward): velocity = v_ff + ATC_SPEED_P * position error (capped);
+      the target position advances by v_ff between updates.
   velocity (vel only): drive at that velocity.   hold (neither): stop.
   heading: turn rate = ATC_STR_ANG_P * heading error (<= ATC_STR_RAT_MAX); speed scaled
       by cos(heading error), zero beyond PIVOT_TURN_ANGLE (turn in place). Stopped with a
@@ -59,8 +60,13 @@ def step(est, sp: RoverSetpointArrays, g: RoverGains, dt: float, xp=NumpyOps):
     mag_follow = xp.minimum(g.max_speed, g.k_pos * dist)
     mag = xp.where(has_ff, mag_follow, xp.where(sp.reached, 0.0, mag_goto))
     s = xp.where(sp.use_pos, mag / xp.maximum(dist, 1e-9), 0.0)
-    vx = sp.vx + ex * s
-    vy = sp.vy + ey * s
+    # Settle band: a followed target that is close and barely moving (a hovering drone's
+    # velocity is mostly estimator noise) is held, not chased, so the rover does not pivot
+    # after noise and face a random way when the target sets off again.
+    hold = has_ff & (dist < g.radius) & (ffm < 0.3)
+    s = xp.where(hold, 0.0, s)
+    vx = xp.where(hold, 0.0, sp.vx + ex * s)
+    vy = xp.where(hold, 0.0, sp.vy + ey * s)
     spd = xp.minimum(xp.sqrt(vx * vx + vy * vy), g.max_speed)
     moving = spd > 0.05
     hdg = xp.atan2(vy, vx)
@@ -72,4 +78,10 @@ def step(est, sp: RoverSetpointArrays, g: RoverGains, dt: float, xp=NumpyOps):
     v = xp.where(xp.abs(herr) > g.pivot, 0.0, spd * xp.maximum(xp.cos(herr), 0.0))
     v = xp.clip(v, sp.v_cmd - g.decel * dt, sp.v_cmd + g.accel * dt)
     sp.v_cmd = v
+    # A followed target moves on between updates: advance it by its velocity, as
+    # AC_PosControl advances a position+velocity target, so a 10 Hz stream of goals
+    # reads as a moving point rather than a staircase the rover lags behind.
+    lead = xp.where(sp.use_pos & has_ff, dt, 0.0)
+    sp.px = sp.px + sp.vx * lead
+    sp.py = sp.py + sp.vy * lead
     return v, rate
