@@ -21,11 +21,10 @@ send to their address and accept replies from anyone.
 from __future__ import annotations
 
 import binascii
-import errno
 import socket
 import struct
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from bridge.dialect import towerlink as _tl
 

@@ -21,7 +21,7 @@ import math
 from dataclasses import dataclass, field
 
 from bridge.dialect import towerlink as tl
-from bridge.frames import Buffer, Transform, TransformStamped
+from bridge.frames import Buffer, Transform, TransformStamped, quaternion_slerp
 
 STATIC_FLAG = tl.TOWERLINK_TRANSFORM_FLAGS_STATIC
 FRAME_ID_LEN = 16
@@ -35,19 +35,6 @@ def quat_wxyz_to_xyzw(q) -> tuple[float, float, float, float]:
     return (x / n, y / n, z / n, w / n)
 
 
-def _slerp(a, b, s):
-    dot = sum(x * y for x, y in zip(a, b))
-    if dot < 0.0:
-        b = tuple(-v for v in b)
-        dot = -dot
-    if dot > 0.9995:
-        r = tuple(x + s * (y - x) for x, y in zip(a, b))
-    else:
-        th = math.acos(min(1.0, dot))
-        sa, sb = math.sin((1 - s) * th), math.sin(s * th)
-        r = tuple((sa * x + sb * y) / math.sin(th) for x, y in zip(a, b))
-    n = math.sqrt(sum(v * v for v in r))
-    return tuple(v / n for v in r)
 
 
 @dataclass
@@ -150,7 +137,7 @@ class VehicleFrames:
         if 0 < i < len(keys):
             a, b = keys[i - 1], keys[i]
             if (b - a) / 1000.0 <= self.max_gap:
-                return _slerp(self._att[a], self._att[b], (ms - a) / (b - a))
+                return quaternion_slerp(self._att[a], self._att[b], (ms - a) / (b - a))
         return None
 
     def _try_pair(self, ms: int) -> list[FrameSample]:

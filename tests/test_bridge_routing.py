@@ -7,8 +7,6 @@ and dropped while routing continues; the CLI process starts, routes and stops.
 from __future__ import annotations
 
 import os
-import socket
-import time
 
 import pytest
 

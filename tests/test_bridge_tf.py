@@ -2,7 +2,6 @@
 packets, vehicle reboot; the transform stream as the tower sees it."""
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pytest

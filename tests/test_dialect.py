@@ -6,7 +6,6 @@ import importlib
 import pkgutil
 import xml.etree.ElementTree as ET
 
-import pytest
 
 import pymavlink.dialects.v20 as v20
 from bridge.dialect import DIALECT_IDS, MODULE, XML, generate, mavlink_connection

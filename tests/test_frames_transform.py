@@ -276,3 +276,38 @@ def test_apply_large_batches_blockwise(n):
     np.testing.assert_allclose(t.apply_point(strided), r.apply(pts) + [1.0, -2.0, 3.0], atol=1e-9)
     np.testing.assert_allclose(t.apply_point(pts.astype(np.float32)),
                                r.apply(pts) + [1.0, -2.0, 3.0], atol=1e-3)
+
+
+# ---- tf.transformations-style helpers: the project's one Euler and SLERP ----------------
+from bridge.frames import euler_from_quaternion, quaternion_from_euler, quaternion_slerp  # noqa: E402
+
+
+@given(quats())
+def test_euler_from_quaternion_matches_scipy(q):
+    roll, pitch, yaw = euler_from_quaternion(q)
+    assume(abs(abs(pitch) - math.pi / 2) > 1e-3)          # away from gimbal lock
+    ref_yaw, ref_pitch, ref_roll = Rotation.from_quat(q).as_euler("ZYX")
+    diff = np.subtract((roll, pitch, yaw), (ref_roll, ref_pitch, ref_yaw))
+    assert np.abs((diff + math.pi) % (2 * math.pi) - math.pi).max() < 1e-7   # +-pi are one angle
+
+
+@given(st.floats(-math.pi, math.pi), st.floats(-1.5, 1.5), st.floats(-math.pi, math.pi))
+def test_quaternion_from_euler_round_trips_and_matches_transform(roll, pitch, yaw):
+    q = quaternion_from_euler(roll, pitch, yaw)
+    assert same_rotation(q, Transform.from_euler(yaw, pitch, roll).xyzw)
+    assert euler_from_quaternion(q) == pytest.approx((roll, pitch, yaw), abs=1e-7)
+
+
+def test_euler_from_quaternion_normalises_and_refuses_zero():
+    assert euler_from_quaternion((0, 0, 0, 2.0)) == (0.0, 0.0, 0.0)
+    with pytest.raises(InvalidArgumentException, match="Euler"):
+        euler_from_quaternion((0, 0, 0, 0))
+
+
+@given(quats(), quats(), st.floats(0.0, 1.0))
+def test_quaternion_slerp_matches_scipy_shortest_path(a, b, s):
+    assume(abs(float(np.dot(a, b))) < 1 - 1e-6)              # a unique shortest path
+    from scipy.spatial.transform import Slerp
+    b_near = b if np.dot(a, b) >= 0 else -np.asarray(b)
+    ref = Slerp([0, 1], Rotation.from_quat([a, b_near]))([s]).as_quat()[0]
+    assert same_rotation(quaternion_slerp(a, b, s), ref, atol=1e-7)

@@ -95,7 +95,7 @@ def test_wire_frames_echo_and_motion(flying):
     # takeoff while flying refused
     assert command(m, mav.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 4) == mav.MAV_RESULT_FAILED
     goto_local(m, 3.0, 0.0, -4.0)
-    p = recv(m, "LOCAL_POSITION_NED", 40, cond=lambda p: abs(p.x - 3) < 0.5 and abs(p.y) < 0.5)
+    recv(m, "LOCAL_POSITION_NED", 40, cond=lambda p: abs(p.x - 3) < 0.5 and abs(p.y) < 0.5)
     # LOCAL_OFFSET_NED: 2 m east of here
     here = local_pos(m)
     goto_local(m, 0.0, 2.0, 0.0, frame=mav.MAV_FRAME_LOCAL_OFFSET_NED)

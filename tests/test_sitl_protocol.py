@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from support import Processes, wait_until
+from support import Processes
 from test_sitl_support import Sitl, collect, command, connect, mav, recv, set_mode, wait_armable
 
 pytestmark = pytest.mark.timeout(90)

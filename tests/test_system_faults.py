@@ -9,7 +9,6 @@ from __future__ import annotations
 import math
 import os
 import random
-import struct
 import time
 
 import pytest

@@ -5,7 +5,6 @@ import math
 import re
 import struct
 import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -15,7 +14,8 @@ from bridge.frames import Buffer, Transform, TransformStamped
 from bridge.tf_stream import transform_message
 from bridge_fakes import FakeVehicle
 from support import free_ports, wait_until
-from tools.tf_format import format_tf_echo, quat_to_rpy
+from bridge.frames import euler_from_quaternion
+from tools.tf_format import format_tf_echo
 
 TOWER = TransformStamped("world", "tower", 0.0, Transform.from_euler(-math.pi / 6, 0, 0, (72.72144, -131.19296, 0)))
 
@@ -37,7 +37,7 @@ def test_format_shape_matches_tf_echo():
                     "            in RPY (radian) [0.000, 0.000, -1.571]\n"
                     "            in RPY (degree) [0.000, 0.000, -90.000]")
     # roll, pitch, yaw order with R = Rz(yaw) Ry(pitch) Rx(roll)
-    r, p, y = quat_to_rpy(Transform.from_euler(0.3, -0.2, 0.1).xyzw)
+    r, p, y = euler_from_quaternion(Transform.from_euler(0.3, -0.2, 0.1).xyzw)
     assert (r, p, y) == pytest.approx((0.1, -0.2, 0.3))
     assert format_tf_echo(((1, 2, 3), (0, 0, 0, 1)), 5).startswith("At time 5.000\n")
 

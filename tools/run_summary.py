@@ -154,7 +154,6 @@ def load_messages(msgs: Iterable[Any], data: RunData | None = None) -> RunData:
     last_ms: dict[int, int] = defaultdict(int)
     origin: dict[int, tuple[float, float, float]] = {}
     home: dict[int, tuple[tuple[float, float, float], tuple[float, float, float]]] = {}
-    truth_rows: dict[int, list] = defaultdict(list)
     truth_lla: dict[int, list] = defaultdict(list)
     est_rows: dict[int, list] = defaultdict(list)
     follow_rows: list = []

@@ -12,8 +12,8 @@ TARGET into SOURCE), and prints, with 3 decimals fixed::
                 in RPY (degree) [roll, pitch, yaw]
 
 RPY is tf's ``getRPY``: fixed-axis roll about x, then pitch about y, then yaw about z,
-R = Rz(yaw) Ry(pitch) Rx(roll) (the same as ``Transform.to_euler()`` which returns
-(yaw, pitch, roll)). Printed in roll, pitch, yaw order, as tf_echo does.
+R = Rz(yaw) Ry(pitch) Rx(roll), from ``bridge.frames.euler_from_quaternion``. Printed in
+roll, pitch, yaw order, as tf_echo does.
 
 Pure formatting: accepts a ``bridge.frames.TransformStamped``, a ``Transform``, or a
 plain ``(translation, rotation_xyzw)`` pair; no dependency on the frame buffer.
@@ -21,40 +21,12 @@ plain ``(translation, rotation_xyzw)`` pair; no dependency on the frame buffer.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 
-__all__ = ["format_tf_echo", "format_number", "quat_to_rpy", "split_transform"]
+from bridge.frames import euler_from_quaternion
+
+__all__ = ["format_tf_echo", "format_number", "split_transform"]
 
 
-def quat_to_rpy(q: Sequence[float]) -> tuple[float, float, float]:
-    """(roll, pitch, yaw) in radians of quaternion (x, y, z, w), tf getRPY convention.
-
-    The quaternion is normalised first. At gimbal lock (|pitch| = 90 deg) roll is 0 and
-    the whole rotation about z is reported as yaw, as tf does.
-    """
-    x, y, z, w = (float(v) for v in q)
-    n = math.sqrt(x * x + y * y + z * z + w * w)
-    if n == 0.0:
-        raise ValueError("zero-length quaternion")
-    x, y, z, w = x / n, y / n, z / n, w / n
-    # rotation matrix entries needed for ZYX extraction
-    r00 = 1.0 - 2.0 * (y * y + z * z)
-    r10 = 2.0 * (x * y + w * z)
-    r20 = 2.0 * (x * z - w * y)
-    r21 = 2.0 * (y * z + w * x)
-    r22 = 1.0 - 2.0 * (x * x + y * y)
-    sp = -r20
-    if abs(sp) >= 1.0 - 1e-12:
-        pitch = math.copysign(math.pi / 2.0, sp)
-        r01 = 2.0 * (x * y - w * z)
-        r11 = 1.0 - 2.0 * (x * x + z * z)
-        roll = 0.0
-        yaw = math.atan2(-r01, r11)
-        return roll, pitch, yaw
-    pitch = math.asin(max(-1.0, min(1.0, sp)))
-    roll = math.atan2(r21, r22)
-    yaw = math.atan2(r10, r00)
-    return roll, pitch, yaw
 
 
 def split_transform(obj) -> tuple[tuple[float, float, float], tuple[float, float, float, float], float | None]:
@@ -91,7 +63,7 @@ def format_tf_echo(stamped_or_transform, time: float | None = None, precision: i
     t, q, stamp = split_transform(stamped_or_transform)
     if time is None:
         time = stamp if stamp is not None else 0.0
-    roll, pitch, yaw = quat_to_rpy(q)
+    roll, pitch, yaw = euler_from_quaternion(q)
     deg = tuple(math.degrees(a) for a in (roll, pitch, yaw))
     return "\n".join([
         f"At time {float(time):.{precision}f}",

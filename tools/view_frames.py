@@ -199,7 +199,7 @@ def to_svg(frames: list[str], edges: list[Edge], title: str = "view_frames") -> 
          f'viewBox="0 0 {w:.0f} {h:.0f}" font-family="Helvetica, Arial, sans-serif">',
          '<defs><marker id="arrow" viewBox="0 0 10 10" refX="10" refY="5" markerWidth="8" '
          'markerHeight="8" orient="auto-start-reverse"><path d="M 0 0 L 10 5 L 0 10 z"/></marker></defs>',
-         f'<rect width="100%" height="100%" fill="white"/>',
+         '<rect width="100%" height="100%" fill="white"/>',
          f'<text x="{w / 2:.1f}" y="{MARGIN - 10 + 16:.1f}" text-anchor="middle" font-size="16">'
          f'{html.escape(title)}</text>']
     for e in edges:

@@ -42,6 +42,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from bridge.frames import euler_from_quaternion
+
 from vehicle import params_core
 from vehicle.control import copter as ccore
 from vehicle.control import rover as rcore
@@ -75,16 +77,12 @@ class VehicleState:
 
     @property
     def yaw(self) -> float:
-        x, y, z, w = self.quat
-        return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+        return self.euler[2]
 
     @property
     def euler(self) -> tuple[float, float, float]:
         """(roll, pitch, yaw) rad, ZYX."""
-        x, y, z, w = self.quat
-        roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
-        pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
-        return roll, pitch, self.yaw
+        return euler_from_quaternion(self.quat)
 
 
 def _vec(v) -> np.ndarray | None:

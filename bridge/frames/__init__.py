@@ -10,7 +10,8 @@ from .errors import (ConnectivityException, ExtrapolationException,
                      LookupException, PastExtrapolationException, TimeoutException,
                      TransformException)
 from .stamped import LATEST, PointStamped, PoseStamped, TransformStamped, VectorStamped
-from .transform import Transform
+from .transform import (Transform, euler_from_quaternion, quaternion_from_euler,
+                        quaternion_slerp)
 
 __all__ = [
     "Transform", "TransformStamped", "Buffer", "EdgeStats", "LATEST",
@@ -18,4 +19,5 @@ __all__ = [
     "TransformException", "LookupException", "ConnectivityException",
     "ExtrapolationException", "PastExtrapolationException", "FutureExtrapolationException",
     "InvalidArgumentException", "TimeoutException",
+    "euler_from_quaternion", "quaternion_from_euler", "quaternion_slerp",
 ]

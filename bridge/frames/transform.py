@@ -181,6 +181,32 @@ def _euler_from_quat(qx: float, qy: float, qz: float, qw: float) -> tuple[float,
     return math.atan2(-r01, r11), pitch, 0.0
 
 
+def euler_from_quaternion(q: Any) -> tuple[float, float, float]:
+    """(roll, pitch, yaw) of an (x, y, z, w) quaternion, R = Rz(yaw) Ry(pitch) Rx(roll).
+
+    tf.transformations' name and order (the lab's `euler_from_quaternion`); the
+    quaternion is normalised first. The one quaternion->Euler conversion of the project.
+    """
+    qx, qy, qz, qw = (float(v) for v in q)
+    n = _sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+    if not n > 0.0 or not _isfinite(n):
+        raise InvalidArgumentException(f"cannot take Euler angles of quaternion {tuple(q)!r}")
+    yaw, pitch, roll = _euler_from_quat(qx / n, qy / n, qz / n, qw / n)
+    return roll, pitch, yaw
+
+
+def quaternion_from_euler(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
+    """(x, y, z, w) of R = Rz(yaw) Ry(pitch) Rx(roll); tf.transformations' name and order."""
+    return _quat_from_euler(yaw, pitch, roll)
+
+
+def quaternion_slerp(q0: Any, q1: Any, s: float) -> tuple[float, float, float, float]:
+    """Shortest-path SLERP between (x, y, z, w) unit quaternions; s = 0 gives q0, 1 gives q1."""
+    a = (0.0, 0.0, 0.0, *(float(v) for v in q0))
+    b = (0.0, 0.0, 0.0, *(float(v) for v in q1))
+    return _interpolate(a, b, float(s))[3:]  # type: ignore[return-value]
+
+
 # --------------------------------------------------------------------------------------
 # validation
 # --------------------------------------------------------------------------------------

@@ -9,6 +9,8 @@ import math
 
 import numpy as np
 
+from bridge.frames import euler_from_quaternion
+
 EARTH_RADIUS = 6378137.0
 M_PER_DEG = EARTH_RADIUS * math.pi / 180.0
 
@@ -33,15 +35,4 @@ def wrap_pi(a: float) -> float:
 
 def yaw_of(q) -> float:
     """Yaw (rad) of an (x, y, z, w) quaternion, ZYX convention."""
-    x, y, z, w = (float(v) for v in q)
-    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-
-
-def euler_of(q) -> tuple[float, float, float]:
-    """(roll, pitch, yaw) rad of an (x, y, z, w) quaternion."""
-    x, y, z, w = (float(v) for v in q)
-    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
-    s = max(-1.0, min(1.0, 2.0 * (w * y - z * x)))
-    pitch = math.asin(s)
-    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-    return roll, pitch, yaw
+    return euler_from_quaternion(q)[2]

@@ -14,7 +14,7 @@ import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from vehicle.autopilot import modes
-from vehicle.autopilot.base import ACCEPTED, SEV_INFO, SEV_WARNING, Autopilot, UNSUPPORTED
+from vehicle.autopilot.base import SEV_INFO, SEV_WARNING, Autopilot, UNSUPPORTED
 from vehicle.autopilot.guided import GuidedTarget
 
 ZERO = np.zeros(3)

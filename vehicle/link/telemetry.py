@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from bridge.frames import euler_from_quaternion
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from vehicle.autopilot import geo
@@ -150,7 +152,7 @@ class Telemetry:
 
     def attitude(self):
         ap = self.link.ap
-        r, p, y = geo.euler_of(ap.quat)
+        r, p, y = euler_from_quaternion(ap.quat)
         w = ap.rates
         return mav.MAVLink_attitude_message(self.boot_ms(), r, p, y, float(w[0]), float(w[1]), float(w[2]))
 
@@ -213,7 +215,7 @@ class Telemetry:
         q = np.asarray(getattr(tr, "quat", ap.quat), float)
         w = np.asarray(getattr(tr, "rates", ap.rates), float)
         acc = np.asarray(getattr(tr, "acc", np.zeros(3)), float)
-        r, p, y = geo.euler_of(q)
+        r, p, y = euler_from_quaternion(q)
         lat, lon, alt = geo.ned_to_lla(ap.origin, pos)
         return mav.MAVLink_sim_state_message(
             float(q[3]), float(q[0]), float(q[1]), float(q[2]), r, p, y,

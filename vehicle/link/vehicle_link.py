@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import traceback
 import struct
 import time
 from collections import Counter
@@ -175,10 +176,8 @@ class VehicleLink:
         for m in msgs:
             try:
                 self._classify_and_handle(m, channel)
-            except Exception as e:  # a handler bug must not kill the vehicle
+            except Exception:  # a handler bug must not kill the vehicle: count it, say where
                 self.stats["handler_error"] += 1
-                self.stats["last_error"] = 0
-                import traceback
                 traceback.print_exc()
 
     def _classify_and_handle(self, m, channel: Channel) -> None:
