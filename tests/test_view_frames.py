@@ -63,7 +63,10 @@ def test_svg_is_well_formed_and_complete():
     for f in frames:
         assert f in texts
     assert "Broadcaster: mavlink:250" in texts and "t <&>" in texts
-    assert len(list(root.iter("{http://www.w3.org/2000/svg}line"))) == len(edges)
+    lines = list(root.iter("{http://www.w3.org/2000/svg}line"))
+    # each edge runs parent -> its label, then label -> child with the one arrowhead
+    assert len(lines) == 2 * len(edges)
+    assert sum(1 for ln in lines if ln.get("marker-end")) == len(edges)
 
 
 def test_dot_source():

@@ -191,6 +191,13 @@ def _label_anchor(x_child: float, y_child: float, lines: int) -> tuple[float, fl
     return x_child, y_child - NODE_H / 2 - 14 - 12 * lines
 
 
+def _label_span(x_child: float, y_child: float, lines: int) -> tuple[float, float]:
+    """(top, bottom) y of an edge's label box. Edges run parent -> label top and label
+    bottom -> child, as Graphviz routes labelled edges, so no line crosses another label."""
+    _, my = _label_anchor(x_child, y_child, lines)
+    return my - 11, my - 5 + 12 * lines
+
+
 def to_svg(frames: list[str], edges: list[Edge], title: str = "view_frames") -> str:
     """The tree as a self-contained SVG (no Graphviz needed)."""
     pos = layout(frames, edges)
@@ -205,7 +212,10 @@ def to_svg(frames: list[str], edges: list[Edge], title: str = "view_frames") -> 
     for e in edges:
         (x0, y0), (x1, y1) = xy[e.parent], xy[e.child]
         dash = ' stroke-dasharray="6,4"' if e.static else ""
-        o.append(f'<line x1="{x0:.1f}" y1="{y0 + NODE_H / 2:.1f}" x2="{x1:.1f}" y2="{y1 - NODE_H / 2:.1f}" '
+        top, bottom = _label_span(x1, y1, len(e.label))
+        o.append(f'<line x1="{x0:.1f}" y1="{y0 + NODE_H / 2:.1f}" x2="{x1:.1f}" y2="{top:.1f}" '
+                 f'stroke="black"{dash}/>')
+        o.append(f'<line x1="{x1:.1f}" y1="{bottom:.1f}" x2="{x1:.1f}" y2="{y1 - NODE_H / 2:.1f}" '
                  f'stroke="black"{dash} marker-end="url(#arrow)"/>')
         mx, my = _label_anchor(x1, y1, len(e.label))
         bw = 6.0 * max(len(s) for s in e.label) + 10
@@ -242,9 +252,11 @@ def render_matplotlib(frames: list[str], edges: list[Edge], path: str | os.PathL
     ax.text(max(w, 400) / 2, MARGIN, title, ha="center", va="center", fontsize=13)
     for e in edges:
         (x0, y0), (x1, y1) = xy[e.parent], xy[e.child]
-        ax.annotate("", xy=(x1, y1 - NODE_H / 2), xytext=(x0, y0 + NODE_H / 2),
-                    arrowprops=dict(arrowstyle="-|>", color="black",
-                                    linestyle="--" if e.static else "-", lw=1.0))
+        top, bottom = _label_span(x1, y1, len(e.label))
+        ls = "--" if e.static else "-"
+        ax.plot([x0, x1], [y0 + NODE_H / 2, top], color="black", linestyle=ls, lw=1.0)
+        ax.annotate("", xy=(x1, y1 - NODE_H / 2), xytext=(x1, bottom),
+                    arrowprops=dict(arrowstyle="-|>", color="black", linestyle=ls, lw=1.0))
         mx, my = _label_anchor(x1, y1, len(e.label))
         ax.text(mx, my - 9 + 6 * len(e.label), "\n".join(e.label), fontsize=7, va="center",
                 ha="center", family="sans-serif", linespacing=1.3,
