@@ -45,7 +45,7 @@ def wait_goal(launch: Launch, n: int, what: str, timeout: float) -> None:
             return
         if launch.procs["tower"].poll() is not None:
             raise AssertionError("tower ended early:\n" + "\n".join(launch.tower_lines[-15:]))
-        time.sleep(0.05)
+        time.sleep(0.05)  # poll
     raise AssertionError(f"goal {n} not {what} in {timeout} s; tower said:\n" + "\n".join(launch.tower_lines[-15:]))
 
 

@@ -102,7 +102,7 @@ def test_fly_tower_goal_and_rover_follows(processes):
 
         # kill the bridge mid-flight: the drone holds its GUIDED position
         processes.stop(bridge)
-        time.sleep(1.0)   # real outage, 5 s sim at 5x
+        time.sleep(1.0)   # the outage itself (1 s wall, 5 s sim at 5x), not a settle wait
         bridge2 = processes.start(bridge_cmd)
         tower.last.clear()
         tower.wait(lambda: tower.get("LOCAL_POSITION_NED", 1), 30, "telemetry through the new bridge")

@@ -31,7 +31,7 @@ def client(port: int) -> int:
                     return
             except Exception:
                 pass
-            time.sleep(0.1)
+            time.sleep(0.1)  # poll
         raise SystemExit(f"timeout: {what}")
 
     sdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))

@@ -141,8 +141,9 @@ def test_stream_rates_change_on_the_wire(drone):
     assert recv(drone, "MESSAGE_INTERVAL", 5).interval_us == 40000
     assert command(drone, mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_ATTITUDE, -1) == mav.MAV_RESULT_ACCEPTED
     recv(drone, "HEARTBEAT", 5)
-    drone.recv_match(type="ATTITUDE", blocking=False)
-    time.sleep(0.3)
+    # what was already in flight is discarded while two SYSTEM_TIMEs go by after the change
+    recv(drone, "SYSTEM_TIME", 5)
+    recv(drone, "SYSTEM_TIME", 5)
     while drone.recv_match(type="ATTITUDE", blocking=False):
         pass
     t_end = time.monotonic() + 1.0
@@ -156,7 +157,8 @@ def test_stream_rates_change_on_the_wire(drone):
     assert command(drone, mav.MAV_CMD_SET_MESSAGE_INTERVAL, 12345) == mav.MAV_RESULT_DENIED
     # REQUEST_DATA_STREAM (as MAVProxy does): EXTRA2 (VFR_HUD) to 2 Hz and back to 4 Hz
     drone.mav.request_data_stream_send(1, 1, mav.MAV_DATA_STREAM_EXTRA2, 2, 1)
-    time.sleep(0.3)
+    recv(drone, "SYSTEM_TIME", 5)     # the request is handled before the next tick's stream
+    recv(drone, "SYSTEM_TIME", 5)
     r = recv(drone, "VFR_HUD", 5)
     # VFR_HUD has no timestamp: time it against SYSTEM_TIME on the same stream
     t0 = recv(drone, "SYSTEM_TIME", 5).time_boot_ms

@@ -13,6 +13,7 @@ import time
 
 import pytest
 
+from support import wait_until
 from system_support import HOUSE, finish, launched, tower_goals, wait_goal
 
 pytestmark = pytest.mark.slow
@@ -23,7 +24,10 @@ SHORT = [HOUSE, (10.0, -2.0), (10.0, 6.0)]
 def test_bridge_killed_and_restarted_mid_mission(tmp_path):
     with launched(tmp_path, goals=tower_goals(SHORT), finish="none") as launch:
         wait_goal(launch, 2, "sent", timeout=60)
-        time.sleep(0.5)
+        start = launch.monitor.snapshot()["drone"]
+        # kill it mid-leg: once the drone is on its way to goal 2
+        wait_until(lambda: (p := launch.monitor.snapshot()["drone"]) is not None and start is not None
+                   and math.dist(p[:2], start[:2]) > 1.0, 60, "the drone under way to goal 2")
         launch.kill_bridge()
         # without the bridge the drone keeps its last GUIDED target and hovers: sample truth
         samples = []
@@ -31,7 +35,7 @@ def test_bridge_killed_and_restarted_mid_mission(tmp_path):
         while time.monotonic() < t_end:
             snap = launch.monitor.snapshot()
             samples.append((snap["sim"], snap["drone"]))
-            time.sleep(0.2)
+            time.sleep(0.2)  # poll: sample truth over 6 s while the bridge is down
         assert launch.alive()["bridge"] is False and launch.alive()["tower"] is True
         sims = [s for s, _ in samples]
         assert sims[-1] - sims[0] > 3.0, "the world kept running while the bridge was down"
@@ -118,7 +122,7 @@ def test_garbage_on_every_bridge_port_is_counted_and_dropped(tmp_path):
                     for pkt in _garbage(rng):
                         s.sendto(pkt, ("127.0.0.1", port))
                         sent += 1
-                time.sleep(0.3)
+                time.sleep(0.3)  # poll: three bursts spread over the mission
         finally:
             s.close()
         assert launch.alive()["bridge"]

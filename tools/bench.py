@@ -13,7 +13,6 @@ import argparse
 import importlib
 import time
 
-from tools.benchtable import machine
 
 BENCHES = {
     "frames": "tools.bench_frames",
@@ -33,7 +32,6 @@ def run(args: argparse.Namespace) -> int:
     if unknown:
         print(f"towerlink bench: unknown benchmark {unknown[0]!r}; choose from {', '.join(BENCHES)}")
         return 2
-    print(f"machine: {machine()}\n", flush=True)
     status = 0
     for name in names:
         t0 = time.perf_counter()
