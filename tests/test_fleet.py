@@ -157,3 +157,59 @@ def test_bad_setpoints_never_fly_somewhere_odd():
     for _ in range(400):
         r.step(DT)
     assert np.linalg.norm(r.truth(0).pos) < 1e-9
+
+
+def _max_speeds(f, goals, secs):
+    """Arm all, send vehicle i to goals[i], step secs; (n,) max true horizontal speed."""
+    for i in range(f.n):
+        f.set_armed(i, True)
+        f.set_setpoint(i, Setpoint(pos=goals[i]))
+    top = np.zeros(f.n)
+    for _ in range(int(round(secs / DT))):
+        f.step(DT)
+        top = np.maximum(top, np.hypot(f.vel[:, 0], f.vel[:, 1]))
+    return top
+
+
+@pytest.mark.parametrize("scalar", [True, False])
+def test_copter_params_per_vehicle(scalar):
+    """PARAM_SET on one ArduPilot changes that vehicle only: WPNAV_SPEED set on vehicle 0
+    limits vehicle 0's 20 m move while vehicle 1 flies at the default 5 m/s; both store
+    paths (floats per vehicle, numpy (n,) gains) fly the same numbers."""
+    home = np.array([[0.0, 0.0, 0.0], [0.0, 5.0, 0.0]])
+    f = CopterFleet(2, seed=3, home=home, estimator=False, scalar=scalar)
+    f.set_params({"WPNAV_SPEED": 200}, i=0)
+    assert f.params_of(0)["WPNAV_SPEED"] == 200 and f.params_of(1)["WPNAV_SPEED"] == 500
+    assert f.gains_of(0).v_xy == pytest.approx(2.0) and f.gains_of(1).v_xy == pytest.approx(5.0)
+    top = _max_speeds(f, home + [20.0, 0.0, -5.0], 8.0)
+    assert top[0] <= 2.0 * 1.05, top
+    assert 4.8 <= top[1] <= 5.0 * 1.05, top
+    # the other store path gives the same flight (per-vehicle gains broadcast as (n,) arrays)
+    other = CopterFleet(2, seed=3, home=home, estimator=False, scalar=not scalar)
+    other.set_params({"WPNAV_SPEED": 200}, i=0)
+    _max_speeds(other, home + [20.0, 0.0, -5.0], 8.0)
+    np.testing.assert_allclose(other.pos, f.pos, atol=1e-6)
+    # i=None keeps its meaning: every vehicle
+    f.set_params({"WPNAV_SPEED": 300})
+    assert [f.params_of(i)["WPNAV_SPEED"] for i in range(2)] == [300, 300]
+    assert f.gains_of(0).v_xy == f.gains_of(1).v_xy == f.gains.v_xy == pytest.approx(3.0)
+    top = _max_speeds(f, home + [0.0, 0.0, -5.0], 8.0)        # fly back: both at 3 m/s
+    assert np.all((2.85 <= top) & (top <= 3.0 * 1.05)), top
+    with pytest.raises(IndexError):
+        f.set_params({"WPNAV_SPEED": 300}, i=2)
+
+
+@pytest.mark.parametrize("scalar", [True, False])
+@pytest.mark.parametrize("name", ["CRUISE_SPEED", "WP_SPEED"])
+def test_rover_params_per_vehicle(scalar, name):
+    home = np.array([[0.0, 0.0, 0.0], [0.0, 5.0, 0.0]])
+    f = RoverFleet(2, seed=3, home=home, estimator=False, scalar=scalar)
+    f.set_params({name: 2.0}, i=0)
+    assert f.gains_of(0).cruise == 2.0 and f.gains_of(1).cruise == params_core.defaults("rover")["CRUISE_SPEED"]
+    top = _max_speeds(f, home + [20.0, 0.0, 0.0], 6.0)
+    assert 1.9 <= top[0] <= 2.0 + 1e-6, top
+    assert top[1] >= 5.5, top                                  # default CRUISE_SPEED 8 m/s, 20 m leg
+    f.set_params({name: 3.0})
+    assert f.gains_of(0).cruise == f.gains_of(1).cruise == f.gains.cruise == 3.0
+    top = _max_speeds(f, home + [40.0, 0.0, 0.0], 6.0)
+    assert np.all((2.9 <= top) & (top <= 3.0 + 1e-6)), top

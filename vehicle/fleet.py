@@ -120,6 +120,36 @@ class _SoA:
             setattr(self, f, np.array([getattr(o, f) for o in objs]))
 
 
+def _stack_values(vals, inv):
+    """One gains attribute over the fleet from the distinct gains objects' values `vals`
+    (vehicle i has vals[inv[i]]): the shared value if all agree, else an (n,) array
+    (lists/tuples of gains, e.g. CopterGains.rat, element by element)."""
+    v0 = vals[0]
+    if isinstance(v0, (list, tuple)):
+        return type(v0)(_stack_values([v[m] for v in vals], inv) for m in range(len(v0)))
+    if vals.count(v0) == len(vals):
+        return v0
+    return np.array(vals, dtype=float)[inv]
+
+
+def _batched_gains(gs):
+    """Gains for the vectorised step from per-vehicle gains objects (see _make_gains);
+    vehicles with equal parameters share one object, so this works on the few distinct."""
+    g0 = gs[0]
+    if all(g is g0 for g in gs):
+        return g0
+    slot: dict[int, int] = {}
+    distinct = []
+    for g in gs:
+        if id(g) not in slot:
+            slot[id(g)] = len(distinct)
+            distinct.append(g)
+    inv = np.array([slot[id(g)] for g in gs])
+    out = object.__new__(type(g0))
+    out.__dict__.update({k: _stack_values([g.__dict__[k] for g in distinct], inv) for k in g0.__dict__})
+    return out
+
+
 SCALAR_MAX = 8
 BATCHED_KF_MIN = 8     # estimator=True: per-vehicle filterpy up to this many vehicles, BatchedKF above
 
@@ -135,7 +165,10 @@ class _FleetBase:
     def _init_common(self, n, params, seed, home, estimator, sensor_spec, scalar):
         self.n = int(n)
         self.home = np.zeros((self.n, 3)) if home is None else np.array(home, float).reshape(self.n, 3)
-        self.params = params_core.merged(self.kind, params)
+        base = params_core.merged(self.kind, params)
+        self._vparams = [dict(base) for _ in range(self.n)]   # one parameter set per vehicle
+        self._gs: list = [None] * self.n                     # per-vehicle gains (floats)
+        self._gcache: dict = {}                              # parameter values -> shared gains
         self.sim_time = 0.0
         self.armed = np.zeros(self.n, dtype=bool)
         self._armed_l = [False] * self.n
@@ -263,12 +296,52 @@ class _FleetBase:
         """The last Setpoint given to vehicle i."""
         return self.setpoints[i]
 
-    def set_params(self, params: Mapping[str, float]) -> None:
-        """Live tuning by ArduPilot name; names this kind does not use are ignored."""
-        for k, v in params.items():
-            if k in self.params:
-                self.params[k] = float(v)
-        self._make_gains()
+    @property
+    def params(self) -> dict[str, float]:
+        """Vehicle 0's parameters (each vehicle has its own: params_of(i))."""
+        return self._vparams[0]
+
+    def params_of(self, i: int) -> dict[str, float]:
+        """Vehicle i's parameters by ArduPilot name (live; change them with set_params)."""
+        return self._vparams[i]
+
+    def gains_of(self, i: int):
+        """Vehicle i's gains object (floats)."""
+        return self._gs[i]
+
+    def set_params(self, params: Mapping[str, float], i: int | None = None) -> None:
+        """Live tuning by ArduPilot name; names this kind does not use are ignored.
+        i=None: every vehicle; i=int: vehicle i only (each vehicle has its own parameters,
+        as each ArduPilot does)."""
+        if i is None:
+            idx = range(self.n)
+        else:
+            i = int(i)
+            if not 0 <= i < self.n:
+                raise IndexError(f"vehicle {i} not in a fleet of {self.n}")
+            idx = (i,)
+        for j in idx:
+            p = self._vparams[j]
+            for k, v in params.items():
+                if k in p:
+                    p[k] = float(v)
+        self._make_gains(idx)
+
+    def _make_gains(self, idx=None) -> None:
+        """Rebuild vehicle idx's gains (all: None), then self.gains for the batched step:
+        one shared gains object when all vehicles agree (the step then runs on exactly the
+        floats it always did), else a copy whose differing attributes are (n,) arrays,
+        which broadcast in the vectorised core like the state arrays do."""
+        cache = self._gcache
+        for j in (range(self.n) if idx is None else idx):
+            key = tuple(self._vparams[j].values())      # same key order for every vehicle
+            g = cache.get(key)
+            if g is None:
+                if len(cache) > 4 * self.n + 16:
+                    cache.clear()
+                g = cache[key] = self._new_gains(self._vparams[j])
+            self._gs[j] = g
+        self.gains = _batched_gains(self._gs)
 
     def _sense_and_estimate_vec(self, dt):
         if not self.use_estimator:
@@ -382,8 +455,8 @@ class CopterFleet(_FleetBase):
         for i in range(self.n):
             self.set_setpoint(i, Setpoint())
 
-    def _make_gains(self):
-        self.gains = ccore.CopterGains(self.params)
+    def _new_gains(self, p):
+        return ccore.CopterGains(p)
 
     @property
     def ctrl(self):
@@ -436,7 +509,7 @@ class CopterFleet(_FleetBase):
         """Descend at LAND_SPEED over xy (default: where the estimate is)."""
         if xy is None:
             xy = self.estimate(i).pos[:2]
-        return Setpoint(pos=np.array([xy[0], xy[1], np.nan]), vel=np.array([0.0, 0.0, self.gains.land_speed]))
+        return Setpoint(pos=np.array([xy[0], xy[1], np.nan]), vel=np.array([0.0, 0.0, self._gs[i].land_speed]))
 
     def landed(self, i: int) -> bool:
         """On the ground: land detector when armed (~LAND_DETECT_TIME s of low thrust and
@@ -472,17 +545,17 @@ class CopterFleet(_FleetBase):
         self._run = run
 
     def _step_scalar(self, dt):
-        g, af, xp = self.gains, self.airframe, ScalarOps
+        gs, af, xp = self._gs, self.airframe, ScalarOps
         armed, landed, runs, timer = self._armed_l, self._landed, self._run, self._land_timer
         ps, cs, ss, ests = self._ps, self._cs, self._ss, self._ests
         for i in range(self.n):
             runs[i] = _copter_core(ps[i], cs[i], ests[i] or ps[i], ss[i], armed[i], landed[i],
-                                   self._gz[i], g, af, dt, xp)
+                                   self._gz[i], gs[i], af, dt, xp)
         self.sim_time += dt
         self._sense_and_estimate_scalar(dt)
         for i in range(self.n):
             landed[i], timer[i] = _land_detect(cs[i], ests[i] or ps[i], ps[i], runs[i], armed[i], landed[i],
-                                               timer[i], g, dt, xp)
+                                               timer[i], gs[i], dt, xp)
 
 
 class RoverFleet(_FleetBase):
@@ -508,8 +581,8 @@ class RoverFleet(_FleetBase):
         for i in range(self.n):
             self.set_setpoint(i, Setpoint())
 
-    def _make_gains(self):
-        self.gains = rcore.RoverGains(self.params, self.model)
+    def _new_gains(self, p):
+        return rcore.RoverGains(p, self.model)
 
     def set_setpoint(self, i: int, sp: Setpoint) -> None:
         self.setpoints[i] = sp
@@ -534,14 +607,14 @@ class RoverFleet(_FleetBase):
     def step(self, dt: float) -> None:
         """Controller (on the estimate) -> kinematics -> sensors -> estimator."""
         if self.scalar:
-            xp, g, m = ScalarOps, self.gains, self.model
+            xp, gs, m = ScalarOps, self._gs, self.model
             ps, ss, ests, armed = self._ps, self._ss, self._ests, self._armed_l
             for i in range(self.n):
-                v, r = rcore.step(ests[i] or ps[i], ss[i], g, dt, xp)
+                v, r = rcore.step(ests[i] or ps[i], ss[i], gs[i], dt, xp)
                 if not armed[i]:
                     v = r = 0.0
                     ss[i].v_cmd = 0.0
-                rphys.step(ps[i], v, r, m, g, dt, xp)
+                rphys.step(ps[i], v, r, m, gs[i], dt, xp)
             self.sim_time += dt
             self._sense_and_estimate_scalar(dt)
             return

@@ -108,9 +108,13 @@ class World:
             fleet_params = {name: stores[0][name] for name in core_names} if core_names else \
                 {name: stores[0][name] for name in stores[0].names}
             fleet = fleet_cls(n, fleet_params, cfg.seed + (0 if kind == "copter" else 7919), starts)
+            for j in range(1, n):          # each vehicle starts from its own (saved) parameters
+                own = {name: stores[j][name] for name in fleet_params if name in stores[j]}
+                if any(own[k] != fleet_params[k] for k in own):
+                    fleet.set_params(own, i=j)
             self.fleets.append((kind, fleet))
             for j in range(n):
-                push = self._pusher(fleet, core_names)
+                push = self._pusher(fleet, core_names, j)
                 ap = ap_cls(fleet, j, stores[j], cfg.home, starts[j], push_params=push)
                 link = VehicleLink(ap, self.clock, self.unix_start_us, cfg.vehicle_endpoints(index),
                                    signing_key=cfg.signing_key, params_changed=push)
@@ -129,11 +133,12 @@ class World:
         return (0.0, 2.0 * j, 0.0) if kind == "copter" else (-3.0, 2.0 * j, 0.0)
 
     @staticmethod
-    def _pusher(fleet, core_names):
+    def _pusher(fleet, core_names, j):
+        """Parameter changes of vehicle j (PARAM_SET, DO_CHANGE_SPEED) reach vehicle j only."""
         def push(values: dict) -> None:
             sel = {k: float(v) for k, v in values.items() if not core_names or k in core_names}
             if sel:
-                fleet.set_params(sel)
+                fleet.set_params(sel, i=j)
         return push
 
     def clock(self) -> float:

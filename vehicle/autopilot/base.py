@@ -60,7 +60,8 @@ class Autopilot:
         self.origin = origin
         self.start_ned = np.asarray(start_ned, float)
         self.text = text or (lambda sev, msg: None)
-        self.push_params = push_params or (lambda p: None)
+        # parameter changes (PARAM_SET, DO_CHANGE_SPEED) reach this vehicle's index only
+        self.push_params = push_params or (lambda p: fleet.set_params(p, i=index))
         self.t = 0.0
         self.armed = False
         self.mode = self.initial_mode

@@ -34,16 +34,20 @@ def sqrt_controller(err, k, lim, dt, xp=NumpyOps):
 _GAINS = {}
 
 
-def gains(a_max: float, j_max: float) -> tuple[float, float, float]:
-    """(kp position, kv velocity, deceleration used by the position stage)."""
+def gains(a_max, j_max) -> tuple:
+    """(kp position, kv velocity, deceleration used by the position stage). Floats are
+    cached; (n,) arrays (a fleet whose vehicles have different limits) are computed."""
     key = (a_max, j_max)
-    out = _GAINS.get(key)
+    try:
+        out = _GAINS.get(key)
+    except TypeError:            # unhashable: per-vehicle (n,) arrays
+        return _gains(a_max, j_max)
     if out is None:
         out = _GAINS[key] = _gains(a_max, j_max)
     return out
 
 
-def _gains(a_max: float, j_max: float) -> tuple[float, float, float]:
+def _gains(a_max, j_max) -> tuple:
     kv = j_max / a_max
     kp = 0.35 * kv   # tuned: rest-to-rest moves ~0.99x of d/v+v/a+a/j, overshoot < 0.07 m
     a_dec = 0.8 * a_max
