@@ -31,6 +31,17 @@ A goal whose transform is missing (or whose dynamic chain is older than
 Every transform is published as TOWERLINK_TRANSFORM (statics at 1 Hz wall, dynamic at
 the telemetry rate thinned by --tf-rate) to the tower and the outs.
 
+One timeline. A vehicle may run in its own process or on its own host, with a boot clock
+of its own. The bridge learns each vehicle's clock offset from its SYSTEM_TIME
+(time_unix_usec/1e6 - time_boot_ms/1000: a towerlink world's start in unix time) and maps
+every stamp onto the clock of the first vehicle seen (stamp + offset - reference offset)
+before it enters the buffer, the follow logic and the stream; vehicles of one world have
+one offset, so their stamps are unchanged. Until a vehicle's timeline is known its samples
+are held back (the bridge asks for SYSTEM_TIME); after --time-grace wall seconds without
+one it is taken to share the reference's world. TIMESYNC (tc1=0, ts1=bridge clock) probes
+each vehicle link at 1 Hz to log its round trip: link latency, as in ArduPilot/PX4
+companion setups, not used to align clocks.
+
 Follow. At --follow-rate sim Hz the rover (sysid 2) gets SET_POSITION_TARGET_LOCAL_NED
 (LOCAL_NED, z 0, drone velocity as feed-forward) = the ground point under the drone
 written in --follow-frame as (offset_x, offset_y, +height) and transformed to world.
@@ -88,6 +99,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     f.add_argument("--cache-time", type=float, default=10.0, help="dynamic edge window, s")
     f.add_argument("--max-transform-age", type=float, default=0.5,
                    help="a dynamic chain older than this (sim s) is not used for goals")
+    f.add_argument("--time-grace", type=float, default=1.5,
+                   help="wall s to hold a vehicle's samples waiting for its SYSTEM_TIME before "
+                        "taking it to share the first vehicle's clock (default %(default)s)")
     w = p.add_argument_group("rover follow")
     w.add_argument("--no-follow", dest="follow", action="store_false", help="do not drive the rover")
     w.add_argument("--follow-frame", choices=("drone", "drone_yaw"), default=None,
@@ -121,7 +135,7 @@ def config_from_args(args):
         follow_rate=max(args.follow_rate or sc.follow_rate_hz, 1.0),
         follow_timeout=args.follow_timeout, follow_ff=args.follow_ff, speedup=args.speedup,
         telemetry_rate=args.telemetry_rate, tf_rate=args.tf_rate, cache_time=args.cache_time,
-        max_transform_age=args.max_transform_age, quiet=args.quiet)
+        max_transform_age=args.max_transform_age, time_grace=args.time_grace, quiet=args.quiet)
 
 
 def run(args) -> int:

@@ -22,14 +22,26 @@ Translation on the tower link (``--tower-frame``, default ``tower``)
     POSITION_TARGET_LOCAL_NED are mapped world -> tower. If the transform is not
     available a goal waits and is retried every tick (STATUSTEXT + log say why); a
     telemetry message is dropped (counted) rather than sent in the wrong frame.
+
+One timeline (bridge.timeline)
+    Each vehicle's stamps (time_boot_ms) are mapped onto the clock of the first vehicle
+    seen before they enter the buffer, the follow logic and the transform stream, using
+    the clock offsets learned from the vehicles' SYSTEM_TIME (vehicles of one world have
+    one offset: unchanged stamps). While a vehicle's timeline is not known (its or the
+    reference's SYSTEM_TIME not seen yet) its samples are held back in a queue and the
+    bridge asks for SYSTEM_TIME; they are released mapped once it is known, or raw after
+    --time-grace wall seconds without it (a peer that does not send SYSTEM_TIME is taken
+    to share the reference's world; logged). TIMESYNC probes (1 Hz wall) measure each
+    vehicle link's round trip (logged, and in the summary); they do not move stamps.
 """
 from __future__ import annotations
 
 import math
 import selectors
+from collections import deque
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from bridge.dialect import encoder
 from bridge.dialect import towerlink as tl
@@ -37,9 +49,12 @@ from bridge.follow import FollowSupervisor, ground_points
 from bridge.frames import LATEST, Buffer, TransformException, TransformStamped
 from bridge.links import Link, Packet
 from bridge.tf_stream import VehicleFrames, reset_edge, transform_message
+from bridge.timeline import Timeline, TimesyncProbe
 from bridge import translate
 
 MSG_HEARTBEAT = 0
+MSG_SYSTEM_TIME = 2
+MSG_TIMESYNC = 111
 MSG_ATTITUDE_QUATERNION = 31
 MSG_LOCAL_POSITION_NED = 32
 MSG_SET_POSITION_TARGET_LOCAL_NED = 84
@@ -53,6 +68,9 @@ ROVER_HOLD = 4
 TICK = 0.01                     # wall s between upkeep passes
 STATIC_PERIOD = 1.0             # wall s between republishing static transforms
 STATUS_PERIOD = 1.0
+TIMESYNC_PERIOD = 1.0           # wall s between TIMESYNC probes of each vehicle link
+RTT_LOG_PERIOD = 30.0           # wall s between round-trip log lines of a link
+HOLD_MAX = 256                  # samples queued per vehicle while its timeline is unknown
 
 
 @dataclass
@@ -79,6 +97,7 @@ class BridgeConfig:
     tf_rate: float = 20.0
     cache_time: float = 10.0
     max_transform_age: float = 0.5
+    time_grace: float = 1.5     # wall s to wait for a vehicle's SYSTEM_TIME before presuming one world
     quiet: bool = False
 
 
@@ -98,6 +117,13 @@ class Vehicle:
     last_pos_wall: float = -1e9
     last_stream_req: float = -1e9
     position: tuple | None = None       # latest world (x, y, z)
+    probe: TimesyncProbe = field(default_factory=TimesyncProbe)
+    last_rtt_log: float = -1e9
+    held: int = 0                       # samples held back (timeline unknown), in all
+    queue: deque = field(default_factory=lambda: deque(maxlen=HOLD_MAX))
+    offset_logged: bool = False
+    last_mapped: float | None = None    # newest frame stamp on the reference timeline
+    last_time_req: float = -1e9
 
 
 @dataclass
@@ -140,6 +166,8 @@ class Bridge:
         self.dec.robust_parsing = True
         self.pending: dict[int, PendingGoal] = {}
         self.follow = FollowSupervisor(cfg.follow_timeout, cfg.speedup, cfg.follow_rate)
+        self.timeline = Timeline(speedup=cfg.speedup, grace=cfg.time_grace)
+        self._next_timesync = 0.0
         self.follow_state = tl.TOWERLINK_FOLLOW_STATE_WAITING
         self.follow_ticks = 0
         self.last_goal = None
@@ -308,7 +336,7 @@ class Bridge:
                 return
             v.last_pos_wall = now
             v.position = (msg.x, msg.y, msg.z)
-            self._clock_seen(v, msg.time_boot_ms / 1000.0, now)
+            self._raw_clock(v, msg.time_boot_ms / 1000.0, now)
             for s in v.frames.on_local_position(msg.time_boot_ms, msg.x, msg.y, msg.z,
                                                  msg.vx, msg.vy, msg.vz):
                 self.on_frame_sample(v, s)
@@ -324,9 +352,17 @@ class Bridge:
             if msg is None:
                 return
             v.last_att_wall = now
-            self._clock_seen(v, msg.time_boot_ms / 1000.0, now)
+            self._raw_clock(v, msg.time_boot_ms / 1000.0, now)
             for s in v.frames.on_attitude_quaternion(msg.time_boot_ms, msg.q1, msg.q2, msg.q3, msg.q4):
                 self.on_frame_sample(v, s)
+        elif mid == MSG_SYSTEM_TIME and pkt.compid == 1:
+            msg = self.decode(pkt)
+            if msg is not None:
+                self.on_system_time(v, msg, now)
+        elif mid == MSG_TIMESYNC:
+            msg = self.decode(pkt)
+            if msg is not None and self.on_timesync(v, msg, now):
+                return          # the answer to our own probe: not forwarded
         elif mid == MSG_HEARTBEAT and pkt.compid == 1:
             msg = self.decode(pkt)
             if msg is not None:
@@ -338,7 +374,93 @@ class Bridge:
                     self.log(f"{v.name} (sysid {v.sysid}) is up: mode {msg.custom_mode}, "
                              f"{'armed' if v.armed else 'disarmed'}")
                     self.request_streams(v, force=True)
+                    self.request_system_time(v, force=True)
         self.route_from_vehicle(v, pkt, to_tower)
+
+    # ------------------------------------------------------------------ timeline
+    def _raw_clock(self, v: Vehicle, boot_s: float, now: float) -> None:
+        """A vehicle's raw boot-clock reading: feed the timeline, track its mapped clock."""
+        if self.timeline.clock(v.name, boot_s, now):
+            self.log(f"{v.name}: clock went back to {boot_s:.3f} s (restart): its clock offset is "
+                     f"re-learned from SYSTEM_TIME")
+            self.request_system_time(v, force=True)
+        if not self._hold(v, ("clock", boot_s, now)):
+            self._clock_seen(v, self.timeline.to_ref(v.name, boot_s), now)
+
+    def _hold(self, v: Vehicle, item) -> bool:
+        """Queue `item` if v's timeline is unknown (or earlier items still wait); True if held."""
+        if self.timeline.shift(v.name) is not None and not v.queue:
+            return False
+        if not v.queue:
+            d = self.timeline.clock_disagreement(v.name, self.timeline.clocks[v.name].newest, self.clock())
+            why = f"its clock reads {d:+.2f} s against {self.timeline.ref}'s" if d is not None else "-"
+            self.warn_once(f"hold-{v.name}", f"{v.name}: samples held back until SYSTEM_TIME puts it on "
+                                             f"{self.timeline.ref}'s timeline ({why})", period=10.0)
+            self.request_system_time(v)
+        v.held += 1
+        v.queue.append(item)
+        return True
+
+    def release_held(self) -> None:
+        """Replay the queued samples of vehicles whose timeline became known, in order."""
+        for key in self.timeline.expire(self.clock()):
+            self.log(f"{key}: no SYSTEM_TIME within {self.timeline.grace:g} s: presumed to share "
+                     f"{self.timeline.ref}'s world, its stamps are used as they are")
+        for v in self.vehicles.values():
+            if not v.queue:
+                continue
+            shift = self.timeline.shift(v.name)
+            if shift is None:
+                continue
+            n = len(v.queue)
+            while v.queue:
+                item = v.queue.popleft()
+                if item[0] == "clock":
+                    self._clock_seen(v, item[1] + shift, item[2])
+                else:
+                    self._frame_on_timeline(v, item[1], shift)
+            self.log(f"{v.name}: {n} held samples released onto {self.timeline.ref}'s timeline "
+                     f"({self.timeline.basis(v.name)}, shift {shift:+.3f} s)")
+
+    def on_system_time(self, v: Vehicle, msg, now: float) -> None:
+        line = self.timeline
+        before = line.basis(v.name)
+        old = line.system_time(v.name, msg.time_unix_usec, msg.time_boot_ms, now)
+        off = line.offset(v.name)
+        if off is None:
+            self.warn_once(f"no-unix-{v.name}", f"{v.name}: SYSTEM_TIME without unix time: "
+                                                f"its clock offset stays unknown", period=60.0)
+            return
+        if old is not None:
+            self.log(f"{v.name}: clock offset changed by {off - old:+.3f} s (another clock)")
+        if old is not None or line.basis(v.name) != before or not v.offset_logged:
+            v.offset_logged = True
+            shift = line.shift(v.name)
+            if v.name == line.ref:
+                where = "its clock is the reference timeline"
+            elif shift is not None:
+                where = f"mapped onto {line.ref}'s timeline by {shift:+.3f} s ({line.basis(v.name)})"
+            else:
+                where = f"waiting for {line.ref}'s SYSTEM_TIME"
+            self.log(f"{v.name}: SYSTEM_TIME: booted at unix {off:.3f} s; {where}")
+        self.release_held()
+
+    def request_system_time(self, v: Vehicle, force: bool = False) -> None:
+        now = self.clock()
+        if not force and now - v.last_time_req < 1.0:
+            return
+        v.last_time_req = now
+        self.command_long(v.sysid, tl.MAV_CMD_REQUEST_MESSAGE, MSG_SYSTEM_TIME)
+
+    def on_timesync(self, v: Vehicle, msg, now: float) -> bool:
+        rtt = v.probe.reply(msg.tc1, msg.ts1, int(now * 1e9))
+        if rtt is None:
+            return False
+        if v.probe.count == 1 or now - v.last_rtt_log >= RTT_LOG_PERIOD:
+            v.last_rtt_log = now
+            self.log(f"{v.name}: TIMESYNC round trip {rtt * 1e3:.2f} ms "
+                     f"(min {v.probe.rtt_min * 1e3:.2f} ms, {v.probe.count} probes)")
+        return True
 
     def _clock_seen(self, v: Vehicle, stamp: float, now: float) -> None:
         if v.newest_stamp is None or stamp > v.newest_stamp or stamp < v.newest_stamp - 1.0:
@@ -360,6 +482,18 @@ class Bridge:
 
     # ------------------------------------------------------------------ frames
     def on_frame_sample(self, v: Vehicle, s) -> None:
+        # onto the reference timeline first: buffer, stream and follow see one clock
+        if not self._hold(v, ("frame", s)):
+            self._frame_on_timeline(v, s, self.timeline.shift(v.name))
+
+    def _frame_on_timeline(self, v: Vehicle, s, shift: float) -> None:
+        if shift:
+            t = s.stamp + shift
+            s = replace(s, stamp=t, full=replace(s.full, stamp=t), yaw=replace(s.yaw, stamp=t))
+        if v.last_mapped is not None and s.stamp < v.last_mapped - 1.0:
+            s = replace(s, reset=True)      # its mapped clock went back (a restart elsewhere)
+        if s.reset or v.last_mapped is None or s.stamp > v.last_mapped:
+            v.last_mapped = s.stamp
         try:
             if s.reset:
                 self.log(f"{v.name}: clock went back to {s.stamp:.3f} s (reboot): its frames are reset")
@@ -538,6 +672,7 @@ class Bridge:
         now = self.clock()
         for link in self.links:
             link.poll()
+        self.release_held()
         for g in list(self.pending.values()):
             self.try_goal(g)
         self.check_follow_timeout()
@@ -550,6 +685,13 @@ class Bridge:
                 v.link.send(data)
                 if v.last_heartbeat_wall is not None and (now - v.last_att_wall > 2.0 or now - v.last_pos_wall > 2.0):
                     self.request_streams(v)
+        if now >= self._next_timesync:
+            self._next_timesync = now + TIMESYNC_PERIOD
+            for v in self.vehicles.values():
+                ts1 = v.probe.request(int(now * 1e9))
+                v.link.send(self._pack_own(tl.MAVLink_timesync_message(0, ts1)))
+                if v.last_heartbeat_wall is not None and v.queue:
+                    self.request_system_time(v)
         if now >= self._next_static:
             self._next_static = now + STATIC_PERIOD
             for ts, _auth in list(self.static_added.values()):
@@ -617,6 +759,11 @@ class Bridge:
             st = link.stats
             parts.append(f"{link.name}: rx {st.rx_packets} tx {st.tx_packets} malformed {link.malformed} "
                          f"unroutable {st.unroutable} translated {st.translated} deferred {st.deferred}")
+        for v in self.vehicles.values():
+            p = v.probe
+            rtt = "-" if p.rtt is None else f"{p.rtt * 1e3:.2f} ms (min {p.rtt_min * 1e3:.2f} ms)"
+            parts.append(f"{v.name}: timeline {self.timeline.basis(v.name)}; TIMESYNC round trip {rtt}; "
+                         f"samples held back {v.held}")
         parts.append(f"follow ticks {self.follow_ticks}; decode errors {self.decode_errors}; "
                      f"tower telemetry dropped (no transform) {self.tower_drops}")
         return "\n".join(parts)

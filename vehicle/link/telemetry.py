@@ -184,7 +184,12 @@ class Telemetry:
         return mav.MAVLink_extended_sys_state_message(mav.MAV_VTOL_STATE_UNDEFINED, self.link.ap.landed_state())
 
     def system_time(self):
-        return mav.MAVLink_system_time_message(int(self.link.unix_start_us + self.usec()), self.boot_ms())
+        # one clock reading for both fields: time_unix_usec - time_boot_ms * 1000 is then the
+        # world's start in unix time (to the ms truncation of time_boot_ms), the offset a
+        # bridge uses to put vehicles of different worlds/processes on one timeline
+        t = self.link.clock()
+        return mav.MAVLink_system_time_message(int(self.link.unix_start_us + int(t * 1e6)),
+                                               int(t * 1000.0) & 0xFFFFFFFF)
 
     def battery_status(self):
         ap = self.link.ap

@@ -323,8 +323,10 @@ class VehicleLink:
                                        (m.vx, m.vy, m.vz), (m.afx, m.afy, m.afz), m.yaw, m.yaw_rate)
 
     def on_TIMESYNC(self, m, ch) -> None:
+        # a request (tc1 0): answer tc1 = our sim clock in ns (never 0, which would read as a
+        # request), ts1 echoed; the sender gets its round trip from ts1 on its own clock
         if m.tc1 == 0:
-            self.send(mav.MAVLink_timesync_message(int(self.clock() * 1e9), m.ts1), ch)
+            self.send(mav.MAVLink_timesync_message(max(1, int(self.clock() * 1e9)), m.ts1), ch)
 
     def on_REQUEST_DATA_STREAM(self, m, ch) -> None:
         rate = m.req_message_rate if m.start_stop else 0
