@@ -29,6 +29,10 @@ Setpoint(pos=p, vel=v) follow a moving target; Setpoint(vel=v) drive at a veloci
 Setpoint() stop and hold; Setpoint(yaw=psi) turns in place when stopped, as does
 Setpoint(yaw_rate=r) (yaw wins when both are given). z is ignored.
 
+Parameters are per vehicle (ArduPilot names): set_params(params, i) tunes vehicle i only,
+set_params(params) all of them; params_of(i) / gains_of(i) read one vehicle's. The batched
+step's self.gains holds floats where the vehicles agree and (n,) arrays where they differ.
+
 Speed: fleets of n <= SCALAR_MAX step vehicle by vehicle on Python floats (the same core
 source on the ScalarOps backend) -- ~30 us per copter step on truth, ~65 us with sensors
 and filterpy; bigger fleets step as numpy arrays (~0.8 us per drone-step at 1000). With
