@@ -9,7 +9,9 @@
   at most ``max_gap`` apart. Duplicated stamps are ignored; out-of-order samples are
   returned (the Buffer inserts them in order); a clock that goes back by more than
   ``reboot_jump`` seconds is a reboot: ``reset`` is reported so the caller clears the
-  edge, and pairing starts over.
+  edge, and pairing starts over. Pairing and reboot detection work on the vehicle's raw
+  clock; the router then moves the sample onto the bridge's one timeline
+  (bridge.timeline, from SYSTEM_TIME offsets) before it reaches the buffer or the stream.
 * :func:`transform_message` / :func:`transform_from_message` encode and decode
   TOWERLINK_TRANSFORM; :class:`TransformListener` fills a Buffer from a stream of
   decoded messages (the tf2 TransformListener of this project, used by tf-echo).
