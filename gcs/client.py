@@ -420,19 +420,30 @@ class Client:
                      accept: Iterable[int] = (mavlink.MAV_RESULT_ACCEPTED,)) -> int:
         """Send COMMAND_LONG until a COMMAND_ACK arrives; returns the result.
 
+        A lost command or ack is re-sent after `ack_timeout` seconds of the vehicle's own
+        clock (or wall time, whichever comes first): in a sped-up SITL a wall-clock retry
+        would let sim-time timers (DISARM_DELAY, failsafes) run out between tries.
         Raises CommandRejected for results not in `accept`, CommandTimeout if no ack.
         """
         p = list(params) + [0.0] * (7 - len(params))
         accept = set(accept)
         end = time.monotonic() + timeout
         confirmation = 0
+        st = self.system(sysid)
         while time.monotonic() < end:
             before = self._acks.get((sysid, command), (0, 0))[0]
+            sent_ms = st.time_boot_ms
             self._send(lambda: self.mav.command_long_send(sysid, component, command, confirmation, *p))
             confirmation = min(confirmation + 1, 255)
-            ack = self._wait(lambda: self._acks.get((sysid, command), (0, 0))[0] > before
-                             and self._acks[(sysid, command)],
-                             min(ack_timeout, max(0.0, end - time.monotonic())))
+
+            def acked_or_due():
+                if self._acks.get((sysid, command), (0, 0))[0] > before:
+                    return self._acks[(sysid, command)]
+                return (sent_ms and st.time_boot_ms - sent_ms >= ack_timeout * 1000.0) and "retry"
+
+            ack = self._wait(acked_or_due, min(ack_timeout, max(0.0, end - time.monotonic())))
+            if ack == "retry":
+                continue
             if ack:
                 result = ack[1]
                 if result == mavlink.MAV_RESULT_IN_PROGRESS:

@@ -25,7 +25,7 @@ from support import free_port  # noqa: E402
 
 class FakeCopter(threading.Thread):
     def __init__(self, port, *, prearm_fails=2, loss=0.0, seed=1, speed=40.0, sim_rate=4.0,
-                 refuse_guided=False):
+                 refuse_guided=False, drop_commands=0):
         super().__init__(daemon=True)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.bind(("127.0.0.1", port))
@@ -46,6 +46,8 @@ class FakeCopter(threading.Thread):
         self.sim = 0.0
         self.stop = threading.Event()
         self.commands = []
+        self.command_sims = []          # sim time each COMMAND_LONG arrived (dropped ones too)
+        self.drop_commands = drop_commands
 
     def send(self, msg):
         if self.peer and self.rng.random() >= self.loss:
@@ -89,6 +91,10 @@ class FakeCopter(threading.Thread):
     def handle(self, m):
         t = m.get_type()
         if t == "COMMAND_LONG":
+            self.command_sims.append(self.sim)
+            if self.drop_commands > 0:      # this one is "lost on the way"
+                self.drop_commands -= 1
+                return
             self.commands.append(m.command)
             if m.command == apm.MAV_CMD_DO_SET_MODE:
                 if self.refuse_guided and int(m.param2) == 4:
@@ -203,3 +209,20 @@ def test_heartbeat_timeout_when_nobody_is_there():
             c.wait_heartbeat(1, timeout=0.5)
         assert time.monotonic() - t0 < 2.0
         assert isinstance(HeartbeatTimeout("x"), TimeoutError)
+
+
+@pytest.mark.parametrize("copter", [{"sim_rate": 10.0, "drop_commands": 1, "prearm_fails": 0}], indirect=True)
+def test_command_retry_is_paced_on_the_vehicle_clock(copter):
+    """A lost command is re-sent after ack_timeout seconds of the vehicle's time: at 10x
+    speed that is ~0.1 s of wall time, so sim-time timers (DISARM_DELAY) never run out."""
+    fc, url = copter
+    with Client.connect(url) as c:
+        c.wait_heartbeat(1, timeout=5)
+        c.wait_position(1, timeout=5)
+        t0 = time.monotonic()
+        c.command_long(1, apm.MAV_CMD_COMPONENT_ARM_DISARM, [1], ack_timeout=1.0, timeout=10)
+        wall = time.monotonic() - t0
+    assert fc.armed and len(fc.command_sims) == 2
+    gap = fc.command_sims[1] - fc.command_sims[0]
+    assert 1.0 <= gap < 1.6, gap          # one second of vehicle time between the tries
+    assert wall < 0.6, wall               # not one second of wall time
