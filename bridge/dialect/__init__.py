@@ -1,12 +1,15 @@
 """The towerlink MAVLink dialect (towerlink.xml, extends ardupilotmega) and helpers.
 
-The generated module ``bridge.dialect.towerlink`` is committed; it is produced by
-pymavlink's own generator (``pymavlink.generator.mavgen``, language Python, wire
-protocol 2.0) from ``towerlink.xml`` plus the XML definitions shipped inside the
-installed pymavlink (no network). Regenerate with::
+The module ``bridge.dialect.towerlink`` is generated, not committed (it is over 2 MB):
+on first use pymavlink's own generator (``pymavlink.generator.mavgen``, language Python,
+wire protocol 2.0) turns ``towerlink.xml`` plus the XML definitions shipped inside the
+installed pymavlink (no network) into a module in a cache directory
+(``$TOWERLINK_CACHE``, else ``$XDG_CACHE_HOME/towerlink``, else ``~/.cache/towerlink``),
+named by a hash of the XML and the pymavlink version, so an edit to the XML or a new
+pymavlink regenerates it. That costs a few seconds once; afterwards it is an import.
 
-    python -m bridge.dialect            # rewrites bridge/dialect/towerlink.py
-    python -m bridge.dialect --check    # exit 1 if the committed module is out of date
+    python -m bridge.dialect            # generate (if needed) and print where it is
+    python -m bridge.dialect --check    # exit 1 if the cached module differs from a fresh run
 
 Other tools get a pymavlink connection that decodes (and can send) the dialect with::
 
@@ -18,9 +21,12 @@ Other tools get a pymavlink connection that decodes (and can send) the dialect w
 from __future__ import annotations
 
 import glob
+import hashlib
+import importlib.util
 import io
 import os
 import shutil
+import sys
 import tempfile
 from contextlib import redirect_stdout
 from pathlib import Path
@@ -29,7 +35,7 @@ os.environ.setdefault("MAVLINK20", "1")
 
 HERE = Path(__file__).resolve().parent
 XML = HERE / "towerlink.xml"
-MODULE = HERE / "towerlink.py"
+MODULE_NAME = __name__ + ".towerlink"
 
 #: Message ids of the dialect (also in towerlink.xml).
 DIALECT_IDS = {
@@ -41,7 +47,7 @@ DIALECT_IDS = {
 }
 
 
-def generate(output: str | os.PathLike = MODULE, xml: str | os.PathLike = XML) -> Path:
+def generate(output: str | os.PathLike, xml: str | os.PathLike = XML) -> Path:
     """Run pymavlink's mavgen on towerlink.xml; write the Python module to `output`.
 
     The includes (ardupilotmega.xml and what it includes) are taken from the XML files
@@ -65,6 +71,58 @@ def generate(output: str | os.PathLike = MODULE, xml: str | os.PathLike = XML) -
             raise RuntimeError("mavgen failed on towerlink.xml")
         shutil.copy(Path(tmp) / "towerlink.py", output)
     return output
+
+
+def cache_dir() -> Path:
+    """Where the generated module lives (see the module docstring)."""
+    env = os.environ.get("TOWERLINK_CACHE")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "towerlink"
+
+
+def module_path() -> Path:
+    """The generated module's path for this XML and this pymavlink."""
+    import pymavlink
+    key = hashlib.sha256(XML.read_bytes() + getattr(pymavlink, "__version__", "?").encode()
+                         + Path(__file__).read_bytes()).hexdigest()[:16]
+    return cache_dir() / f"towerlink_{key}.py"
+
+
+def load():
+    """The generated dialect module, generating it first if the cache has none."""
+    mod = sys.modules.get(MODULE_NAME)
+    if mod is not None:
+        return mod
+    path = module_path()
+    if not path.exists():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        # generate beside the target and rename: parallel processes never see half a file
+        fd, tmp = tempfile.mkstemp(suffix=".py", dir=path.parent)
+        os.close(fd)
+        try:
+            generate(tmp)
+            os.replace(tmp, path)
+        finally:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+    spec = importlib.util.spec_from_file_location(MODULE_NAME, path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[MODULE_NAME] = mod
+    try:
+        spec.loader.exec_module(mod)
+    except BaseException:
+        del sys.modules[MODULE_NAME]
+        raise
+    return mod
+
+
+def __getattr__(name: str):
+    # PEP 562: `from bridge.dialect import towerlink` generates/loads on first use
+    if name == "towerlink":
+        return load()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def mavlink_connection(url: str, **kw):
