@@ -55,7 +55,7 @@ def _fly_both(ms, dx, timeout):
                 continue
             top[k] = max(top[k], math.hypot(p.vx, p.vy))
             done[k] = done[k] or abs(p.x - (s.x + dx)) < 0.5 and math.hypot(p.vx, p.vy) < 0.3
-        time.sleep(0.002)
+        time.sleep(0.002)  # poll
     return top
 
 
