@@ -519,14 +519,7 @@ class Buffer:
                 time, v = self._lookup_locked(target_frame, source_frame, time)
             finally:
                 lock.release()
-        tr = _new(Transform)
-        _set_v(tr, v)
-        ts = _new(TransformStamped)
-        _set_frame_id(ts, target_frame)
-        _set_child_frame_id(ts, source_frame)
-        _set_stamp(ts, time)
-        _set_transform(ts, tr)
-        return ts
+        return _stamped(target_frame, source_frame, time, v)
 
     def _full_locked(self, target: str, target_time: Any, source: str, source_time: Any,
                      fixed: str) -> tuple[float, tuple]:
