@@ -158,3 +158,37 @@ def running_bridge(cfg: BridgeConfig):
         b.stop()
         th.join(timeout=2)
         b.close()
+
+
+@contextmanager
+def bridge_with_fakes(rover: bool = True, out: bool = False, heartbeats: bool = True, **cfg_kw):
+    """A running bridge wired to a fake drone (and rover), a tower endpoint and, with
+    out=True, a listener on a world-frame --out; the tower is known to the bridge, and
+    with heartbeats=True the vehicles have sent one. Yields a dict with bridge, tower,
+    drone, rover (or None) and out (or None); everything is closed after. Rover follow
+    is off unless follow=True is given (it would send the rover goals of its own)."""
+    from support import free_ports
+    cfg_kw.setdefault("follow", False)
+    tport, dport, rport, oport = free_ports(4)
+    fakes = {"drone": FakeVehicle(1, dport, name="drone"),
+             "rover": FakeVehicle(2, rport, tl.MAV_TYPE_GROUND_ROVER, name="rover") if rover else None,
+             "out": Endpoint(254, 1, oport, listen=True, name="out") if out else None}
+    if out:
+        cfg_kw["outs"] = [f"udpout:127.0.0.1:{oport}"]
+    cfg = bridge_config(tport, dport, rport if rover else None, **cfg_kw)
+    vehicles = [v for v in (fakes["drone"], fakes["rover"]) if v is not None]
+    with running_bridge(cfg) as bridge:
+        tower = Endpoint(255, 190, tport, listen=False, name="tower")
+        try:
+            # the bridge heartbeats the vehicles first, so they learn its address
+            wait_until(lambda: all(v.peer for v in vehicles), 5, "bridge reaching the vehicles")
+            if heartbeats:
+                for v in vehicles:
+                    v.heartbeat()
+            tower.mav.heartbeat_send(tl.MAV_TYPE_GCS, tl.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+            wait_until(lambda: bridge.tower.peers, 5, "tower peer known")
+            yield {"bridge": bridge, "tower": tower, **fakes}
+        finally:
+            for e in (tower, *fakes.values()):
+                if e is not None:
+                    e.close()

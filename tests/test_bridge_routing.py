@@ -11,27 +11,14 @@ import os
 import pytest
 
 from bridge.dialect import towerlink as tl
-from bridge_fakes import Endpoint, FakeVehicle, bridge_config, running_bridge
+from bridge_fakes import Endpoint, FakeVehicle, bridge_with_fakes
 from support import free_ports, wait_until
 
 
 @pytest.fixture
 def world():
-    tport, dport, rport = free_ports(3)
-    drone = FakeVehicle(1, dport, name="drone")
-    rover = FakeVehicle(2, rport, tl.MAV_TYPE_GROUND_ROVER, name="rover")
-    cfg = bridge_config(tport, dport, rport, follow=False)
-    with running_bridge(cfg) as bridge:
-        tower = Endpoint(255, 190, tport, listen=False, name="tower")
-        try:
-            # the bridge heartbeats the vehicles first, so they learn its address
-            wait_until(lambda: drone.peer and rover.peer, 5, "bridge reaching the vehicles")
-            drone.heartbeat(); rover.heartbeat()
-            tower.mav.heartbeat_send(tl.MAV_TYPE_GCS, tl.MAV_AUTOPILOT_INVALID, 0, 0, 0)
-            wait_until(lambda: bridge.tower.peers, 5, "tower peer known")
-            yield bridge, tower, drone, rover
-        finally:
-            tower.close(); drone.close(); rover.close()
+    with bridge_with_fakes() as w:
+        yield w["bridge"], w["tower"], w["drone"], w["rover"]
 
 
 def test_heartbeat_command_ack_param_pass_through(world):

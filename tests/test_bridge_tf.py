@@ -9,8 +9,8 @@ import pytest
 from bridge.dialect import towerlink as tl
 from bridge.frames import LATEST, Buffer, Transform
 from bridge.tf_stream import TransformListener, VehicleFrames, transform_message
-from bridge_fakes import Endpoint, FakeVehicle, bridge_config, running_bridge
-from support import free_ports, wait_until
+from bridge_fakes import bridge_with_fakes
+from support import wait_until
 
 
 def q_wxyz(T):
@@ -56,18 +56,8 @@ def test_duplicates_ignored_reorder_kept_reboot_resets():
 
 @pytest.fixture
 def world():
-    tport, dport = free_ports(2)
-    drone = FakeVehicle(1, dport, name="drone")
-    cfg = bridge_config(tport, dport, None, follow=False)
-    with running_bridge(cfg) as bridge:
-        tower = Endpoint(255, 190, tport, listen=False, name="tower")
-        try:
-            wait_until(lambda: drone.peer, 5, "bridge reaching the drone")
-            tower.mav.heartbeat_send(tl.MAV_TYPE_GCS, tl.MAV_AUTOPILOT_INVALID, 0, 0, 0)
-            wait_until(lambda: bridge.tower.peers, 5, "tower peer known")
-            yield bridge, tower, drone
-        finally:
-            tower.close(); drone.close()
+    with bridge_with_fakes(rover=False, heartbeats=False) as w:
+        yield w["bridge"], w["tower"], w["drone"]
 
 
 def test_bridge_buffer_reorder_duplicate_loss_reboot(world):

@@ -15,8 +15,8 @@ import pytest
 from bridge.dialect import towerlink as tl
 from bridge.frames import Transform
 from bridge.scenario import load_scenario
-from bridge_fakes import Endpoint, FakeVehicle, bridge_config, running_bridge
-from support import free_ports, wait_until
+from bridge_fakes import bridge_with_fakes
+from support import wait_until
 
 SC = load_scenario()
 T_WT = SC.buffer().lookup_transform("world", "tower").transform   # tower -> world
@@ -30,21 +30,8 @@ def wrap(a):
 
 @pytest.fixture
 def world():
-    tport, dport, rport, oport = free_ports(4)
-    drone = FakeVehicle(1, dport, name="drone")
-    rover = FakeVehicle(2, rport, tl.MAV_TYPE_GROUND_ROVER, name="rover")
-    out = Endpoint(254, 1, oport, listen=True, name="out")
-    cfg = bridge_config(tport, dport, rport, follow=False, outs=[f"udpout:127.0.0.1:{oport}"])
-    with running_bridge(cfg) as bridge:
-        tower = Endpoint(255, 190, tport, listen=False, name="tower")
-        try:
-            wait_until(lambda: drone.peer and rover.peer, 5, "bridge reaching the vehicles")
-            drone.heartbeat(); rover.heartbeat()
-            tower.mav.heartbeat_send(tl.MAV_TYPE_GCS, tl.MAV_AUTOPILOT_INVALID, 0, 0, 0)
-            wait_until(lambda: bridge.tower.peers, 5, "tower peer known")
-            yield bridge, tower, drone, rover, out
-        finally:
-            tower.close(); drone.close(); rover.close(); out.close()
+    with bridge_with_fakes(out=True) as w:
+        yield w["bridge"], w["tower"], w["drone"], w["rover"], w["out"]
 
 
 def test_tower_goal_to_world(world):
