@@ -102,7 +102,23 @@ def test_fly_tower_goal_and_rover_follows(processes):
 
         # kill the bridge mid-flight: the drone holds its GUIDED position
         processes.stop(bridge)
-        time.sleep(1.0)   # the outage itself (1 s wall, 5 s sim at 5x), not a settle wait
+        # the outage lasts 5 s of the drone's own clock, watched straight on its UDP port
+        # (the vehicle answers every peer that writes to it); meanwhile it holds at 9 m
+        watch = mavlink_connection(f"udpout:127.0.0.1:{dport}", source_system=254, source_component=190)
+        try:
+            seen = []
+
+            def outage_over():
+                watch.mav.heartbeat_send(tl.MAV_TYPE_GCS, tl.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+                m = watch.recv_match(type="LOCAL_POSITION_NED", blocking=True, timeout=0.2)
+                if m is not None and m.get_srcSystem() == 1:
+                    seen.append(m)
+                return len(seen) > 1 and seen[-1].time_boot_ms - seen[0].time_boot_ms >= 5000
+            wait_until(outage_over, 30, "5 s of drone time with the bridge down")
+        finally:
+            watch.close()
+        # seen straight from the drone, so in world: the house is world [-4, -2]
+        assert seen and all(math.hypot(m.x + 4.0, m.y + 2.0) < 1.5 and m.z < -8.0 for m in seen)
         bridge2 = processes.start(bridge_cmd)
         tower.last.clear()
         tower.wait(lambda: tower.get("LOCAL_POSITION_NED", 1), 30, "telemetry through the new bridge")
