@@ -17,6 +17,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from vehicle.autopilot import geo, modes
 from vehicle.autopilot.guided import GuidedTarget, TargetError, decode_global, decode_local
+from vehicle.autopilot.mission_store import MissionStore
 from vehicle.autopilot.params import ParamStore
 from vehicle.fleet import Setpoint
 
@@ -53,7 +54,8 @@ class Autopilot:
 
     def __init__(self, fleet, index: int, params: ParamStore, origin: tuple[float, float, float],
                  start_ned, text: Callable[[int, str], None] | None = None,
-                 push_params: Callable[[dict], None] | None = None) -> None:
+                 push_params: Callable[[dict], None] | None = None,
+                 missions: MissionStore | None = None) -> None:
         self.fleet = fleet
         self.i = index
         self.params = params
@@ -77,6 +79,9 @@ class Autopilot:
         self.consumed_mah = 0.0
         self.current_a = 0.0
         self.arm_time = 0.0
+        # missions, fence and rally points; the link fills the store, the runner flies it
+        self.missions = missions if missions is not None else MissionStore()
+        self.item_reached: Callable[[int], None] = lambda seq: None   # -> MISSION_ITEM_REACHED
         self.refresh()
 
     # ----- state read-back ------------------------------------------------------------
@@ -351,6 +356,18 @@ class Autopilot:
 
     def apply_speed(self) -> None:
         pass
+
+    # ----- missions (the protocol side calls these; the runner overrides them) -----------
+    def mission_uploaded(self, mission_type: int) -> None:
+        """A new list of `mission_type` was stored (upload, partial write or clear)."""
+
+    def set_mission_current(self, seq: int) -> bool:
+        """MISSION_SET_CURRENT / DO_SET_MISSION_CURRENT: False if seq is not valid."""
+        return False
+
+    def mission_current(self) -> tuple[int, int]:
+        """(current seq, MISSION_STATE) for MISSION_CURRENT."""
+        return 0, mav.MISSION_STATE_NO_MISSION if self.missions.count() <= 1 else mav.MISSION_STATE_NOT_STARTED
 
     # ----- GCS failsafe ---------------------------------------------------------------
     def gcs_heartbeat(self) -> None:
