@@ -121,7 +121,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def config_from_args(args):
     from bridge.router import BridgeConfig
-    from bridge.scenario import load_scenario, parse_static_transform
+    from gcs.scenario import load_scenario, parse_static_transform
 
     sc = load_scenario(args.scenario)
     statics = list(sc.static_transforms) + [parse_static_transform(s) for s in args.static]

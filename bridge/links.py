@@ -26,7 +26,7 @@ import struct
 import time
 from dataclasses import dataclass
 
-from bridge.dialect import towerlink as _tl
+from gcs.dialect import towerlink as _tl
 
 try:  # pymavlink picks fastcrc when installed
     from pymavlink.generator.mavcrc import mcrf4xx as _fast_crc

@@ -43,10 +43,10 @@ import sys
 import time
 from dataclasses import dataclass, field, replace
 
-from bridge.dialect import encoder
-from bridge.dialect import towerlink as tl
+from gcs.dialect import encoder
+from gcs.dialect import towerlink as tl
 from bridge.follow import FollowSupervisor, ground_points
-from bridge.frames import LATEST, Buffer, TransformException, TransformStamped
+from gcs.frames import LATEST, Buffer, TransformException, TransformStamped
 from bridge.links import Link, Packet
 from bridge.tf_stream import VehicleFrames, reset_edge, transform_message
 from bridge.timeline import Timeline, TimesyncProbe

@@ -22,8 +22,8 @@ import bisect
 import math
 from dataclasses import dataclass, field
 
-from bridge.dialect import towerlink as tl
-from bridge.frames import Buffer, Transform, TransformStamped, quaternion_slerp
+from gcs.dialect import towerlink as tl
+from gcs.frames import Buffer, Transform, TransformStamped, quaternion_slerp
 
 STATIC_FLAG = tl.TOWERLINK_TRANSFORM_FLAGS_STATIC
 FRAME_ID_LEN = 16
@@ -232,7 +232,7 @@ def reset_edge(buffer: Buffer, ts: TransformStamped, authority: str = "reset") -
     """Drop the history of the dynamic edge ts.frame_id -> ts.child_frame_id.
 
     The Buffer replaces an edge when it switches between static and dynamic
-    (documented in bridge.frames.buffer), so writing it once as static and then
+    (documented in gcs.frames.buffer), so writing it once as static and then
     dynamic again empties it without touching any other edge.
     """
     buffer.set_transform_static(ts, authority)
@@ -256,7 +256,7 @@ def publish_static(url: str, ts: TransformStamped, timeout: float = 3.0, interva
     """
     import time
 
-    from bridge.dialect import mavlink_connection
+    from gcs.dialect import mavlink_connection
 
     conn = mavlink_connection(url, source_system=255, source_component=190)
     try:

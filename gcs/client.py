@@ -209,7 +209,7 @@ def mode_number(mode: str | int, mav_type: int | None) -> int:
 def _default_factory(conn: str, source_system: int, source_component: int):
     """Open a pymavlink connection; with the bridge's dialect when it is installed."""
     try:  # the project dialect decodes the transform stream; optional for a GCS
-        from bridge import dialect as _dialect  # type: ignore
+        from gcs import dialect as _dialect  # type: ignore
         opener = getattr(_dialect, "mavlink_connection", None) or getattr(_dialect, "connect", None)
         if opener is not None:
             return opener(conn, source_system=source_system, source_component=source_component)
@@ -599,12 +599,12 @@ class Client:
 
         Sent as the bridge dialect's TOWERLINK_POSITION_TARGET; the bridge transforms it
         to world. Needs a connection opened with the dialect (the default when
-        bridge.dialect is installed).
+        gcs.dialect is installed).
         """
         send = getattr(self.mav, "towerlink_position_target_send", None)
         if send is None:
             raise ClientError("this connection does not speak the towerlink dialect "
-                              "(TOWERLINK_POSITION_TARGET); open it with bridge.dialect")
+                              "(TOWERLINK_POSITION_TARGET); open it with gcs.dialect")
         ms = int(self.sim_time(sysid) * 1000) & 0xFFFFFFFF
         mask = MASK_POS_ONLY if yaw is None else MASK_POS_YAW
         fid = frame_name.encode()

@@ -261,7 +261,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from bridge.scenario import ScenarioError, load_scenario
+    from gcs.scenario import ScenarioError, load_scenario
 
     from gcs.client import Client, ClientError
 

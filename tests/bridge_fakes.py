@@ -10,7 +10,7 @@ import threading
 import time
 from contextlib import contextmanager
 
-from bridge.dialect import towerlink as tl
+from gcs.dialect import towerlink as tl
 from bridge.router import Bridge, BridgeConfig
 from support import wait_until
 
@@ -136,7 +136,7 @@ class FakeVehicle(Endpoint):
 
 
 def bridge_config(tower_port, drone_port=None, rover_port=None, **kw) -> BridgeConfig:
-    from bridge.scenario import load_scenario
+    from gcs.scenario import load_scenario
     kw.setdefault("statics", list(load_scenario().static_transforms))
     kw.setdefault("quiet", True)
     return BridgeConfig(tower=f"udpin:127.0.0.1:{tower_port}",

@@ -8,9 +8,9 @@ import time
 
 import pytest
 
-from bridge.dialect import mavlink_connection
-from bridge.dialect import towerlink as tl
-from bridge.scenario import load_scenario
+from gcs.dialect import mavlink_connection
+from gcs.dialect import towerlink as tl
+from gcs.scenario import load_scenario
 from support import free_ports, wait_until
 
 pytestmark = pytest.mark.slow

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bridge.dialect import towerlink as tl
-from bridge.frames import LATEST, Buffer, Transform
+from gcs.dialect import towerlink as tl
+from gcs.frames import LATEST, Buffer, Transform
 from bridge.tf_stream import TransformListener, VehicleFrames, transform_message
 from bridge_fakes import bridge_with_fakes
 from support import wait_until
@@ -105,7 +105,7 @@ def test_transform_stream_reaches_tower(world):
 
 
 def test_transform_message_roundtrip():
-    from bridge.frames import TransformStamped
+    from gcs.frames import TransformStamped
     from bridge.tf_stream import transform_from_message
     ts = TransformStamped("world", "a_long_frame_16c", 12.345678, Transform.from_euler(1, 0.2, 0.3, (1, 2, 3)))
     msg = transform_message(ts, static=True)

@@ -8,8 +8,8 @@ import xml.etree.ElementTree as ET
 
 
 import pymavlink.dialects.v20 as v20
-from bridge.dialect import DIALECT_IDS, XML, generate, mavlink_connection, module_path
-from bridge.dialect import towerlink as tl
+from gcs.dialect import DIALECT_IDS, XML, generate, mavlink_connection, module_path
+from gcs.dialect import towerlink as tl
 from support import free_port, wait_until
 
 

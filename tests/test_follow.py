@@ -8,9 +8,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bridge.dialect import towerlink as tl
+from gcs.dialect import towerlink as tl
 from bridge.follow import FollowSupervisor, ground_points
-from bridge.frames import Transform
+from gcs.frames import Transform
 from bridge_fakes import Endpoint, FakeVehicle, bridge_config, running_bridge
 from support import free_ports, wait_until
 

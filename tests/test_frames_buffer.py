@@ -10,7 +10,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation, Slerp
 
-from bridge.frames import (LATEST, Buffer, FutureExtrapolationException, PastExtrapolationException,
+from gcs.frames import (LATEST, Buffer, FutureExtrapolationException, PastExtrapolationException,
                            PointStamped, PoseStamped, Transform, TransformStamped, VectorStamped)
 
 settings.register_profile("frames", max_examples=150, deadline=None)

@@ -8,7 +8,7 @@ import pytest
 
 from support import wait_until
 
-from bridge.frames import (LATEST, Buffer, ExtrapolationException, TimeoutException, Transform,
+from gcs.frames import (LATEST, Buffer, ExtrapolationException, TimeoutException, Transform,
                            TransformStamped)
 
 

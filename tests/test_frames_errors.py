@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from bridge.frames import (LATEST, Buffer, ConnectivityException, ExtrapolationException,
+from gcs.frames import (LATEST, Buffer, ConnectivityException, ExtrapolationException,
                            FutureExtrapolationException, InvalidArgumentException, LookupException,
                            PastExtrapolationException, PointStamped, PoseStamped, TimeoutException,
                            Transform, TransformException, TransformStamped)

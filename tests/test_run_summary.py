@@ -79,7 +79,7 @@ def test_minimum_time_continuous_at_boundaries():
 
 
 def test_ground_point_error_full_vs_yaw_only():
-    from bridge.frames import Transform
+    from gcs.frames import Transform
     h = 9.0
     tilt = math.radians(14.0)
     full = Transform.from_euler(0.7, tilt, 0.0, translation=(3.0, 4.0, -h))
@@ -103,7 +103,7 @@ def test_track_interpolation_and_errors():
 
 def _msgs():
     """A few synthetic messages as the vehicles and the bridge send them."""
-    from bridge.dialect import towerlink as tl
+    from gcs.dialect import towerlink as tl
     lat0, lon0, alt0 = -35.3632621, 149.1652374, 584.0
     out = []
 

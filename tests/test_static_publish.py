@@ -4,7 +4,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
-from bridge.dialect import mavlink_connection
+from gcs.dialect import mavlink_connection
 from bridge.tf_stream import transform_from_message
 from support import free_port, wait_until
 

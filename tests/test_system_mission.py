@@ -20,8 +20,11 @@ pytestmark = pytest.mark.slow
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     run_dir = tmp_path_factory.mktemp("mission")
+    # 2x, not the default 5x: the bridge and tower are not in lockstep with the world yet
+    # (issue 11), so on a loaded 2-core CI machine their wall-clock lag becomes speedup
+    # times as much sim lag and the rover's follow error grew past 1 m at 5x (CI: 1.03 m).
     with launched(run_dir, goals=tower_goals(MISSION_WORLD), follow_frame="drone_yaw",
-                  finish="land") as launch:
+                  finish="land", speedup=2.0) as launch:
         s = finish(launch, timeout=150)
     return run_dir, s
 

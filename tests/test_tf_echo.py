@@ -9,12 +9,12 @@ import subprocess
 import numpy as np
 import pytest
 
-from bridge.dialect import towerlink as tl
-from bridge.frames import Buffer, Transform, TransformStamped
+from gcs.dialect import towerlink as tl
+from gcs.frames import Buffer, Transform, TransformStamped
 from bridge.tf_stream import transform_message
 from bridge_fakes import FakeVehicle
 from support import free_ports, wait_until
-from bridge.frames import euler_from_quaternion
+from gcs.frames import euler_from_quaternion
 from tools.tf_format import format_tf_echo
 
 TOWER = TransformStamped("world", "tower", 0.0, Transform.from_euler(-math.pi / 6, 0, 0, (72.72144, -131.19296, 0)))

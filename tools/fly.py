@@ -83,7 +83,7 @@ class Monitor(threading.Thread):
 
     def __init__(self, run_dir: Path, ports: dict[str, int], host: str = "127.0.0.1") -> None:
         super().__init__(daemon=True, name="fly-monitor")
-        from bridge.dialect import towerlink as tl
+        from gcs.dialect import towerlink as tl
         self.tl = tl
         self.socks: dict[str, socket.socket] = {}
         self.parsers = {}
@@ -477,7 +477,7 @@ def _signal_group(p: subprocess.Popen, sig: int) -> None:
 
 
 def _scenario_follow(path: str | None) -> str:
-    from bridge.scenario import load_scenario
+    from gcs.scenario import load_scenario
     return load_scenario(path).follow_frame
 
 
@@ -519,7 +519,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else Path("runs") / time.strftime("%Y%m%d-%H%M%S")
     try:
-        from bridge.scenario import ScenarioError, load_scenario
+        from gcs.scenario import ScenarioError, load_scenario
         load_scenario(args.scenario)
     except ScenarioError as exc:
         print(f"towerlink fly: {exc}", file=sys.stderr)

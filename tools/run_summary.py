@@ -75,7 +75,7 @@ def minimum_time(d: float, v: float, a: float, j: float) -> float:
 def read_tlog(path: str | os.PathLike) -> Iterator[Any]:
     """Every message of a tlog, decoded with the towerlink dialect (ardupilotmega if absent)."""
     try:
-        from bridge.dialect import mavlink_connection
+        from gcs.dialect import mavlink_connection
     except ImportError:  # pragma: no cover
         from pymavlink.mavutil import mavlink_connection
     conn = mavlink_connection(str(path))
@@ -298,8 +298,8 @@ def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
     scenario_path = scenario_path or meta.get("scenario")
 
     # world coordinates of the goals, from the scenario's static frames
-    from bridge.frames import PointStamped  # noqa: F401  (documented API)
-    from bridge.scenario import load_scenario
+    from gcs.frames import PointStamped  # noqa: F401  (documented API)
+    from gcs.scenario import load_scenario
     sc = load_scenario(scenario_path)
     buf = sc.buffer()
     goal_frame = tower["goals"][0]["frame"] if tower.get("goals") else sc.goal_frame

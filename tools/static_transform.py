@@ -22,8 +22,8 @@ import sys
 
 import numpy as np
 
-from bridge.frames import InvalidArgumentException, TransformStamped
-from bridge.scenario import STATIC_TRANSFORM_USAGE, ScenarioError, parse_static_transform
+from gcs.frames import InvalidArgumentException, TransformStamped
+from gcs.scenario import STATIC_TRANSFORM_USAGE, ScenarioError, parse_static_transform
 from tools.tf_format import format_number, format_tf_echo
 
 

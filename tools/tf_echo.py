@@ -54,8 +54,8 @@ def _print(ts, precision: int) -> None:
 
 def read_tlog(path: str, cache_time: float = 1e9):
     """A TransformListener filled with every TOWERLINK_TRANSFORM of a tlog (no window)."""
-    from bridge.dialect import mavlink_connection
-    from bridge.frames import Buffer
+    from gcs.dialect import mavlink_connection
+    from gcs.frames import Buffer
     from bridge.tf_stream import TransformListener
 
     lis = TransformListener(Buffer(cache_time=cache_time))
@@ -74,7 +74,7 @@ def read_tlog(path: str, cache_time: float = 1e9):
 
 
 def run_offline(args) -> int:
-    from bridge.frames import LATEST, TransformException
+    from gcs.frames import LATEST, TransformException
 
     try:
         lis = read_tlog(args.tlog)
@@ -120,8 +120,8 @@ def run_offline(args) -> int:
 
 
 def run_live(args) -> int:
-    from bridge.dialect import mavlink_connection
-    from bridge.frames import LATEST, TransformException
+    from gcs.dialect import mavlink_connection
+    from gcs.frames import LATEST, TransformException
     from bridge.tf_stream import TransformListener
 
     try:

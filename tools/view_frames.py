@@ -18,7 +18,7 @@ the drawing as .yaml.
 Examples:
   towerlink view-frames                                   # listen on udpin:127.0.0.1:14610 for 5 s (bridge --out udpout:127.0.0.1:14610)
   towerlink view-frames --tlog runs/latest/bridge.tlog -o frames.png
-  towerlink view-frames --scenario bridge/scenarios/default.toml -o frames.svg
+  towerlink view-frames --scenario gcs/scenarios/default.toml -o frames.svg
 """
 from __future__ import annotations
 
@@ -40,7 +40,7 @@ DEFAULT_LISTEN = "udpin:127.0.0.1:14610"
 
 def buffer_from_messages(msgs, cache_time: float = 10.0):
     """A Buffer filled from decoded messages (TOWERLINK_TRANSFORM; others ignored)."""
-    from bridge.frames import Buffer
+    from gcs.frames import Buffer
     from bridge.tf_stream import TransformListener
     listener = TransformListener(Buffer(cache_time=cache_time))
     for m in msgs:
@@ -54,13 +54,13 @@ def buffer_from_tlog(path: str | os.PathLike, cache_time: float = 10.0):
 
 
 def buffer_from_scenario(path: str | None):
-    from bridge.scenario import load_scenario
+    from gcs.scenario import load_scenario
     return load_scenario(path).buffer(), 0.0
 
 
 def buffer_from_live(url: str, duration: float, cache_time: float = 10.0):
-    from bridge.dialect import mavlink_connection
-    from bridge.frames import Buffer
+    from gcs.dialect import mavlink_connection
+    from gcs.frames import Buffer
     from bridge.tf_stream import TransformListener
     conn = mavlink_connection(url, source_system=255, source_component=191)
     listener = TransformListener(Buffer(cache_time=cache_time))

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from bridge.frames import euler_from_quaternion
+from gcs.frames import euler_from_quaternion
 
 EARTH_RADIUS = 6378137.0
 M_PER_DEG = EARTH_RADIUS * math.pi / 180.0

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from bridge.frames import euler_from_quaternion
+from gcs.frames import euler_from_quaternion
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from vehicle.autopilot import geo

@@ -1,4 +1,4 @@
-"""python -m bridge.dialect [--check] [--output PATH]: generate the dialect module with mavgen."""
+"""python -m gcs.dialect [--check] [--output PATH]: generate the dialect module with mavgen."""
 from __future__ import annotations
 
 import argparse
@@ -10,7 +10,7 @@ from . import generate, load, module_path
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m bridge.dialect", description=__doc__)
+    p = argparse.ArgumentParser(prog="python -m gcs.dialect", description=__doc__)
     p.add_argument("--check", action="store_true",
                    help="compare the cached module with a fresh mavgen run; exit 1 if different")
     p.add_argument("--output", help="also write a copy here")

@@ -1,8 +1,8 @@
 """towerlink's frame library: rigid transforms and a tf2-grade, time-aware buffer.
 
 Pure (numpy/scipy only): no sockets, no clocks, no MAVLink. tf2 names and
-semantics; quaternions are (x, y, z, w). See :mod:`bridge.frames.buffer` for the
-buffer's semantics and :mod:`bridge.frames.transform` for the math.
+semantics; quaternions are (x, y, z, w). See :mod:`gcs.frames.buffer` for the
+buffer's semantics and :mod:`gcs.frames.transform` for the math.
 """
 from .buffer import Buffer, EdgeStats
 from .errors import (ConnectivityException, ExtrapolationException,

@@ -1,6 +1,6 @@
 """Scenario files: static frames, the tower's goals and the follow settings.
 
-A scenario is TOML (see bridge/scenarios/default.toml). Its static frames are
+A scenario is TOML (see gcs/scenarios/default.toml). Its static frames are
 written exactly like static_transform_publisher arguments, and this module holds
 the one parser for that form, used by the loader and by
 `towerlink static-transform`.
@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
-from bridge.frames import (Buffer, InvalidArgumentException, Transform,
+from gcs.frames import (Buffer, InvalidArgumentException, Transform,
                            TransformStamped)
 
 DEFAULT_SCENARIO = Path(__file__).with_name("scenarios") / "default.toml"
