@@ -148,7 +148,7 @@ def test_interpolation_exact_at_samples_and_handles_minus_q():
     assert b.lookup_transform("world", "drone", 0.0).transform == Transform((0, 0, 0), q)
     assert b.lookup_transform("world", "drone", 1.0).transform == Transform((1, 0, 0), -r)
     mid = b.lookup_transform("world", "drone", 0.5).transform
-    assert abs(abs(mid.to_euler()[0]) - math.pi) < 1e-12  # through 180, not through 0
+    assert abs(abs(mid.yaw_pitch_roll()[0]) - math.pi) < 1e-12  # through 180, not through 0
 
 
 def test_tiny_rotation_steps_still_match_slerp():

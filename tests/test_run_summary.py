@@ -83,7 +83,7 @@ def test_ground_point_error_full_vs_yaw_only():
     from gcs.frames import Transform
     h = 9.0
     tilt = math.radians(14.0)
-    full = Transform.from_euler(0.7, tilt, 0.0, translation=(3.0, 4.0, -h))
+    full = Transform.from_euler(yaw=0.7, pitch=tilt, translation=(3.0, 4.0, -h))
     yaw = full.yaw_only()
     ts, e = ground_point_errors([(1.0, full.to_tuple()), (1.1, yaw.to_tuple())])
     assert list(ts) == [1.0, 1.1]
