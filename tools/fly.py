@@ -51,6 +51,9 @@ import threading
 import time
 from pathlib import Path
 
+from gcs.geo import lla_to_ned
+from gcs.mavstr import mav_str
+
 os.environ.setdefault("MAVLINK20", "1")
 
 DRONE, ROVER = 1, 2
@@ -166,15 +169,12 @@ class Monitor(threading.Thread):
                 lat0, lon0, alt0, ox, oy, oz = self.origin[src]
                 lat = m.lat_int * 1e-7 if getattr(m, "lat_int", 0) else m.lat
                 lon = m.lon_int * 1e-7 if getattr(m, "lon_int", 0) else m.lon
-                k = 6378137.0 * math.pi / 180.0
-                self.truth[src] = ((lat - lat0) * k + ox,
-                                   (lon - lon0) * k * math.cos(math.radians(lat0)) + oy,
-                                   alt0 - m.alt + oz)
+                n, e, d = lla_to_ned((lat0, lon0, alt0), lat, lon, m.alt)
+                self.truth[src] = (n + ox, e + oy, d + oz)
             elif t == "LOCAL_POSITION_NED":
                 self.estimate[src] = (m.x, m.y, m.z)
             elif t == "PARAM_VALUE" and src == DRONE:
-                pid = m.param_id if isinstance(m.param_id, str) else m.param_id.decode()
-                self.params[pid.rstrip("\x00")] = float(m.param_value)
+                self.params[mav_str(m.param_id)] = float(m.param_value)
             elif t == "TOWERLINK_FOLLOW_STATUS":
                 self.follow = m
 
