@@ -230,3 +230,13 @@ def legacy_xy(item: MissionItem) -> tuple[float, float]:
     if item.command in XY_NOT_LATLON:
         return float(item.x), float(item.y)
     return item.x * 1e-7, item.y * 1e-7
+
+
+def from_wpl(w, mission_type: int = MISSION) -> tuple[int, MissionItem | None]:
+    """A QGC WPL line (gcs.wpl.WplItem, degrees) as a stored item, checked as an upload would
+    be: (ACCEPTED, item) or (the MAV_MISSION_RESULT refusing it, None)."""
+    result, item = from_legacy(w, mission_type)
+    if item is None:
+        return result, None
+    result = CHECKS[mission_type](item)
+    return (result, item) if result == R.MAV_MISSION_ACCEPTED else (result, None)
