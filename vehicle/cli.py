@@ -78,7 +78,7 @@ def _mission(s: str):
     except (OSError, ValueError) as e:
         raise argparse.ArgumentTypeError(str(e))
     items = []
-    names = {v: k for k, v in vars(mav).items() if k.startswith("MAV_MISSION_") and isinstance(v, int)}
+    names = {v: e.name for v, e in mav.enums["MAV_MISSION_RESULT"].items()}
     for w in lines:
         result, item = from_wpl(w)
         if item is None:

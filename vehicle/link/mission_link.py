@@ -34,11 +34,14 @@ class MissionLink:
         return seq if state in (mav.MISSION_STATE_ACTIVE, mav.MISSION_STATE_PAUSED) else -1
 
     def _send(self, outs) -> None:
+        # replies first, then STATUSTEXT: ArduPilot queues its texts, so a GCS sees the
+        # MISSION_ACK / next request before "Flight plan received" or a warning
+        for o in outs:
+            if o.msg is not None:
+                self.link.send(o.msg, o.to)
         for o in outs:
             if o.msg is None:
                 self.link.statustext(o.severity, o.text)
-            else:
-                self.link.send(o.msg, o.to)
 
     def handle(self, m, channel) -> None:
         """A MISSION_* message for us."""

@@ -219,16 +219,17 @@ class MissionProtocol:
             why = mi.validate_fence(items)
             if why is not None:
                 sev = mav.MAV_SEVERITY_INFO if why == "Incorrect item count" else mav.MAV_SEVERITY_WARNING
-                return [_text(sev, why), _text(mav.MAV_SEVERITY_WARNING, "Fence validation failed"),
-                        self._ack(up.src, up.chan, mav.MAV_MISSION_ERROR, t)]
+                return [self._ack(up.src, up.chan, mav.MAV_MISSION_ERROR, t), _text(sev, why),
+                        _text(mav.MAV_SEVERITY_WARNING, "Fence validation failed")]
         if up.partial and up.last < self.store.count(t):
             self.store.write_partial(t, up.first, items[up.first:up.last + 1])
         else:
             self.store.replace_all(t, items)
         self.stored(t)
+        # the ACK first: ArduPilot queues its STATUSTEXT, which goes out after the ACK
+        out.append(self._ack(up.src, up.chan, ACCEPTED, t))
         if t in DONE_TEXT:
             out.append(_text(mav.MAV_SEVERITY_INFO, DONE_TEXT[t]))
-        out.append(self._ack(up.src, up.chan, ACCEPTED, t))
         return out
 
     # ----- download ----------------------------------------------------------------------
