@@ -158,14 +158,10 @@ class MissionRunner:
             self.resume()
 
     def restart_current_nav(self) -> bool:
-        """Run the start of the current navigation command again (mission changed)."""
-        if not self.nav_loaded or self.nav_index == NONE:
+        """Start the current navigation command again (the mission changed under it)."""
+        if self.state != RUNNING or not 0 < self.nav_index < self.count():
             return False
-        item = self._read(self.nav_index)
-        if item is None:
-            return False
-        self.nav = item
-        return self._start(item)
+        return self.set_current(self.nav_index)
 
     def set_current(self, seq: int) -> bool:
         """MISSION_SET_CURRENT / DO_SET_MISSION_CURRENT; False if seq is not valid."""

@@ -103,7 +103,8 @@ class RoverAutopilot(Autopilot):
         return UNSUPPORTED
 
     def apply_speed(self) -> None:
-        speed = self.speed_override if self.speed_override is not None else float(self.params.get("CRUISE_SPEED", 8))
+        # WP_SPEED 0 means CRUISE_SPEED to the rover core, so the parameter itself is the default
+        speed = self.speed_override if self.speed_override is not None else float(self.params.get("WP_SPEED", 0))
         self.push_params({"WP_SPEED": speed})
 
     def gcs_failsafe_action(self, enable: int) -> None:
