@@ -234,3 +234,31 @@ def test_rover_auto_without_a_mission_is_refused_in_ardurovers_words():
     f.settle()
     assert f.ap.set_mode(modes.R_AUTO) is False
     assert f.said()[-2:] == ["No Mission. Can't set AUTO.", "Flight mode change failed"]
+
+
+def test_roi_circle_and_land_at_a_position():
+    """DO_SET_ROI turns the copter to face the point while it flies; NAV_LOITER_TURNS circles
+    once ("Mission: starting circle 1/1"); NAV_LAND at a position flies there, lands, disarms
+    (the land item is not reported reached) and the mission goes back to its start, as
+    ArduCopter resets it on disarm."""
+    f = Flight("copter")
+    roi = (0.0, 40.0)
+    f.upload([f.at(0, 0, 8, C.MAV_CMD_NAV_TAKEOFF),
+              f.at(*roi, 0, C.MAV_CMD_DO_SET_ROI),
+              f.at(30, 0, 8),
+              f.at(30, 0, 8, C.MAV_CMD_NAV_LOITER_TURNS, param1=1, param3=8),
+              f.at(10, 5, 0, C.MAV_CMD_NAV_LAND)])
+    armed_in_guided(f)
+    f.ap.command(C.MAV_CMD_MISSION_START, [0] * 7)
+    f.until(lambda: 3 in f.reached_seqs(), 60, "the waypoint")
+    want = np.arctan2(roi[1] - f.ap.pos[1], roi[0] - f.ap.pos[0])
+    assert abs((f.ap.yaw - want + np.pi) % (2 * np.pi) - np.pi) < np.radians(5)
+    f.until(lambda: 4 in f.reached_seqs(), 120, "one turn")
+    assert "Mission: starting circle 1/1" in f.said()
+    ring = [np.linalg.norm(p[:2] - [30, 0]) for t, p, v, s in f.track if s == 4 and t > f.reached[-2][0] + 8]
+    assert ring and min(ring) > 6.5 and max(ring) < 9.5
+    f.until(lambda: not f.ap.armed, 90, "landed and disarmed")
+    assert np.linalg.norm(f.ap.pos[:2] - [10, 5]) < 1.0
+    assert 5 not in f.reached_seqs()
+    f.step(0.5)
+    assert f.ap.mission_current() == (1, ACTIVE)

@@ -293,7 +293,7 @@ class AutoMode:
             return self.sub == "takeoff" and not ap.on_ground and abs(ap.pos[2] - self.takeoff_z) < TAKEOFF_DONE_M
         if c == C.MAV_CMD_NAV_LAND:
             if self.land_stage == "fly":
-                if self.reached_at is not None:
+                if self._arrived():
                     self.land_stage, self.sub = "descend", "land"
                     ap.hold_pos = np.array([self.dest[0], self.dest[1], ap.pos[2]])
                 return False
@@ -307,7 +307,7 @@ class AutoMode:
         if c == C.MAV_CMD_NAV_LOITER_TIME:
             return self._verify_wp(item, say=self.copter)
         if c == C.MAV_CMD_NAV_LOITER_TURNS:
-            return self.circle is not None and self.circle["total"] >= self.circle["turns"] * 2 * math.pi
+            return self._verify_circle()
         if c == C.MAV_CMD_NAV_DELAY:
             return ap.t >= self.delay_until
         if c == C.MAV_CMD_CONDITION_DELAY:
@@ -320,6 +320,19 @@ class AutoMode:
             return True
         ap.text(SEV_WARNING, f"Skipping invalid cmd #{c}")
         return True
+
+    def _verify_circle(self) -> bool:
+        c = self.circle
+        if c is None:
+            return True
+        if c["angle"] is None:               # still flying to the edge
+            return False
+        done = c["total"] / (2 * math.pi)
+        if int(done) != c["last"]:
+            # ArduCopter says this on every new turn, the one that ends the command included
+            c["last"] = int(done)
+            self.ap.text(SEV_INFO, f"Mission: starting circle {int(done) + 1}/{int(c['turns'])}")
+        return done >= c["turns"]
 
     def wp_radius(self) -> float:
         p = self.ap.params
