@@ -8,7 +8,7 @@ from collections.abc import Callable
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from vehicle.autopilot import geo
+from gcs import geo
 from vehicle.autopilot.mission_store import FENCE, MISSION, RALLY, MissionItem
 from vehicle.world import World, WorldConfig
 
@@ -93,6 +93,6 @@ class Flight:
     def ned(self, item: MissionItem) -> np.ndarray:
         home_z = float(self.ap.home[2]) if self.ap.home is not None else 0.0
         lat, lon = item.x * 1e-7, item.y * 1e-7
-        p = geo.lla_to_ned(self.origin, lat, lon, self.origin[2])
+        p = np.array(geo.lla_to_ned(self.origin, lat, lon, self.origin[2]))
         p[2] = home_z - item.z
         return p

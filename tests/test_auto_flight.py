@@ -213,7 +213,7 @@ def test_rover_runs_a_mission_with_its_own_radius_and_speed():
     f.upload(items)
     f.settle()
     assert f.ap.arm() == C.MAV_RESULT_ACCEPTED
-    assert f.ap.set_mode(modes.R_AUTO)
+    assert f.ap.set_mode(modes.ROVER_AUTO)
     f.until(lambda: f.ap.mission_current()[1] == COMPLETE, 120, "rover mission")
     assert f.reached_seqs() == [1, 2, 3]
     said = f.said()
@@ -226,13 +226,13 @@ def test_rover_runs_a_mission_with_its_own_radius_and_speed():
     top = max(np.linalg.norm(v[:2]) for _, _, v, _ in f.track)
     assert 2.5 < top < 3.3                                   # WP_SPEED 3 m/s, not CRUISE_SPEED 8
     f.step(5.0)
-    assert np.linalg.norm(f.ap.vel[:2]) < 0.1 and f.ap.mode == modes.R_AUTO   # holds
+    assert np.linalg.norm(f.ap.vel[:2]) < 0.1 and f.ap.mode == modes.ROVER_AUTO   # holds
 
 
 def test_rover_auto_without_a_mission_is_refused_in_ardurovers_words():
     f = Flight("rover")
     f.settle()
-    assert f.ap.set_mode(modes.R_AUTO) is False
+    assert f.ap.set_mode(modes.ROVER_AUTO) is False
     assert f.said()[-2:] == ["No Mission. Can't set AUTO.", "Flight mode change failed"]
 
 

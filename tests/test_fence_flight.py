@@ -91,13 +91,13 @@ def test_prearm_refuses_an_enabled_fence_with_nothing_to_check():
 def test_rover_fence_breach_returns_it_home():
     f = Flight("rover", params={"FENCE_ENABLE": 1, "FENCE_TYPE": 2, "FENCE_RADIUS": 30})
     f.settle()
-    assert f.ap.set_mode(modes.R_GUIDED) and f.ap.arm() == C.MAV_RESULT_ACCEPTED
+    assert f.ap.set_mode(modes.ROVER_GUIDED) and f.ap.arm() == C.MAV_RESULT_ACCEPTED
     for _ in range(40):
         f.ap.position_target_local(C.MAV_FRAME_LOCAL_NED, VEL_ONLY, [0, 0, 0], [4, 0, 0], [0, 0, 0], 0, 0)
         f.step(0.5)
-        if f.ap.mode != modes.R_GUIDED:
+        if f.ap.mode != modes.ROVER_GUIDED:
             break
-    assert "Circle fence breached" in f.said() and f.ap.mode == modes.R_RTL
+    assert "Circle fence breached" in f.said() and f.ap.mode == modes.ROVER_RTL
     f.until(lambda: "Reached destination" in f.said(), 60, "rover RTL")
 
 

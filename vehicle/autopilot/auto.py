@@ -42,7 +42,7 @@ import math
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from vehicle.autopilot import geo
+from gcs.frames.batch import wrap_pi
 from vehicle.autopilot.mission_geo import ItemFrameError, has_position, item_alt_z, item_ned
 from vehicle.autopilot.mission_runner import COMPLETE, RUNNING, MissionRunner, is_nav
 from vehicle.autopilot.mission_store import MISSION, MissionItem
@@ -259,7 +259,7 @@ class AutoMode:
         ang = math.radians(_num(item.param1))
         if _num(item.param4) == 1:
             ang = self.ap.yaw + (-ang if _num(item.param3) < 0 else ang)
-        self.fixed_yaw = geo.wrap_pi(ang)
+        self.fixed_yaw = wrap_pi(ang)
         rate = _num(item.param2)
         self.yaw_rate_max = math.radians(rate) if rate > 0 else math.radians(90.0)
 
@@ -315,7 +315,7 @@ class AutoMode:
         if c == C.MAV_CMD_CONDITION_DISTANCE:
             return self.dest is not None and self.distance_to_dest() < self.cond_dist
         if c == C.MAV_CMD_CONDITION_YAW and self.copter:
-            return self.fixed_yaw is not None and abs(geo.wrap_pi(ap.yaw - self.fixed_yaw)) < YAW_DONE_RAD
+            return self.fixed_yaw is not None and abs(wrap_pi(ap.yaw - self.fixed_yaw)) < YAW_DONE_RAD
         if c in DO_DONE:
             return True
         ap.text(SEV_WARNING, f"Skipping invalid cmd #{c}")

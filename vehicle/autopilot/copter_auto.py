@@ -15,7 +15,8 @@ import math
 
 import numpy as np
 
-from vehicle.autopilot import geo, modes
+from gcs.frames.batch import wrap_pi
+from vehicle.autopilot import modes
 from vehicle.autopilot.guided import GuidedTarget
 from vehicle.autopilot.mission_store import RALLY
 from vehicle.autopilot.rally import best_return, rally_points
@@ -110,7 +111,7 @@ class CopterAutoFlight:
         ang = c["angle"]
         pos = np.array([center[0] + r * math.cos(ang), center[1] + r * math.sin(ang), center[2]])
         vel = np.array([-sign * omega * r * math.sin(ang), sign * omega * r * math.cos(ang), 0.0])
-        self.hold_yaw = geo.wrap_pi(ang + math.pi)          # face the centre
+        self.hold_yaw = wrap_pi(ang + math.pi)          # face the centre
         self.setpoint(pos=pos, vel=vel, yaw=self.hold_yaw)
         self.echo = GuidedTarget("posvel", pos, vel, None, self.hold_yaw, None)
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from vehicle.autopilot import geo
+from gcs import geo
 from vehicle.autopilot.mission_store import MissionItem
 
 RETURN_POINT = mav.MAV_CMD_NAV_FENCE_RETURN_POINT
@@ -96,7 +96,7 @@ def _ne(item: MissionItem, origin) -> np.ndarray:
     if item.frame == mav.MAV_FRAME_LOCAL_NED:
         return np.array([item.x / 1e4, item.y / 1e4])
     lat, lon = item.x * 1e-7, item.y * 1e-7
-    return geo.lla_to_ned(origin, lat, lon, origin[2])[:2]
+    return np.array(geo.lla_to_ned(origin, lat, lon, origin[2])[:2])
 
 
 def load_zones(items: Sequence[MissionItem], origin: tuple[float, float, float]) -> FenceZones:

@@ -32,10 +32,10 @@ class RoverAutopilot(Autopilot):
     supported = modes.ROVER_SUPPORTED
     armable = modes.ROVER_ARMABLE
     needs_position = modes.ROVER_NEEDS_POSITION
-    guided_mode = modes.R_GUIDED
-    auto_mode = modes.R_AUTO
-    rtl_mode = modes.R_RTL
-    initial_mode = modes.R_HOLD
+    guided_mode = modes.ROVER_GUIDED
+    auto_mode = modes.ROVER_AUTO
+    rtl_mode = modes.ROVER_RTL
+    initial_mode = modes.ROVER_HOLD
 
     def __init__(self, *a, **kw) -> None:
         self.rtl_done = False
@@ -47,7 +47,7 @@ class RoverAutopilot(Autopilot):
 
     def enter_mode(self, number: int) -> None:
         super().enter_mode(number)
-        if number == modes.R_RTL:
+        if number == modes.ROVER_RTL:
             self.rtl_start()
 
     def mode_init_failed(self, number: int) -> None:
@@ -92,9 +92,9 @@ class RoverAutopilot(Autopilot):
 
     def fence_action_rover(self, action: int) -> None:
         """FENCE_ACTION 1/3: RTL (HOLD if RTL cannot start); 2/4: HOLD."""
-        if action in (1, 3) and self.set_mode(modes.R_RTL, "fence breach"):
+        if action in (1, 3) and self.set_mode(modes.ROVER_RTL, "fence breach"):
             return
-        self.set_mode(modes.R_HOLD, "fence breach")
+        self.set_mode(modes.ROVER_HOLD, "fence breach")
 
     def landed_state(self) -> int:
         return mav.MAV_LANDED_STATE_ON_GROUND
@@ -109,10 +109,10 @@ class RoverAutopilot(Autopilot):
 
     def gcs_failsafe_action(self, enable: int) -> None:
         action = int(self.params.get("FS_ACTION", 2))
-        if action in (1, 3) and self.set_mode(modes.R_RTL, "GCS failsafe"):
+        if action in (1, 3) and self.set_mode(modes.ROVER_RTL, "GCS failsafe"):
             self.text(SEV_WARNING, "GCS Failsafe On: RTL")
         elif action != 0:
-            self.set_mode(modes.R_HOLD, "GCS failsafe")
+            self.set_mode(modes.ROVER_HOLD, "GCS failsafe")
             self.text(SEV_WARNING, "GCS Failsafe On: Hold")
         else:
             self.text(SEV_WARNING, "GCS Failsafe")
@@ -122,13 +122,13 @@ class RoverAutopilot(Autopilot):
         self.echo = GuidedTarget("vel", None, ZERO.copy(), None, None, 0.0)
 
     def run_mode(self, dt: float) -> None:
-        if self.mode == modes.R_AUTO:
+        if self.mode == modes.ROVER_AUTO:
             self.auto.run(dt)
             return
-        if not self.armed or self.mode in (modes.R_MANUAL, modes.R_HOLD):
+        if not self.armed or self.mode in (modes.ROVER_MANUAL, modes.ROVER_HOLD):
             self._stop()
             return
-        if self.mode == modes.R_RTL:
+        if self.mode == modes.ROVER_RTL:
             self._rtl_drive()
             return
         # GUIDED
