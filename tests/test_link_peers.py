@@ -92,7 +92,7 @@ def test_garbage_and_bad_crc_senders_are_no_peers(world):
     assert bad.getsockname() not in ep.peers and good.getsockname() in ep.peers
 
 
-@pytest.mark.parametrize("world", [KEY], indirect=True)
+@pytest.mark.parametrize("world", [KEY], indirect=True, ids=["signing"])
 def test_with_signing_only_signed_senders_are_peers(world):
     w, dst, ep = world
     unsigned, wrong, signed = _sock(), _sock(), _sock()
