@@ -118,7 +118,12 @@ def run(args: argparse.Namespace) -> int:
     if args.speedup <= 0 or args.rate < 50:
         print("towerlink sitl: --speedup must be > 0 and --rate >= 50", file=sys.stderr)
         return 2
-    world = World(config_from_args(args))
+    from vehicle.autopilot.params import ParamFileError
+    try:
+        world = World(config_from_args(args))
+    except (OSError, ParamFileError) as e:      # an unreadable --params FILE
+        print(f"towerlink sitl: {e}", file=sys.stderr)
+        return 1
 
     async def main() -> None:
         loop = asyncio.get_running_loop()

@@ -38,7 +38,9 @@ COMP_ID = mav.MAV_COMP_ID_AUTOPILOT1
 SIGNING_EPOCH = 1420070400   # 2015-01-01, MAVLink signing timestamps count 10 us from here
 
 LINK_COMMANDS = {mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAV_CMD_GET_MESSAGE_INTERVAL,
-                 mav.MAV_CMD_REQUEST_MESSAGE, mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES}
+                 mav.MAV_CMD_REQUEST_MESSAGE, mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,
+                 mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN}
+MAX_INTERVAL_US = 2**31 - 1   # MESSAGE_INTERVAL.interval_us is an int32
 
 
 # stats key -> NAMED_VALUE_INT name (10 characters at most)
@@ -302,23 +304,32 @@ class VehicleLink:
 
     def on_COMMAND_LONG(self, m, ch) -> None:
         p = [m.param1, m.param2, m.param3, m.param4, m.param5, m.param6, m.param7]
-        self._after_ack = []
-        self.ack(ch, m.command, self._command(m.command, p, ch, m, None, None, None), m)
-        self._flush_after_ack(ch)
+        self._run_command(m, ch, p, None, None, None)
 
     def on_COMMAND_INT(self, m, ch) -> None:
         p = [m.param1, m.param2, m.param3, m.param4, float(m.x), float(m.y), m.z]
-        self._after_ack = []
-        self.ack(ch, m.command, self._command(m.command, p, ch, m, m.frame, m.x, m.y), m)
-        self._flush_after_ack(ch)
+        self._run_command(m, ch, p, m.frame, m.x, m.y)
 
     _after_ack: list = []
+    _reboot_after_ack = False
 
-    def _flush_after_ack(self, ch) -> None:
-        # like ArduPilot: the ACK first, then the message a command asked for
+    def _run_command(self, m, ch, p, frame, x, y) -> None:
+        self._after_ack = []
+        self._reboot_after_ack = False
+        try:
+            result = self._command(m.command, p, ch, m, frame, x, y)
+        except Exception:       # a handler bug: still exactly one ACK, and say where
+            self.stats["handler_error"] += 1
+            traceback.print_exc()
+            result, self._after_ack = mav.MAV_RESULT_FAILED, []
+        self.ack(ch, m.command, result, m)
+        # like ArduPilot: the ACK first, then the message a command asked for (or the reboot)
         msgs, self._after_ack = self._after_ack, []
         for msg in msgs:
             self.send(msg, ch)
+        if self._reboot_after_ack:
+            self._reboot_after_ack = False
+            self.reboot()
 
     def _command(self, cmd, p, ch, m, frame, x, y) -> int:
         if cmd in LINK_COMMANDS:
@@ -328,9 +339,15 @@ class VehicleLink:
     def _link_command(self, cmd, p, ch) -> int:
         if not all(math.isfinite(v) for v in p[:2]):
             return mav.MAV_RESULT_DENIED
+        if cmd == mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
+            return self._reboot_command(p)
         if cmd == mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
+            if p[0] != 1:                  # ArduPilot: param1 1 asks for the version
+                return mav.MAV_RESULT_FAILED
             self._after_ack.append(self.telemetry.autopilot_version())
             return mav.MAV_RESULT_ACCEPTED
+        if not 0 <= p[0] <= 2**24 - 1:          # MAVLink 2 message ids are 24 bits
+            return mav.MAV_RESULT_DENIED
         msgid = int(p[0])
         if cmd == mav.MAV_CMD_REQUEST_MESSAGE:
             if msgid not in self.telemetry.builders:
@@ -348,9 +365,11 @@ class VehicleLink:
             return mav.MAV_RESULT_ACCEPTED
         # SET_MESSAGE_INTERVAL: p2 interval us; -1 disable; 0 default
         if msgid not in self.telemetry.builders or msgid == mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
-            self.statustext(mav.MAV_SEVERITY_INFO, f"No ap_message for mavlink id ({msgid})")
+            self.statustext(mav.MAV_SEVERITY_INFO, f"No ap_message for mavlink id ({msgid})"[:50])
             return mav.MAV_RESULT_DENIED
         us = p[1]
+        if us > MAX_INTERVAL_US:
+            return mav.MAV_RESULT_DENIED
         if us == 0:
             self.intervals.pop(msgid, None)
         elif us < 0:
@@ -359,6 +378,33 @@ class VehicleLink:
             self.intervals[msgid] = max(us * 1e-6, 0.001)
         self._rebuild_schedule()
         return mav.MAV_RESULT_ACCEPTED
+
+    # ----- reboot ---------------------------------------------------------------------------
+    def _reboot_command(self, p) -> int:
+        """MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN as ArduPilot: param1 1 reboots the autopilot (3,
+        reboot into the bootloader, and shutdowns are not simulated); refused while armed;
+        the ACK goes out first, from the old sysid."""
+        if p[0] != 1:
+            return mav.MAV_RESULT_UNSUPPORTED
+        if self.ap.armed:
+            return mav.MAV_RESULT_FAILED
+        self._reboot_after_ack = True
+        return mav.MAV_RESULT_ACCEPTED
+
+    def reboot(self) -> None:
+        """Reboot the simulated vehicle: the autopilot re-reads its parameters and starts
+        afresh (modes, home, targets, failsafes); the link takes the new SYSID_THISMAV and
+        forgets message intervals and queued replies. Peers and the world clock stay (the
+        world's clock is every vehicle's time_boot_ms, so it does not restart)."""
+        self.ap.reboot()
+        self.ap.text = self.statustext
+        self.mav.srcSystem = self.ap.sysid
+        self.intervals.clear()
+        for q in self.outboxes.values():
+            q.clear()
+        self.outboxes.clear()
+        self._rebuild_schedule()
+        self.stats["reboots"] += 1
 
     def on_SET_MODE(self, m, ch) -> None:
         if m.base_mode & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
