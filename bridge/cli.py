@@ -120,7 +120,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def config_from_args(args):
-    from bridge.router import BridgeConfig
+    from bridge.config import BridgeConfig
     from gcs.scenario import load_scenario, parse_static_transform
 
     sc = load_scenario(args.scenario)
@@ -139,7 +139,7 @@ def config_from_args(args):
 
 
 def run(args) -> int:
-    from bridge.router import Bridge
+    from bridge.loop import Bridge
 
     try:
         cfg = config_from_args(args)

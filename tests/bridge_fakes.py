@@ -11,7 +11,8 @@ import time
 from contextlib import contextmanager
 
 from gcs.dialect import towerlink as tl
-from bridge.router import Bridge, BridgeConfig
+from bridge.config import BridgeConfig
+from bridge.loop import Bridge
 from support import wait_until
 
 

@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
         return 2
     print(describe(ts))
     if args.publish:
-        from bridge.tf_stream import publish_static  # the bridge's own sender; imported only when used
+        from bridge.static_publisher import publish_static  # the bridge's own sender; imported only when used
         try:
             verdict = publish_static(args.publish, ts, timeout=args.timeout)
         except TimeoutError as exc:
