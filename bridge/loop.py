@@ -29,7 +29,6 @@ from __future__ import annotations
 import selectors
 import sys
 import time
-from dataclasses import replace
 
 from gcs.dialect import towerlink as tl
 from gcs.frames import TransformException
@@ -41,15 +40,11 @@ from bridge.config import BridgeConfig, VehicleRecord
 from bridge.follower import Follower
 from bridge.frame_tree import FrameTree
 from bridge.goals import GoalDesk, PendingGoal
+from bridge.telemetry import MSG_LOCAL_POSITION_NED, TELEMETRY_IN, TelemetryDesk
 from bridge.links import Link, Packet
 from bridge.pairing import VehicleFrames
 from bridge.timeline import Timeline
 
-MSG_HEARTBEAT = 0
-MSG_SYSTEM_TIME = 2
-MSG_TIMESYNC = 111
-MSG_ATTITUDE_QUATERNION = 31
-MSG_LOCAL_POSITION_NED = 32
 MSG_SET_POSITION_TARGET_LOCAL_NED = 84
 MSG_POSITION_TARGET_LOCAL_NED = 85
 MSG_TL_TRANSFORM = 43000
@@ -60,6 +55,9 @@ TICK = 0.01                     # wall s between upkeep passes
 STATIC_PERIOD = 1.0             # wall s between republishing static transforms
 STATUS_PERIOD = 1.0
 TIMESYNC_PERIOD = 1.0           # wall s between TIMESYNC probes of each vehicle link
+#: vehicle -> tower messages mapped world -> tower
+TO_TOWER = {MSG_LOCAL_POSITION_NED: translate.local_position,
+            MSG_POSITION_TARGET_LOCAL_NED: translate.position_target}
 
 
 class Bridge:
@@ -90,6 +88,7 @@ class Bridge:
         self.goals = GoalDesk(self.tree, self.codec, self.to_vehicle, self.tower.stats,
                               self.timeline.world_clock, clock, self.log, self.statustext, cfg.world_frame)
         self.follower = Follower(cfg, self.buffer, clock, self.log, self.warn_once)
+        self.telemetry = TelemetryDesk(self)
         self.tower_drops = 0
         self._next = {"hb": 0.0, "timesync": 0.0, "static": 0.0, "status": 0.0}
         self._warned: dict[str, float] = {}
@@ -216,50 +215,17 @@ class Bridge:
         self.route_from_gcs(link, pkt)
 
     def on_vehicle_packet(self, v: VehicleRecord, pkt: Packet) -> None:
-        mid = pkt.msgid
-        now = self.clock()
         to_tower = pkt.raw
-        if mid in (MSG_LOCAL_POSITION_NED, MSG_ATTITUDE_QUATERNION, MSG_POSITION_TARGET_LOCAL_NED,
-                   MSG_SYSTEM_TIME, MSG_TIMESYNC, MSG_HEARTBEAT):
+        if pkt.msgid in TELEMETRY_IN:
             msg = self.codec.decode(pkt.raw)
             if msg is None:
                 return
-            if mid == MSG_LOCAL_POSITION_NED:
-                v.last_pos_wall = now
-                v.position = (msg.x, msg.y, msg.z)
-                self.clocks.reading(v, msg.time_boot_ms / 1000.0, now)
-                for s in v.frames.on_local_position(msg.time_boot_ms, msg.x, msg.y, msg.z,
-                                                     msg.vx, msg.vy, msg.vz):
-                    self.on_frame_sample(v, s)
-                to_tower = self.translate_to_tower(msg, pkt, translate.local_position)
-            elif mid == MSG_POSITION_TARGET_LOCAL_NED:
-                if msg.coordinate_frame in translate.TRANSLATED_FRAMES:
-                    to_tower = self.translate_to_tower(msg, pkt, translate.position_target)
-            elif mid == MSG_ATTITUDE_QUATERNION:
-                v.last_att_wall = now
-                self.clocks.reading(v, msg.time_boot_ms / 1000.0, now)
-                for s in v.frames.on_attitude_quaternion(msg.time_boot_ms, msg.q1, msg.q2, msg.q3, msg.q4):
-                    self.on_frame_sample(v, s)
-            elif mid == MSG_SYSTEM_TIME and pkt.compid == 1:
-                self.clocks.on_system_time(v, msg, now)
-                self.release_held()
-            elif mid == MSG_TIMESYNC:
-                if self.clocks.on_timesync(v, msg, now):
-                    return          # the answer to our own probe: not forwarded
-            elif mid == MSG_HEARTBEAT and pkt.compid == 1:
-                self.on_heartbeat(v, msg, now)
+            if pkt.msgid in TO_TOWER and (pkt.msgid == MSG_LOCAL_POSITION_NED or
+                                          msg.coordinate_frame in translate.TRANSLATED_FRAMES):
+                to_tower = self.translate_to_tower(msg, pkt, TO_TOWER[pkt.msgid])
+            if not self.telemetry.on_message(v, pkt.msgid, pkt.compid, msg):
+                return              # the answer to our own probe: not forwarded
         self.route_from_vehicle(v, pkt, to_tower)
-
-    def on_heartbeat(self, v: VehicleRecord, msg, now: float) -> None:
-        first = v.last_heartbeat_wall is None
-        v.custom_mode = msg.custom_mode
-        v.armed = bool(msg.base_mode & tl.MAV_MODE_FLAG_SAFETY_ARMED)
-        v.last_heartbeat_wall = now
-        if first:
-            self.log(f"{v.name} (sysid {v.sysid}) is up: mode {msg.custom_mode}, "
-                     f"{'armed' if v.armed else 'disarmed'}")
-            self.request_streams(v, force=True)
-            self.clocks.request_system_time(v, force=True)
 
     def translate_to_tower(self, msg, pkt: Packet, fn) -> bytes | None:
         """`msg` mapped world -> tower and packed as its sender, or None (dropped, counted)."""
@@ -276,35 +242,6 @@ class Bridge:
         return self.codec.pack_as(fn(msg, T.transform), (pkt.sysid, pkt.compid, pkt.seq, pkt.v2))
 
     # ------------------------------------------------------------------ frames
-    def on_frame_sample(self, v: VehicleRecord, s) -> None:
-        """A paired sample on the vehicle's own clock: onto the one timeline, or held back."""
-        shift = self.clocks.place(v, ("frame", s))
-        if shift is not None:
-            self.frame_on_timeline(v, s, shift)
-
-    def release_held(self) -> None:
-        for v, s, shift in self.clocks.release(self.vehicles):
-            self.frame_on_timeline(v, s, shift)
-
-    def frame_on_timeline(self, v: VehicleRecord, s, shift: float) -> None:
-        if shift:
-            t = s.stamp + shift
-            s = replace(s, stamp=t, full=replace(s.full, stamp=t), yaw=replace(s.yaw, stamp=t))
-        reset = self.timeline.frame_stamp(v.name, s.stamp)
-        if reset:
-            self.log(f"{v.name}: clock went back to {s.stamp:.3f} s on the timeline (reboot): its frames are reset")
-        try:
-            publish = self.tree.add_sample(v.name, s, reset)
-        except TransformException as exc:
-            self.warn_once(f"set-{v.name}", f"{v.name}: transform rejected: {exc}")
-            return
-        if publish:
-            self.send_own_to_gcs(transform_message(s.full))
-            self.send_own_to_gcs(transform_message(s.yaw))
-        rover = self.vehicles.get(self.cfg.rover_sysid)
-        if v.sysid == self.cfg.drone_sysid and self.cfg.follow and rover is not None:
-            self.send_out(self.follower.on_drone_sample(s.stamp, s.velocity, reset, rover))
-
     def add_static(self, msg, src_sysid: int) -> None:
         """TOWERLINK_STATIC_TRANSFORM from `src_sysid`: added (and published) or refused."""
         from bridge.codec import transform_from_message
@@ -320,17 +257,6 @@ class Bridge:
         self.send_own_to_gcs(transform_message(ts, static=True))
 
     # ------------------------------------------------------------------ periodic
-    def request_streams(self, v: VehicleRecord, force: bool = False) -> None:
-        if self.cfg.telemetry_rate <= 0:
-            return
-        now = self.clock()
-        if not force and now - v.last_stream_req < 5.0:
-            return
-        v.last_stream_req = now
-        interval = 1e6 / self.cfg.telemetry_rate
-        for mid in (MSG_LOCAL_POSITION_NED, MSG_ATTITUDE_QUATERNION):
-            self.command(v, tl.MAV_CMD_SET_MESSAGE_INTERVAL, mid, interval)
-
     def _due(self, what: str, now: float, period: float) -> bool:
         if now >= self._next[what]:
             self._next[what] = now + period
@@ -341,7 +267,7 @@ class Bridge:
         now = self.clock()
         for link in self.links:
             link.poll()
-        self.release_held()
+        self.telemetry.release_held()
         self.goals.retry()
         rover = self.vehicles.get(self.cfg.rover_sysid)
         if self.cfg.follow and rover is not None:
@@ -352,7 +278,7 @@ class Bridge:
             for v in self.vehicles.values():
                 v.link.send(data)
                 if v.last_heartbeat_wall is not None and (now - v.last_att_wall > 2.0 or now - v.last_pos_wall > 2.0):
-                    self.request_streams(v)
+                    self.telemetry.request_streams(v)
         if self._due("timesync", now, TIMESYNC_PERIOD):
             self.clocks.probe(self.vehicles, now)
         if self._due("static", now, STATIC_PERIOD):
