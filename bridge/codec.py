@@ -114,4 +114,5 @@ def bridge_status_message(usec: int, name: str, stats, malformed: int):
     m = 0xFFFFFFFF
     return tl.MAVLink_towerlink_bridge_status_message(
         usec, name.encode()[:16], stats.rx_packets & m, stats.tx_packets & m, malformed & m,
-        stats.unroutable & m, stats.translated & m, stats.deferred & m)
+        stats.unroutable & m, stats.translated & m, stats.deferred & m, stats.refused & m,
+        (stats.unsigned + stats.bad_signature) & m)

@@ -35,7 +35,7 @@ from gcs.frames import TransformException
 from bridge import translate
 from bridge.clock_desk import ClockDesk
 from bridge.codec import (Codec, bridge_status_message, command_message, mav_str,
-                          statustext_message, transform_message)
+                          statustext_message, transform_from_message, transform_message)
 from bridge.config import BridgeConfig, VehicleRecord
 from bridge.follower import Follower
 from bridge.frame_tree import FrameTree
@@ -44,6 +44,8 @@ from bridge.telemetry import MSG_LOCAL_POSITION_NED, TELEMETRY_IN, TelemetryDesk
 from bridge.links import Link, Packet
 from bridge.pairing import VehicleFrames
 from bridge.timeline import Timeline
+from bridge.trust import StaticTrust
+from gcs.signing import SignatureCheck
 
 MSG_SET_POSITION_TARGET_LOCAL_NED = 84
 MSG_POSITION_TARGET_LOCAL_NED = 85
@@ -81,7 +83,11 @@ class Bridge:
                 self.vehicles[sysid] = VehicleRecord(name, sysid, link, VehicleFrames(name, cfg.world_frame))
                 self.tree.add_vehicle(name)
         self.links = [*self.gcs_links, *(v.link for v in self.vehicles.values())]
-        self.codec = Codec(cfg.sysid, cfg.compid)
+        self.codec = Codec(cfg.sysid, cfg.compid, cfg.signing_key)
+        self.trust = StaticTrust(frozenset(cfg.trust_sysids), cfg.allow_redefine)
+        if cfg.signing_key:
+            check = SignatureCheck(cfg.signing_key)
+            self.tower.verify = lambda p: check.check(p.raw, p.sysid, p.compid)
         self.timeline = Timeline(speedup=cfg.speedup, grace=cfg.time_grace)
         self.clocks = ClockDesk(self.timeline, self.command, lambda v, m: v.link.send(self.codec.pack_own(m)),
                                 self.log, self.warn_once, clock)
@@ -189,6 +195,10 @@ class Bridge:
         return msg
 
     def on_gcs_packet(self, link: Link, pkt: Packet) -> None:
+        if pkt.refused is not None:             # signing on, and this one did not pass
+            if pkt.msgid == MSG_TL_STATIC:
+                self.add_static(link, pkt, self._decode(link, pkt))
+            return
         link.sysids.add(pkt.sysid)
         mid = pkt.msgid
         if mid == MSG_SET_POSITION_TARGET_LOCAL_NED and link is self.tower:
@@ -208,7 +218,7 @@ class Bridge:
         elif mid == MSG_TL_STATIC:
             msg = self._decode(link, pkt)
             if msg is not None and msg.target_system in (0, self.cfg.sysid):
-                self.add_static(msg, pkt.sysid)
+                self.add_static(link, pkt, msg)
             return
         elif mid == MSG_TL_TRANSFORM:
             return   # transform streams are ours to publish; do not echo them to vehicles
@@ -242,17 +252,25 @@ class Bridge:
         return self.codec.pack_as(fn(msg, T.transform), (pkt.sysid, pkt.compid, pkt.seq, pkt.v2))
 
     # ------------------------------------------------------------------ frames
-    def add_static(self, msg, src_sysid: int) -> None:
-        """TOWERLINK_STATIC_TRANSFORM from `src_sysid`: added (and published) or refused."""
-        from bridge.codec import transform_from_message
-        authority = f"static-transform:{src_sysid}"
+    def add_static(self, link: Link, pkt: Packet, msg) -> None:
+        """TOWERLINK_STATIC_TRANSFORM: added and published, or refused (bridge.trust), answered."""
         try:
-            ts = self.tree.add_static(transform_from_message(msg)[0], authority)
+            ts = transform_from_message(msg)[0] if msg is not None else None
+            why = self.trust.verdict(pkt.sysid, ts.child_frame_id if ts else "", self.tree.owned,
+                                     self.tree.authority(ts.child_frame_id) if ts else None, pkt.refused)
+            if why is None:
+                ts = self.tree.add_static(ts, f"static-transform:{pkt.sysid}")
         except (TransformException, ValueError) as exc:
-            self.log(f"static transform from sysid {src_sysid} refused: {exc}")
-            self.statustext(f"static tf refused: {exc}", tl.MAV_SEVERITY_ERROR)
+            why = str(exc)
+        if why is not None:
+            link.stats.refused += 1
+            self.log(f"static transform from sysid {pkt.sysid} refused: {why}")
+            text = statustext_message(f"static tf refused: {why}", tl.MAV_SEVERITY_ERROR)
+            if pkt.addr is not None and pkt.addr not in link.peers:
+                link.reply(pkt.addr, self.codec.pack_own(text))    # not a peer: answer it alone
+            self.send_own_to_gcs(text)
             return
-        self.log(f"static transform {ts.frame_id} -> {ts.child_frame_id} added by sysid {src_sysid}")
+        self.log(f"static transform {ts.frame_id} -> {ts.child_frame_id} added by sysid {pkt.sysid}")
         self.statustext(f"static tf {ts.frame_id}->{ts.child_frame_id} added", tl.MAV_SEVERITY_INFO)
         self.send_own_to_gcs(transform_message(ts, static=True))
 

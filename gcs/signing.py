@@ -79,3 +79,16 @@ class SignatureCheck:
         self.last[stream] = ts
         self.clock.timestamp = max(self.clock.timestamp, ts)
         return None
+
+
+def key_from_text(text: str | None) -> bytes | None:
+    """A 32-byte signing key from 64 hex digits, or from a passphrase hashed with SHA-256
+    (as MAVProxy's ``signing setup PASSPHRASE``); None for no text."""
+    if not text:
+        return None
+    if len(text) == 64:
+        try:
+            return bytes.fromhex(text)
+        except ValueError:
+            pass
+    return hashlib.sha256(text.encode()).digest()
