@@ -7,7 +7,7 @@ frame and transformed to world, z set to 0::
     h       = -z of world -> drone          # NED: height above the ground plane z = 0
     goal    = T_world_frame . p_drone ; goal.z = 0
 
-In the full-attitude frame ``drone`` (checkpoint 2) the point swings by h*tan(tilt)
+In the full-attitude frame ``drone`` (checkpoint 2) the point swings by h*sin(tilt)
 as the drone pitches and rolls; in the yaw-only frame ``drone_yaw`` (checkpoint 3) it
 does not. The offset is meant in the yaw-only frame (negative x = behind); with the
 full-attitude frame the same numbers are used in the body frame, as the lab's node would.

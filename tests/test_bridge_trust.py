@@ -210,3 +210,29 @@ def test_udp_peers_expire_after_30_s_and_are_bounded_to_the_64_most_recent():
         for s in socks:
             s.close()
         link.close()
+
+
+# ---------------------------------------------------------------------- gcs.signing, the shared check
+def test_signature_check_order_and_reasons():
+    from gcs.dialect import encoder
+    from gcs.signing import SignatureCheck, setup_signing, signing_timestamp
+
+    def packet(key, ts=None, link_id=0):
+        e = encoder(255, 190)
+        setup_signing(e, key, link_id)
+        if ts is not None:
+            e.signing.timestamp = ts
+        return tl.MAVLink_heartbeat_message(6, 8, 0, 0, 0, 3).pack(e)
+
+    check = SignatureCheck(KEY)
+    good = packet(KEY)
+    assert check.check(good, 255, 190) is None
+    assert check.check(good, 255, 190) == "replay"                        # same timestamp again
+    assert check.check(packet(b"\x02" * 32), 255, 190) == "bad_signature"
+    assert check.check(_heartbeat(), 255, 190) == "unsigned"
+    old = packet(KEY, ts=signing_timestamp() - 7_000_000, link_id=3)     # a new stream 70 s old
+    assert check.check(old, 255, 190) == "stale"
+    # a forged far-future timestamp with the wrong key does not move the receiver's clock
+    before = check.clock.timestamp
+    assert check.check(packet(b"\x02" * 32, ts=before + 10**9), 255, 190) == "bad_signature"
+    assert check.clock.timestamp == before
