@@ -16,19 +16,10 @@ from __future__ import annotations
 from gcs.dialect import encoder
 from gcs.dialect import towerlink as tl
 from gcs.frames import Transform, TransformStamped
+from gcs.mavstr import mav_str
 
 STATIC_FLAG = tl.TOWERLINK_TRANSFORM_FLAGS_STATIC
 FRAME_ID_LEN = 16
-
-
-def mav_str(v) -> str:
-    """A char[N] field as text: bytes decoded, cut at the first NUL.
-
-    (Task D gives this one home in gcs.mavstr; until it lands the bridge keeps this copy.)
-    """
-    if isinstance(v, (bytes, bytearray)):
-        v = v.decode(errors="replace")
-    return v.split("\x00", 1)[0]
 
 
 def frame_bytes(name: str) -> bytes:

@@ -20,13 +20,11 @@ import math
 
 from gcs.dialect import towerlink as tl
 from gcs.frames import TransformException
+from gcs.modes import ROVER_GUIDED, ROVER_HOLD
 from bridge import translate
 from bridge.codec import command_message as _command, statustext_message as _text
 from bridge.follow import FollowSupervisor, ground_points
 
-# ArduPilot Rover mode numbers (Rover/mode.h); one home in gcs.modes once task D lands
-ROVER_GUIDED = 15
-ROVER_HOLD = 4
 MODE_RETRY = 0.5                # wall s between DO_SET_MODE commands
 ARM_RETRY = 1.0                 # wall s between arm commands
 
