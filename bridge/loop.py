@@ -40,7 +40,7 @@ from bridge.config import BridgeConfig, VehicleRecord
 from bridge.follower import Follower
 from bridge.frame_tree import FrameTree
 from bridge.goals import GoalDesk, PendingGoal
-from bridge.telemetry import MSG_LOCAL_POSITION_NED, TELEMETRY_IN, TelemetryDesk
+from bridge.telemetry import MSG_LOCAL_POSITION_NED, MSG_POSITION_TARGET_LOCAL_NED, TELEMETRY_IN, TelemetryDesk
 from bridge.links import Link, Packet
 from bridge.pairing import VehicleFrames
 from bridge.timeline import Timeline
@@ -48,7 +48,6 @@ from bridge.trust import StaticTrust
 from gcs.signing import SignatureCheck
 
 MSG_SET_POSITION_TARGET_LOCAL_NED = 84
-MSG_POSITION_TARGET_LOCAL_NED = 85
 MSG_TL_TRANSFORM = 43000
 MSG_TL_STATIC = 43001
 MSG_TL_TARGET = 43002
@@ -99,8 +98,7 @@ class Bridge:
         self._next = {"hb": 0.0, "timesync": 0.0, "static": 0.0, "status": 0.0}
         self._warned: dict[str, float] = {}
         self.running = True
-        self.sel = selectors.DefaultSelector()
-        self._registered: dict = {}
+        self.sel = LinkSelector()
 
     # ------------------------------------------------------------------ logging
     def log(self, text: str) -> None:
@@ -308,26 +306,8 @@ class Bridge:
                 self.send_own_to_gcs(bridge_status_message(usec, link.name, link.stats, link.malformed))
 
     # ------------------------------------------------------------------ loop
-    def _sync_selector(self) -> None:
-        want = {s: link for link in self.links for s in link.fileobjs()}
-        for s in list(self._registered):
-            if s not in want or s.fileno() < 0:
-                try:
-                    self.sel.unregister(s)
-                except (KeyError, ValueError, OSError):
-                    pass
-                del self._registered[s]
-        for s, link in want.items():
-            if s not in self._registered:
-                try:
-                    self.sel.register(s, selectors.EVENT_READ, link)
-                    self._registered[s] = link
-                except (ValueError, OSError):
-                    pass
-
     def run_once(self, timeout: float) -> None:
-        self._sync_selector()
-        for key, _ev in self.sel.select(timeout):
+        for key, _ev in self.sel.select(self.links, timeout):
             link = key.data
             for pkt in link.on_readable(key.fileobj):
                 try:
@@ -352,21 +332,56 @@ class Bridge:
         self.running = False
 
     def summary(self) -> str:
-        parts = []
-        for link in self.links:
-            st = link.stats
-            parts.append(f"{link.name}: rx {st.rx_packets} tx {st.tx_packets} malformed {link.malformed} "
-                         f"unroutable {st.unroutable} translated {st.translated} deferred {st.deferred}")
-        for v in self.vehicles.values():
-            p = v.probe
-            rtt = "-" if p.rtt is None else f"{p.rtt * 1e3:.2f} ms (min {p.rtt_min * 1e3:.2f} ms)"
-            parts.append(f"{v.name}: timeline {self.timeline.basis(v.name)}; TIMESYNC round trip {rtt}; "
-                         f"samples held back {self.timeline.held(v.name)}")
-        parts.append(f"follow ticks {self.follower.ticks}; decode errors {self.codec.decode_errors}; "
-                     f"tower telemetry dropped (no transform) {self.tower_drops}")
-        return "\n".join(parts)
+        return summary(self)
 
     def close(self) -> None:
         for link in self.links:
             link.close()
         self.sel.close()
+
+
+class LinkSelector:
+    """selectors over the links' sockets, which change (tcp reconnects, tcpin clients)."""
+
+    def __init__(self) -> None:
+        self.sel = selectors.DefaultSelector()
+        self._registered: dict = {}
+
+    def select(self, links, timeout: float):
+        want = {s: link for link in links for s in link.fileobjs()}
+        for s in list(self._registered):
+            if s not in want or s.fileno() < 0:
+                try:
+                    self.sel.unregister(s)
+                except (KeyError, ValueError, OSError):
+                    pass
+                del self._registered[s]
+        for s, link in want.items():
+            if s not in self._registered:
+                try:
+                    self.sel.register(s, selectors.EVENT_READ, link)
+                    self._registered[s] = link
+                except (ValueError, OSError):
+                    pass
+        return self.sel.select(timeout)
+
+    def close(self) -> None:
+        self.sel.close()
+
+
+def summary(b: Bridge) -> str:
+    """The bridge's end-of-run counters, one line per link and vehicle."""
+    parts = []
+    for link in b.links:
+        st = link.stats
+        parts.append(f"{link.name}: rx {st.rx_packets} tx {st.tx_packets} malformed {link.malformed} "
+                     f"unroutable {st.unroutable} translated {st.translated} deferred {st.deferred} "
+                     f"refused {st.refused} unsigned {st.unsigned} bad signature {st.bad_signature}")
+    for v in b.vehicles.values():
+        p = v.probe
+        rtt = "-" if p.rtt is None else f"{p.rtt * 1e3:.2f} ms (min {p.rtt_min * 1e3:.2f} ms)"
+        parts.append(f"{v.name}: timeline {b.timeline.basis(v.name)}; TIMESYNC round trip {rtt}; "
+                     f"samples held back {b.timeline.held(v.name)}")
+    parts.append(f"follow ticks {b.follower.ticks}; decode errors {b.codec.decode_errors}; "
+                 f"tower telemetry dropped (no transform) {b.tower_drops}")
+    return "\n".join(parts)
