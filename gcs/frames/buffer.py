@@ -190,6 +190,42 @@ def _not_connected(target: str, source: str, target_root: str, source_root: str)
         target_frame=target, source_frame=source)
 
 
+def _walk_error(edges: dict, target: str, source: str, t: float,
+                fallback: TransformException) -> TransformException:
+    """The error tf2's walkToTopParent reports for a failed lookup at time t (lock held).
+
+    tf2 walks up from the source until the root or the first edge without data at t
+    (remembering that edge's error), then up from the target until it meets the frame
+    where the source walk stopped: an edge without data there is reported at once;
+    reaching the target's root instead reports the source side's extrapolation if
+    there was one, else that the frames are not connected. `fallback` is returned if
+    the walk finds nothing wrong (it cannot when the caller's lookup failed).
+    """
+    src_err = None
+    f = source
+    while f in edges and f != target:
+        e = edges[f]
+        src_err = _edge_error(e, t, target, source)
+        if src_err is not None:
+            break
+        f = e.parent
+    top = f
+    g = target
+    while g != top and g != source:
+        e = edges.get(g)
+        if e is None:
+            break
+        err = _edge_error(e, t, target, source)
+        if err is not None:
+            return err
+        g = e.parent
+    if g == top or g == source:
+        return fallback
+    if src_err is not None:
+        return src_err
+    return _not_connected(target, source, g, top)
+
+
 def _segment(a: tuple, b: tuple) -> tuple[float, float, float]:
     """SLERP constants for interpolating from sample a to sample b, computed on insert
     so lookups skip the dot product, acos and one sin: (theta, 1/sin(theta),
@@ -438,41 +474,6 @@ class Buffer:
         e = self._edges.get(frame)
         return e.stamps[-1] if e is not None and e.stamps else 0.0
 
-    def _walk_error(self, target: str, source: str, t: float,
-                    fallback: TransformException) -> TransformException:
-        """The error tf2's walkToTopParent reports for a failed lookup at time t. Lock held.
-
-        tf2 walks up from the source until the root or the first edge without data at t
-        (remembering that edge's error), then up from the target until it meets the frame
-        where the source walk stopped: an edge without data there is reported at once;
-        reaching the target's root instead reports the source side's extrapolation if
-        there was one, else that the frames are not connected.
-        """
-        edges = self._edges
-        src_err = None
-        f = source
-        while f in edges and f != target:
-            e = edges[f]
-            src_err = _edge_error(e, t, target, source)
-            if src_err is not None:
-                break
-            f = e.parent
-        top = f
-        g = target
-        while g != top and g != source:
-            e = edges.get(g)
-            if e is None:
-                break
-            err = _edge_error(e, t, target, source)
-            if err is not None:
-                return err
-            g = e.parent
-        if g == top or g == source:
-            return fallback
-        if src_err is not None:
-            return src_err
-        return _not_connected(target, source, g, top)
-
     def _lookup_locked(self, target: str, source: str, time: Any,
                        fn: str = "lookupTransform") -> tuple[float, tuple]:
         """(stamp used, 7-tuple of target <- source). Lock held."""
@@ -490,7 +491,7 @@ class Buffer:
             except ConnectivityException as exc:
                 if time is LATEST:
                     raise   # tf2's getLatestCommonTime: different trees are a connectivity error
-                raise self._walk_error(target, source, time, exc) from None
+                raise _walk_error(self._edges, target, source, time, exc) from None
         src, tgt, dyn, ev = p
         if time is LATEST:
             t = 0.0
@@ -508,7 +509,7 @@ class Buffer:
         try:
             return t, ev(t)
         except ExtrapolationException as exc:
-            raise self._walk_error(target, source, t, exc) from None
+            raise _walk_error(self._edges, target, source, t, exc) from None
 
     def _wait(self, attempt: Callable[[], Any], timeout: float, what: str) -> Any:
         """Retry `attempt` (lock held) each time the buffer changes, until `timeout` wall s."""
@@ -562,7 +563,7 @@ class Buffer:
                     try:
                         v = p[3](time)
                     except ExtrapolationException as exc:
-                        raise self._walk_error(target_frame, source_frame, time, exc) from None
+                        raise _walk_error(self._edges, target_frame, source_frame, time, exc) from None
                 else:
                     time, v = self._lookup_locked(target_frame, source_frame, time)
             finally:
