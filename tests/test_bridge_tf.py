@@ -2,6 +2,7 @@
 packets, vehicle reboot; the transform stream as the tower sees it."""
 from __future__ import annotations
 
+import math
 
 import numpy as np
 import pytest
@@ -26,7 +27,12 @@ def test_pairing_exact_and_interpolated():
     assert len(out) == 1 and out[0].stamp == 0.1
     assert out[0].full.transform.almost_equal(Transform(translation=(1, 2, -3), rotation=T.xyzw), 1e-9)
     assert out[0].yaw.child_frame_id == "drone_yaw"
-    assert out[0].yaw.transform.almost_equal(out[0].full.transform.yaw_only(), 1e-9)
+    # drone_yaw, by hand: the same origin, turned by the yaw of 0.5 rad about z only
+    yaw_tf = out[0].yaw.transform
+    assert yaw_tf.xyz == pytest.approx((1, 2, -3), abs=1e-12)
+    assert tuple(yaw_tf.apply_vector((1, 0, 0))) == pytest.approx((math.cos(0.5), math.sin(0.5), 0), abs=1e-9)
+    assert tuple(yaw_tf.apply_vector((0, 0, 1))) == pytest.approx((0, 0, 1), abs=1e-9)
+    assert abs(np.dot(yaw_tf.xyzw, (0, 0, math.sin(0.25), math.cos(0.25)))) == pytest.approx(1, abs=1e-12)
     # a position between two attitudes (streams at different phases): SLERP
     vf.on_attitude_quaternion(200, *q_wxyz(Transform.from_euler(yaw=0.0)))
     assert vf.on_local_position(250, 0, 0, 0, 0, 0, 0) == []

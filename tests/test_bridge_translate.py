@@ -96,8 +96,8 @@ def test_named_frame_goal_waits_for_transform_then_goes(world):
     x, y, z, w = T.xyzw
     drone.pose(1000, (1, 2, -9), (w, x, y, z))
     m = drone.wait("SET_POSITION_TARGET_LOCAL_NED")
-    expect = T.yaw_only().apply_point((5, 0, 0))
-    np.testing.assert_allclose((m.x, m.y, m.z), expect, atol=1e-4)
+    # 5 m along the drone's heading (north + 90 deg = east), level whatever its pitch
+    np.testing.assert_allclose((m.x, m.y, m.z), (1, 2 + 5, -9), atol=1e-4)
     assert m.coordinate_frame == tl.MAV_FRAME_LOCAL_NED and (m.get_srcSystem(), m.get_srcComponent()) == (255, 190)
     assert 1 not in bridge.pending
 
