@@ -31,6 +31,8 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
+from gcs.mavstr import mav_str
+
 TOWER_SYSID = 255
 FRAME_COLORS = {"drone": (0.15, 0.45, 0.95, 1.0), "rover": (0.95, 0.55, 0.1, 1.0)}
 TRACK_STEP_M = 0.25          # a track point every quarter metre: a 1 km flight is 4,000 points
@@ -87,12 +89,6 @@ def schema_of(topic: str) -> tuple[str, dict]:
 
 def stamp(sim_ns: int) -> dict:
     return {"sec": sim_ns // 1_000_000_000, "nsec": sim_ns % 1_000_000_000}
-
-
-def _text(v: Any) -> str:
-    if isinstance(v, bytes):
-        v = v.decode(errors="replace")
-    return str(v).rstrip("\x00")
 
 
 def frame_transform(sim_ns: int, parent: str, child: str, t, q) -> dict:
@@ -217,7 +213,7 @@ class SceneFeed:
         return self._boot_ns.get(src, self.sim_ns if self.sim_ns else None)
 
     def _transform(self, m, ns: int) -> list[Record]:
-        parent, child = _text(m.frame_id), _text(m.child_frame_id)
+        parent, child = mav_str(m.frame_id), mav_str(m.child_frame_id)
         tr, q = m.translation, m.rotation
         if not all(math.isfinite(v) for v in (*tr, *q)):
             return []
