@@ -6,6 +6,7 @@
 frames: interpolated lookup vs pytransform3d, batched points vs scipy, inserts.
 flight: one drone vs RotorPy, 1000 batched drones, flight quality.
 world:  100 vehicles with full MAVLink telemetry at real time, CPU used.
+mission: 100-item mission upload and download, pymavlink vs MAVSDK.
 """
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ BENCHES = {
     "frames": "tools.bench_frames",
     "flight": "tools.bench_flight",
     "world": "tools.bench_world",
+    "mission": "tools.bench_mission",
 }
 
 
