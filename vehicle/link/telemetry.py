@@ -10,10 +10,11 @@ import math
 
 import numpy as np
 
-from gcs.frames import euler_from_quaternion
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from vehicle.autopilot import geo
+from gcs import geo
+from gcs.frames import euler_from_quaternion
+
 
 # stream group parameter -> MAVLink message ids it schedules (ArduPilot's groups, plus
 # ATTITUDE_QUATERNION, EXTENDED_SYS_STATE, HOME_POSITION and SIM_STATE, which the bridge,

@@ -22,6 +22,7 @@ from collections import Counter
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
+from gcs.mavstr import mav_str
 from vehicle.link.endpoints import Channel, Endpoint, make_endpoint
 from vehicle.link.mission_link import MISSION_MESSAGES, MissionLink
 from vehicle.link.telemetry import DATA_STREAMS, STREAM_GROUPS, Telemetry
@@ -46,9 +47,7 @@ class _Out:
 
 
 def _param_id(s) -> str:
-    if isinstance(s, bytes):
-        s = s.decode("ascii", "replace")
-    return s.split("\x00", 1)[0].strip().upper()
+    return mav_str(s).strip().upper()
 
 
 class VehicleLink:
