@@ -4,7 +4,7 @@ side by side; the ratio column is MAVSDK / pymavlink.
 
 The SITL runs as `towerlink sitl` in a child process at speedup 1; the MAVSDK client in
 another (native library). Times are wall seconds per whole transfer, median of --repeat.
-Usage: python -m tools.bench_mission [--items 100] [--repeat 5]
+Usage: python -m tools.bench_mission_transfer [--items 100] [--repeat 5]   (towerlink bench mission-transfer)
 """
 from __future__ import annotations
 
@@ -78,7 +78,7 @@ def _pymavlink(port: int, n: int, repeat: int) -> tuple[list[float], list[float]
     return ups, downs
 
 
-# ----- MAVSDK (runs in its own process: python -m tools.bench_mission --mavsdk-client PORT N R) ----
+# ----- MAVSDK (runs in its own process: python -m tools.bench_mission_transfer --mavsdk-client PORT N R) ----
 def _mavsdk_client(port: int, n: int, repeat: int) -> int:
     from mavsdk import ComponentType, Configuration, Mavsdk
     from mavsdk.plugins.mission_raw import MissionItem, MissionRaw
@@ -105,7 +105,7 @@ def _mavsdk_client(port: int, n: int, repeat: int) -> int:
 
 
 def _mavsdk(port: int, n: int, repeat: int) -> tuple[list[float], list[float]]:
-    r = subprocess.run([sys.executable, "-m", "tools.bench_mission", "--mavsdk-client", str(port), str(n), str(repeat)],
+    r = subprocess.run([sys.executable, "-m", "tools.bench_mission_transfer", "--mavsdk-client", str(port), str(n), str(repeat)],
                        capture_output=True, text=True, timeout=300)
     for line in r.stdout.splitlines():
         if line.startswith("RESULT "):
@@ -115,7 +115,7 @@ def _mavsdk(port: int, n: int, repeat: int) -> tuple[list[float], list[float]]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="bench_mission", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="bench_mission_transfer", description=__doc__.split("\n\n")[0])
     ap.add_argument("--items", type=int, default=100, help="items per mission, home included (default 100)")
     ap.add_argument("--repeat", type=int, default=5, help="transfers per client (default 5; median shown)")
     ap.add_argument("--mavsdk-client", nargs=3, type=int, metavar=("PORT", "N", "REPEAT"), help=argparse.SUPPRESS)
@@ -139,8 +139,8 @@ def main(argv: list[str] | None = None) -> int:
             proc.wait()
     med = statistics.median
     print(machine())
-    rows = [[f"upload {a.items} items", f"{med(pu) * 1e3:.0f}", f"{med(mu) * 1e3:.0f}", f"{med(mu) / med(pu):.2f}"],
-            [f"download {a.items} items", f"{med(pd) * 1e3:.0f}", f"{med(md) * 1e3:.0f}", f"{med(md) / med(pd):.2f}"]]
+    rows = [[f"upload {a.items} items", f"{med(pu) * 1e3:.1f}", f"{med(mu) * 1e3:.1f}", f"{med(mu) / med(pu):.2f}"],
+            [f"download {a.items} items", f"{med(pd) * 1e3:.1f}", f"{med(md) * 1e3:.1f}", f"{med(md) / med(pd):.2f}"]]
     print(table(f"Mission transfer over loopback UDP, towerlink sitl (speedup 1), median of {a.repeat}",
                 ["transfer", "pymavlink (ms)", "MAVSDK (ms)", "MAVSDK / pymavlink"], rows))
     return 0
