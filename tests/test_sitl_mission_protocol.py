@@ -179,7 +179,7 @@ def test_dropped_items_rerequested_over_a_lossy_link(sitl):
     try:
         m = connect(port, timeout=20)
         lat, lon = HOME[:2]
-        items = [item_int(m, i, 16, lat + 1e-5 * i, lon, 10 + i) for i in range(20)]
+        items = [item_int(m, i, 16, lat + 1e-5 * i, lon, 10 + i) for i in range(12)]
         asked = []
         assert upload(m, items, log=asked) == mav.MAV_MISSION_ACCEPTED
         assert proxy.dropped["up"] > 0 and proxy.dropped["down"] > 0
