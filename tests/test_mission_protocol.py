@@ -135,6 +135,10 @@ def test_legacy_item_accepted_with_one_warning_and_legacy_request_answered_with_
     item = msgs(out, "MISSION_ITEM")[0]
     assert (item.x, item.y, item.z) == (pytest.approx(-35.5), pytest.approx(149.25), 10)
     assert "got MISSION_REQUEST; use MISSION_REQUEST_INT!" in texts(out)
+    assert texts(p.handle(mav.MAVLink_mission_request_message(1, 1, 0, 0), GCS, A, 1)) == []   # once per transfer
+    p.handle(mav.MAVLink_mission_request_list_message(1, 1, 0), GCS, A, 2)
+    assert texts(p.handle(mav.MAVLink_mission_request_message(1, 1, 0, 0), GCS, A, 2)) == \
+        ["got MISSION_REQUEST; use MISSION_REQUEST_INT!"]
 
 
 def test_count_zero_clears_and_acks_at_once():
