@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 
 from support import free_port
-from test_sitl_support import command, connect, mav, recv
+from test_sitl_support import command, connect, mav, recv, set_mode, wait_armable
 from vehicle.autopilot.mission_store import MISSION, MissionItem
 from vehicle.world import World, WorldConfig
 
@@ -49,3 +49,28 @@ def test_reached_current_and_set_current(world):
     assert command(m, mav.MAV_CMD_DO_SET_MISSION_CURRENT, 2) == mav.MAV_RESULT_ACCEPTED
     assert command(m, mav.MAV_CMD_DO_SET_MISSION_CURRENT, 1) == mav.MAV_RESULT_FAILED
     assert calls.count(2) == 2 and 1 in calls
+
+
+def test_guided_fly_to_item_current_2(world):
+    """MISSION_ITEM_INT with current = 2 (MAVProxy `guided`, Mission Planner Fly To Here) sets
+    the GUIDED target, as ArduPilot's handle_guided_request; ERROR outside GUIDED."""
+    ap = world.vehicles[0].ap
+    m = connect(world.port)
+    lat, lon = -353632610 + 900, 1491652300          # ~10 m north of home
+
+    def fly_to():
+        m.mav.mission_item_int_send(1, 1, 0, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mav.MAV_CMD_NAV_WAYPOINT,
+                                    2, 1, 0, 0, 0, 0, lat, lon, 12.0, 0)
+        return recv(m, "MISSION_ACK", 5).type
+
+    assert fly_to() == mav.MAV_MISSION_ERROR                   # STABILIZE: refused
+    assert ap.target is None
+    wait_armable(m)                                            # GUIDED needs a position estimate
+    assert set_mode(m, "GUIDED") == mav.MAV_RESULT_ACCEPTED
+    assert fly_to() == mav.MAV_MISSION_ACCEPTED
+    tgt = ap.target
+    assert tgt is not None and tgt.pos[0] == pytest.approx(10.0, abs=0.2) and tgt.pos[1] == pytest.approx(0.0, abs=0.2)
+    assert -tgt.pos[2] == pytest.approx(12.0, abs=0.5)
+    assert ap.missions.count() == 0                            # not a mission item
+    m.mav.mission_item_int_send(1, 1, 0, mav.MAV_FRAME_LOCAL_NED, 16, 2, 1, 0, 0, 0, 0, lat, lon, 12.0, 0)
+    assert recv(m, "MISSION_ACK", 5).type == mav.MAV_MISSION_UNSUPPORTED_FRAME
