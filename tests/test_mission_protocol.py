@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from vehicle.autopilot.mission_store import FENCE, MISSION, RALLY, MissionItem, MissionStore
+from vehicle.autopilot.mission_store import FENCE, MISSION, RALLY, MissionStore
 from vehicle.link import mission_items as mi
 from vehicle.link.mission_protocol import MissionProtocol, home_item
 
