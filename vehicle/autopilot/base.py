@@ -18,6 +18,8 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from gcs import geo
 from gcs.frames import euler_from_quaternion
 from vehicle.autopilot import modes
+from vehicle.autopilot.auto import AutoMode
+from vehicle.autopilot.fence import Fence
 from vehicle.autopilot.guided import GuidedTarget, TargetError, decode_global, decode_local
 from vehicle.autopilot.mission_store import MissionStore
 from vehicle.autopilot.params import ParamStore
@@ -37,6 +39,19 @@ SEV_WARNING = mav.MAV_SEVERITY_WARNING
 SEV_CRITICAL = mav.MAV_SEVERITY_CRITICAL
 
 
+def wire_int(v: float, lo: int, hi: int) -> int | None:
+    """A command parameter (float on the wire) as an integer in lo..hi, or None when it is
+    NaN, infinite, fractional or out of range (the caller answers DENIED)."""
+    if not math.isfinite(v) or v != round(v) or not lo <= v <= hi:
+        return None
+    return int(v)
+
+
+def finite(p, *idx: int) -> bool:
+    """True when the command parameters at `idx` (0-based) are all finite numbers."""
+    return all(math.isfinite(p[i]) for i in idx)
+
+
 def _vec(state, *names, default=None):
     for n in names:
         v = getattr(state, n, None)
@@ -53,6 +68,7 @@ class Autopilot:
     armable: set[int] = set()
     needs_position: set[int] = set()
     guided_mode = -1
+    auto_mode = -1
 
     def __init__(self, fleet, index: int, params: ParamStore, origin: tuple[float, float, float],
                  start_ned, text: Callable[[int, str], None] | None = None,
@@ -61,6 +77,8 @@ class Autopilot:
         self.fleet = fleet
         self.i = index
         self.params = params
+        # SYSID_THISMAV takes effect at boot, as ArduPilot's (a PARAM_SET is saved, not applied)
+        self.boot_sysid = int(params["SYSID_THISMAV"])
         self.origin = origin
         self.start_ned = np.asarray(start_ned, float)
         self.text = text or (lambda sev, msg: None)
@@ -84,6 +102,8 @@ class Autopilot:
         # missions, fence and rally points; the link fills the store, the runner flies it
         self.missions = missions if missions is not None else MissionStore()
         self.item_reached: Callable[[int], None] = lambda seq: None   # -> MISSION_ITEM_REACHED
+        self.auto = AutoMode(self)
+        self.fence = Fence(self)
         self.refresh()
 
     # ----- state read-back ------------------------------------------------------------
@@ -105,7 +125,25 @@ class Autopilot:
 
     @property
     def sysid(self) -> int:
-        return int(self.params["SYSID_THISMAV"])
+        """The MAVLink system id this boot runs with (SYSID_THISMAV as it was at boot)."""
+        return self.boot_sysid
+
+    def reboot(self) -> None:
+        """Start this autopilot afresh, as a reboot would: parameters re-read from where they
+        are kept (SYSID_THISMAV included), disarmed, initial mode, no home, no targets. The
+        vehicle stays where it is; the stored missions (the vehicle's eeprom) are kept; the
+        hooks the link and world set (text, push_params, item_reached) are kept."""
+        hooks = {k: self.__dict__[k] for k in ("text", "push_params", "item_reached") if k in self.__dict__}
+        args = (self.fleet, self.i, self.params, self.origin, self.start_ned)
+        missions = self.missions
+        if self.armed:
+            self.fleet.set_armed(self.i, False)
+        self.params.reload()
+        self.__dict__.clear()
+        type(self).__init__(self, *args, missions=missions)
+        self.__dict__.update(hooks)
+        self.setpoint()
+        self.push_params(dict(self.params.values))
 
     @property
     def mode_name(self) -> str:
@@ -130,6 +168,7 @@ class Autopilot:
             self.text(SEV_INFO, "Home set")   # ArduPilot: EKF origin/home from GPS
         self._battery(dt)
         self._gcs_failsafe_check()
+        self.fence.check(t)
         self.run_mode(dt)
 
     def _battery(self, dt: float) -> None:
@@ -150,7 +189,10 @@ class Autopilot:
     initial_mode = 0
 
     def set_mode(self, number: int, reason: str = "GCS") -> bool:
-        number = int(number)
+        number = wire_int(number, 0, 2**32 - 1)
+        if number is None:
+            self.text(SEV_WARNING, "Mode change failed: bad mode number")
+            return False
         if number == self.mode and number in self.supported:
             return True
         if number not in self.supported:
@@ -163,9 +205,22 @@ class Autopilot:
         if number in self.needs_position and not self.est_ok:
             self.text(SEV_WARNING, f"Mode change to {self.mode_names[number]} failed: requires position")
             return False
+        if number == self.auto_mode:
+            self.refresh()
+            if not self.auto.init():
+                self.mode_init_failed(number)
+                return False
+        if self.mode == self.auto_mode:
+            self.auto.exit()
         self.mode = number
         self.enter_mode(number)
         return True
+
+    def mode_init_failed(self, number: int) -> None:
+        self.text(SEV_WARNING, f"Mode change to {self.mode_names[number]} failed: init failed")
+
+    def mode_armable(self) -> bool:
+        return self.mode in self.armable
 
     def enter_mode(self, number: int) -> None:
         self.refresh()
@@ -190,8 +245,11 @@ class Autopilot:
             out.append("Need Position Estimate")
         elif self.home is None:
             out.append("Waiting for home")   # never long: home follows the first good estimate
-        if self.mode not in self.armable:
+        if not self.mode_armable():
             out.append("Mode not armable")
+        why = self.fence.prearm_failure()
+        if why:
+            out.append(why)
         return out
 
     def prearm_ok(self) -> bool:
@@ -230,6 +288,7 @@ class Autopilot:
         self.armed = False
         self.fleet.set_armed(self.i, False)
         self.target = None
+        self.auto.on_disarmed()
         self.on_disarmed()
         self.text(SEV_INFO, f"Disarming motors{': ' + reason if reason else ''}")
         return ACCEPTED
@@ -297,8 +356,11 @@ class Autopilot:
                 return self.disarm(force)
             return DENIED
         if cmd == mav.MAV_CMD_DO_SET_MODE:
-            if int(p[0]) & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
-                return ACCEPTED if self.set_mode(int(p[1])) else FAILED
+            base, custom = wire_int(p[0], 0, 255), wire_int(p[1], 0, 2**32 - 1)
+            if base is None or custom is None:
+                return DENIED             # NaN, inf or a non-integer where a mode number goes
+            if base & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+                return ACCEPTED if self.set_mode(custom) else FAILED
             return DENIED
         if cmd == mav.MAV_CMD_NAV_RETURN_TO_LAUNCH:
             return ACCEPTED if self.set_mode(self.rtl_mode) else FAILED
@@ -306,7 +368,20 @@ class Autopilot:
             return self.cmd_set_home(p, x, y, frame)
         if cmd == mav.MAV_CMD_DO_CHANGE_SPEED:
             return self.cmd_change_speed(p)
+        if cmd == mav.MAV_CMD_MISSION_START:
+            return self.cmd_mission_start(p)
+        if cmd == mav.MAV_CMD_DO_PAUSE_CONTINUE:
+            return self.cmd_pause_continue(p)
+        if cmd == mav.MAV_CMD_DO_SET_MISSION_CURRENT:
+            return ACCEPTED if self.set_mission_current(p[0]) else FAILED
+        if cmd == mav.MAV_CMD_DO_FENCE_ENABLE:
+            if p[0] not in (0, 1):
+                return FAILED
+            self.fence.set_enabled(p[0] == 1)
+            return ACCEPTED
         if cmd == mav.MAV_CMD_PREFLIGHT_CALIBRATION:
+            if not finite(p, 0, 1, 2, 3, 4, 5, 6):
+                return DENIED
             # ArduPilot: "*preflight*, remember?" -> TEMPORARILY_REJECTED while armed; the
             # simulated sensors need no calibration, so it succeeds at once otherwise
             if self.armed:
@@ -321,6 +396,8 @@ class Autopilot:
         return UNSUPPORTED
 
     def cmd_set_home(self, p, x, y, frame) -> int:
+        if p[0] not in (0, 1):
+            return DENIED             # param1 is a flag: current position (1) or the one given (0)
         if p[0] == 1:
             if not self.est_ok:
                 return FAILED
@@ -342,9 +419,11 @@ class Autopilot:
         self.text(SEV_INFO, "Home set")
         return ACCEPTED
 
+    max_speed = 100.0     # m/s: DO_CHANGE_SPEED above this is refused
+
     def cmd_change_speed(self, p) -> int:
         speed = p[1]
-        if not math.isfinite(speed):
+        if not math.isfinite(speed) or speed > self.max_speed:
             return FAILED
         if speed == -1:
             self.speed_override = None
@@ -361,15 +440,48 @@ class Autopilot:
 
     # ----- missions (the protocol side calls these; the runner overrides them) -----------
     def mission_uploaded(self, mission_type: int) -> None:
-        """A new list of `mission_type` was stored (upload, partial write or clear)."""
+        """A new list of `mission_type` was stored (upload, partial write or clear).
+
+        AUTO notices a new MISSION by the store's version on its next step (and restarts
+        the command it flies, as ArduPilot); the fence and rally points are read live."""
 
     def set_mission_current(self, seq: int) -> bool:
         """MISSION_SET_CURRENT / DO_SET_MISSION_CURRENT: False if seq is not valid."""
-        return False
+        try:
+            seq = int(seq)
+        except (TypeError, ValueError, OverflowError):
+            return False
+        return self.auto.runner.set_current(seq)
 
     def mission_current(self) -> tuple[int, int]:
         """(current seq, MISSION_STATE) for MISSION_CURRENT."""
-        return 0, mav.MISSION_STATE_NO_MISSION if self.missions.count() <= 1 else mav.MISSION_STATE_NOT_STARTED
+        return self.auto.runner.current_seq(), self.auto.mission_state()
+
+    def cmd_mission_start(self, p) -> int:
+        """MAV_CMD_MISSION_START: ArduPilot refuses first/last items (DENIED), else AUTO."""
+        if p[0] != 0 or p[1] != 0:
+            return DENIED
+        if not self.set_mode(self.auto_mode):
+            return FAILED
+        self.auto.mission_start()
+        return ACCEPTED
+
+    def cmd_pause_continue(self, p) -> int:
+        """MAV_CMD_DO_PAUSE_CONTINUE: param1 0 pause, 1 continue (AUTO waypoints only)."""
+        if self.mode != self.auto_mode or p[0] not in (0, 1):
+            return FAILED
+        ok = self.auto.pause() if p[0] == 0 else self.auto.resume()
+        return ACCEPTED if ok else FAILED
+
+    def auto_fly(self, auto, dt: float) -> None:
+        """Setpoints for AUTO's current sub-mode (vehicle specific)."""
+        raise NotImplementedError
+
+    def rtl_start(self) -> None:
+        raise NotImplementedError
+
+    def rtl_complete(self) -> bool:
+        raise NotImplementedError
 
     # ----- GCS failsafe ---------------------------------------------------------------
     def gcs_heartbeat(self) -> None:

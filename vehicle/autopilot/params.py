@@ -12,7 +12,8 @@ from __future__ import annotations
 import math
 import os
 import re
-from collections.abc import Iterable, Mapping
+import sys
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
@@ -57,6 +58,15 @@ _COMMON = [
     _d("ARMING_CHECK", 1, 0, 1, True, "1 run pre-arm checks, 0 skip them"),
     _d("BATT_CAPACITY", 3300, 0, 100000, True, "battery capacity (mAh)"),
     _d("GUID_TIMEOUT", 3, 0.1, 5, False, "GUIDED velocity/acceleration target timeout (s)"),
+    _d("MIS_RESTART", 0, 0, 1, True, "entering AUTO: 0 resume the mission where it stopped, 1 restart it"),
+    _d("FENCE_ENABLE", 0, 0, 1, True, "geofence: 0 disabled, 1 enabled"),
+    _d("FENCE_RADIUS", 300, 30, 10000, False, "circle fence radius around home (m)"),
+    _d("FENCE_MARGIN", 2, 1, 10, False, "distance to keep from the fence (m; pre-arm check only)"),
+]
+
+_FENCE_ALT = [
+    _d("FENCE_ALT_MAX", 100, 10, 1000, False, "maximum altitude above home (m)"),
+    _d("FENCE_ALT_MIN", -10, -100, 100, False, "minimum altitude above home (m)"),
 ]
 
 COPTER_TABLE = _STREAMS + _COMMON + [
@@ -69,7 +79,18 @@ COPTER_TABLE = _STREAMS + _COMMON + [
     _d("DISARM_DELAY", 10, 0, 127, True, "auto-disarm after this long landed (s), 0 = never"),
     _d("WPNAV_SPEED_DN", 150, 10, 500, False, "maximum descent speed (cm/s)"),
     _d("WPNAV_SPEED", 500, 20, 2000, False, "horizontal speed (cm/s)"),
-]
+    _d("WPNAV_RADIUS", 200, 5, 1000, False, "AUTO waypoint radius (cm): a waypoint is reached inside it"),
+    _d("WP_YAW_BEHAVIOR", 2, 0, 3, True,
+       "AUTO yaw: 0 never change, 1 face next waypoint, 2 face next waypoint except RTL, 3 face along GPS course"),
+    _d("AUTO_OPTIONS", 0, 0, 255, True,
+       "bitmask: 0 AllowArming, 1 AllowTakeOffWithoutRaisingThrottle, 2 IgnorePilotYaw, 7 AllowWeatherVaning"),
+    _d("CIRCLE_RATE", 20, -90, 90, False, "NAV_LOITER_TURNS turn rate (deg/s)"),
+    _d("FENCE_TYPE", 7, 0, 15, True, "fence types bitmask: 0 max altitude, 1 circle, 2 polygons/circles, 3 min altitude"),
+    _d("FENCE_ACTION", 1, 0, 5, True,
+       "breach: 0 report only, 1 RTL or Land, 2 always Land, 3 SmartRTL or RTL or Land, 4 Brake or Land, 5 SmartRTL or Land"),
+    _d("RALLY_LIMIT_KM", 0.3, 0, 100, False, "rally points further than this from home are ignored (km), 0 = no limit"),
+    _d("RALLY_INCL_HOME", 1, 0, 1, True, "1: RTL also considers home and goes there when it is nearer"),
+] + _FENCE_ALT
 
 ROVER_TABLE = _STREAMS + _COMMON + [
     _d("FS_GCS_ENABLE", 0, 0, 2, True, "GCS failsafe: 0 off, 1 on (action FS_ACTION), 2 on, continue in AUTO"),
@@ -77,6 +98,12 @@ ROVER_TABLE = _STREAMS + _COMMON + [
     _d("WP_RADIUS", 2, 0.1, 100, False, "waypoint radius (m): RTL done inside it"),
     _d("WP_SPEED", 0, 0, 100, False, "waypoint speed (m/s), 0 = CRUISE_SPEED"),
     _d("CRUISE_SPEED", 8, 0, 100, False, "cruise speed (m/s)"),
+    _d("MIS_DONE_BEHAVE", 0, 0, 3, True, "mission end: 0 Hold, 1 Loiter, 2 Acro, 3 Manual (towerlink: 0 only)"),
+    _d("FENCE_TYPE", 6, 0, 6, True, "fence types bitmask: 1 circle, 2 polygons/circles"),
+    _d("FENCE_ACTION", 1, 0, 4, True,
+       "breach: 0 report only, 1 RTL or Hold, 2 Hold, 3 SmartRTL or RTL or Hold, 4 SmartRTL or Hold"),
+    _d("RALLY_LIMIT_KM", 0.5, 0, 100, False, "rally points further than this from home are ignored (km), 0 = no limit"),
+    _d("RALLY_INCL_HOME", 1, 0, 1, True, "1: RTL also considers home and goes there when it is nearer"),
 ]
 
 
@@ -108,21 +135,46 @@ def _core_defs(params_core, kind: str) -> Iterable[ParamDef]:
         yield ParamDef(str(name), float(default), float(lo), float(hi), integer, str(doc))
 
 
-def read_parm_file(path: str) -> dict[str, float]:
-    """ArduPilot .parm / MAVProxy param file: "NAME VALUE" (comma or spaces), # comments."""
+class ParamFileError(ValueError):
+    """A parameter file that cannot be read at all (str() says why)."""
+
+
+def _warn(msg: str) -> None:
+    print(f"towerlink sitl: {msg}", file=sys.stderr, flush=True)
+
+
+def read_parm_file(path: str, warn: Callable[[str], None] = _warn) -> dict[str, float]:
+    """ArduPilot .parm / MAVProxy param file: "NAME VALUE" (comma or spaces), # comments.
+
+    A bad line (not ASCII, no NAME VALUE pair, a value that is no number) is skipped with a
+    warning naming the file and line. Raises OSError when the file cannot be opened, and
+    ParamFileError when it holds bad lines and not a single good one (binary garbage)."""
     out: dict[str, float] = {}
-    with open(path) as f:
-        for line in f:
-            line = line.split("#", 1)[0].strip()
-            if not line:
-                continue
-            parts = re.split(r"[\s,]+", line)
-            if len(parts) < 2:
-                continue
+    bad = 0
+    with open(path, "rb") as f:
+        data = f.read()
+    for n, raw in enumerate(data.splitlines(), 1):
+        why = None
+        try:
+            text = raw.decode("ascii")
+        except UnicodeDecodeError:
+            text, why = "", "not ASCII text"
+        line = text.split("#", 1)[0].strip()
+        if why is None and not line:
+            continue
+        parts = re.split(r"[\s,]+", line)
+        if why is None and (len(parts) < 2 or not re.fullmatch(r"[A-Za-z0-9_]{1,16}", parts[0])):
+            why = "expected NAME VALUE"
+        if why is None:
             try:
                 out[parts[0].upper()] = float(parts[1])
             except ValueError:
-                continue
+                why = f"value {parts[1][:20]!r} is not a number"
+        if why is not None:
+            bad += 1
+            warn(f"{path}:{n}: skipped a bad line ({why})")
+    if bad and not out:
+        raise ParamFileError(f"{path}: no readable parameter line ({bad} bad)")
     return out
 
 
@@ -140,28 +192,50 @@ class ParamStore:
     """Named values with ranges; set() refuses NaN/inf/out-of-range and persists on success."""
 
     def __init__(self, table: Iterable[ParamDef], defaults: Mapping[str, float] | None = None,
-                 save_path: str | None = None) -> None:
+                 save_path: str | None = None, warn: Callable[[str], None] = _warn) -> None:
         self.defs: dict[str, ParamDef] = {}
         for d in table:
             self.defs.setdefault(d.name, d)         # first table wins (cores before autopilot)
         self.names: list[str] = sorted(self.defs)
         self.index = {n: i for i, n in enumerate(self.names)}
-        self.values: dict[str, float] = {n: d.default for n, d in self.defs.items()}
+        self.defaults = dict(defaults or {})
         self.save_path = save_path
-        self.saved: dict[str, float] = {}
-        for source in (defaults or {}), self._load_saved():
+        self.warn = warn
+        self.saved: dict[str, float] = {}           # what persists (the file, or memory without one)
+        self.values: dict[str, float] = {}
+        self.saved = self._load_saved()
+        self._apply()
+
+    def _apply(self) -> None:
+        self.values = {n: d.default for n, d in self.defs.items()}
+        for source in self.defaults, self.saved:
             for name, value in source.items():
                 if name in self.defs and self.check(name, value) is None:
                     self.values[name] = self._coerce(name, value)
-        self.saved = {n: v for n, v in self._load_saved().items() if n in self.defs}
+
+    def reload(self) -> None:
+        """Re-read the saved parameters (a reboot): defaults, then what was saved."""
+        if self.save_path:
+            self.saved = self._load_saved()
+        self._apply()
 
     def _load_saved(self) -> dict[str, float]:
-        if self.save_path and os.path.exists(self.save_path):
+        """The saved file's known names; a file that cannot be read at all is set aside as
+        FILE.bad (like a damaged eeprom.bin) and the vehicle starts on its defaults."""
+        path = self.save_path
+        if not path or not os.path.exists(path):
+            return {}
+        try:
+            values = read_parm_file(path, self.warn)
+        except (OSError, ParamFileError) as e:
+            aside = path + ".bad"
             try:
-                return read_parm_file(self.save_path)
-            except OSError:
-                return {}
-        return {}
+                os.replace(path, aside)
+                self.warn(f"saved parameters unreadable ({e}); moved to {aside}, starting on defaults")
+            except OSError as e2:
+                self.warn(f"saved parameters unreadable ({e}) and not moved aside ({e2}); starting on defaults")
+            return {}
+        return {n: v for n, v in values.items() if n in self.defs}
 
     def __len__(self) -> int:
         return len(self.names)
@@ -196,7 +270,8 @@ class ParamStore:
         if why is not None:
             return why
         self.values[name] = self._coerce(name, value)
-        if save and self.save_path:
+        if save:
             self.saved[name] = self.values[name]
-            write_parm_file(self.save_path, self.saved)
+            if self.save_path:
+                write_parm_file(self.save_path, self.saved)
         return None
