@@ -106,6 +106,11 @@ def test_six_items_built_in_code_round_trip_and_refusals(sitl):
     assert abs(home.x - round(HOME[0] * 1e7)) <= 2 and abs(home.y - round(HOME[1] * 1e7)) <= 2
     cur = recv(m, "MISSION_CURRENT", 5)
     assert (cur.total, cur.mission_state) == (5, mav.MISSION_STATE_NOT_STARTED)
+    # the current item, set by command and by the legacy message, shows in MISSION_CURRENT
+    assert command(m, mav.MAV_CMD_DO_SET_MISSION_CURRENT, 4) == mav.MAV_RESULT_ACCEPTED
+    recv(m, "MISSION_CURRENT", 5, cond=lambda c: c.seq == 4)
+    m.mav.mission_set_current_send(m.target_system, m.target_component, 2)
+    recv(m, "MISSION_CURRENT", 5, cond=lambda c: c.seq == 2)
     # refusals, on the wire
     bad = items[:2] + [item_int(m, 2, 16, HOME[0], HOME[1], 10, p=(math.nan, 0, 0, 0))]
     assert upload(m, bad) == mav.MAV_MISSION_INVALID_PARAM1
