@@ -269,3 +269,29 @@ def test_bad_mission_file_is_a_clear_cli_error(tmp_path, content, arg, message):
                        capture_output=True, text=True, timeout=30)
     assert r.returncode == 2
     assert message in r.stderr and "Traceback" not in r.stderr
+
+
+@pytest.mark.timeout(90)
+def test_second_gcs_denied_during_an_upload_and_answered_on_its_own_link(sitl):
+    """GCS A (sysid 255, UDP) uploads; GCS B (sysid 254, TCP) starting its own upload or a
+    download meanwhile is DENIED on its link (ArduPilot's MissionItemProtocol), and A's upload
+    completes; afterwards B downloads what A stored."""
+    a = connect(sitl.udp[0])
+    b = connect(sitl.tcp[0], tcp=True, sysid=254)
+    items = six(a)
+    a.mav.mission_count_send(1, 1, 6, 0)
+    first = recv(a, "MISSION_REQUEST_INT", 5)
+    assert (first.seq, first.target_system) == (0, 255)
+    b.mav.mission_count_send(1, 1, 2, 0)
+    ack = recv(b, "MISSION_ACK", 5)
+    assert (ack.type, ack.target_system) == (mav.MAV_MISSION_DENIED, 254)
+    b.mav.mission_request_list_send(1, 1, 0)
+    assert recv(b, "MISSION_ACK", 5).type == mav.MAV_MISSION_DENIED
+    a.mav.send(items[0])
+    while True:
+        msg = recv(a, ["MISSION_REQUEST_INT", "MISSION_ACK"], 5)
+        if msg.get_type() == "MISSION_ACK":
+            assert msg.type == mav.MAV_MISSION_ACCEPTED
+            break
+        a.mav.send(items[msg.seq])
+    assert [fields(g) for g in download(b)[1:]] == [fields(i) for i in items[1:]]
