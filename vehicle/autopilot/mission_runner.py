@@ -108,6 +108,34 @@ class MissionRunner:
         """The navigation command being flown (what MISSION_CURRENT.seq reports)."""
         return max(self.nav_index, 0)
 
+    def mission_state(self) -> int:
+        """MISSION_STATE for MISSION_CURRENT: NO_MISSION, NOT_STARTED (never run from here),
+        ACTIVE, PAUSED (stopped part way: left AUTO), COMPLETE."""
+        if not self.present():
+            return mav.MISSION_STATE_NO_MISSION
+        if self.state == COMPLETE:
+            return mav.MISSION_STATE_COMPLETE
+        if self.state == RUNNING:
+            return mav.MISSION_STATE_ACTIVE
+        return mav.MISSION_STATE_NOT_STARTED if self.nav_index < 1 else mav.MISSION_STATE_PAUSED
+
+    def starts_with_takeoff(self, restart: bool) -> bool:
+        """AP_Mission: the first navigation command flown next (from item 1 when restarting or
+        never started, else the current one; up to 16 looked at, NAV_DELAY skipped) is a takeoff."""
+        seq = 1 if restart or self.nav_index < 1 else self.nav_index
+        for _ in range(16):
+            item = self._next_cmd(seq, increment=False)
+            while item is not None and not is_nav(item.command):
+                item = self._next_cmd(item.seq + 1, increment=False)
+            if item is None:
+                return False
+            if item.command == mav.MAV_CMD_NAV_TAKEOFF:
+                return True
+            if item.command != mav.MAV_CMD_NAV_DELAY:
+                return False
+            seq = item.seq + 1
+        return False
+
     def _read(self, seq: int) -> MissionItem | None:
         lst = self.items()
         return lst[seq] if 0 < seq < len(lst) else None
