@@ -262,3 +262,20 @@ def test_roi_circle_and_land_at_a_position():
     assert 5 not in f.reached_seqs()
     f.step(0.5)
     assert f.ap.mission_current() == (1, ACTIVE)
+
+
+def test_waypoint_radius_is_wpnav_radius_and_param2_is_ignored_as_arducopter():
+    """ArduCopter keeps only param1 (hold time) of a NAV_WAYPOINT: a 15 m param2 does not make
+    the waypoint reached early; WPNAV_RADIUS (cm) does."""
+    f = Flight("copter", params={"WPNAV_RADIUS": 500})
+    assert f.ap.auto.wp_radius() == 5.0
+    wp = f.at(40, 0, 10, param2=15.0)
+    f.upload([f.at(0, 0, 10, C.MAV_CMD_NAV_TAKEOFF), wp, f.at(40, 40, 10)])
+    armed_in_guided(f)
+    f.ap.command(C.MAV_CMD_MISSION_START, [0] * 7)
+    f.until(lambda: 2 in f.reached_seqs(), 60, "the waypoint")
+    t = [t for t, s in f.reached if s == 2][0]
+    d = np.linalg.norm(f.pos_at(t) - f.ned(wp))
+    assert 4.0 < d <= 5.05                                   # at WPNAV_RADIUS, not at 15 m
+    r = Flight("rover", params={"WP_RADIUS": 3.5})
+    assert r.ap.auto.wp_radius() == 3.5
