@@ -71,7 +71,7 @@ def test_mavproxy_wp_load_and_mode_auto_fly_the_mission(processes, tmp_path):
         send("mode GUIDED")
         wait_until(lambda: saw("Mode GUIDED") or saw("GUIDED>"), 20, "GUIDED: " + tail())
         send("arm throttle")
-        wait_until(lambda: saw("ARMED"), 30, "ARMED: " + tail())
+        wait_until(lambda: any(re.search(r"(?<!DIS)ARMED", line) for line in lines), 30, "ARMED: " + tail())
         send("takeoff 10")
         wait_until(lambda: saw("Takeoff to 10.0 m"), 20, "takeoff: " + tail())
         send("mode AUTO")
