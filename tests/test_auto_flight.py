@@ -11,7 +11,7 @@ from auto_world import Flight
 from vehicle.autopilot import modes
 
 C = mav
-ACTIVE, PAUSED, COMPLETE = mav.MISSION_STATE_ACTIVE, mav.MISSION_STATE_PAUSED, mav.MISSION_STATE_COMPLETE
+ACTIVE, NOT_STARTED, COMPLETE = mav.MISSION_STATE_ACTIVE, mav.MISSION_STATE_NOT_STARTED, mav.MISSION_STATE_COMPLETE
 
 
 def six_item_mission(f: Flight):
@@ -136,7 +136,7 @@ def test_leaving_auto_and_coming_back_follows_mis_restart(restart, resumes_at):
     f.until(lambda: f.ap.mission_current()[0] == 3, 60, "on the leg to item 3")
     f.step(2.0)
     assert f.ap.set_mode(modes.LOITER)
-    assert f.ap.mission_current() == (3, PAUSED)
+    assert f.ap.mission_current() == (3, NOT_STARTED)      # ArduPilot: STOPPED reads NOT_STARTED
     f.step(2.0)
     n = len(f.texts)
     assert f.ap.set_mode(modes.AUTO)
@@ -174,7 +174,7 @@ def test_pause_and_continue_a_leg():
     f.ap.command(C.MAV_CMD_MISSION_START, [0] * 7)
     f.until(lambda: f.ap.mission_current()[0] == 2 and np.linalg.norm(f.ap.vel) > 3, 60, "cruising")
     assert f.ap.command(C.MAV_CMD_DO_PAUSE_CONTINUE, [0] + [0] * 6) == C.MAV_RESULT_ACCEPTED
-    assert f.ap.mission_current() == (2, PAUSED)
+    assert f.ap.mission_current() == (2, ACTIVE)           # ArduPilot has no PAUSED state to report
     f.step(8.0)
     assert np.linalg.norm(f.ap.vel) < 0.3 and 2 not in f.reached_seqs()
     assert f.ap.command(C.MAV_CMD_DO_PAUSE_CONTINUE, [1] + [0] * 6) == C.MAV_RESULT_ACCEPTED

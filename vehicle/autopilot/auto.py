@@ -13,8 +13,8 @@ and ArduRover's ModeAuto (learned from their source, re-expressed here):
 - Upload while running a waypoint: the current command restarts, "Auto mission changed,
   restarted command" (CRITICAL).
 - ArduCopter resets the mission (first item, fresh jump counts) on every disarm.
-- MAV_CMD_DO_PAUSE_CONTINUE pauses a waypoint leg (not once it is reached): the vehicle holds,
-  MISSION_CURRENT says PAUSED, param1 1 continues.
+- MAV_CMD_DO_PAUSE_CONTINUE pauses a waypoint leg (not once it is reached): the vehicle holds
+  (MISSION_CURRENT still says ACTIVE, as ArduPilot's), param1 1 continues.
 """
 from __future__ import annotations
 
@@ -148,6 +148,5 @@ class AutoMode(AutoCommands):
         return True
 
     def mission_state(self) -> int:
-        """MISSION_CURRENT.mission_state (a paused leg reports PAUSED)."""
-        state = self.runner.mission_state()
-        return mav.MISSION_STATE_PAUSED if self.paused and state == mav.MISSION_STATE_ACTIVE else state
+        """MISSION_CURRENT.mission_state (a paused leg is still ACTIVE, as ArduPilot reports it)."""
+        return self.runner.mission_state()

@@ -109,15 +109,13 @@ class MissionRunner:
         return max(self.nav_index, 0)
 
     def mission_state(self) -> int:
-        """MISSION_STATE for MISSION_CURRENT: NO_MISSION, NOT_STARTED (never run from here),
-        ACTIVE, PAUSED (stopped part way: left AUTO), COMPLETE."""
+        """MISSION_STATE for MISSION_CURRENT, as ArduPilot's GCS_MAVLINK::mission_state maps it:
+        no mission -> NO_MISSION, STOPPED -> NOT_STARTED (also part way, after leaving AUTO),
+        RUNNING -> ACTIVE, COMPLETE -> COMPLETE. ArduPilot never reports PAUSED."""
         if not self.present():
             return mav.MISSION_STATE_NO_MISSION
-        if self.state == COMPLETE:
-            return mav.MISSION_STATE_COMPLETE
-        if self.state == RUNNING:
-            return mav.MISSION_STATE_ACTIVE
-        return mav.MISSION_STATE_NOT_STARTED if self.nav_index < 1 else mav.MISSION_STATE_PAUSED
+        return {STOPPED: mav.MISSION_STATE_NOT_STARTED, RUNNING: mav.MISSION_STATE_ACTIVE,
+                COMPLETE: mav.MISSION_STATE_COMPLETE}[self.state]
 
     def starts_with_takeoff(self, restart: bool) -> bool:
         """AP_Mission: the first navigation command flown next (from item 1 when restarting or
