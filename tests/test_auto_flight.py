@@ -279,3 +279,21 @@ def test_waypoint_radius_is_wpnav_radius_and_param2_is_ignored_as_arducopter():
     assert 4.0 < d <= 5.05                                   # at WPNAV_RADIUS, not at 15 m
     r = Flight("rover", params={"WP_RADIUS": 3.5})
     assert r.ap.auto.wp_radius() == 3.5
+
+
+def test_set_mission_current_jumps_now_in_auto_and_sets_the_resume_point_outside():
+    f = Flight("copter")
+    f.upload([f.at(0, 0, 10, C.MAV_CMD_NAV_TAKEOFF), f.at(20, 0, 10), f.at(20, 20, 10), f.at(0, 20, 10)])
+    armed_in_guided(f)
+    assert f.ap.command(C.MAV_CMD_NAV_TAKEOFF, [0, 0, 0, 0, 0, 0, 10]) == C.MAV_RESULT_ACCEPTED
+    f.step(6.0)
+    assert f.ap.set_mission_current(3) is True               # not in AUTO: where AUTO will begin
+    assert f.ap.mission_current() == (3, NOT_STARTED)
+    assert f.ap.set_mode(modes.AUTO)
+    f.step(0.2)
+    assert f.said()[-1] == "Mission: 3 WP" and f.ap.mission_current() == (3, ACTIVE)
+    assert f.ap.set_mission_current(4) is True               # in AUTO: flies there now
+    assert f.said()[-1] == "Mission: 4 WP"
+    f.until(lambda: 4 in f.reached_seqs(), 60, "item 4")
+    assert 3 not in f.reached_seqs() and 2 not in f.reached_seqs()
+    assert f.ap.set_mission_current(9) is False and f.ap.set_mission_current(float("nan")) is False
