@@ -200,6 +200,7 @@ def test_do_and_condition_items_in_flight():
     times = dict((s, t) for t, s in f.reached)
     assert times[3] - times[1] >= 4.0                       # the delay held the mission
     assert times[1] < times[2] < times[3]                   # the yaw (90 deg, cw) done during the delay
+    assert times[2] - times[1] >= 90 / 45 - 0.1             # ... at CONDITION_YAW's 45 deg/s
     leg = [np.linalg.norm(v[:2]) for t, p, v, s in f.track if s == 6]
     assert max(leg) < 2.3                                   # DO_CHANGE_SPEED 2 m/s, not 5
     # the waypoint's hold time (param1 3 s) before it is reported reached
