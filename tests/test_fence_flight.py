@@ -122,3 +122,22 @@ def test_rtl_goes_home_when_home_is_nearer_than_any_rally_point():
     assert f.ap.set_mode(modes.RTL)
     f.until(lambda: not f.ap.armed, 90, "RTL home")
     assert np.linalg.norm(f.ap.pos[:2] - f.ap.home[:2]) < 1.0
+
+
+def test_sys_status_geofence_bits_follow_the_fence():
+    """SYS_STATUS as ArduPilot fills it: geofence present when a fence type is configured,
+    enabled with FENCE_ENABLE (and an action), healthy until a breach."""
+    f = Flight("copter", params={"FENCE_TYPE": 2, "FENCE_RADIUS": 30})
+    G = C.MAV_SYS_STATUS_GEOFENCE
+    s = f.v.link.telemetry.sys_status()
+    assert s.onboard_control_sensors_present & G and not s.onboard_control_sensors_enabled & G
+    assert s.onboard_control_sensors_health & G
+    f.ap.params.set("FENCE_ENABLE", 1, save=False)
+    airborne(f)
+    for _ in range(40):                                  # a velocity target lives GUID_TIMEOUT: renew it
+        f.ap.position_target_local(C.MAV_FRAME_LOCAL_NED, VEL_ONLY, [0, 0, 0], [4, 0, 0], [0, 0, 0], 0, 0)
+        f.step(0.5)
+        if f.ap.fence.breaches:
+            break
+    s = f.v.link.telemetry.sys_status()
+    assert s.onboard_control_sensors_enabled & G and not s.onboard_control_sensors_health & G
