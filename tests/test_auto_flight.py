@@ -298,3 +298,22 @@ def test_set_mission_current_jumps_now_in_auto_and_sets_the_resume_point_outside
     f.until(lambda: 4 in f.reached_seqs(), 60, "item 4")
     assert 3 not in f.reached_seqs() and 2 not in f.reached_seqs()
     assert f.ap.set_mission_current(9) is False and f.ap.set_mission_current(float("nan")) is False
+
+
+def test_unflyable_items_are_skipped_with_a_warning_never_a_crash():
+    """Items the upload would refuse can still reach the store (code, an old file): a NaN
+    altitude, a terrain frame, a NaN jump target and NaN params are skipped or read as 0."""
+    f = Flight("copter")
+    bad_alt = f.at(10, 0, float("nan"))
+    terrain = f.at(10, 10, 10, frame=C.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT)
+    f.upload([f.at(0, 0, 8, C.MAV_CMD_NAV_TAKEOFF), bad_alt, terrain,
+              f.do(C.MAV_CMD_DO_CHANGE_SPEED, param1=float("nan"), param2=float("nan")),
+              f.at(15, 5, 8, param1=float("inf")), f.do(C.MAV_CMD_DO_JUMP, param1=float("nan"), param2=3)])
+    armed_in_guided(f)
+    f.ap.command(C.MAV_CMD_MISSION_START, [0] * 7)
+    f.until(lambda: f.ap.mission_current()[1] == COMPLETE, 60, "mission complete")
+    said = f.said()
+    assert "item 2: altitude not finite" in said and "item 3: frame 11 not supported" in said
+    assert 2 not in f.reached_seqs() and 3 not in f.reached_seqs()
+    assert 5 in f.reached_seqs()                             # inf hold time read as 0
+    assert f.ap.armed and f.ap.mode == modes.AUTO            # loiters at the end
