@@ -317,3 +317,18 @@ def test_unflyable_items_are_skipped_with_a_warning_never_a_crash():
     assert 2 not in f.reached_seqs() and 3 not in f.reached_seqs()
     assert 5 in f.reached_seqs()                             # inf hold time read as 0
     assert f.ap.armed and f.ap.mode == modes.AUTO            # loiters at the end
+
+
+def test_rover_loiter_time_and_unlimited():
+    f = Flight("rover", params={"WP_RADIUS": 1.0, "WP_SPEED": 4.0})
+    f.upload([f.at(10, 0, 0, C.MAV_CMD_NAV_LOITER_TIME, param1=3), f.at(10, 10, 0, C.MAV_CMD_NAV_LOITER_UNLIM)])
+    f.settle()
+    assert f.ap.arm() == C.MAV_RESULT_ACCEPTED and f.ap.set_mode(modes.ROVER_AUTO)
+    f.until(lambda: "Reached waypoint #2" in f.said(), 60, "the unlimited loiter point")
+    said = f.said()
+    assert "Reached waypoint #1. Loiter for 3 seconds" in said and "Finished active loiter" in said
+    t_reach = next(t for t, _, m in f.texts if m.startswith("Reached waypoint #1"))
+    assert f.reached[0][1] == 1 and f.reached[0][0] - t_reach >= 3.0 - 0.05
+    f.step(5.0)
+    assert f.ap.mission_current() == (2, ACTIVE) and 2 not in f.reached_seqs()
+    assert np.linalg.norm(f.ap.vel[:2]) < 0.1

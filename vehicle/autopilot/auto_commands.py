@@ -197,6 +197,8 @@ class AutoCommands:
         if c == C.MAV_CMD_NAV_RETURN_TO_LAUNCH:
             return ap.rtl_complete()
         if c == C.MAV_CMD_NAV_LOITER_UNLIM:
+            if not self.copter:
+                self._verify_wp(item)            # ArduRover still says "Reached waypoint #N"
             return False
         if c == C.MAV_CMD_NAV_LOITER_TIME:
             return self._verify_wp(item, say=self.copter)
@@ -244,7 +246,7 @@ class AutoCommands:
             self.reached_at = ap.t
             if not self.copter:
                 msg = f"Reached waypoint #{item.seq}"
-                if self.hold_s > 0:
+                if 0 < self.hold_s < math.inf:
                     msg += f". Loiter for {int(self.hold_s)} seconds"
                 ap.text(SEV_INFO, msg)
         if ap.t - self.reached_at < self.hold_s:
