@@ -261,6 +261,10 @@ class MissionRunner:
             idx = self.nav_index + 1
         loops = MAX_DO_LOOP
         while not self.nav_loaded:
+            # a jump loop whose commands all fail to start would never end: give up (AP_Mission)
+            loops -= 1
+            if loops < 0:
+                return False
             item = self._next_cmd(idx, increment=True)
             if item is None:
                 return False
@@ -271,10 +275,6 @@ class MissionRunner:
             elif not self.do_loaded:
                 self.do, self.do_index, self.do_loaded = item, item.seq, True
                 self._start(item)
-            else:
-                loops -= 1
-                if loops <= 0:
-                    return False
             idx = item.seq + 1
         if not self.do_loaded:
             self.do_all_done = True
