@@ -20,8 +20,11 @@ ArduPilot's AC_Fence and the vehicles' fence_check (learned from their source):
   "Polygon fence(s) invalid", "Polygon fence margin is less than inclusion circle radius",
   "FENCE_ALT_MAX < FENCE_ALT_MIN", "FENCE_MARGIN too big" (altitudes closer than two
   margins), "Vehicle breaching <names>".
-- GUIDED destinations outside an enabled fence are refused (ArduPilot only logs
-  DEST_OUTSIDE_FENCE: the vehicle keeps its previous target).
+- Copter GUIDED destinations outside an enabled fence are refused (ArduCopter only logs
+  DEST_OUTSIDE_FENCE: the vehicle keeps its previous target; copter.accept_target). Velocity
+  and acceleration targets are not destinations: they may cross, and the breach acts.
+- SYS_STATUS geofence bits: present (a fence type configured), enabled (FENCE_ENABLE and an
+  action other than report-only), healthy (no breach).
 """
 from __future__ import annotations
 
