@@ -57,8 +57,10 @@ every later tower goal, so it is accepted only from a sysid given with --trust-s
 their _yaw frames), and not for a frame the scenario defined unless --allow-redefine.
 With --signing-key the tower link takes only MAVLink 2 packets signed with that key
 (unsigned, wrong key, replayed or stale ones are counted and dropped) and the bridge signs
-what it sends. A refusal is answered with STATUSTEXT "static tf refused: <reason>" and
-counted (TOWERLINK_BRIDGE_STATUS.refused).
+what it sends. Vehicle packets are forwarded as they arrive: give the vehicles the same
+key (`towerlink sitl --signing-key`) so a signing GCS accepts them too. A refusal is
+answered with STATUSTEXT "static tf refused: <reason>" and counted
+(TOWERLINK_BRIDGE_STATUS.refused).
 
 Peers. A udpin link (the tower's, by default) sends to every peer that wrote to it: a
 peer silent for 30 s (wall) is dropped, at most 64 are kept (the most recent), and a
