@@ -21,7 +21,11 @@ class _Out:
 
 
 class Endpoint:
-    """A MAVLink peer on one UDP socket (udpin: bind `port`; udpout: send to `port`)."""
+    """A MAVLink peer on one UDP socket (udpin: bind `port`; udpout: send to `port`).
+
+    Keeps every datagram as received (`raw`) and every message, and counts what its
+    robust parser could not make a valid message of (`bad`, the BAD_DATA it met)
+    instead of hiding it: a test can tell that nothing malformed reached it."""
 
     def __init__(self, sysid: int, compid: int, port: int, listen: bool, name: str = "ep") -> None:
         self.name = name
@@ -39,6 +43,8 @@ class Endpoint:
         self.parser = tl.MAVLink(None)
         self.parser.robust_parsing = True
         self.msgs: list = []
+        self.raw: list[bytes] = []
+        self.bad: list = []
         self.lock = threading.Lock()
         self.running = True
         self.handlers = []
@@ -64,12 +70,18 @@ class Endpoint:
                 continue
             if self.listen:
                 self.peer = addr
+            with self.lock:
+                self.raw.append(data)
             try:
                 msgs = self.parser.parse_buffer(data) or []
-            except Exception:
+            except Exception as exc:
+                with self.lock:
+                    self.bad.append(exc)
                 continue
             for m in msgs:
                 if m.get_type() == "BAD_DATA":
+                    with self.lock:
+                        self.bad.append(m)
                     continue
                 m._recv_time = time.monotonic()
                 with self.lock:

@@ -76,10 +76,12 @@ def _garbage_samples(mav) -> list[bytes]:
 
 def test_garbage_on_every_port_counted_and_dropped(world):
     bridge, tower, drone, rover = world
+    whole: list[bytes] = []
     for ep, link in ((tower, bridge.tower), (drone, bridge.vehicles[1].link),
                      (rover, bridge.vehicles[2].link)):
         before = link.malformed
         samples = _garbage_samples(ep.mav)
+        whole += [samples[i] for i in (0, 1, 2, 5, 7)]     # not the prefixes of a good packet
         for s in samples:
             ep.send_bytes(s)
         wait_until(lambda: link.malformed >= before + len(samples), 5, f"garbage counted on {link.name}")
@@ -90,11 +92,76 @@ def test_garbage_on_every_port_counted_and_dropped(world):
     n = len(tower.of_type("HEARTBEAT", lambda m: m.get_srcSystem() == 1))
     drone.heartbeat()
     wait_until(lambda: len(tower.of_type("HEARTBEAT", lambda m: m.get_srcSystem() == 1)) > n, 5, "hb")
-    # nothing malformed leaked to the other side
-    assert not tower.of_type("BAD_DATA")
+    # nothing malformed leaked to the other side: no side's parser met bad data, and
+    # no garbage sample's bytes were forwarded (only valid packets, from the bridge's framer)
+    for ep in (tower, drone, rover):
+        assert ep.bad == [], (ep.name, ep.bad[:3])
+    for ep in (tower, drone, rover):
+        assert not any(g in r for r in ep.raw for g in whole), ep.name
     # and the counters reach the tower in TOWERLINK_BRIDGE_STATUS
     st = tower.wait("TOWERLINK_BRIDGE_STATUS", lambda m: m.link == "drone" and m.malformed >= 8)
     assert st.rx_packets > 0
+
+
+def _v1(msg, sysid: int, compid: int, seq: int = 7) -> bytes:
+    """`msg` packed as MAVLink 1 (0xFE) from sysid/compid."""
+    mav = tl.MAVLink(None, srcSystem=sysid, srcComponent=compid)
+    mav.seq = seq
+    return bytes(msg.pack(mav, force_mavlink1=True))
+
+
+def _v1_bad(good: bytes) -> list[bytes]:
+    """Damaged copies of a good MAVLink 1 packet, each failing the CRC check only."""
+    assert good[0] == 0xFE and good[1] == len(good) - 8
+    crc_lo = bytearray(good); crc_lo[-2] ^= 0x5A                   # CRC byte wrong
+    payload = bytearray(good); payload[6 + 4] ^= 0x01              # one payload bit flipped
+    seq = bytearray(good); seq[2] ^= 0xFF                          # header byte under the CRC
+    return [bytes(crc_lo), bytes(payload), bytes(seq)]
+
+
+def _bridge_status(tower, link: str, after: float | None = None):
+    return tower.wait("TOWERLINK_BRIDGE_STATUS", lambda m: m.link == link and
+                      (after is None or m._recv_time > after), what=f"bridge status of {link}")
+
+
+def test_mavlink1_bad_crc_counted_and_dropped_by_the_bridge(world):
+    """MAVLink 1 frames with a bad CRC are dropped by the bridge's own framer (counted on
+    the link they came in on), both ways; good MAVLink 1 frames around them still pass."""
+    import time
+    bridge, tower, drone, rover = world
+    # tower -> drone: COMMAND_LONG for sysid 1, as MAVLink 1
+    def servo(k):
+        return tl.MAVLink_command_long_message(1, 1, tl.MAV_CMD_DO_SET_SERVO, 0, k, 1500, 0, 0, 0, 0, 0)
+    bad_up = _v1_bad(_v1(servo(9), 255, 190))
+    # drone -> tower: SYS_STATUS from sysid 1, as MAVLink 1
+    def sys_status(k):
+        return tl.MAVLink_sys_status_message(1, 1, 1, 500, 12000, -1, 90, k, 0, 0, 0, 0, 0)
+    bad_down = _v1_bad(_v1(sys_status(9), 1, 1))
+    t0 = time.monotonic()
+    before = {name: _bridge_status(tower, name, t0).malformed for name in ("tower", "drone")}
+    for b in bad_up:
+        tower.send_bytes(b)
+    tower.send_bytes(bad_up[0] + _v1(servo(1), 255, 190))          # bad then good, one datagram
+    for b in bad_down:
+        drone.send_bytes(b)
+    drone.send_bytes(bad_down[1] + _v1(sys_status(1), 1, 1))
+    # the good frames arrive (so everything sent before them has been handled) ...
+    tower.send_bytes(_v1(servo(2), 255, 190))
+    drone.send_bytes(_v1(sys_status(2), 1, 1))
+    drone.wait("COMMAND_LONG", lambda m: m.command == tl.MAV_CMD_DO_SET_SERVO and m.param1 == 2)
+    tower.wait("SYS_STATUS", lambda m: m.drop_rate_comm == 2)
+    # ... the bad ones were counted by the bridge, on the link each came in on ...
+    t1 = time.monotonic()
+    st = {name: _bridge_status(tower, name, t1).malformed for name in ("tower", "drone")}
+    assert st["tower"] - before["tower"] == 4 and st["drone"] - before["drone"] == 4, (before, st)
+    # ... and dropped by it: only the good frames came through, and as MAVLink 1
+    servos = drone.of_type("COMMAND_LONG", lambda m: m.command == tl.MAV_CMD_DO_SET_SERVO)
+    assert sorted(m.param1 for m in servos) == [1, 2]
+    assert sorted(m.drop_rate_comm for m in tower.of_type("SYS_STATUS")) == [1, 2]
+    assert all(m.get_msgbuf()[0] == 0xFE for m in servos)
+    for ep, bad in ((drone, bad_up), (tower, bad_down), (rover, bad_up + bad_down)):
+        assert not any(b in r for r in ep.raw for b in bad), f"a bad frame reached {ep.name}"
+        assert ep.bad == [], (ep.name, ep.bad[:3])
 
 
 def test_cli_process_routes_and_stops(processes):

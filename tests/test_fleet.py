@@ -1,6 +1,7 @@
 """Fleet contract and batching: n vehicles step like n independent ones."""
 from __future__ import annotations
 
+import math
 
 import numpy as np
 import pytest
@@ -112,24 +113,25 @@ def test_params_core_table():
     assert params_core.defaults()["ANGLE_MAX"] == 3000
     assert params_core.defaults("rover")["CRUISE_SPEED"] >= 6
     assert not params_core.validate("copter", "ANGLE_MAX", 9000)
-    # the defaults build the cores' gains in SI units (ArduPilot cm/s, cdeg, deg/s converted)
+    # the defaults become the cores' gains in SI units (ArduPilot's cm, cdeg and deg to m, rad)
     g = CopterGains(params_core.defaults("copter"))
-    assert (g.v_xy, g.v_up, g.v_dn, g.a_xy, g.a_z) == (5.0, 2.5, 1.5, 2.5, 1.0)
-    assert (g.j_xy, g.j_z, g.land_speed, g.imax_xy, g.imax_z) == (5.0, 5.0, 0.5, 10.0, 5.0)
-    assert g.angle_max == pytest.approx(np.pi / 6) and g.tan_angle_max == pytest.approx(3 ** -0.5)
-    assert g.rate_y_max == pytest.approx(np.pi / 2) and g.rate_rp_max == pytest.approx(2 * np.pi)
-    assert (g.kp_xy, g.kv_xy, g.kp_z, g.kv_z, g.hover, g.land_time) == (1.0, 2.0, 1.0, 5.0, 0.45, 1.0)
-    assert g.rat[0] == (0.135, 0.135, 0.0036, 0.5)
-    # ArduPilot's zero means "use the default": ATC_RATE_Y_MAX 0 -> 90 deg/s
-    p = params_core.defaults("copter") | {"ATC_RATE_Y_MAX": 0, "WPNAV_SPEED": 1234}
-    g0 = CopterGains(p)
-    assert g0.rate_y_max == pytest.approx(np.pi / 2) and g0.v_xy == pytest.approx(12.34)
+    assert (g.v_xy, g.v_up, g.v_dn) == pytest.approx((5.0, 2.5, 1.5))           # m/s
+    assert (g.a_xy, g.a_z, g.j_xy, g.j_z) == pytest.approx((2.5, 1.0, 5.0, 5.0))  # m/s², m/s³
+    assert g.angle_max == pytest.approx(math.pi / 6) and g.tan_angle_max == pytest.approx(3 ** -0.5)
+    assert g.land_speed == pytest.approx(0.5) and g.imax_xy == pytest.approx(10.0)
+    assert (g.rate_y_max, g.rate_rp_max) == pytest.approx((math.pi / 2, 2 * math.pi))  # rad/s
+    # a changed parameter reaches the gain; a rate limit of 0 (none) falls back to a default
+    g = CopterGains({**params_core.defaults("copter"), "WPNAV_SPEED": 1200.0, "ANGLE_MAX": 4500.0,
+                     "ATC_RATE_Y_MAX": 0.0})
+    assert g.v_xy == pytest.approx(12.0) and g.tan_angle_max == pytest.approx(1.0)
+    assert g.rate_y_max == pytest.approx(math.pi / 2)
     r = RoverGains(params_core.defaults("rover"))
-    assert (r.cruise, r.accel, r.decel, r.k_hdg, r.radius, r.max_speed) == (8.0, 5.0, 5.0, 2.5, 0.3, 12.0)
-    assert r.max_rate == pytest.approx(np.radians(240)) and r.pivot == pytest.approx(np.pi / 2)
-    # WP_SPEED > 0 wins over CRUISE_SPEED; ATC_DECEL_MAX 0 -> ATC_ACCEL_MAX
-    r2 = RoverGains(params_core.defaults("rover") | {"WP_SPEED": 3.0, "ATC_ACCEL_MAX": 2.0, "ATC_DECEL_MAX": 0.0})
-    assert (r2.cruise, r2.accel, r2.decel) == (3.0, 2.0, 2.0)
+    assert r.cruise == pytest.approx(8.0)              # WP_SPEED 0: CRUISE_SPEED is used
+    assert r.accel == pytest.approx(5.0) and r.decel == pytest.approx(5.0)   # ATC_DECEL_MAX 0: = accel
+    assert r.max_rate == pytest.approx(4 * math.pi / 3) and r.pivot == pytest.approx(math.pi / 2)
+    assert r.radius == pytest.approx(0.3) and r.max_speed == pytest.approx(12.0)
+    r = RoverGains({**params_core.defaults("rover"), "WP_SPEED": 3.0, "ATC_DECEL_MAX": 2.0})
+    assert (r.cruise, r.decel) == pytest.approx((3.0, 2.0))
 
 
 @pytest.mark.parametrize("estimator", [False, True])

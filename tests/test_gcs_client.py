@@ -20,7 +20,7 @@ from pymavlink.dialects.v20 import ardupilotmega as apm  # noqa: E402
 
 from gcs.client import (ArmError, Client, CommandRejected, GoalTimeout,  # noqa: E402
                         HeartbeatTimeout, ModeChangeError)
-from support import free_port  # noqa: E402
+from support import free_port, wait_until  # noqa: E402
 
 
 class FakeCopter(threading.Thread):
@@ -48,6 +48,7 @@ class FakeCopter(threading.Thread):
         self.commands = []
         self.command_sims = []          # sim time each COMMAND_LONG arrived (dropped ones too)
         self.drop_commands = drop_commands
+        self.streaming = True           # LOCAL_POSITION_NED on (a test may pause it)
 
     def send(self, msg):
         if self.peer and self.rng.random() >= self.loss:
@@ -81,7 +82,7 @@ class FakeCopter(threading.Thread):
                                                         base, self.mode, apm.MAV_STATE_ACTIVE, 3))
                 landed = apm.MAV_LANDED_STATE_ON_GROUND if self.pos[2] > -0.1 else apm.MAV_LANDED_STATE_IN_AIR
                 self.send(apm.MAVLink_extended_sys_state_message(0, landed))
-            if self.sim >= next_pos:
+            if self.sim >= next_pos and self.streaming:
                 next_pos = self.sim + 0.05
                 self.send(apm.MAVLink_local_position_ned_message(int(self.sim * 1000), *self.pos, 0, 0, 0))
 
@@ -200,6 +201,34 @@ def test_takeoff_refused_when_disarmed_and_goal_timeout(copter):
         with pytest.raises(GoalTimeout) as ei:  # not in GUIDED: the target is ignored
             c.wait_reached((50.0, 0, 0), 0.5, 0.5, sysid=1)
         assert ei.value.distance == pytest.approx(50.0)
+
+
+def test_wait_reached_ignores_a_stale_sample_inside_the_radius(copter):
+    """The client's newest position is inside the goal's radius, but it predates the goal:
+    it must not count. Only samples the vehicle stamped after the goal was sent do, so
+    wait_reached returns once the vehicle has flown back, not at once."""
+    fc, url = copter
+    goal = (5.0, 0.0, 0.0)
+    with Client.connect(url) as c:
+        c.wait_heartbeat(1, timeout=5)
+        c.set_mode("GUIDED", 1, timeout=5)
+        c.arm(1, timeout=10, retry_interval=0.1)
+        c.goto(*goal, 1)
+        c.wait_reached(goal, 0.5, 10, sysid=1)
+        fc.streaming = False                        # the vehicle goes quiet ...
+        stale = c.position(1)
+        assert stale.distance_to(goal) <= 0.5       # ... the client's newest sample is inside
+        wait_until(lambda: fc.sim > stale.t + 0.2, 5, "the vehicle's clock to move on")
+        fc.target, fc.pos = None, [35.0, 0.0, 0.0]  # meanwhile it is 30 m away, holding
+        c.goto(*goal, 1)                            # the goal again: it flies back
+        sent = c.sim_time(1)
+        seen = []
+        fc.streaming = True
+        hit = c.wait_reached(goal, 0.5, 10, sysid=1, on_sample=lambda p, d: seen.append((p.t, d)))
+    assert seen[0][1] > 0.5, seen[:3]               # the first sample counted is a fresh, far one
+    assert all(t > sent for t, _ in seen) and sent == stale.t
+    assert hit.position.t > sent and hit.distance <= 0.5
+    assert hit.position.t - sent >= 29.5 / fc.speed      # it had to fly the 30 m back first
 
 
 def test_heartbeat_timeout_when_nobody_is_there():

@@ -1,0 +1,345 @@
+"""Benchmark the bridge as a process (`towerlink bridge`, pinned to one CPU) between fake
+endpoints on loopback UDP sockets this benchmark owns.
+
+Rows:
+  * added latency: a tower goal (SET_POSITION_TARGET_LOCAL_NED, LOCAL_NED, translated
+    tower -> world by the bridge) from the moment it leaves the tower's socket to the
+    moment the drone's socket returns it, p50 and p99, against a direct link (the same
+    datagrams sent straight to the drone's socket), the two interleaved one by one in
+    the same run so both see the same machine load. Added = bridge - direct.
+  * forwarding rate: telemetry from 1, 10 and 100 vehicles sent as fast as one sender
+    can into the bridge's drone link; messages per second that reach the tower's socket
+    (the bridge's own messages not counted), with the bridge's CPU use. Sysid 1 is the
+    drone (LOCAL_POSITION_NED and ATTITUDE_QUATERNION decoded, put in the frame buffer
+    and translated to the tower frame); the other sysids are systems behind the same
+    link, forwarded as received (the bridge has a drone and a rover link, as
+    mavlink-router chains further systems). Peer: MAVProxy as a router
+    (--master udpin --out udpout), pinned to the same CPU, fed the same traffic.
+
+Targets: added p99 <= 1 ms on loopback; >= 20,000 messages/s forwarded on one core.
+Usage: python -m tools.bench_bridge [--quick] [--samples N] [--seconds S]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from contextlib import contextmanager
+
+from gcs.dialect import towerlink as tl
+from tools.benchtable import machine, table
+
+ADDED_P99_TARGET_MS = 1.0
+RATE_TARGET = 20_000.0
+BRIDGE_SYSID = 250
+
+
+def _cpu_seconds(pid: int) -> float:
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _cpus() -> tuple[int, set[int]]:
+    """(the CPU for the process under test, the CPUs left for this process)."""
+    cpus = sorted(os.sched_getaffinity(0))
+    return cpus[-1], (set(cpus[:-1]) or set(cpus))
+
+
+def _free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _udp(port: int = 0, rcvbuf: int = 8 << 20) -> socket.socket:
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, rcvbuf)
+    s.bind(("127.0.0.1", port))
+    return s
+
+
+@contextmanager
+def _pinned_process(args: list[str], cpu: int, cwd: str | None = None):
+    """A child process pinned to `cpu` (os.sched_setaffinity before exec); always stopped."""
+    proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL,
+                            cwd=cwd, start_new_session=True, preexec_fn=lambda: os.sched_setaffinity(0, {cpu}))
+    try:
+        yield proc
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+        proc.stderr.close()
+
+
+@contextmanager
+def _bridge(cpu: int):
+    """A `towerlink bridge` process between a tower socket and a drone socket.
+
+    Yields (proc, tower socket, drone socket, address of the bridge's drone link,
+    address of its tower link)."""
+    tower, drone = _udp(), _udp()
+    tport = _free_port()
+    args = [sys.executable, "-m", "tools.cli", "bridge", "--tower", f"udpin:127.0.0.1:{tport}",
+            "--drone", f"udpout:127.0.0.1:{drone.getsockname()[1]}", "--rover", "none",
+            "--no-follow", "--telemetry-rate", "0", "-q"]
+    try:
+        with _pinned_process(args, cpu) as proc:
+            drone.settimeout(15.0)
+            _data, link_addr = drone.recvfrom(65535)       # the bridge's first heartbeat
+            hb = bytes(tl.MAVLink_heartbeat_message(tl.MAV_TYPE_GCS, tl.MAV_AUTOPILOT_INVALID, 0, 0, 0, 3)
+                       .pack(tl.MAVLink(None, 255, 190)))
+            tower.settimeout(0.2)
+            deadline = time.monotonic() + 15.0
+            while True:                                    # until the bridge knows the tower
+                tower.sendto(hb, ("127.0.0.1", tport))
+                try:
+                    tower.recv(65535)
+                    break
+                except socket.timeout:
+                    if time.monotonic() > deadline or proc.poll() is not None:
+                        raise RuntimeError("the bridge did not answer the tower") from None
+            yield proc, tower, drone, link_addr, ("127.0.0.1", tport)
+    finally:
+        tower.close()
+        drone.close()
+
+
+# ----------------------------------------------------------------------------- latency
+
+def _goal(mav, k: int) -> bytes:
+    """A tower goal whose time_boot_ms carries the sample number k."""
+    return bytes(tl.MAVLink_set_position_target_local_ned_message(
+        k, 1, 1, tl.MAV_FRAME_LOCAL_NED, 0b0000_1101_1111_1000, -131.0, 73.5, -9.0,
+        0, 0, 0, 0, 0, 0, 0, 0).pack(mav))
+
+
+def _is_goal(data: bytes, k: int) -> bool:
+    if len(data) < 14 or data[0] != 0xFD or data[7:10] != b"\x54\x00\x00":   # msgid 84
+        return False
+    return int.from_bytes(data[10:14].ljust(4, b"\0"), "little") == k
+
+
+def latency(samples: int, cpu: int) -> dict[str, list[float]]:
+    """One-way times (s) of tower goals through the bridge and over a direct link."""
+    mav = tl.MAVLink(None, 255, 190)
+    out: dict[str, list[float]] = {"bridge": [], "direct": [], "lost": [0, 0]}
+    with _bridge(cpu) as (_proc, tower, drone, _link, tower_link):
+        drone.settimeout(1.0)
+        direct = drone.getsockname()
+        clock = time.perf_counter
+        for i in range(samples + 200):                     # the first 200 of each warm up
+            for j, (name, dest) in enumerate((("bridge", tower_link), ("direct", direct))):
+                k = 2 * i + j + 1
+                frame = _goal(mav, k)
+                t0 = clock()
+                tower.sendto(frame, dest)
+                while True:
+                    try:
+                        data = drone.recv(65535)
+                    except socket.timeout:
+                        out["lost"][j] += 1
+                        break
+                    if _is_goal(data, k):
+                        if i >= 200:
+                            out[name].append(clock() - t0)
+                        break
+    return out
+
+
+def _pct(xs: list[float], q: float) -> float:
+    s = sorted(xs)
+    return s[min(len(s) - 1, int(round(q / 100.0 * (len(s) - 1))))]
+
+
+# ----------------------------------------------------------------------------- rate
+
+def _telemetry(n_vehicles: int, rounds: int) -> list[bytes]:
+    """Datagrams of one message each: `rounds` rounds of 8 messages per vehicle.
+
+    The drone's (sysid 1) frame messages carry a time_boot_ms 10 ms later each round
+    (so the frame buffer takes every one); the others are the same bytes every round."""
+    out: list[bytes] = []
+    others = []
+    for sysid in range(2, n_vehicles + 1):
+        m = tl.MAVLink(None, sysid, 1)
+        others += [bytes(x.pack(m)) for x in _vehicle_msgs(1000, sysid)]
+    m1 = tl.MAVLink(None, 1, 1)
+    for r in range(rounds):
+        out += [bytes(x.pack(m1)) for x in _vehicle_msgs(1000 + 10 * r, 1)]
+        out += others
+    return out
+
+
+def _vehicle_msgs(ms: int, sysid: int) -> list:
+    x = 0.001 * ms
+    return [tl.MAVLink_heartbeat_message(tl.MAV_TYPE_QUADROTOR, tl.MAV_AUTOPILOT_ARDUPILOTMEGA, 217, 4, 4, 3),
+            tl.MAVLink_local_position_ned_message(ms, x, 2.0, -9.0, 1.0, 0.0, 0.0),
+            tl.MAVLink_attitude_quaternion_message(ms, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+            tl.MAVLink_attitude_message(ms, 0.01, 0.02, 0.3, 0.0, 0.0, 0.0),
+            tl.MAVLink_global_position_int_message(ms, 473977420 + sysid, 85455940, 600000, 9000, 100, 0, 0, 3000),
+            tl.MAVLink_vfr_hud_message(1.0, 1.0, 30, 50, 9.0, 0.0),
+            tl.MAVLink_sys_status_message(1, 1, 1, 500, 12000, -1, 90, 0, 0, 0, 0, 0, 0),
+            tl.MAVLink_gps_raw_int_message(ms * 1000, 3, 473977420, 85455940, 600000, 100, 100, 100, 0, 12)]
+
+
+class _Sink(threading.Thread):
+    """Counts the packets arriving at a socket, other than the bridge's own."""
+
+    def __init__(self, sock: socket.socket) -> None:
+        super().__init__(daemon=True)
+        self.sock, self.count, self.running = sock, 0, True
+        sock.settimeout(0.1)
+        self.start()
+
+    def run(self) -> None:
+        while self.running:
+            try:
+                data = self.sock.recv(65535)
+            except socket.timeout:
+                continue
+            except OSError:
+                return
+            if len(data) > 5 and data[5 if data[0] == 0xFD else 3] != BRIDGE_SYSID:
+                self.count += 1
+
+
+def _sender(dest: tuple, frames: list[bytes], stop, sent) -> None:
+    """Send `frames` round and round until `stop` (runs in a child process: no GIL shared)."""
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    n = 0
+    try:
+        while not stop.is_set():
+            for i in range(0, len(frames), 500):
+                for f in frames[i:i + 500]:
+                    s.sendto(f, dest)
+                n += len(frames[i:i + 500])
+                sent.value = n
+    finally:
+        s.close()
+
+
+def _measure_rate(proc, dest, sink_sock, frames, seconds: float) -> tuple[float, float, float]:
+    """(forwarded msg/s, offered msg/s, process CPU in cores) over `seconds` of steady state."""
+    import multiprocessing as mp
+    ctx = mp.get_context("fork")
+    sink = _Sink(sink_sock)
+    stop, sent = ctx.Event(), ctx.Value("q", 0, lock=False)
+    sender = ctx.Process(target=_sender, args=(dest, frames, stop, sent), daemon=True)
+    sender.start()
+    try:
+        time.sleep(min(1.0, seconds / 2))       # benchmark warm-up, not a test wait
+        c0, w0, n0, s0 = _cpu_seconds(proc.pid), time.perf_counter(), sink.count, sent.value
+        time.sleep(seconds)
+        c1, w1, n1, s1 = _cpu_seconds(proc.pid), time.perf_counter(), sink.count, sent.value
+    finally:
+        stop.set()
+        sender.join(5)
+        if sender.is_alive():
+            sender.kill()
+            sender.join()
+        sink.running = False
+        sink.join(2)
+    wall = w1 - w0
+    return (n1 - n0) / wall, (s1 - s0) / wall, (c1 - c0) / wall
+
+
+def bridge_rate(n_vehicles: int, seconds: float, cpu: int) -> tuple[float, float, float]:
+    frames = _telemetry(n_vehicles, max(1, 2000 // n_vehicles))
+    with _bridge(cpu) as (proc, tower, _drone, link_addr, _t):
+        return _measure_rate(proc, link_addr, tower, frames, seconds)
+
+
+def mavproxy_rate(n_vehicles: int, seconds: float, cpu: int) -> tuple[float, float, float] | None:
+    """The same traffic through MAVProxy (--master udpin, --out udpout); None if absent."""
+    exe = shutil.which("mavproxy.py") or os.path.join(os.path.dirname(sys.executable), "mavproxy.py")
+    if not os.path.exists(exe):
+        return None
+    frames = _telemetry(n_vehicles, max(1, 2000 // n_vehicles))
+    sink = _udp()
+    mport = _free_port()
+    with tempfile.TemporaryDirectory() as tmp:
+        args = [sys.executable, exe, f"--master=udpin:127.0.0.1:{mport}",
+                f"--out=udpout:127.0.0.1:{sink.getsockname()[1]}", "--daemon", "--non-interactive",
+                "--state-basedir", tmp, "--no-state"]
+        try:
+            with _pinned_process(args, cpu, cwd=tmp) as proc:
+                probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+                sink.settimeout(0.2)
+                deadline = time.monotonic() + 30.0
+                while True:                                # until MAVProxy forwards
+                    probe.sendto(frames[0], ("127.0.0.1", mport))
+                    try:
+                        sink.recv(65535)
+                        break
+                    except socket.timeout:
+                        if time.monotonic() > deadline or proc.poll() is not None:
+                            return None
+                probe.close()
+                return _measure_rate(proc, ("127.0.0.1", mport), sink, frames, seconds)
+        finally:
+            sink.close()
+
+
+# ----------------------------------------------------------------------------- report
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="bench_bridge", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="a smoke run of a few seconds")
+    ap.add_argument("--samples", type=int, default=None, help="latency samples per link (default 5000)")
+    ap.add_argument("--seconds", type=float, default=None, help="measuring window per rate row (default 5)")
+    ap.add_argument("--vehicles", type=int, nargs="+", default=[1, 10, 100], metavar="N",
+                    help="telemetry from N vehicles, one rate row each (default 1 10 100)")
+    ap.add_argument("--no-peer", action="store_true", help="skip the MAVProxy rate rows")
+    a = ap.parse_args(argv)
+    samples = a.samples or (300 if a.quick else 5000)
+    seconds = a.seconds or (0.5 if a.quick else 5.0)
+    cpu, mine = _cpus()
+    old = os.sched_getaffinity(0)
+    os.sched_setaffinity(0, mine)
+    try:
+        lat = latency(samples, cpu)
+        rates = [(n, bridge_rate(n, seconds, cpu),
+                  None if a.no_peer or a.quick else mavproxy_rate(n, seconds, cpu)) for n in a.vehicles]
+    finally:
+        os.sched_setaffinity(0, old)
+    b, d = lat["bridge"], lat["direct"]
+    rows = []
+    for q in (50, 99):
+        pb, pd = _pct(b, q) * 1e3, _pct(d, q) * 1e3
+        added = pb - pd
+        rows.append([f"goal tower -> drone socket, p{q}", f"{pb:.3f} ms", "direct UDP link, same datagrams",
+                     f"{pd:.3f} ms", f"{pb / pd:.1f}x", "", ""])
+        rows.append([f"  added by the bridge, p{q}", f"{added:.3f} ms", "", "", "",
+                     f"<= {ADDED_P99_TARGET_MS:g} ms" if q == 99 else "",
+                     ("met" if added <= ADDED_P99_TARGET_MS else "MISSED") if q == 99 else ""])
+    rows.append(["  samples (lost: bridge, direct)", f"{len(b)} ({lat['lost'][0]})", "", f"{len(d)} ({lat['lost'][1]})",
+                 "", "", ""])
+    for n, (fwd, offered, cpu_use), peer in rates:
+        pcell, ratio = ("-", "-") if peer is None else (f"{peer[0]:,.0f} /s ({peer[2]:.2f} cores)",
+                                                         f"{fwd / max(peer[0], 1e-9):.1f}x")
+        rows.append([f"forwarded msg/s, telemetry from {n} vehicle{'s' if n > 1 else ''}",
+                     f"{fwd:,.0f} /s", "MAVProxy router, same CPU" if peer else "-", pcell, ratio,
+                     f">= {RATE_TARGET:,.0f} /s", "met" if fwd >= RATE_TARGET else "MISSED"])
+        rows.append(["  offered; bridge CPU; forwarded per CPU-second",
+                     f"{offered:,.0f} /s; {cpu_use:.2f} cores; {fwd / max(cpu_use, 1e-9):,.0f}", "", "", "", "", ""])
+    print(machine())
+    print(f"bridge pinned to CPU {cpu}; this process on CPUs {sorted(mine)}")
+    print(table("towerlink bridge (a `towerlink bridge` process) vs direct link and MAVProxy, loopback UDP",
+                ["measure", "towerlink", "peer", "peer figure", "ratio", "target", "status"], rows))
+    return 0 if b and all(r[1][0] > 0 for r in rates) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
