@@ -67,7 +67,7 @@ def test_rover_unknown_command_unsupported(rover):
 def test_rover_guided_velocity_target_times_out(rover):
     w, ap, _ = rover
     assert ap.params["GUID_TIMEOUT"] == 3
-    assert ap.set_mode(modes.R_GUIDED) and ap.arm() == A.MAV_RESULT_ACCEPTED
+    assert ap.set_mode(modes.ROVER_GUIDED) and ap.arm() == A.MAV_RESULT_ACCEPTED
     mask = POS_BITS | ACC_BITS | YAW_IGNORE | YAW_RATE_IGNORE
     assert ap.position_target_local(A.MAV_FRAME_LOCAL_NED, mask, (0, 0, 0), (2.0, 0, 0), (0, 0, 0), 0, 0)
     t_send = w.t
@@ -77,7 +77,7 @@ def test_rover_guided_velocity_target_times_out(rover):
     _until(w, lambda: ap.target is None, 1.0)                   # dropped at GUID_TIMEOUT
     assert 3.0 <= w.t - t_send <= 3.1
     _until(w, lambda: np.linalg.norm(ap.vel[:2]) < 0.05, 3)
-    assert ap.mode == modes.R_GUIDED and ap.armed
+    assert ap.mode == modes.ROVER_GUIDED and ap.armed
     # a position target does not time out: the rover drives on to it
     x0 = ap.pos[0]
     assert ap.position_target_local(A.MAV_FRAME_LOCAL_NED, VEL_BITS | ACC_BITS | YAW_IGNORE | YAW_RATE_IGNORE,
@@ -86,16 +86,16 @@ def test_rover_guided_velocity_target_times_out(rover):
     assert ap.target is not None and ap.pos[0] > x0 + 20
 
 
-@pytest.mark.parametrize("action, mode, text", [(0, modes.R_GUIDED, "GCS Failsafe"),
-                                                (1, modes.R_RTL, "GCS Failsafe On: RTL"),
-                                                (2, modes.R_HOLD, "GCS Failsafe On: Hold"),
-                                                (3, modes.R_RTL, "GCS Failsafe On: RTL"),
-                                                (4, modes.R_HOLD, "GCS Failsafe On: Hold")])
+@pytest.mark.parametrize("action, mode, text", [(0, modes.ROVER_GUIDED, "GCS Failsafe"),
+                                                (1, modes.ROVER_RTL, "GCS Failsafe On: RTL"),
+                                                (2, modes.ROVER_HOLD, "GCS Failsafe On: Hold"),
+                                                (3, modes.ROVER_RTL, "GCS Failsafe On: RTL"),
+                                                (4, modes.ROVER_HOLD, "GCS Failsafe On: Hold")])
 def test_rover_gcs_failsafe_actions(rover, action, mode, text):
     w, ap, texts = rover
     for name, v in (("FS_GCS_ENABLE", 1), ("FS_ACTION", action), ("FS_GCS_TIMEOUT", 2)):
         assert ap.params.set(name, v, save=False) is None
-    assert ap.set_mode(modes.R_GUIDED) and ap.arm() == A.MAV_RESULT_ACCEPTED
+    assert ap.set_mode(modes.ROVER_GUIDED) and ap.arm() == A.MAV_RESULT_ACCEPTED
     ap.gcs_heartbeat()
     t_hb = w.t
     took = _until(w, lambda: ap.gcs_failsafe, 5)
@@ -108,10 +108,10 @@ def test_rover_gcs_failsafe_actions(rover, action, mode, text):
 def test_rover_failsafe_off_by_default(rover):
     w, ap, texts = rover
     assert ap.params["FS_GCS_ENABLE"] == 0
-    assert ap.set_mode(modes.R_GUIDED) and ap.arm() == A.MAV_RESULT_ACCEPTED
+    assert ap.set_mode(modes.ROVER_GUIDED) and ap.arm() == A.MAV_RESULT_ACCEPTED
     ap.gcs_heartbeat()
     w.run_for(20)
-    assert not ap.gcs_failsafe and ap.mode == modes.R_GUIDED and ap.armed
+    assert not ap.gcs_failsafe and ap.mode == modes.ROVER_GUIDED and ap.armed
     assert not any("Failsafe" in t for t in texts)
 
 
@@ -221,7 +221,8 @@ def test_commanded_jerk_is_bounded():
     _goto(ap, 25.0, -10.0, -12.0)
     for _ in range(int(12 / dt)):
         w.step()
-        vs.append(np.array(fleet.ref_vel[0], float))
+        c = fleet.ctrl                  # the controller's shaped reference (per-vehicle arrays)
+        vs.append(np.array([np.ravel(c.vx)[0], np.ravel(c.vy)[0], np.ravel(c.vz)[0]], float))
     v = np.array(vs)
     acc = np.diff(v, axis=0) / dt
     jerk = np.diff(acc, axis=0) / dt

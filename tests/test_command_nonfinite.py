@@ -33,7 +33,7 @@ COPTER = {
     C.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN: ([-1], [1, 0, 0, 0, 0, 0, 0]),
 }
 ROVER = {k: v for k, v in COPTER.items() if k not in (C.MAV_CMD_NAV_TAKEOFF, C.MAV_CMD_CONDITION_YAW)}
-ROVER[C.MAV_CMD_DO_SET_MODE] = ([0, 1], [1, modes.R_HOLD, 0, 0, 0, 0, 0])
+ROVER[C.MAV_CMD_DO_SET_MODE] = ([0, 1], [1, modes.ROVER_HOLD, 0, 0, 0, 0, 0])
 ROVER[C.MAV_CMD_DO_CHANGE_SPEED] = ([1], [1, 3.0, -1, 0, 0, 0, 0])
 
 
@@ -91,7 +91,7 @@ def _state(v):
 def test_non_finite_params_denied_or_failed(world, kind, use_int, capfd):
     v = world.vehicles[0 if kind == "copter" else 1]
     table = COPTER if kind == "copter" else ROVER
-    guided = modes.GUIDED if kind == "copter" else modes.R_GUIDED
+    guided = modes.GUIDED if kind == "copter" else modes.ROVER_GUIDED
     gcs = Gcs(v.link)
     assert v.ap.set_mode(guided)           # CONDITION_YAW needs GUIDED to get past the mode check
     tried = 0
