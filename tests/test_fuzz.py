@@ -143,6 +143,21 @@ def _fuzz(dst, rng, budget):
     return sent
 
 
+def test_bridge_passes_a_non_finite_yaw_on():
+    """What the fuzz found: a tower SET_POSITION_TARGET_LOCAL_NED with yaw = inf made
+    translate.heading raise (math domain error) and killed the bridge. The bridge translates;
+    the vehicle validates: the yaw goes on as sent and the vehicle refuses the target."""
+    from bridge import translate
+    from gcs.frames import Transform
+    T = Transform((1.0, 2.0, 0.0))
+    for yaw in (math.inf, -math.inf, math.nan):
+        msg = tl.MAVLink_set_position_target_local_ned_message(0, 1, 1, tl.MAV_FRAME_LOCAL_NED, 0b0000_1001_1111_1000,
+                                                               1, 2, -3, 0, 0, 0, 0, 0, 0, yaw, 0)
+        out = translate.set_position_target(msg, T)
+        assert (out.x, out.y, out.z) == (2.0, 4.0, -3.0)
+        assert not math.isfinite(out.yaw)
+
+
 def _no_traceback(path):
     text = open(path, errors="replace").read()
     assert "Traceback" not in text, text[-3000:]
