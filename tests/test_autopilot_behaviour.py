@@ -221,8 +221,8 @@ def test_commanded_jerk_is_bounded():
     _goto(ap, 25.0, -10.0, -12.0)
     for _ in range(int(12 / dt)):
         w.step()
-        c = fleet.ctrl                  # the controller's shaped reference (per-vehicle arrays)
-        vs.append(np.array([np.ravel(c.vx)[0], np.ravel(c.vy)[0], np.ravel(c.vz)[0]], float))
+        c = fleet.ctrl                  # the shaped reference the controller tracks
+        vs.append(np.array([c.vx[0], c.vy[0], c.vz[0]], float))
     v = np.array(vs)
     acc = np.diff(v, axis=0) / dt
     jerk = np.diff(acc, axis=0) / dt

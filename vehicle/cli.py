@@ -31,10 +31,10 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import hashlib
 import signal
 import sys
 
+from gcs.signing import key_from_text as signing_key
 from vehicle.world import DEFAULT_HOME, DEFAULT_STATE_DIR, World, WorldConfig
 
 
@@ -118,17 +118,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--signing-key", metavar="PASSPHRASE|HEX64",
                    help="MAVLink 2 signing: 64 hex digits, or a passphrase hashed with SHA-256 "
                         "(as MAVProxy's 'signing setup'); unsigned packets are then dropped")
-
-
-def signing_key(s: str | None) -> bytes | None:
-    if not s:
-        return None
-    if len(s) == 64:
-        try:
-            return bytes.fromhex(s)
-        except ValueError:
-            pass
-    return hashlib.sha256(s.encode()).digest()
 
 
 def config_from_args(a: argparse.Namespace) -> WorldConfig:

@@ -21,23 +21,21 @@ length, known id and, with signing on, the signature): the UDP endpoint adds a p
 """
 from __future__ import annotations
 
-import hashlib
 import math
 import traceback
-import struct
 import time
 from collections import Counter
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from gcs.mavstr import mav_str
+from gcs.signing import SIGNING_EPOCH, UNSIGNED, SignatureCheck
 from vehicle.link.endpoints import Channel, Endpoint, make_endpoint
-from vehicle.link.paced_queue import PacedQueue
 from vehicle.link.mission_link import MISSION_MESSAGES, MissionLink
+from vehicle.link.paced_queue import PacedQueue
 from vehicle.link.telemetry import DATA_STREAMS, STREAM_GROUPS, Telemetry
 
 COMP_ID = mav.MAV_COMP_ID_AUTOPILOT1
-SIGNING_EPOCH = 1420070400   # 2015-01-01, MAVLink signing timestamps count 10 us from here
 
 LINK_COMMANDS = {mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAV_CMD_GET_MESSAGE_INTERVAL,
                  mav.MAV_CMD_REQUEST_MESSAGE, mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,
@@ -89,13 +87,13 @@ class VehicleLink:
         self.next_due: dict[int, float] = {}
         self.schedule: dict[int, float] = {}
         self.signing_key = signing_key
-        self.sign_ts: dict[tuple, int] = {}
         self.outboxes: dict[Channel, PacedQueue] = {}   # paced replies per peer
         if signing_key:
             self.mav.signing.secret_key = signing_key
             self.mav.signing.sign_outgoing = True
             self.mav.signing.link_id = 0
             self.mav.signing.timestamp = int((time.time() - SIGNING_EPOCH) * 1e5)
+            self._sign_check = SignatureCheck(signing_key, clock=self.mav.signing)
         self.missions = MissionLink(self)      # mission / fence / rally protocol
         self._rebuild_schedule()
         ap.text = self.statustext
@@ -168,9 +166,9 @@ class VehicleLink:
             buf = b"".join(batch)
             for ep in self.endpoints:
                 ep.send(buf)
+        self.missions.update(t)
         if self.outboxes:
             self._drain_outboxes(t)
-        self.missions.update(t)
         if t >= self.next_stats:
             self.next_stats = t + 1.0
             for k, name in STAT_NAMES.items():
@@ -273,30 +271,13 @@ class VehicleLink:
         return True
 
     def _signature_ok(self, m) -> bool:
-        """MAVLink 2 signing: verify the signature BEFORE recording the timestamp, so a
-        forged packet with a far-future timestamp cannot lock out the real sender."""
-        buf = bytes(m.get_msgbuf())
-        if len(buf) < 13 or not (buf[0] == 253 and buf[2] & mav.MAVLINK_IFLAG_SIGNED):
-            self.stats["unsigned"] += 1
-            return False
-        sig = hashlib.sha256(self.signing_key + buf[:-6]).digest()[:6]
-        if sig != buf[-6:]:
-            self.stats["bad_signature"] += 1
-            return False
-        link_id = buf[-13]
-        tlow, thigh = struct.unpack("<IH", buf[-12:-6])
-        ts = tlow + (thigh << 32)
-        key = (link_id, m.get_srcSystem(), m.get_srcComponent())
-        last = self.sign_ts.get(key)
-        if last is not None and ts <= last:
-            self.stats["bad_signature"] += 1     # replay
-            return False
-        if last is None and ts + 6_000_000 < self.mav.signing.timestamp:
-            self.stats["bad_signature"] += 1     # a new stream more than a minute old
-            return False
-        self.sign_ts[key] = ts
-        self.mav.signing.timestamp = max(self.mav.signing.timestamp, ts)
-        return True
+        """MAVLink 2 signing (gcs.signing): unsigned, badly signed, replayed and stale
+        packets are counted and dropped."""
+        why = self._sign_check.check(m.get_msgbuf(), m.get_srcSystem(), m.get_srcComponent())
+        if why is None:
+            return True
+        self.stats["unsigned" if why == UNSIGNED else "bad_signature"] += 1
+        return False
 
     # ----- handlers ----------------------------------------------------------------------
     def on_HEARTBEAT(self, m, ch) -> None:
