@@ -26,6 +26,7 @@ def test_bench_bridge_smoke(capsys):
     out = capsys.readouterr().out
     assert status == 0, out
     assert "cores | Python" in out.splitlines()[0]                 # the machine line
+    assert "bridge pinned to CPU" in out and "load average" in out
     header = [l for l in out.splitlines() if l.startswith("measure")][0].split()
     assert header == ["measure", "towerlink", "peer", "peer", "figure", "ratio", "target", "status"]
     for q in (50, 99):
@@ -34,6 +35,7 @@ def test_bench_bridge_smoke(capsys):
         assert _number(through) > 0 and _number(direct) > 0 and ratio.endswith("x")
     added = _row(out, "  added by the bridge, p99")
     assert added[1] == "<= 1 ms" and added[2] in ("met", "MISSED")
+    assert _number(_row(out, "  bridge runnable but waiting for its CPU, mean per goal")[0]) >= 0
     # every goal went through the bridge and came back translated (none lost)
     assert _row(out, "  samples (lost: bridge, direct)") == ["50 (0)", "50 (0)"]
     for n, label in ((1, "vehicle"), (10, "vehicles"), (100, "vehicles")):
