@@ -140,33 +140,33 @@ def _is_goal(data: bytes, k: int) -> bool:
     return int.from_bytes(data[10:14].ljust(4, b"\0"), "little") == k
 
 
-def latency(samples: int, cpu: int) -> dict[str, list[float]]:
+def latency(bridge: tuple, samples: int) -> dict[str, list[float]]:
     """One-way times (s) of tower goals through the bridge and over a direct link."""
     mav = tl.MAVLink(None, 255, 190)
     out: dict[str, list[float]] = {"bridge": [], "direct": [], "lost": [0, 0], "wait": [0.0]}
-    with _bridge(cpu) as (proc, tower, drone, _link, tower_link):
-        drone.settimeout(1.0)
-        direct = drone.getsockname()
-        clock = time.perf_counter
-        for i in range(samples + 200):                     # the first 200 of each warm up
-            if i == 200:
-                out["wait"][0] = -_runqueue_wait(proc.pid)
-            for j, (name, dest) in enumerate((("bridge", tower_link), ("direct", direct))):
-                k = 2 * i + j + 1
-                frame = _goal(mav, k)
-                t0 = clock()
-                tower.sendto(frame, dest)
-                while True:
-                    try:
-                        data = drone.recv(65535)
-                    except socket.timeout:
-                        out["lost"][j] += 1
-                        break
-                    if _is_goal(data, k):
-                        if i >= 200:
-                            out[name].append(clock() - t0)
-                        break
-        out["wait"][0] += _runqueue_wait(proc.pid)
+    proc, tower, drone, _link, tower_link = bridge
+    drone.settimeout(1.0)
+    direct = drone.getsockname()
+    clock = time.perf_counter
+    for i in range(samples + 200):                     # the first 200 of each warm up
+        if i == 200:
+            out["wait"][0] = -_runqueue_wait(proc.pid)
+        for j, (name, dest) in enumerate((("bridge", tower_link), ("direct", direct))):
+            k = 2 * i + j + 1
+            frame = _goal(mav, k)
+            t0 = clock()
+            tower.sendto(frame, dest)
+            while True:
+                try:
+                    data = drone.recv(65535)
+                except socket.timeout:
+                    out["lost"][j] += 1
+                    break
+                if _is_goal(data, k):
+                    if i >= 200:
+                        out[name].append(clock() - t0)
+                    break
+    out["wait"][0] += _runqueue_wait(proc.pid)
     return out
 
 
@@ -267,18 +267,16 @@ def _measure_rate(proc, dest, sink_sock, frames, seconds: float) -> tuple[float,
     return (n1 - n0) / wall, (s1 - s0) / wall, (c1 - c0) / wall
 
 
-def bridge_rate(n_vehicles: int, seconds: float, cpu: int) -> tuple[float, float, float]:
-    frames = _telemetry(n_vehicles, max(1, 2000 // n_vehicles))
-    with _bridge(cpu) as (proc, tower, _drone, link_addr, _t):
-        return _measure_rate(proc, link_addr, tower, frames, seconds)
+def bridge_rate(bridge: tuple, frames: list[bytes], seconds: float) -> tuple[float, float, float]:
+    proc, tower, _drone, link_addr, _t = bridge
+    return _measure_rate(proc, link_addr, tower, frames, seconds)
 
 
-def mavproxy_rate(n_vehicles: int, seconds: float, cpu: int) -> tuple[float, float, float] | None:
+def mavproxy_rate(frames: list[bytes], seconds: float, cpu: int) -> tuple[float, float, float] | None:
     """The same traffic through MAVProxy (--master udpin, --out udpout); None if absent."""
     exe = shutil.which("mavproxy.py") or os.path.join(os.path.dirname(sys.executable), "mavproxy.py")
     if not os.path.exists(exe):
         return None
-    frames = _telemetry(n_vehicles, max(1, 2000 // n_vehicles))
     sink = _udp()
     mport = _free_port()
     with tempfile.TemporaryDirectory() as tmp:
@@ -321,9 +319,12 @@ def main(argv: list[str] | None = None) -> int:
     old = os.sched_getaffinity(0)
     os.sched_setaffinity(0, mine)
     try:
-        lat = latency(samples, cpu)
-        rates = [(n, bridge_rate(n, seconds, cpu),
-                  None if a.no_peer or a.quick else mavproxy_rate(n, seconds, cpu)) for n in a.vehicles]
+        traffic = {n: _telemetry(n, max(1, (200 if a.quick else 2000) // n)) for n in a.vehicles}
+        with _bridge(cpu) as bridge:            # one bridge process for every row, rows in turn
+            lat = latency(bridge, samples)
+            rates = [(n, bridge_rate(bridge, traffic[n], seconds)) for n in a.vehicles]
+        rates = [(n, r, None if a.no_peer or a.quick else mavproxy_rate(traffic[n], seconds, cpu))
+                 for n, r in rates]
     finally:
         os.sched_setaffinity(0, old)
     b, d = lat["bridge"], lat["direct"]
