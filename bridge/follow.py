@@ -7,7 +7,7 @@ frame and transformed to world, z set to 0::
     h       = -z of world -> drone          # NED: height above the ground plane z = 0
     goal    = T_world_frame . p_drone ; goal.z = 0
 
-In the full-attitude frame ``drone`` (checkpoint 2) the point swings by h*tan(tilt)
+In the full-attitude frame ``drone`` (checkpoint 2) the point swings by h*sin(tilt)
 as the drone pitches and rolls; in the yaw-only frame ``drone_yaw`` (checkpoint 3) it
 does not. The offset is meant in the yaw-only frame (negative x = behind); with the
 full-attitude frame the same numbers are used in the body frame, as the lab's node would.
@@ -28,6 +28,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
+from gcs.frames.batch import ground_point
 
 FOLLOW_FRAMES = ("drone", "drone_yaw")
 
@@ -58,11 +60,6 @@ class GroundPoints:
         raise ValueError(f"follow frame must be one of {FOLLOW_FRAMES}, got {frame!r}")
 
 
-def body_ground_point(height: float, offset=(0.0, 0.0)) -> np.ndarray:
-    """The ground point in a drone frame (FRD): (offset_x, offset_y, +height)."""
-    return np.array((float(offset[0]), float(offset[1]), float(height)))
-
-
 def height_of(T_world_drone) -> float:
     """Height above the ground plane (NED z = 0) from world -> drone."""
     return -float(T_world_drone.translation[2])
@@ -73,20 +70,14 @@ def tilt_of(T_world_drone) -> float:
     return math.acos(max(-1.0, min(1.0, float(R[2, 2]))))
 
 
-def ground_point(T_world_frame, height: float, offset=(0.0, 0.0)) -> tuple[float, float]:
-    """Ground point written in the frame of T_world_frame, in world, z dropped (set to 0)."""
-    p = T_world_frame.apply_point(body_ground_point(height, offset))
-    return float(p[0]), float(p[1])
-
-
 def ground_points(T_world_drone, T_world_drone_yaw=None, offset=(0.0, 0.0),
                   stamp: float = 0.0) -> GroundPoints:
     """Both candidate ground points for one drone pose (see the module docstring)."""
     if T_world_drone_yaw is None:
         T_world_drone_yaw = T_world_drone.yaw_only()
     h = height_of(T_world_drone)
-    full = ground_point(T_world_drone, h, offset)
-    yaw = ground_point(T_world_drone_yaw, h, offset)
+    full = tuple(ground_point(T_world_drone.translation, T_world_drone.rotation, h, offset).tolist())
+    yaw = tuple(ground_point(T_world_drone_yaw.translation, T_world_drone_yaw.rotation, h, offset).tolist())
     # reference without any attitude effect: the yaw-only answer computed directly
     t = T_world_drone.translation
     Ry = T_world_drone_yaw.rotation_matrix()

@@ -27,6 +27,7 @@ import time
 from dataclasses import dataclass
 
 from gcs.dialect import towerlink as _tl
+from gcs.endpoints import parse_connection as parse_url
 
 try:  # pymavlink picks fastcrc when installed
     from pymavlink.generator.mavcrc import mcrf4xx as _fast_crc
@@ -195,25 +196,6 @@ class Framer:
             buf.clear()
         self.packets += len(out)
         return out
-
-
-def parse_url(url: str) -> tuple[str, str, int]:
-    """('udpin'|'udpout'|'tcp'|'tcpin', host, port) from a pymavlink connection string."""
-    try:
-        kind, rest = url.split(":", 1)
-        host, port = rest.rsplit(":", 1)
-        port_n = int(port)
-    except ValueError:
-        raise ValueError(f"bad connection string {url!r}; use udpin:HOST:PORT, udpout:HOST:PORT, "
-                         f"tcp:HOST:PORT or tcpin:HOST:PORT") from None
-    kind = kind.lower()
-    if kind == "udp":
-        kind = "udpin"
-    if kind not in ("udpin", "udpout", "tcp", "tcpin"):
-        raise ValueError(f"unsupported connection kind {kind!r} in {url!r}")
-    if not 0 < port_n < 65536:
-        raise ValueError(f"bad port in {url!r}")
-    return kind, host or "127.0.0.1", port_n
 
 
 @dataclass

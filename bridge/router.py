@@ -47,6 +47,8 @@ from gcs.dialect import encoder
 from gcs.dialect import towerlink as tl
 from bridge.follow import FollowSupervisor, ground_points
 from gcs.frames import LATEST, Buffer, TransformException, TransformStamped
+from gcs.mavstr import mav_str as _s
+from gcs.modes import ROVER_GUIDED, ROVER_HOLD
 from bridge.links import Link, Packet
 from bridge.tf_stream import VehicleFrames, reset_edge, transform_message
 from bridge.timeline import Timeline, TimesyncProbe
@@ -63,8 +65,6 @@ MSG_TL_TRANSFORM = 43000
 MSG_TL_STATIC = 43001
 MSG_TL_TARGET = 43002
 
-ROVER_GUIDED = 15
-ROVER_HOLD = 4
 TICK = 0.01                     # wall s between upkeep passes
 STATIC_PERIOD = 1.0             # wall s between republishing static transforms
 STATUS_PERIOD = 1.0
@@ -776,9 +776,3 @@ class Bridge:
 
 class StaleTransform(Exception):
     """A dynamic transform chain whose latest common time is too old to use."""
-
-
-def _s(v) -> str:
-    if isinstance(v, (bytes, bytearray)):
-        v = v.decode(errors="replace")
-    return v.split("\x00", 1)[0]

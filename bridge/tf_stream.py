@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 
 from gcs.dialect import towerlink as tl
 from gcs.frames import Buffer, Transform, TransformStamped, quaternion_slerp
+from gcs.mavstr import mav_str as _s
 
 STATIC_FLAG = tl.TOWERLINK_TRANSFORM_FLAGS_STATIC
 FRAME_ID_LEN = 16
@@ -171,12 +172,6 @@ def transform_message(ts: TransformStamped, static: bool = False):
         int(round(ts.stamp * 1e6)), _frame_bytes(ts.frame_id), _frame_bytes(ts.child_frame_id),
         [float(v) for v in tr.translation], [float(v) for v in tr.rotation],
         STATIC_FLAG if static else 0)
-
-
-def _s(v) -> str:
-    if isinstance(v, (bytes, bytearray)):
-        v = v.decode(errors="replace")
-    return v.split("\x00", 1)[0]
 
 
 def transform_from_message(msg) -> tuple[TransformStamped, bool]:

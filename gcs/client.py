@@ -35,6 +35,8 @@ from typing import Any
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 
+from gcs.mavstr import mav_str  # noqa: E402
+
 mavlink = mavutil.mavlink
 
 # MAV_RESULT names, for messages.
@@ -330,8 +332,7 @@ class Client:
             self._ack_serial += 1
             self._acks[(src, msg.command)] = (self._ack_serial, msg.result)
         elif mtype == "STATUSTEXT":
-            text = msg.text if isinstance(msg.text, str) else msg.text.decode(errors="replace")
-            text = text.rstrip("\x00")
+            text = mav_str(msg.text)
             self._text_serial += 1
             st.statustexts.append((self._text_serial, msg.severity, text))
         for fn in self._listeners:
@@ -679,8 +680,7 @@ class Client:
 
         def listen(msg: Any) -> None:
             if msg.get_type() == "PARAM_VALUE" and msg.get_srcSystem() == sysid:
-                pid = msg.param_id if isinstance(msg.param_id, str) else msg.param_id.decode()
-                got[pid.rstrip("\x00")] = msg.param_value
+                got[mav_str(msg.param_id)] = msg.param_value
 
         self._listeners.append(listen)
         try:

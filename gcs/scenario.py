@@ -50,7 +50,7 @@ def parse_static_transform(args: Sequence[str] | str) -> TransformStamped:
     xyz = values[:3]
     if len(values) == 6:
         yaw, pitch, roll = values[3:]
-        transform = Transform.from_euler(yaw, pitch, roll, translation=xyz)
+        transform = Transform.from_euler(yaw=yaw, pitch=pitch, roll=roll, translation=xyz)
     else:
         transform = Transform(translation=xyz, rotation=values[3:])
     return TransformStamped(frame_id=parent, child_frame_id=child, stamp=0.0, transform=transform)

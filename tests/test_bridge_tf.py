@@ -22,7 +22,7 @@ def q_wxyz(T):
 def test_pairing_exact_and_interpolated():
     vf = VehicleFrames("drone")
     assert vf.on_local_position(100, 1, 2, -3, 0, 0, 0) == []          # waits for attitude
-    T = Transform.from_euler(0.5, 0.1, -0.2)
+    T = Transform.from_euler(yaw=0.5, pitch=0.1, roll=-0.2)
     out = vf.on_attitude_quaternion(100, *q_wxyz(T))
     assert len(out) == 1 and out[0].stamp == 0.1
     assert out[0].full.transform.almost_equal(Transform(translation=(1, 2, -3), rotation=T.xyzw), 1e-9)
@@ -34,11 +34,11 @@ def test_pairing_exact_and_interpolated():
     assert tuple(yaw_tf.apply_vector((0, 0, 1))) == pytest.approx((0, 0, 1), abs=1e-9)
     assert abs(np.dot(yaw_tf.xyzw, (0, 0, math.sin(0.25), math.cos(0.25)))) == pytest.approx(1, abs=1e-12)
     # a position between two attitudes (streams at different phases): SLERP
-    vf.on_attitude_quaternion(200, *q_wxyz(Transform.from_euler(0.0, 0, 0)))
+    vf.on_attitude_quaternion(200, *q_wxyz(Transform.from_euler(yaw=0.0)))
     assert vf.on_local_position(250, 0, 0, 0, 0, 0, 0) == []
-    out = vf.on_attitude_quaternion(300, *q_wxyz(Transform.from_euler(1.0, 0, 0)))
+    out = vf.on_attitude_quaternion(300, *q_wxyz(Transform.from_euler(yaw=1.0)))
     assert len(out) == 1 and out[0].stamp == 0.25
-    assert out[0].full.transform.to_euler()[0] == pytest.approx(0.5, abs=1e-9)
+    assert out[0].full.transform.yaw_pitch_roll()[0] == pytest.approx(0.5, abs=1e-9)
 
 
 def test_duplicates_ignored_reorder_kept_reboot_resets():
@@ -93,7 +93,7 @@ def test_bridge_buffer_reorder_duplicate_loss_reboot(world):
 
 def test_transform_stream_reaches_tower(world):
     bridge, tower, drone = world
-    T = Transform.from_euler(0.7, 0.2, 0.1, translation=(3, 4, -9))
+    T = Transform.from_euler(yaw=0.7, pitch=0.2, roll=0.1, translation=(3, 4, -9))
     drone.pose(2000, T.xyz, q_wxyz(T))
     m = tower.wait("TOWERLINK_TRANSFORM", lambda m: m.child_frame_id == "drone")
     assert m.time_usec == 2_000_000 and m.frame_id == "world" and not m.flags & 1
@@ -113,7 +113,8 @@ def test_transform_stream_reaches_tower(world):
 def test_transform_message_roundtrip():
     from gcs.frames import TransformStamped
     from bridge.tf_stream import transform_from_message
-    ts = TransformStamped("world", "a_long_frame_16c", 12.345678, Transform.from_euler(1, 0.2, 0.3, (1, 2, 3)))
+    ts = TransformStamped("world", "a_long_frame_16c", 12.345678,
+                          Transform.from_euler(yaw=1, pitch=0.2, roll=0.3, translation=(1, 2, 3)))
     msg = transform_message(ts, static=True)
     dec = tl.MAVLink(None).decode(bytearray(msg.pack(tl.MAVLink(None, 250, 191))))
     back, static = transform_from_message(dec)

@@ -21,7 +21,7 @@ from support import wait_until
 SC = load_scenario()
 T_WT = SC.buffer().lookup_transform("world", "tower").transform   # tower -> world
 T_TW = T_WT.inverse()
-YAW_WT = T_WT.to_euler()[0]
+YAW_WT = T_WT.yaw_pitch_roll()[0]
 
 
 def wrap(a):
@@ -92,7 +92,7 @@ def test_named_frame_goal_waits_for_transform_then_goes(world):
     wait_until(lambda: bridge.tower.stats.deferred >= 3, 5, "goal retried on ticks")
     assert not drone.of_type("SET_POSITION_TARGET_LOCAL_NED")
     # telemetry arrives: yawed 90 deg, pitched 10 deg, at (1, 2, -9)
-    T = Transform.from_euler(math.pi / 2, math.radians(10), 0, translation=(1, 2, -9))
+    T = Transform.from_euler(yaw=math.pi / 2, pitch=math.radians(10), roll=0, translation=(1, 2, -9))
     x, y, z, w = T.xyzw
     drone.pose(1000, (1, 2, -9), (w, x, y, z))
     m = drone.wait("SET_POSITION_TARGET_LOCAL_NED")
@@ -121,7 +121,7 @@ def test_stale_dynamic_transform_never_used(world):
 
 def test_static_transform_added_live(world):
     bridge, tower, drone, rover, out = world
-    q = Transform.from_euler(math.pi, 0, 0).xyzw
+    q = Transform.from_euler(yaw=math.pi).xyzw
     tower.mav.towerlink_static_transform_send(0, 0, b"world", b"pad", [10, 20, 0], list(q))
     tower.wait("STATUSTEXT", lambda m: "pad" in m.text)
     st = tower.wait("TOWERLINK_TRANSFORM", lambda m: m.child_frame_id == "pad")

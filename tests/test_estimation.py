@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from vehicle.fleet import CopterFleet, RoverFleet, Setpoint
-from vehicle.sensors import Sensors, SensorSpec, rotate, vehicle_rngs
+from vehicle.sensors import Sensors, SensorSpec, vehicle_rngs
 
 DT = 1.0 / 400.0
 
@@ -79,15 +79,6 @@ def test_sensor_noise_levels():
     assert np.std(s.accel[:, 0]) == pytest.approx(math.hypot(spec.accel_sigma, spec.accel_bias_sigma), rel=0.1)
     g = s.gyro_noise()
     assert np.std(g[:, 0]) == pytest.approx(math.hypot(spec.gyro_sigma, spec.gyro_bias_sigma), rel=0.1)
-
-
-def test_rotate_matches_scipy():
-    from scipy.spatial.transform import Rotation
-    rng = np.random.default_rng(0)
-    q = Rotation.random(50, random_state=1).as_quat()
-    v = rng.normal(size=(50, 3))
-    assert np.allclose(rotate(q, v), Rotation.from_quat(q).apply(v))
-    assert np.allclose(rotate(q, v, inverse=True), Rotation.from_quat(q).inv().apply(v))
 
 
 def test_rover_estimator_tracks():

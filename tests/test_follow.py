@@ -24,8 +24,9 @@ off = st.floats(-10, 10, allow_nan=False)
 @settings(max_examples=300, deadline=None)
 @given(angle, tilt, tilt, coord, coord, height, off, off)
 def test_yaw_only_ground_point_invariant_to_roll_pitch(yaw, pitch, roll, x, y, h, ox, oy):
-    level = ground_points(Transform.from_euler(yaw, 0, 0, (x, y, -h)), offset=(ox, oy))
-    tilted = ground_points(Transform.from_euler(yaw, pitch, roll, (x, y, -h)), offset=(ox, oy))
+    level = ground_points(Transform.from_euler(yaw=yaw, translation=(x, y, -h)), offset=(ox, oy))
+    tilted = ground_points(Transform.from_euler(yaw=yaw, pitch=pitch, roll=roll, translation=(x, y, -h)),
+                           offset=(ox, oy))
     assert tilted.yaw == pytest.approx(level.yaw, abs=1e-6)
     assert tilted.err_yaw == pytest.approx(0.0, abs=1e-6)
     # the reference is the drone's position plus the yaw-rotated offset
@@ -39,7 +40,7 @@ def test_full_attitude_swings_with_tilt(yaw, pitch, x, y, h):
     # The point (0, 0, h) of the tilted body frame, transformed to world, lies h*sin(tilt)
     # from the point below (h*tan(tilt) would be where the body z axis meets the ground;
     # the two agree to 2 % at 0.2 rad). Pure pitch swings it along the heading.
-    gp = ground_points(Transform.from_euler(yaw, pitch, 0, (x, y, -h)))
+    gp = ground_points(Transform.from_euler(yaw=yaw, pitch=pitch, translation=(x, y, -h)))
     assert gp.err_full == pytest.approx(h * abs(math.sin(pitch)), abs=1e-6 + 1e-9 * h)
     dx, dy = gp.full[0] - gp.ref[0], gp.full[1] - gp.ref[1]
     along = dx * math.cos(yaw) + dy * math.sin(yaw)
@@ -51,7 +52,7 @@ def test_full_attitude_swings_with_tilt(yaw, pitch, x, y, h):
 @settings(max_examples=200, deadline=None)
 @given(angle, tilt, tilt, height)
 def test_full_attitude_error_matches_geometry(yaw, pitch, roll, h):
-    T = Transform.from_euler(yaw, pitch, roll, (0, 0, -h))
+    T = Transform.from_euler(yaw=yaw, pitch=pitch, roll=roll, translation=(0, 0, -h))
     gp = ground_points(T)
     # direct geometry: body z axis through the drone, rotated; offset = h * (R e_z)_xy
     p = T.rotation_matrix() @ np.array((0, 0, h))
@@ -88,7 +89,7 @@ def _start(world, **kw):
 
 
 def fly(drone, rover, t0_ms, n, pitch=0.2, yaw=0.0, h=9.0, rover_too=True):
-    T = Transform.from_euler(yaw, pitch, 0, (10, 5, -h))
+    T = Transform.from_euler(yaw=yaw, pitch=pitch, translation=(10, 5, -h))
     x, y, z, w = T.xyzw
     for k in range(n):
         t = t0_ms + 50 * k

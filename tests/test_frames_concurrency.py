@@ -145,7 +145,7 @@ def test_one_writer_many_readers_consistent():
             while not stop.is_set():
                 t = k * dt
                 b.set_transform(ts("world", "drone", t,
-                                   Transform.from_euler(0.01 * t, 0.0, 0.0, (t, 2 * t, 3 * t))))
+                                   Transform.from_euler(yaw=0.01 * t, translation=(t, 2 * t, 3 * t))))
                 k += 1
                 if k == 50:
                     written.set()
@@ -175,7 +175,7 @@ def test_one_writer_many_readers_consistent():
                 x, y, z = out.transform.xyz
                 assert abs(y - 2 * x) < 1e-9 and abs(z - 3 * x) < 1e-9, (t, x, y, z)
                 assert abs(x - t) < 1e-9, (t, x)
-                yaw = out.transform.to_euler()[0]
+                yaw = out.transform.yaw_pitch_roll()[0]
                 assert abs(yaw - 0.01 * t) < 1e-9, (t, yaw)
                 try:  # the writer may have slid the window past t in between
                     back = b.lookup_transform("drone", "map", t).transform

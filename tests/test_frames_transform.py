@@ -138,7 +138,7 @@ def test_inverse_is_matrix_inverse(a):
 
 def test_compose_order_is_b_first():
     a = Transform((1, 0, 0))                       # translate x
-    b = Transform.from_euler(math.pi / 2, 0, 0)    # yaw 90
+    b = Transform.from_euler(yaw=math.pi / 2)    # yaw 90
     p = (1.0, 0.0, 0.0)
     np.testing.assert_allclose((a * b).apply_point(p), a.apply_point(b.apply_point(p)), atol=1e-15)
     np.testing.assert_allclose((a * b).apply_point(p), [1, 1, 0], atol=1e-15)
@@ -186,7 +186,7 @@ def test_apply_rejects_bad_shape():
 # ---------------------------------------------------------------- euler
 @given(angle, st.floats(-1.45, 1.45), angle, vec3)
 def test_from_euler_matches_scipy_zyx(yaw, pitch, roll, t):
-    tr = Transform.from_euler(yaw, pitch, roll, translation=t)
+    tr = Transform.from_euler(yaw=yaw, pitch=pitch, roll=roll, translation=t)
     ref = Rotation.from_euler("ZYX", [yaw, pitch, roll])   # intrinsic Z-Y-X = Rz Ry Rx
     np.testing.assert_allclose(tr.rotation_matrix(), ref.as_matrix(), atol=1e-12)
     np.testing.assert_allclose(tr.translation, t)
@@ -199,29 +199,29 @@ def test_from_euler_matches_scipy_zyx(yaw, pitch, roll, t):
 
 @given(angle, st.floats(-1.45, 1.45), angle)
 def test_euler_round_trip(yaw, pitch, roll):
-    y, p, r = Transform.from_euler(yaw, pitch, roll).to_euler()
-    back = Transform.from_euler(y, p, r)
-    assert back.almost_equal(Transform.from_euler(yaw, pitch, roll), atol=1e-9)
+    y, p, r = Transform.from_euler(yaw=yaw, pitch=pitch, roll=roll).yaw_pitch_roll()
+    back = Transform.from_euler(yaw=y, pitch=p, roll=r)
+    assert back.almost_equal(Transform.from_euler(yaw=yaw, pitch=pitch, roll=roll), atol=1e-9)
     assert abs(p - pitch) < 1e-9
     assert abs(math.remainder(y - yaw, 2 * math.pi)) < 1e-8
     assert abs(math.remainder(r - roll, 2 * math.pi)) < 1e-8
 
 
 @given(transforms())
-def test_to_euler_matches_scipy(t):
-    y, p, r = t.to_euler()
+def test_yaw_pitch_roll_matches_scipy(t):
+    y, p, r = t.yaw_pitch_roll()
     ref = Rotation.from_quat(np.asarray(t.rotation))
     assume(abs(math.cos(p)) > 1e-3)
     np.testing.assert_allclose(Rotation.from_euler("ZYX", [y, p, r]).as_matrix(), ref.as_matrix(),
                                atol=1e-9)
 
 
-def test_to_euler_at_gimbal_lock_keeps_rotation():
+def test_yaw_pitch_roll_at_gimbal_lock_keeps_rotation():
     for pitch in (math.pi / 2, -math.pi / 2):
-        t = Transform.from_euler(0.7, pitch, 0.0)
-        y, p, r = t.to_euler()
+        t = Transform.from_euler(yaw=0.7, pitch=pitch)
+        y, p, r = t.yaw_pitch_roll()
         assert r == 0.0 and abs(p - pitch) < 1e-7
-        assert Transform.from_euler(y, p, r).almost_equal(t, atol=1e-7)
+        assert Transform.from_euler(yaw=y, pitch=p, roll=r).almost_equal(t, atol=1e-7)
 
 
 # ---------------------------------------------------------------- yaw_only
@@ -229,22 +229,22 @@ def test_to_euler_at_gimbal_lock_keeps_rotation():
 def test_yaw_only(t):
     y = t.yaw_only()
     np.testing.assert_array_equal(y.translation, t.translation)
-    yaw, pitch, roll = y.to_euler()
+    yaw, pitch, roll = y.yaw_pitch_roll()
     assert abs(pitch) < 1e-12 and abs(roll) < 1e-12
     # heading of the rotated x axis' horizontal projection is kept
     x = Rotation.from_quat(np.asarray(t.rotation)).apply([1.0, 0.0, 0.0])
     h = math.hypot(x[0], x[1])
     assume(h > 1e-6)
     np.testing.assert_allclose(y.apply_vector([1.0, 0.0, 0.0]), [x[0] / h, x[1] / h, 0.0], atol=1e-9)
-    assert abs(math.remainder(yaw - t.to_euler()[0], 2 * math.pi)) < 1e-9
+    assert abs(math.remainder(yaw - t.yaw_pitch_roll()[0], 2 * math.pi)) < 1e-9
     # rotation is about z only
     np.testing.assert_allclose(y.apply_vector([0.0, 0.0, 1.0]), [0, 0, 1], atol=1e-12)
 
 
 def test_yaw_only_at_pitch_90_uses_roll_zero_convention():
-    t = Transform.from_euler(0.4, math.pi / 2, 0.0, translation=(1, 2, 3))
+    t = Transform.from_euler(yaw=0.4, pitch=math.pi / 2, translation=(1, 2, 3))
     y = t.yaw_only()
-    assert abs(y.to_euler()[0] - 0.4) < 1e-7
+    assert abs(y.yaw_pitch_roll()[0] - 0.4) < 1e-7
     np.testing.assert_array_equal(y.translation, [1, 2, 3])
 
 
@@ -254,7 +254,7 @@ def test_interpolate_endpoints_and_shortest_path():
     assert a.interpolate(b, 0.0) is a and a.interpolate(b, 1.0) is b
     m = a.interpolate(b, 0.5)
     np.testing.assert_allclose(m.translation, [1, 2, 3])
-    assert abs(m.to_euler()[0] - math.radians(20)) < 1e-12
+    assert abs(m.yaw_pitch_roll()[0] - math.radians(20)) < 1e-12
 
 
 def test_eq_hash_repr():
@@ -267,7 +267,7 @@ def test_eq_hash_repr():
 
 @pytest.mark.parametrize("n", [8191, 8192, 8193, 3 * 8192 + 17, 100_000])
 def test_apply_large_batches_blockwise(n):
-    t = Transform.from_euler(0.3, -0.2, 0.1, (1.0, -2.0, 3.0))
+    t = Transform.from_euler(yaw=0.3, pitch=-0.2, roll=0.1, translation=(1.0, -2.0, 3.0))
     pts = np.random.default_rng(n).uniform(-100, 100, (n, 3))
     r = Rotation.from_quat(np.asarray(t.rotation))
     np.testing.assert_allclose(t.apply_point(pts), r.apply(pts) + [1.0, -2.0, 3.0], atol=1e-9)
@@ -294,7 +294,7 @@ def test_euler_from_quaternion_matches_scipy(q):
 @given(st.floats(-math.pi, math.pi), st.floats(-1.5, 1.5), st.floats(-math.pi, math.pi))
 def test_quaternion_from_euler_round_trips_and_matches_transform(roll, pitch, yaw):
     q = quaternion_from_euler(roll, pitch, yaw)
-    assert same_rotation(q, Transform.from_euler(yaw, pitch, roll).xyzw)
+    assert same_rotation(q, Transform.from_euler(yaw=yaw, pitch=pitch, roll=roll).xyzw)
     assert euler_from_quaternion(q) == pytest.approx((roll, pitch, yaw), abs=1e-7)
 
 
@@ -311,3 +311,15 @@ def test_quaternion_slerp_matches_scipy_shortest_path(a, b, s):
     b_near = b if np.dot(a, b) >= 0 else -np.asarray(b)
     ref = Slerp([0, 1], Rotation.from_quat([a, b_near]))([s]).as_quat()[0]
     assert same_rotation(quaternion_slerp(a, b, s), ref, atol=1e-7)
+
+
+def test_euler_api_cannot_be_called_in_the_wrong_order():
+    """from_euler is keyword-only (quaternion_from_euler takes the same angles roll-first), and
+    the reader says its order in its name."""
+    with pytest.raises(TypeError):
+        Transform.from_euler(0.3, 0.2, 0.1)          # which is yaw? the caller must say
+    t = Transform.from_euler(roll=0.1, pitch=0.2, yaw=0.3)
+    assert t.yaw_pitch_roll() == pytest.approx((0.3, 0.2, 0.1))
+    assert same_rotation(t.xyzw, quaternion_from_euler(0.1, 0.2, 0.3))
+    assert Transform.from_euler(yaw=0.3).yaw_pitch_roll() == pytest.approx((0.3, 0.0, 0.0))
+    assert not hasattr(t, "to_euler")

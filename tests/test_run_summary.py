@@ -8,6 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from gcs.geo import ned_to_lla
 from tools.run_summary import (Track, format_summary, ground_point_errors, horizontal_error,
                                load_messages, minimum_time, rms)
 
@@ -86,11 +87,11 @@ def test_ground_point_error_full_vs_yaw_only():
     from gcs.frames import Transform
     h = 9.0
     tilt = math.radians(14.0)
-    full = Transform.from_euler(0.7, tilt, 0.0, translation=(3.0, 4.0, -h))
+    full = Transform.from_euler(yaw=0.7, pitch=tilt, translation=(3.0, 4.0, -h))
     yaw = full.yaw_only()
     ts, e = ground_point_errors([(1.0, full.to_tuple()), (1.1, yaw.to_tuple())])
     assert list(ts) == [1.0, 1.1]
-    assert e[0] == pytest.approx(h * math.tan(tilt) * math.cos(tilt), rel=1e-9)  # |R e_z| horizontal part
+    assert e[0] == pytest.approx(h * math.sin(tilt), rel=1e-9)  # |R e_z| horizontal part: h·sin(tilt)
     # cross-check against applying the transform to the ground point
     gp = full.apply_point([0, 0, h])
     assert e[0] == pytest.approx(math.hypot(gp[0] - 3.0, gp[1] - 4.0))
@@ -119,13 +120,11 @@ def _msgs():
     out.append(mk(tl.MAVLink_gps_global_origin_message(int(lat0 * 1e7), int(lon0 * 1e7), int(alt0 * 1000)), 1))
     out.append(mk(tl.MAVLink_gps_global_origin_message(int(lat0 * 1e7), int(lon0 * 1e7), int(alt0 * 1000)), 2))
     out.append(mk(tl.MAVLink_param_value_message(b"WPNAV_SPEED", 400.0, 9, 100, 3), 1))
-    m_per_deg = 6378137.0 * math.pi / 180
     for k in range(11):
         t = k * 0.1
         for sysid, (n, e, d) in ((1, (5.0 * t, 0.0, -9.0)), (2, (5.0 * t - 0.5, 0.0, 0.0))):
             out.append(mk(tl.MAVLink_attitude_message(int(t * 1000), 0, 0, 0, 0, 0, 0), sysid))
-            lat = lat0 + n / m_per_deg
-            lon = lon0 + e / (m_per_deg * math.cos(math.radians(lat0)))
+            lat, lon, _ = ned_to_lla((lat0, lon0, alt0), (n, e, d))
             out.append(mk(tl.MAVLink_sim_state_message(1, 0, 0, 0, 0, 0.1, 0, 0, 0, 0, 0, 0, 0,
                                                        lat, lon, alt0 - d, 0, 0, 5.0, 0, 0,
                                                        int(round(lat * 1e7)), int(round(lon * 1e7))), sysid))

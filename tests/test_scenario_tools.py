@@ -115,7 +115,7 @@ def test_cli_static_transform_prints_both_directions():
     assert "- Translation: [72.721, -131.193, 0.000]" in text
     assert "in RPY (degree) [0.000, 0.000, -30.000]" in text
     assert "in RPY (degree) [0.000, 0.000, 30.000]" in text   # the inverse turns back
-    inv = Transform.from_euler(yaw, 0, 0, translation=(72.72144, -131.19296, 0)).inverse()
+    inv = Transform.from_euler(yaw=yaw, translation=(72.72144, -131.19296, 0)).inverse()
     tx, ty, _ = np.asarray(inv.translation)
     assert f"- Translation: [{tx:.3f}, {ty:.3f}, 0.000]" in text
 

@@ -24,13 +24,19 @@ def run(tmp_path_factory):
     # (issue 11), so on a loaded 2-core CI machine their wall-clock lag becomes speedup
     # times as much sim lag and the rover's follow error grew past 1 m at 5x (CI: 1.03 m).
     with launched(run_dir, goals=tower_goals(MISSION_WORLD), follow_frame="drone_yaw",
-                  finish="land", speedup=2.0) as launch:
-        s = finish(launch, timeout=150)
-    return run_dir, s
+                  finish="land", speedup=2.0, view_port=0) as launch:
+        # a Foxglove client watches the whole flight live (`towerlink fly --view`)
+        from foxglove_client import FoxgloveClient
+        live = FoxgloveClient(launch.view.url, ("/tf", "/tf_static", "/vehicles", "/goals"))
+        try:
+            s = finish(launch, timeout=150)
+        finally:
+            live.stop()
+    return run_dir, s, live
 
 
 def test_checkpoint1_goals_sent_in_tower_frame_are_reached(run):
-    run_dir, s = run
+    run_dir, s, _live = run
     t = tower_result(run_dir)
     assert t["ok"] and t["finished"]
     assert s["goals_reached"] == s["goals_total"] >= 3
@@ -54,7 +60,7 @@ def test_checkpoint1_goals_sent_in_tower_frame_are_reached(run):
 
 
 def test_checkpoint2_rover_follows_the_drone_to_the_goals(run):
-    run_dir, s = run
+    run_dir, s, _live = run
     errs = [g["rover_error_at_arrival"] for g in s["goals"]]
     assert all(e is not None for e in errs)
     # at each goal arrival the rover is close to the ground point under the drone
@@ -67,7 +73,7 @@ def test_checkpoint2_rover_follows_the_drone_to_the_goals(run):
 
 
 def test_checkpoint3_yaw_only_frame_removes_the_wobble(run):
-    run_dir, s = run
+    run_dir, s, _live = run
     fl, w = s["flight"], s["wobble"]
     assert fl["max_speed"] > 4.5 and abs(fl["mean_height"] - 9.0) < 1.0   # ~5 m/s cruise at 9 m
     assert w["drone"]["n"] > 50 and w["drone_yaw"]["n"] == w["drone"]["n"]
@@ -82,19 +88,57 @@ def test_checkpoint3_yaw_only_frame_removes_the_wobble(run):
 
 
 def test_checkpoint3_rover_follow_error_rms_within_1m(run):
-    run_dir, s = run
+    run_dir, s, _live = run
     fe = s["follow_error"]
     assert fe["source"].startswith("truth") and fe["n"] > 100
     assert fe["rms"] <= 1.0, s["text"]
 
 
 def test_run_folder_is_complete(run):
-    run_dir, s = run
+    run_dir, s, _live = run
     names = {p.name for p in run_dir.iterdir()}
     for f in ("vehicles.tlog", "bridge.tlog", "tower.tlog", "tower.json", "summary.json",
-              "summary.txt", "tracks.png", "frames.pdf", "frames.png", "frames.yaml", "meta.json"):
+              "summary.txt", "tracks.png", "frames.pdf", "frames.png", "frames.yaml", "meta.json", "run.mcap"):
         assert f in names, f
     y = (run_dir / "frames.yaml").read_text()
     for frame in ("tower", "drone", "drone_yaw", "rover"):
         assert f"{frame}: \n  parent: 'world'" in y
     assert "MISSION OK" in s["text"]
+
+
+def test_live_view_saw_the_bridge_tree_on_the_sim_clock(run):
+    run_dir, s, live = run
+    from tools.view_frames import buffer_from_tlog
+    buf, _now = buffer_from_tlog(run_dir / "bridge.tlog")
+    bridge_edges = {(st.parent, child) for child, st in buf.edge_stats().items()}
+    seen = {(ft["parent_frame_id"], ft["child_frame_id"])
+            for topic in ("/tf", "/tf_static") for _, body in live.of(topic) for ft in body["transforms"]}
+    assert seen == bridge_edges and {("world", "tower"), ("world", "drone"), ("world", "drone_yaw"),
+                                     ("world", "rover")} <= seen
+    tf = live.of("/tf")
+    assert len(tf) > 100
+    # log time is the transform's own sim stamp, and the sim clock spans the mission
+    for t, body in tf:
+        st = body["transforms"][0]["timestamp"]
+        assert t == st["sec"] * 10**9 + st["nsec"]
+    drone_t = [t for t, b in tf if b["transforms"][0]["child_frame_id"] == "drone"]
+    assert drone_t == sorted(drone_t) and (drone_t[-1] - drone_t[0]) / 1e9 >= s["goals"][-1]["time_to_reach"]
+    assert live.of("/goals") and live.of("/vehicles")
+    assert live.times and live.times[-1] >= drone_t[-1]
+
+
+def test_run_mcap_holds_every_channel_monotonic_and_tf_echo_reads_it_like_the_tlog(run, capsys):
+    run_dir, s, _live = run
+    from tools.run_mcap import read_records
+    from tools.scene_feed import TOPICS
+    recs = list(read_records(run_dir / "run.mcap"))
+    assert {t for t, _, _ in recs} == set(TOPICS)
+    times = [ns for _, ns, _ in recs]
+    assert times == sorted(times)
+    from tools.cli import main
+    t = tower_result(run_dir)["goals"][1]["reached_sim"]     # mid-mission: the drone is moving
+    outs = []
+    for src in ("bridge.tlog", "run.mcap"):
+        assert main(["tf-echo", "tower", "drone", "--tlog", str(run_dir / src), "--time", f"{t:.3f}"]) == 0
+        outs.append(capsys.readouterr().out)
+    assert outs[0] == outs[1] and "Translation" in outs[0]

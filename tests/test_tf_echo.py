@@ -17,7 +17,8 @@ from support import free_ports, wait_until
 from gcs.frames import euler_from_quaternion
 from tools.tf_format import format_tf_echo
 
-TOWER = TransformStamped("world", "tower", 0.0, Transform.from_euler(-math.pi / 6, 0, 0, (72.72144, -131.19296, 0)))
+TOWER = TransformStamped("world", "tower", 0.0,
+                         Transform.from_euler(yaw=-math.pi / 6, translation=(72.72144, -131.19296, 0)))
 
 
 def parse_block(text: str):
@@ -29,7 +30,7 @@ def parse_block(text: str):
 
 
 def test_format_shape_matches_tf_echo():
-    T = Transform.from_euler(-math.pi / 2, 0, 0, (2.398, 6.783, 0))
+    T = Transform.from_euler(yaw=-math.pi / 2, translation=(2.398, 6.783, 0))
     text = format_tf_echo(TransformStamped("a", "b", 1263248513.809, T))
     assert text == ("At time 1263248513.809\n"
                     "- Translation: [2.398, 6.783, 0.000]\n"
@@ -37,7 +38,7 @@ def test_format_shape_matches_tf_echo():
                     "            in RPY (radian) [0.000, 0.000, -1.571]\n"
                     "            in RPY (degree) [0.000, 0.000, -90.000]")
     # roll, pitch, yaw order with R = Rz(yaw) Ry(pitch) Rx(roll)
-    r, p, y = euler_from_quaternion(Transform.from_euler(0.3, -0.2, 0.1).xyzw)
+    r, p, y = euler_from_quaternion(Transform.from_euler(yaw=0.3, pitch=-0.2, roll=0.1).xyzw)
     assert (r, p, y) == pytest.approx((0.1, -0.2, 0.3))
     assert format_tf_echo(((1, 2, 3), (0, 0, 0, 1)), 5).startswith("At time 5.000\n")
 
@@ -52,7 +53,8 @@ def write_tlog(path, msgs):
 
 
 def drone_at(t):
-    return TransformStamped("world", "drone", t, Transform.from_euler(0.1 * t, 0.05, 0, (t, 2 * t, -9)))
+    return TransformStamped("world", "drone", t,
+                            Transform.from_euler(yaw=0.1 * t, pitch=0.05, translation=(t, 2 * t, -9)))
 
 
 def tfecho(*args):
@@ -122,7 +124,7 @@ def test_live_from_running_bridge(processes):
                                 f"udpin:127.0.0.1:{oport}", "--rate", "10", "--count", "3",
                                 "--timeout", "30"], stderr=subprocess.DEVNULL)
         wait_until(lambda: drone.peer, 15, "bridge up")
-        T = Transform.from_euler(1.0, 0.2, -0.1, (-4, -2, -9))
+        T = Transform.from_euler(yaw=1.0, pitch=0.2, roll=-0.1, translation=(-4, -2, -9))
         x, y, z, w = T.xyzw
         k = 0
         def feed():

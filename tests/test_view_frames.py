@@ -16,10 +16,10 @@ def _buffer() -> Buffer:
     for k in range(21):
         t = 100.0 + 0.1 * k
         b.set_transform(TransformStamped("world", "drone", t,
-                                         Transform.from_euler(0.1, 0.2, 0.0, translation=(t, 0, -9))),
+                                         Transform.from_euler(yaw=0.1, pitch=0.2, translation=(t, 0, -9))),
                         "mavlink:250")
         b.set_transform(TransformStamped("world", "drone_yaw", t,
-                                         Transform.from_euler(0.1, 0, 0, translation=(t, 0, -9))),
+                                         Transform.from_euler(yaw=0.1, translation=(t, 0, -9))),
                         "mavlink:250")
         b.set_transform(TransformStamped("drone", "camera", t, Transform.identity()), "cam")
     return b
@@ -97,7 +97,7 @@ def test_from_tlog_and_cli(tmp_path, capsys):
     path = tmp_path / "bridge.tlog"
     with open(path, "wb") as f:
         for ts, static in [(TransformStamped("world", "tower", 0.0,
-                                             Transform.from_euler(-0.5, 0, 0, translation=(72.7, -131.2, 0))), True)] + \
+                                             Transform.from_euler(yaw=-0.5, translation=(72.7, -131.2, 0))), True)] + \
                 [(TransformStamped("world", "drone", 5 + 0.1 * k,
                                    Transform(translation=(k, 0, -9))), False) for k in range(30)]:
             f.write(struct.pack(">Q", 1_700_000_000_000_000) + transform_message(ts, static).pack(mav))

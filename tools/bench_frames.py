@@ -39,17 +39,17 @@ def _drone_samples(n: int) -> tuple[np.ndarray, list[Transform], list[Transform]
     drone, yaw = [], []
     for t in times:
         yw, pitch, roll = 0.3 * t, 0.1 * math.sin(t), 0.05 * math.cos(1.3 * t)
-        drone.append(Transform.from_euler(yw, pitch, roll, (5 * math.cos(0.2 * t), 5 * math.sin(0.2 * t),
-                                                            -10.0 + rng.uniform(-0.01, 0.01))))
+        xyz = (5 * math.cos(0.2 * t), 5 * math.sin(0.2 * t), -10.0 + rng.uniform(-0.01, 0.01))
+        drone.append(Transform.from_euler(yaw=yw, pitch=pitch, roll=roll, translation=xyz))
         # drone -> drone_yaw: undo roll and pitch (a yaw-only frame at the drone's origin)
-        yaw.append(Transform.from_euler(0.0, -pitch, 0.0) * Transform.from_euler(0.0, 0.0, -roll))
+        yaw.append(Transform.from_euler(pitch=-pitch) * Transform.from_euler(roll=-roll))
     return times, drone, yaw
 
 
 def _towerlink_chain(times, drone, yaw) -> Buffer:
     buf = Buffer(cache_time=SECONDS + 1.0)
     buf.set_transform_static(TransformStamped(
-        "world", "tower", 0.0, Transform.from_euler(0.6, 0.0, 0.0, (-133.6, 85.9, -2.0))), "bench")
+        "world", "tower", 0.0, Transform.from_euler(yaw=0.6, translation=(-133.6, 85.9, -2.0))), "bench")
     for t, d, y in zip(times.tolist(), drone, yaw):
         buf.set_transform(TransformStamped("world", "drone", t, d), "bench")
         buf.set_transform(TransformStamped("drone", "drone_yaw", t, y), "bench")
@@ -65,7 +65,7 @@ def _pytransform3d_chain(times, drone, yaw):
     from pytransform3d.transform_manager import (NumpyTimeseriesTransform, StaticTransform,
                                                  TemporalTransformManager)
     tm = TemporalTransformManager(check=False)
-    tower = Transform.from_euler(0.6, 0.0, 0.0, (-133.6, 85.9, -2.0))
+    tower = Transform.from_euler(yaw=0.6, translation=(-133.6, 85.9, -2.0))
     tm.add_transform("tower", "world", StaticTransform(tower.to_matrix()))
     tm.add_transform("drone", "world", NumpyTimeseriesTransform(times, np.array([_pq(d) for d in drone])))
     tm.add_transform("drone_yaw", "drone", NumpyTimeseriesTransform(times, np.array([_pq(y) for y in yaw])))
@@ -140,7 +140,7 @@ def main(argv: list[str] | None = None) -> int:
     from scipy.spatial.transform import Rotation
     npts = 1_000_000
     pts = np.random.default_rng(3).uniform(-100, 100, (npts, 3))
-    tf = Transform.from_euler(0.3, 0.2, 0.1, (1.0, 2.0, 3.0))
+    tf = Transform.from_euler(yaw=0.3, pitch=0.2, roll=0.1, translation=(1.0, 2.0, 3.0))
     rot = Rotation.from_quat(np.asarray(tf.rotation))
     for _ in range(2):  # warm: allocator, BLAS, caches
         tf.apply_point(pts), tf.apply_vector(pts), rot.apply(pts)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 # name -> (module, one-line summary). Order is the order `--help` lists them.
@@ -25,6 +26,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "static-transform": ("tools.static_transform", "validate a static transform and print it both ways (tf_echo shape)"),
     "tf-echo": ("tools.tf_echo", "print a transform live from the bridge or offline from a tlog"),
     "view-frames": ("tools.view_frames", "draw the frame tree with per-edge statistics (PDF/PNG/SVG + text)"),
+    "view": ("tools.live_view", "serve the bridge's stream live to Foxglove (WebSocket; needs towerlink[view])"),
     "plot": ("tools.plot_tracks", "plot the tracks of a run folder or tlog"),
     "bench": ("tools.bench", "run the benchmarks, peers side by side"),
 }
@@ -65,6 +67,12 @@ def main(argv: list[str] | None = None) -> int:
         return int(module.run(args) or 0)
     except KeyboardInterrupt:
         return 130
+    except BrokenPipeError:     # `towerlink ... | head`: the reader left; no traceback
+        try:
+            sys.stdout = open(os.devnull, "w")
+        except OSError:
+            pass
+        return 141
 
 
 if __name__ == "__main__":

@@ -51,6 +51,9 @@ import threading
 import time
 from pathlib import Path
 
+from gcs.geo import lla_to_ned
+from gcs.mavstr import mav_str
+
 os.environ.setdefault("MAVLINK20", "1")
 
 DRONE, ROVER = 1, 2
@@ -108,6 +111,7 @@ class Monitor(threading.Thread):
         self.params: dict[str, float] = {}
         self.follow = None
         self.counts = {name: 0 for name in ports}
+        self.listeners: dict[str, object] = {}    # link name -> callable(message), e.g. the live view
 
     def run(self) -> None:
         import selectors
@@ -143,6 +147,12 @@ class Monitor(threading.Thread):
             f.write(usec + m.get_msgbuf())
             self.counts[name] += 1
             self._track(m)
+            listener = self.listeners.get(name)
+            if listener is not None:
+                try:
+                    listener(m)
+                except Exception:  # noqa: BLE001 - a viewer's fault must not stop the recording
+                    self.listeners.pop(name, None)
 
     def _track(self, m) -> None:
         t = m.get_type()
@@ -159,15 +169,12 @@ class Monitor(threading.Thread):
                 lat0, lon0, alt0, ox, oy, oz = self.origin[src]
                 lat = m.lat_int * 1e-7 if getattr(m, "lat_int", 0) else m.lat
                 lon = m.lon_int * 1e-7 if getattr(m, "lon_int", 0) else m.lon
-                k = 6378137.0 * math.pi / 180.0
-                self.truth[src] = ((lat - lat0) * k + ox,
-                                   (lon - lon0) * k * math.cos(math.radians(lat0)) + oy,
-                                   alt0 - m.alt + oz)
+                n, e, d = lla_to_ned((lat0, lon0, alt0), lat, lon, m.alt)
+                self.truth[src] = (n + ox, e + oy, d + oz)
             elif t == "LOCAL_POSITION_NED":
                 self.estimate[src] = (m.x, m.y, m.z)
             elif t == "PARAM_VALUE" and src == DRONE:
-                pid = m.param_id if isinstance(m.param_id, str) else m.param_id.decode()
-                self.params[pid.rstrip("\x00")] = float(m.param_value)
+                self.params[mav_str(m.param_id)] = float(m.param_value)
             elif t == "TOWERLINK_FOLLOW_STATUS":
                 self.follow = m
 
@@ -217,7 +224,8 @@ class Launch:
                  goals: str | None = None, alt: float | None = None, radius: float | None = None,
                  finish: str | None = None, goal_timeout: float = 120.0, tower_loss: float = 0.0,
                  loss_seed: int = 1, sitl_args: tuple[str, ...] = (), bridge_args: tuple[str, ...] = (),
-                 tower_args: tuple[str, ...] = (), echo: bool = False, host: str = "127.0.0.1") -> None:
+                 tower_args: tuple[str, ...] = (), echo: bool = False, host: str = "127.0.0.1",
+                 view_port: int | None = None) -> None:
         self.dir = Path(run_dir)
         self.dir.mkdir(parents=True, exist_ok=True)
         self.scenario = str(Path(scenario).resolve()) if scenario else None
@@ -242,6 +250,8 @@ class Launch:
         self.t_wall0 = None
         self.sim0 = None
         self.bridge_restarts = 0
+        self.view_port = view_port      # None: no live view; 0: any free port
+        self.view = None
 
     # -- processes
 
@@ -308,6 +318,13 @@ class Launch:
                 self.goal_state.update(n=n, total=total, last=what)
                 if what == "reached":
                     self.goal_state["reached"] = n
+            g = re.search(r"goal \d+/\d+ sent: \w+ \[([^\]]+)\] at t=([-\d.]+) s", line)
+            if g and self.view is not None:
+                try:
+                    p = tuple(float(v) for v in g.group(1).split(","))
+                    self.view.goal(float(g.group(2)), (p + (0.0, 0.0, 0.0))[:3])
+                except ValueError:
+                    pass
             if self.echo:
                 print(f"  {line}", flush=True)
 
@@ -316,6 +333,10 @@ class Launch:
         self.t_wall0 = time.monotonic()
         self.monitor = Monitor(self.dir, {"vehicles": self.ports["vehicles"], "bridge": self.ports["bridge"]},
                                self.host)
+        if self.view_port is not None:
+            from tools.live_view import LiveView
+            self.view = LiveView(self.host, self.view_port)
+            self.monitor.listeners["bridge"] = self.view.on_message
         self.monitor.start()
         self._start("sitl", self.sitl_cmd())
         self.start_bridge()
@@ -419,6 +440,9 @@ class Launch:
             self.proxy.stop()
         if self.monitor is not None:
             self.monitor.stop()
+        if self.view is not None:
+            self.view.stop()
+            self.view = None
         for log in self.logs.values():
             try:
                 log.close()
@@ -462,6 +486,12 @@ class Launch:
                 extras.append("frames.pdf")
         except Exception as exc:  # noqa: BLE001
             extras.append(f"(frames diagram failed: {exc})")
+        try:
+            from tools.run_mcap import write_run_mcap
+            write_run_mcap(self.dir)
+            extras.append("run.mcap")
+        except Exception as exc:  # noqa: BLE001 - the recording must not hide the summary
+            extras.append(f"(run.mcap failed: {exc})")
         files = sorted(p.name for p in self.dir.iterdir())
         text += f"\nrun folder {self.dir}: {' '.join(files)}"
         (self.dir / "summary.txt").write_text(text + "\n")
@@ -512,6 +542,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--goal-timeout", type=float, default=120.0, help="wall seconds per goal")
     parser.add_argument("--tower-loss", type=float, default=0.0,
                         help="drop this fraction of the tower link's packets (seeded proxy), e.g. 0.2")
+    parser.add_argument("--view", nargs="?", type=int, const=8765, default=None, metavar="PORT",
+                        help="serve the run live to Foxglove on ws://127.0.0.1:PORT (default port 8765; "
+                             "0 picks a free one; needs towerlink[view]). Every run also writes run.mcap")
     parser.add_argument("-v", "--verbose", action="store_true", help="echo the tower's log lines")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
 
@@ -527,7 +560,7 @@ def run(args: argparse.Namespace) -> int:
     launch = Launch(out, scenario=args.scenario, speedup=args.speedup, seed=args.seed,
                     follow_frame=args.follow_frame, goals=args.goals, alt=args.alt, radius=args.radius,
                     finish=args.finish, goal_timeout=args.goal_timeout, tower_loss=args.tower_loss,
-                    echo=args.verbose)
+                    echo=args.verbose, view_port=args.view)
     print(f"towerlink fly: world + bridge + tower on 127.0.0.1 (ports {launch.ports}); run folder {out}",
           flush=True)
 
@@ -540,6 +573,9 @@ def run(args: argparse.Namespace) -> int:
     failure = None
     try:
         launch.start()
+        if launch.view is not None:
+            print(f"towerlink fly: live view for Foxglove at {launch.view.url} "
+                  "(Open connection > Foxglove WebSocket; layout: docs/foxglove_layout.json)", flush=True)
         rc = launch.wait(args.timeout, progress=None if args.quiet else 1.0)
         if rc is None:
             failure = f"timed out after {args.timeout:g} s wall"

@@ -29,12 +29,15 @@ from typing import Any
 
 import numpy as np
 
+from gcs.frames.batch import ground_point
+from gcs.geo import lla_to_ned
+from gcs.mavstr import mav_str
+
 os.environ.setdefault("MAVLINK20", "1")
 
 DRONE, ROVER = 1, 2
 # ArduPilot Copter defaults, used when the tlog holds no PARAM_VALUE for them.
 PARAM_DEFAULTS = {"WPNAV_SPEED": 500.0, "WPNAV_ACCEL": 250.0, "PSC_JERK_XY": 5.0}
-EARTH_M_PER_DEG = 6378137.0 * math.pi / 180.0
 
 
 # ----------------------------------------------------------------------------- minimum time
@@ -142,12 +145,6 @@ FOLLOW_FIELDS = ("t", "ref_x", "ref_y", "full_x", "full_y", "yaw_x", "yaw_y", "g
                  "rover_x", "rover_y", "height", "tilt", "err_full", "err_yaw", "follow_frame", "state")
 
 
-def _s(v: Any) -> str:
-    if isinstance(v, bytes):
-        v = v.decode(errors="replace")
-    return str(v).rstrip("\x00")
-
-
 def load_messages(msgs: Iterable[Any], data: RunData | None = None) -> RunData:
     """Fold a message stream (one tlog, or several one after the other) into RunData."""
     data = data or RunData()
@@ -175,20 +172,20 @@ def load_messages(msgs: Iterable[Any], data: RunData | None = None) -> RunData:
         elif t == "HOME_POSITION":
             home[src] = ((m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3), (m.x, m.y, m.z))
         elif t == "PARAM_VALUE":
-            data.params.setdefault(src, {})[_s(m.param_id)] = float(m.param_value)
+            data.params.setdefault(src, {})[mav_str(m.param_id)] = float(m.param_value)
         elif t == "TOWERLINK_FOLLOW_STATUS":
             follow_rows.append((m.time_usec * 1e-6, m.ref_x, m.ref_y, m.full_x, m.full_y, m.yaw_x,
                                 m.yaw_y, m.goal_x, m.goal_y, m.rover_x, m.rover_y, m.height, m.tilt,
                                 m.err_full, m.err_yaw, m.follow_frame, m.state))
         elif t == "TOWERLINK_TRANSFORM":
-            key = (_s(m.frame_id), _s(m.child_frame_id))
+            key = (mav_str(m.frame_id), mav_str(m.child_frame_id))
             v = tuple(float(x) for x in (*m.translation, *m.rotation))
             if m.flags & 1:
                 data.statics[key] = v
             else:
                 data.transforms.setdefault(key, []).append((m.time_usec * 1e-6, v))
         elif t == "TOWERLINK_BRIDGE_STATUS":
-            data.bridge_status[_s(m.link)] = {k: int(getattr(m, k)) for k in
+            data.bridge_status[mav_str(m.link)] = {k: int(getattr(m, k)) for k in
                                               ("rx_packets", "tx_packets", "malformed", "unroutable",
                                                "translated", "deferred")}
     for src, rows in truth_lla.items():
@@ -219,12 +216,10 @@ def _lla_converter(origin, home):
         (lat0, lon0, alt0), off = home
     else:
         return None
-    c = math.cos(math.radians(lat0))
 
     def conv(lat, lon, alt):
-        return ((lat - lat0) * EARTH_M_PER_DEG + off[0],
-                (lon - lon0) * EARTH_M_PER_DEG * c + off[1],
-                (alt0 - alt) + off[2])
+        n, e, d = lla_to_ned((lat0, lon0, alt0), lat, lon, alt)
+        return n + off[0], e + off[1], d + off[2]
     return conv
 
 
@@ -260,19 +255,16 @@ def ground_point_errors(transforms: list[tuple[float, tuple]]) -> tuple[np.ndarr
     """Attitude-caused ground-point error of each recorded world -> drone-frame transform.
 
     The ground point is (0, 0, h) in the drone frame, h = the drone's height (-z of its
-    origin in world), mapped to world; its horizontal distance from the frame's own
-    origin is what the attitude adds (h·tan(tilt) for a full-attitude frame, 0 for a
-    yaw-only one). Returns (stamps, errors).
+    origin in world), mapped to world (gcs.frames.batch.ground_point, the follow's own);
+    its horizontal distance from the frame's own origin is what the attitude adds
+    (h·sin(tilt) for a full-attitude frame, 0 for a yaw-only one). Returns (stamps, errors).
     """
     if not transforms:
         return np.zeros(0), np.zeros(0)
     a = np.array([(t, *v) for t, v in transforms], float)
-    t, x, y, z, qx, qy, qz, qw = a.T
-    h = -z
-    # third column of R(q) times h: R[:,2] = (2(xz+wy), 2(yz-wx), 1-2(x²+y²))
-    dx = 2.0 * (qx * qz + qw * qy) * h
-    dy = 2.0 * (qy * qz - qw * qx) * h
-    return t, np.hypot(dx, dy)
+    t, xyz, q = a[:, 0], a[:, 1:4], a[:, 4:8]
+    gp = ground_point(xyz, q, -xyz[:, 2])
+    return t, np.hypot(gp[:, 0] - xyz[:, 0], gp[:, 1] - xyz[:, 1])
 
 
 def _stat(x: np.ndarray) -> dict[str, float | int]:

@@ -10,7 +10,8 @@ Live (default): listen for the bridge's transform stream (TOWERLINK_TRANSFORM) o
 `--out udpout:127.0.0.1:14610`), fill a frame Buffer, and print the latest
 transform at --rate Hz (LATEST = the latest common time, as tf2_echo does).
 
-Offline: --tlog FILE reads a tlog (pymavlink / MAVProxy / the tower's) and prints the
+Offline: --tlog FILE reads a tlog (pymavlink / MAVProxy / the tower's), or a run's
+MCAP recording (a FILE ending in .mcap: its /tf and /tf_static channels), and prints the
 transform at --time T (sim seconds, interpolated like tf2), or at every stamp of the
 chain's dynamic edges when --time is not given (once, at time 0, for a static chain).
 
@@ -39,7 +40,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("target_frame", help="frame whose pose is printed")
     p.add_argument("--connect", default=DEFAULT_CONNECT,
                    help="live: where the bridge's transform stream arrives (default %(default)s)")
-    p.add_argument("--tlog", default=None, help="offline: read this tlog instead of listening")
+    p.add_argument("--tlog", default=None,
+                   help="offline: read this tlog (or run.mcap, by its .mcap ending) instead of listening")
     p.add_argument("--time", type=float, default=None, help="offline: sim time to look up (s)")
     p.add_argument("--rate", type=float, default=1.0, help="live: prints per second (default %(default)s)")
     p.add_argument("--count", type=int, default=None, help="stop after N prints")
@@ -73,11 +75,20 @@ def read_tlog(path: str, cache_time: float = 1e9):
     return lis
 
 
+def read_mcap(path: str):
+    """The same shape as read_tlog's listener (.buffer, .stamps), from a run.mcap."""
+    from types import SimpleNamespace
+    from tools.run_mcap import buffer_from_mcap
+
+    buf, stamps, _latest = buffer_from_mcap(path)
+    return SimpleNamespace(buffer=buf, stamps=stamps)
+
+
 def run_offline(args) -> int:
     from gcs.frames import LATEST, TransformException
 
     try:
-        lis = read_tlog(args.tlog)
+        lis = read_mcap(args.tlog) if str(args.tlog).endswith(".mcap") else read_tlog(args.tlog)
     except OSError as exc:
         print(f"tf-echo: {exc}", file=sys.stderr)
         return 2

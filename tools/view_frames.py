@@ -6,7 +6,8 @@ length. Sources:
 
   live (default)  listen to the bridge's transform stream (TOWERLINK_TRANSFORM) on a
                   UDP port it pushes to, for --duration wall seconds
-  --tlog FILE     every TOWERLINK_TRANSFORM recorded in a tlog (a run's bridge.tlog)
+  --tlog FILE     every TOWERLINK_TRANSFORM recorded in a tlog (a run's bridge.tlog),
+                  or the /tf and /tf_static channels of a run's run.mcap
   --scenario FILE the scenario's static frames only (no MAVLink needed)
 
 Output: -o frames.pdf | frames.png | frames.svg (default frames.pdf). With Graphviz
@@ -49,6 +50,11 @@ def buffer_from_messages(msgs, cache_time: float = 10.0):
 
 
 def buffer_from_tlog(path: str | os.PathLike, cache_time: float = 10.0):
+    """(Buffer, newest stamp) from a tlog, or from a run.mcap (by its .mcap ending)."""
+    if str(path).endswith(".mcap"):
+        from tools.run_mcap import buffer_from_mcap
+        buf, _stamps, latest = buffer_from_mcap(path, cache_time)
+        return buf, latest
     from tools.run_summary import read_tlog
     return buffer_from_messages(read_tlog(path), cache_time)
 
@@ -303,7 +309,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     src = parser.add_mutually_exclusive_group()
     src.add_argument("--listen", default=DEFAULT_LISTEN,
                      help=f"listen for the bridge's transform stream here (default {DEFAULT_LISTEN})")
-    src.add_argument("--tlog", default=None, help="read TOWERLINK_TRANSFORMs from a tlog instead")
+    src.add_argument("--tlog", default=None,
+                     help="read TOWERLINK_TRANSFORMs from a tlog (or /tf from a run.mcap) instead")
     src.add_argument("--scenario", default=None, nargs="?", const="",
                      help="draw a scenario's static frames (no argument: the built-in default)")
     parser.add_argument("--duration", type=float, default=5.0,

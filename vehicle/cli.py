@@ -17,6 +17,12 @@ Examples:
   towerlink sitl                                  # drone + rover on the default ports
   towerlink sitl --drones 2 --rovers 0 --speedup 5
   towerlink sitl --endpoint 0=udpin:127.0.0.1:20000 --out udpout:127.0.0.1:14550
+  towerlink sitl --mission 0=survey.waypoints       # vehicle 0 starts with this mission
+
+Missions, fences and rally points uploaded by a GCS are saved beside the parameters
+(STATE_DIR/drone<j>.missions.json) and loaded on the next start. --mission I=FILE loads a
+QGC WPL 110 file (as written by QGroundControl, Mission Planner, MAVProxy 'wp save') into
+vehicle I's mission at start, replacing the saved one.
 """
 from __future__ import annotations
 
@@ -58,6 +64,29 @@ def _out(s: str) -> str:
     return s
 
 
+def _mission(s: str):
+    """I=FILE -> (I, [MissionItem]); a file that cannot be read or an item that an upload
+    would refuse is an argparse error naming it."""
+    from gcs import wpl
+    from pymavlink.dialects.v20 import ardupilotmega as mav
+    from vehicle.link.mission_items import from_wpl
+    i, sep, path = s.partition("=")
+    if not sep or not i.strip().isdigit():
+        raise argparse.ArgumentTypeError("expected INDEX=FILE (a QGC WPL 110 file)")
+    try:
+        lines = wpl.read(path)
+    except (OSError, ValueError) as e:
+        raise argparse.ArgumentTypeError(str(e))
+    items = []
+    names = {v: e.name for v, e in mav.enums["MAV_MISSION_RESULT"].items()}
+    for w in lines:
+        result, item = from_wpl(w)
+        if item is None:
+            raise argparse.ArgumentTypeError(f"{path}: item {w.seq} refused: {names.get(result, result)}")
+        items.append(item)
+    return int(i), items
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--drones", type=int, default=1, metavar="N", help="number of drones (default 1)")
     p.add_argument("--rovers", type=int, default=1, metavar="M", help="number of rovers (default 1)")
@@ -75,6 +104,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="extra endpoint for every vehicle (repeatable)")
     p.add_argument("--endpoint", action="append", default=[], type=_endpoint, metavar="I=SPEC",
                    help="endpoint for vehicle I; replaces its defaults (repeatable)")
+    p.add_argument("--mission", action="append", default=[], type=_mission, metavar="I=FILE",
+                   help="QGC WPL 110 file loaded into vehicle I's mission at start (repeatable)")
     p.add_argument("--host", default="127.0.0.1", help="address of the default endpoints (default 127.0.0.1)")
     p.add_argument("--base-port", "--tcp-base", dest="tcp_base", type=int, default=5760,
                    help="TCP port of vehicle 0, +10 per vehicle (default 5760; 0: none)")
@@ -105,7 +136,7 @@ def config_from_args(a: argparse.Namespace) -> WorldConfig:
                        seed=a.seed, params_file=a.params, state_dir=None if a.no_save else a.state_dir,
                        tcp_base=a.tcp_base or None, udp_base=a.udp_base or None, host=a.host,
                        outs=list(a.out), endpoints=endpoints, sysid_base=a.sysid_base,
-                       signing_key=signing_key(a.signing_key))
+                       signing_key=signing_key(a.signing_key), missions=dict(a.mission))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -114,6 +145,11 @@ def run(args: argparse.Namespace) -> int:
         return 2
     if args.speedup <= 0 or args.rate < 50:
         print("towerlink sitl: --speedup must be > 0 and --rate >= 50", file=sys.stderr)
+        return 2
+    n = args.drones + args.rovers
+    bad = [i for i, _ in args.mission if i >= n]
+    if bad:
+        print(f"towerlink sitl: --mission {bad[0]}=...: there are only {n} vehicles (0..{n - 1})", file=sys.stderr)
         return 2
     world = World(config_from_args(args))
 

@@ -26,39 +26,9 @@ import math
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
+from gcs.frames.batch import quat_mul, rotate
+
 G = np.array([0.0, 0.0, 9.80665])
-
-
-def quat_to_R(q: np.ndarray) -> np.ndarray:
-    """(n,4) xyzw -> (n,3,3) body->world rotation matrices."""
-    x, y, z, w = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    R = np.empty((len(q), 3, 3))
-    R[:, 0, 0] = 1 - 2 * (y * y + z * z)
-    R[:, 0, 1] = 2 * (x * y - z * w)
-    R[:, 0, 2] = 2 * (x * z + y * w)
-    R[:, 1, 0] = 2 * (x * y + z * w)
-    R[:, 1, 1] = 1 - 2 * (x * x + z * z)
-    R[:, 1, 2] = 2 * (y * z - x * w)
-    R[:, 2, 0] = 2 * (x * z - y * w)
-    R[:, 2, 1] = 2 * (y * z + x * w)
-    R[:, 2, 2] = 1 - 2 * (x * x + y * y)
-    return R
-
-
-def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(n,4) x (n,4) Hamilton product, xyzw."""
-    if len(a) <= 8:                       # small batches: floats beat numpy's per-call cost
-        out = []
-        for (ax, ay, az, aw), (bx, by, bz, bw) in zip(a.tolist(), b.tolist()):
-            out.append((aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
-                        aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz))
-        return np.array(out, dtype=float).reshape(len(a), 4)
-    ax, ay, az, aw = a[:, 0], a[:, 1], a[:, 2], a[:, 3]
-    bx, by, bz, bw = b[:, 0], b[:, 1], b[:, 2], b[:, 3]
-    return np.stack([aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx,
-                     aw * bz + ax * by - ay * bx + az * bw,
-                     aw * bw - ax * bx - ay * by - az * bz], axis=1)
 
 
 def make_kf(dt: float, pos0, accel_sigma: float, gps_pos_sigma: float, gps_alt_sigma: float,
@@ -199,7 +169,6 @@ class Estimator:
         dq = np.column_stack([0.5 * self.ahrs_err, np.ones(self.n)])
         self.dq = dq / np.linalg.norm(dq, axis=1, keepdims=True)
         self.attitude(quat, rates, gyro_err)
-        from vehicle.sensors import rotate
         acc_w = rotate(self.quat, sensors.accel) + G
         if self.batched:
             b = self.bkf

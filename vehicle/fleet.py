@@ -266,15 +266,6 @@ class _FleetBase:
     def est_rates(self) -> np.ndarray:
         return self._est_stack(("wx", "wy", "wz"), "rates")
 
-    @property
-    def est_acc(self) -> np.ndarray:
-        return self._est_stack(("ax", "ay", "az"), "acc")
-
-    @property
-    def est_yaw(self) -> np.ndarray:
-        q = self.est_quat
-        return np.arctan2(2 * (q[:, 3] * q[:, 2] + q[:, 0] * q[:, 1]), 1 - 2 * (q[:, 1] ** 2 + q[:, 2] ** 2))
-
     def estimate(self, i: int) -> VehicleState:
         """What the autopilot believes about vehicle i."""
         if not self.use_estimator:
@@ -466,17 +457,6 @@ class CopterFleet(_FleetBase):
     def ctrl(self):
         """Component arrays of the controller state (reference, integrators, coll)."""
         return _SoA(self._cs, ccore.CopterCtrlState.FIELDS) if self.scalar else self._ctrl
-
-    @property
-    def ref_pos(self) -> np.ndarray:
-        """(n,3) shaped position reference the controller tracks (for POSITION_TARGET_*)."""
-        c = self.ctrl
-        return np.column_stack((c.px, c.py, c.pz))
-
-    @property
-    def ref_vel(self) -> np.ndarray:
-        c = self.ctrl
-        return np.column_stack((c.vx, c.vy, c.vz))
 
     def set_setpoint(self, i: int, sp: Setpoint) -> None:
         """Give vehicle i a new guidance target (see the module docstring for modes).

@@ -20,6 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gcs.frames.batch import rotate
+
 BLOCK = 256
 # slots in one row of standard normals
 _ACC, _GYR, _GPS_P, _GPS_V, _BARO, _AHRS = 0, 3, 6, 9, 12, 13
@@ -123,26 +125,3 @@ class Sensors:
         if baro:
             self.baro_alt = -pos[:, 2] + sp.baro_sigma * z[:, _BARO]
 
-
-def rotate(q: np.ndarray, v: np.ndarray, inverse: bool = False) -> np.ndarray:
-    """Rotate (n,3) vectors by (n,4) xyzw quaternions (body->world; inverse: world->body).
-    v' = v + 2w (u x v) + 2 u x (u x v), written out (np.cross is slow on small arrays)."""
-    s = -1.0 if inverse else 1.0
-    if len(q) <= 8:                       # small batches: floats beat numpy's per-call cost
-        out = []
-        for (ux, uy, uz, w), (vx, vy, vz) in zip(q.tolist(), v.tolist()):
-            ux, uy, uz = s * ux, s * uy, s * uz
-            tx = 2.0 * (uy * vz - uz * vy)
-            ty = 2.0 * (uz * vx - ux * vz)
-            tz = 2.0 * (ux * vy - uy * vx)
-            out.append((vx + w * tx + uy * tz - uz * ty, vy + w * ty + uz * tx - ux * tz,
-                        vz + w * tz + ux * ty - uy * tx))
-        return np.array(out, dtype=float).reshape(len(q), 3)
-    ux, uy, uz, w = s * q[:, 0], s * q[:, 1], s * q[:, 2], q[:, 3]
-    vx, vy, vz = v[:, 0], v[:, 1], v[:, 2]
-    tx = 2.0 * (uy * vz - uz * vy)
-    ty = 2.0 * (uz * vx - ux * vz)
-    tz = 2.0 * (ux * vy - uy * vx)
-    return np.column_stack((vx + w * tx + uy * tz - uz * ty,
-                            vy + w * ty + uz * tx - ux * tz,
-                            vz + w * tz + ux * ty - uy * tx))

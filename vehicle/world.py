@@ -22,6 +22,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vehicle.autopilot import CopterAutopilot, ParamStore, RoverAutopilot
+from vehicle.autopilot.mission_persist import PersistentMissionStore, missions_path
+from vehicle.autopilot.mission_store import MISSION, MissionItem, MissionStore
 from vehicle.autopilot.params import COPTER_TABLE, ROVER_TABLE, core_table, read_parm_file
 from vehicle.link import VehicleLink
 
@@ -48,6 +50,7 @@ class WorldConfig:
     endpoints: dict[int, list[str]] = field(default_factory=dict)  # vehicle index -> replaces defaults
     sysid_base: int = 1
     signing_key: bytes | None = None
+    missions: dict[int, list[MissionItem]] = field(default_factory=dict)  # vehicle index -> MISSION at start
 
     def vehicle_endpoints(self, i: int) -> list[str]:
         if i in self.endpoints:
@@ -97,13 +100,14 @@ class World:
                 continue
             core = core_table(kind)
             core_names = {d.name for d in core}
-            stores = []
+            stores, saves = [], []
             for j in range(n):
                 defaults = dict(file_params)
                 defaults["SYSID_THISMAV"] = cfg.sysid_base + index + j
                 save = (os.path.join(cfg.state_dir, f"{'drone' if kind == 'copter' else 'rover'}{j}.parm")
                         if cfg.state_dir else None)
                 stores.append(ParamStore(core + table, defaults, save))
+                saves.append(save)
             starts = np.array([self.start_position(kind, j) for j in range(n)], float)
             fleet_params = {name: stores[0][name] for name in core_names} if core_names else \
                 {name: stores[0][name] for name in stores[0].names}
@@ -115,10 +119,15 @@ class World:
             self.fleets.append((kind, fleet))
             for j in range(n):
                 push = self._pusher(fleet, core_names, j)
-                ap = ap_cls(fleet, j, stores[j], cfg.home, starts[j], push_params=push)
+                # missions, fence and rally points persist beside the parameters
+                missions = PersistentMissionStore(missions_path(saves[j])) if saves[j] else MissionStore()
+                ap = ap_cls(fleet, j, stores[j], cfg.home, starts[j], push_params=push, missions=missions)
                 link = VehicleLink(ap, self.clock, self.unix_start_us, cfg.vehicle_endpoints(index),
                                    signing_key=cfg.signing_key, params_changed=push)
                 self.vehicles.append(Vehicle(index, kind, j, ap, link))
+                if index in cfg.missions:        # --mission I=FILE: as if uploaded at start
+                    ap.missions.replace_all(MISSION, cfg.missions[index])
+                    ap.mission_uploaded(MISSION)
                 index += 1
         self._stop: asyncio.Event | None = None
         self._loop: asyncio.AbstractEventLoop | None = None

@@ -9,8 +9,10 @@ module writes that loop out for a given shape -- which edges are static and whic
 dynamic, on each side -- with all the float math inline, compiles it once per
 shape, and binds it to a path's edge objects with a closure.
 
-The generated code is equivalent to ``Buffer._eval_generic`` (the tests check
-chains against independent matrix products, and the buffer tests run both).
+This is the only evaluator lookups use. tests/frames_reference.py keeps the same
+computation written as the plain loop over the helper functions; the buffer tests
+check the generated code against it (bit for bit) and chains against independent
+matrix products.
 SLERP constants per segment come from ``E.segs`` (computed on insert, see
 ``buffer._segment``). Edges are read at call time (``E.value``, ``E.stamps``,
 ``E.values``, ``E.segs``), so new

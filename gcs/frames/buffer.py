@@ -61,9 +61,7 @@ from .errors import (ConnectivityException, ExtrapolationException,
 from . import _pathcode
 from .stamped import (LATEST, PointStamped, PoseStamped, TransformStamped, VectorStamped,
                       check_time)
-from .transform import (IDENTITY7, SLERP_NLERP_DOT, Transform, _compose, _interpolate,
-                        _inv_compose,
-                        _inverse)
+from .transform import IDENTITY7, SLERP_NLERP_DOT, Transform, _compose
 
 _isfinite = math.isfinite
 _monotonic = _time.monotonic
@@ -145,22 +143,6 @@ def _extrapolation(e: _Edge, t: float, target: str, source: str) -> Extrapolatio
         requested=t, earliest=s0, latest=s1)
 
 
-def _sample_edge(e: _Edge, t: float, target: str, source: str) -> tuple:
-    stamps = e.stamps
-    if stamps is None:
-        return e.value
-    i = bisect_left(stamps, t)
-    if i < len(stamps):
-        s1 = stamps[i]
-        if s1 == t:
-            return e.values[i]
-        if i:
-            s0 = stamps[i - 1]
-            vals = e.values
-            return _interpolate(vals[i - 1], vals[i], (t - s0) / (s1 - s0))
-    raise _extrapolation(e, t, target, source)
-
-
 _NO_SEGMENT = (0.0, 1.0, 1.0)
 
 
@@ -183,24 +165,6 @@ def _segment(a: tuple, b: tuple) -> tuple[float, float, float]:
 
 def _identity_ev(t: float) -> tuple:
     return IDENTITY7
-
-
-def _eval_generic(src: tuple, tgt: tuple, t: float, target: str, source: str) -> tuple:
-    """Reference evaluation of a path with the helper functions (what the generated
-    code in _pathcode does inline)."""
-    acc_s = None
-    for e in src:
-        v = _sample_edge(e, t, target, source)
-        acc_s = v if acc_s is None else _compose(v, acc_s)
-    acc_t = None
-    for e in tgt:
-        v = _sample_edge(e, t, target, source)
-        acc_t = v if acc_t is None else _compose(v, acc_t)
-    if acc_t is None:
-        return IDENTITY7 if acc_s is None else acc_s
-    if acc_s is None:
-        return _inverse(acc_t)
-    return _inv_compose(acc_t, acc_s)
 
 
 def _check_frame_id(frame: Any, what: str) -> None:
@@ -244,9 +208,6 @@ class Buffer:
         self._frames: dict[str, None] = {}  # insertion-ordered set of known frame ids
         self._paths: dict[tuple[str, str], tuple] = {}
         self._version = 0
-        #: evaluate paths with the helper-function loop instead of generated code
-        #: (a reference for tests; set it before the first lookup)
-        self._generic = False
 
     # ------------------------------------------------------------------ properties
     @property
@@ -421,13 +382,9 @@ class Buffer:
             chain_s = chain_s[:up[f]]
             dyn = tuple(e for e in chain_s + chain_t if e.stamps is not None)
             src_t, tgt_t = tuple(chain_s), tuple(chain_t)
-            if self._generic:
-                def ev(t, src_t=src_t, tgt_t=tgt_t):
-                    return _eval_generic(src_t, tgt_t, t, target, source)
-            else:
-                make = _pathcode.factory(tuple(e.stamps is None for e in chain_s),
-                                         tuple(e.stamps is None for e in chain_t), _extrapolation)
-                ev = make(*chain_s, *chain_t, target, source)
+            make = _pathcode.factory(tuple(e.stamps is None for e in chain_s),
+                                     tuple(e.stamps is None for e in chain_t), _extrapolation)
+            ev = make(*chain_s, *chain_t, target, source)
             p = (src_t, tgt_t, dyn, ev)
         if len(self._paths) >= _PATH_CACHE_MAX:
             self._paths.clear()

@@ -164,7 +164,7 @@ def _quat_from_euler(yaw: float, pitch: float, roll: float) -> tuple[float, floa
             cr * cp * cy + sr * sp * sy)
 
 
-#: |cos(pitch)| below this is treated as gimbal lock by to_euler() / yaw_only().
+#: |cos(pitch)| below this is treated as gimbal lock by yaw_pitch_roll() / yaw_only().
 GIMBAL_EPS = 1e-9
 
 
@@ -375,9 +375,13 @@ class Transform:
         return cls._of((float(a[0, 3]), float(a[1, 3]), float(a[2, 3])) + q)
 
     @classmethod
-    def from_euler(cls, yaw: float, pitch: float, roll: float,
+    def from_euler(cls, *, yaw: float = 0.0, pitch: float = 0.0, roll: float = 0.0,
                    translation: Any = (0.0, 0.0, 0.0)) -> "Transform":
-        """R = Rz(yaw) Ry(pitch) Rx(roll) (static_transform_publisher's order), radians."""
+        """R = Rz(yaw) Ry(pitch) Rx(roll) (static_transform_publisher's order), radians.
+
+        Keyword-only, so the order cannot be mistaken: tf.transformations'
+        quaternion_from_euler(roll, pitch, yaw) takes the same angles roll-first.
+        """
         e = _as_floats((yaw, pitch, roll), 3, "euler angles")
         t = _as_floats(translation, 3, "translation")
         return cls._of(t + _quat_from_euler(*e))
@@ -433,8 +437,8 @@ class Transform:
         m[:3, 3] = self._v[:3]
         return m
 
-    def to_euler(self) -> tuple[float, float, float]:
-        """(yaw, pitch, roll) in radians, R = Rz(yaw) Ry(pitch) Rx(roll), pitch in
+    def yaw_pitch_roll(self) -> tuple[float, float, float]:
+        """(yaw, pitch, roll) in radians, in that order as the name says, R = Rz(yaw) Ry(pitch) Rx(roll), pitch in
         [-pi/2, pi/2]. At pitch = +-90 deg (gimbal lock) roll is reported as 0."""
         return _euler_from_quat(*self._v[3:])
 
@@ -453,7 +457,7 @@ class Transform:
         The heading is the direction of the rotated x axis projected onto the
         horizontal (x-y) plane: ``yaw = atan2(R[1,0], R[0,0])``. At pitch exactly
         +-90 deg (x axis vertical, within ``GIMBAL_EPS``) that projection vanishes;
-        then the heading follows :meth:`to_euler`'s convention (roll = 0, all the
+        then the heading follows :meth:`yaw_pitch_roll`'s convention (roll = 0, all the
         rotation about z is yaw), i.e. the direction of the rotated y axis turned by
         -90 deg. Near that singularity the heading is numerically ill-conditioned,
         as it is for any yaw extraction.

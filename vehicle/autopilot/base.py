@@ -15,7 +15,9 @@ from collections.abc import Callable
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from vehicle.autopilot import geo, modes
+from gcs import geo
+from gcs.frames import euler_from_quaternion
+from vehicle.autopilot import modes
 from vehicle.autopilot.guided import GuidedTarget, TargetError, decode_global, decode_local
 from vehicle.autopilot.mission_store import MissionStore
 from vehicle.autopilot.params import ParamStore
@@ -91,7 +93,7 @@ class Autopilot:
         self.vel = _vec(est, "vel", "velocity", default=np.zeros(3))
         self.quat = _vec(est, "quat", "q", "attitude", default=np.array([0.0, 0.0, 0.0, 1.0]))
         self.rates = _vec(est, "rates", "omega", "gyro", "ang_vel", default=np.zeros(3))
-        self.yaw = geo.yaw_of(self.quat)
+        self.yaw = euler_from_quaternion(self.quat)[2]
         self.est_ok = bool(self.fleet.estimate_ok(self.i))
         self.on_ground = bool(self.fleet.landed(self.i))
 
@@ -333,7 +335,7 @@ class Autopilot:
             return FAILED
         if frame in (mav.MAV_FRAME_GLOBAL_RELATIVE_ALT, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT):
             alt += self.home_lla()[2]
-        ned = geo.lla_to_ned(self.origin, lat, lon, alt)
+        ned = np.asarray(geo.lla_to_ned(self.origin, lat, lon, alt))
         if np.linalg.norm(ned) > 50_000:    # ArduPilot refuses a home far from the EKF origin
             return FAILED
         self.home = ned

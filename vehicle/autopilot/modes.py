@@ -1,36 +1,30 @@
-"""Flight modes: ArduPilot numbers and names, what each mode allows, HEARTBEAT base_mode flags.
+"""Flight modes: what each mode allows, HEARTBEAT base_mode flags.
 
-Numbers are ArduPilot's (Copter: ArduCopter/mode.h, Rover: Rover/mode.h) so pymavlink's
-`mode_mapping()` and MAVProxy decode them. Modes we list but do not implement (AUTO) are
-refused with "Mode change to AUTO failed: init failed", as ArduPilot says when a mode's
-init fails.
+The numbers and names are ArduPilot's and live in gcs/modes.py (the bridge and the tools use
+them too), so pymavlink's `mode_mapping()` and MAVProxy decode them. Modes we list but do not
+implement (AUTO) are refused with "Mode change to AUTO failed: init failed", as ArduPilot
+says when a mode's init fails.
 """
 from __future__ import annotations
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
+from gcs.modes import (AUTO, COPTER_MODES, GUIDED, LAND, LOITER, ROVER_AUTO,  # noqa: F401 (re-exported)
+                       ROVER_GUIDED, ROVER_HOLD, ROVER_MANUAL, ROVER_MODES, ROVER_RTL, RTL, STABILIZE,
+                       mode_name)
+
 # Copter
-STABILIZE, AUTO, GUIDED, LOITER, RTL, LAND = 0, 3, 4, 5, 6, 9
-COPTER_MODES = {STABILIZE: "STABILIZE", AUTO: "AUTO", GUIDED: "GUIDED", LOITER: "LOITER",
-                RTL: "RTL", LAND: "LAND"}
 COPTER_SUPPORTED = {STABILIZE, GUIDED, LOITER, RTL, LAND}
 COPTER_ARMABLE = {STABILIZE, GUIDED, LOITER}
 COPTER_NEEDS_POSITION = {GUIDED, LOITER, RTL, LAND}
 COPTER_AUTOPILOT_MODES = {AUTO, GUIDED, LOITER, RTL}      # ArduPilot sets GUIDED_ENABLED
 
 # Rover
-R_MANUAL, R_HOLD, R_AUTO, R_RTL, R_GUIDED = 0, 4, 10, 11, 15
-ROVER_MODES = {R_MANUAL: "MANUAL", R_HOLD: "HOLD", R_AUTO: "AUTO", R_RTL: "RTL", R_GUIDED: "GUIDED"}
-ROVER_SUPPORTED = {R_MANUAL, R_HOLD, R_RTL, R_GUIDED}
-ROVER_ARMABLE = {R_MANUAL, R_HOLD, R_GUIDED}
-ROVER_NEEDS_POSITION = {R_RTL, R_GUIDED}
-ROVER_AUTOPILOT_MODES = {R_AUTO, R_RTL, R_GUIDED}
-ROVER_MANUAL_INPUT = {R_MANUAL}
-
-
-def mode_name(kind: str, number: int) -> str:
-    table = COPTER_MODES if kind == "copter" else ROVER_MODES
-    return table.get(number, f"Mode({number})")
+ROVER_SUPPORTED = {ROVER_MANUAL, ROVER_HOLD, ROVER_RTL, ROVER_GUIDED}
+ROVER_ARMABLE = {ROVER_MANUAL, ROVER_HOLD, ROVER_GUIDED}
+ROVER_NEEDS_POSITION = {ROVER_RTL, ROVER_GUIDED}
+ROVER_AUTOPILOT_MODES = {ROVER_AUTO, ROVER_RTL, ROVER_GUIDED}
+ROVER_MANUAL_INPUT = {ROVER_MANUAL}
 
 
 def base_mode(kind: str, number: int, armed: bool) -> int:

@@ -27,9 +27,9 @@ class RoverAutopilot(Autopilot):
     supported = modes.ROVER_SUPPORTED
     armable = modes.ROVER_ARMABLE
     needs_position = modes.ROVER_NEEDS_POSITION
-    guided_mode = modes.R_GUIDED
-    rtl_mode = modes.R_RTL
-    initial_mode = modes.R_HOLD
+    guided_mode = modes.ROVER_GUIDED
+    rtl_mode = modes.ROVER_RTL
+    initial_mode = modes.ROVER_HOLD
 
     def __init__(self, *a, **kw) -> None:
         self.rtl_done = False
@@ -54,10 +54,10 @@ class RoverAutopilot(Autopilot):
 
     def gcs_failsafe_action(self, enable: int) -> None:
         action = int(self.params.get("FS_ACTION", 2))
-        if action in (1, 3) and self.set_mode(modes.R_RTL, "GCS failsafe"):
+        if action in (1, 3) and self.set_mode(modes.ROVER_RTL, "GCS failsafe"):
             self.text(SEV_WARNING, "GCS Failsafe On: RTL")
         elif action != 0:
-            self.set_mode(modes.R_HOLD, "GCS failsafe")
+            self.set_mode(modes.ROVER_HOLD, "GCS failsafe")
             self.text(SEV_WARNING, "GCS Failsafe On: Hold")
         else:
             self.text(SEV_WARNING, "GCS Failsafe")
@@ -67,10 +67,10 @@ class RoverAutopilot(Autopilot):
         self.echo = GuidedTarget("vel", None, ZERO.copy(), None, None, 0.0)
 
     def run_mode(self, dt: float) -> None:
-        if not self.armed or self.mode in (modes.R_MANUAL, modes.R_HOLD):
+        if not self.armed or self.mode in (modes.ROVER_MANUAL, modes.ROVER_HOLD):
             self._stop()
             return
-        if self.mode == modes.R_RTL:
+        if self.mode == modes.ROVER_RTL:
             home = self.home if self.home is not None else self.start_ned
             if not self.rtl_done and np.linalg.norm(self.pos[:2] - home[:2]) < float(self.params.get("WP_RADIUS", 2)) + 0.5:
                 self.rtl_done = True

@@ -18,6 +18,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from gcs.frames.batch import yaw_of
 from vehicle.control import shaping
 from vehicle.physics import NumpyOps
 from vehicle.physics.multicopter import GRAVITY, QuadAirframe
@@ -92,10 +93,6 @@ class CopterCtrlState:
             setattr(self, f, 0.0 if n is None else np.zeros(n))
 
 
-def quat_yaw(qx, qy, qz, qw, xp=NumpyOps):
-    return xp.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
-
-
 def relax(c: CopterCtrlState, est, mask, xp=NumpyOps) -> None:
     """Where mask: reset the reference to the estimate at rest and clear integrators
     (ArduPilot relaxes its controllers while landed)."""
@@ -104,7 +101,7 @@ def relax(c: CopterCtrlState, est, mask, xp=NumpyOps) -> None:
     for f in ("vx", "vy", "vz", "ax", "ay", "az", "ivx", "ivy", "ivz", "evx", "evy", "dvx", "dvy",
               "irx", "iry", "irz", "erx", "ery", "erz", "drx", "dry", "drz"):
         setattr(c, f, w(mask, 0.0, getattr(c, f)))
-    c.yaw = w(mask, quat_yaw(est.qx, est.qy, est.qz, est.qw, xp), c.yaw)
+    c.yaw = w(mask, yaw_of(est.qx, est.qy, est.qz, est.qw, xp.atan2), c.yaw)
 
 
 _ALPHA = {}
@@ -248,13 +245,3 @@ def mix(coll, u_r, u_p, u_y, spin_min, xp=NumpyOps):
     f2 = xp.clip(a2 - hy, fmin, 1.0)
     f3 = xp.clip(a3 - hy, fmin, 1.0)
     return xp.sqrt(f0), xp.sqrt(f1), xp.sqrt(f2), xp.sqrt(f3)
-
-
-def tilt(qx, qy, xp=NumpyOps):
-    """Tilt angle (rad) of the body z axis from vertical."""
-    r33 = 1.0 - 2.0 * (qx * qx + qy * qy)
-    return xp.atan2(xp.sqrt(xp.maximum(1.0 - r33 * r33, 0.0)), r33)
-
-
-def default_airframe() -> QuadAirframe:
-    return QuadAirframe()

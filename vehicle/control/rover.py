@@ -18,7 +18,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from vehicle.physics import NumpyOps, wrap_pi
+from gcs.frames.batch import wrap_pi
+from vehicle.physics import NumpyOps
 
 D2R = math.pi / 180.0
 
@@ -70,7 +71,7 @@ def step(est, sp: RoverSetpointArrays, g: RoverGains, dt: float, xp=NumpyOps):
     spd = xp.minimum(xp.sqrt(vx * vx + vy * vy), g.max_speed)
     moving = spd > 0.05
     hdg = xp.atan2(vy, vx)
-    herr = wrap_pi(xp.where(moving, hdg, xp.where(sp.use_yaw, sp.yaw, yaw)) - yaw, xp)
+    herr = wrap_pi(xp.where(moving, hdg, xp.where(sp.use_yaw, sp.yaw, yaw)) - yaw)
     rate = xp.clip(g.k_hdg * herr, -g.max_rate, g.max_rate)
     # stopped with only a yaw rate commanded: turn in place at that rate
     rate = xp.where(sp.use_yaw_rate & xp.lnot(sp.use_yaw | moving),

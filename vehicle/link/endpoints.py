@@ -13,19 +13,16 @@ import asyncio
 import socket
 from collections.abc import Callable
 
+from gcs.endpoints import parse_connection
+
+VEHICLE_KINDS = ("udpin", "udpout", "tcpin")
 Handler = Callable[[bytes, "Channel"], None]
 
 
 def parse_endpoint(spec: str) -> tuple[str, str, int]:
-    """'udpin:127.0.0.1:14560' -> ('udpin', '127.0.0.1', 14560); raises ValueError."""
-    parts = spec.strip().split(":")
-    if len(parts) != 3 or parts[0] not in ("udpin", "udpout", "tcpin"):
-        raise ValueError(f"endpoint {spec!r}: expected udpin:HOST:PORT, udpout:HOST:PORT or tcpin:HOST:PORT")
-    kind, host, port = parts
-    port_i = int(port)
-    if not 0 < port_i < 65536:
-        raise ValueError(f"endpoint {spec!r}: bad port")
-    return kind, host or "0.0.0.0", port_i
+    """'udpin:127.0.0.1:14560' -> ('udpin', '127.0.0.1', 14560); an empty host listens on all
+    interfaces. The kinds a vehicle serves; raises ValueError (gcs.endpoints does the parsing)."""
+    return parse_connection(spec, kinds=VEHICLE_KINDS, default_host="0.0.0.0")
 
 
 class Channel:

@@ -10,17 +10,19 @@ import math
 
 import numpy as np
 
-from gcs.frames import euler_from_quaternion
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from vehicle.autopilot import geo
+from gcs import geo
+from gcs.frames import euler_from_quaternion
+
 
 # stream group parameter -> MAVLink message ids it schedules (ArduPilot's groups, plus
 # ATTITUDE_QUATERNION, EXTENDED_SYS_STATE, HOME_POSITION and SIM_STATE, which the bridge,
 # MAVSDK and the scorers want without asking)
 STREAM_GROUPS: dict[str, tuple[int, ...]] = {
     "SR0_EXT_STAT": (mav.MAVLINK_MSG_ID_SYS_STATUS, mav.MAVLINK_MSG_ID_GPS_RAW_INT,
-                     mav.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED, mav.MAVLINK_MSG_ID_EXTENDED_SYS_STATE),
+                     mav.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED, mav.MAVLINK_MSG_ID_EXTENDED_SYS_STATE,
+                     mav.MAVLINK_MSG_ID_MISSION_CURRENT),
     "SR0_POSITION": (mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED),
     "SR0_EXTRA1": (mav.MAVLINK_MSG_ID_ATTITUDE, mav.MAVLINK_MSG_ID_ATTITUDE_QUATERNION,
                    mav.MAVLINK_MSG_ID_SIM_STATE),
@@ -54,6 +56,7 @@ CAPABILITIES = (mav.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT | mav.MAV_PROTOCOL_CAP
                 | mav.MAV_PROTOCOL_CAPABILITY_MISSION_INT | mav.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
                 | mav.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
                 | mav.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
+                | mav.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE | mav.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY
                 | mav.MAV_PROTOCOL_CAPABILITY_MAVLINK2 | mav.MAV_PROTOCOL_CAPABILITY_COMPASS_CALIBRATION * 0)
 FLIGHT_SW_VERSION = (4 << 24) | (5 << 16) | (0 << 8) | mav.FIRMWARE_VERSION_TYPE_OFFICIAL
 
@@ -85,6 +88,7 @@ class Telemetry:
             mav.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED: self.position_target_local_ned,
             mav.MAVLINK_MSG_ID_SIM_STATE: self.sim_state,
             mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION: self.autopilot_version,
+            mav.MAVLINK_MSG_ID_MISSION_CURRENT: lambda: self.link.missions.mission_current(),
         }
 
     # time

@@ -22,7 +22,9 @@ from collections import Counter
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
+from gcs.mavstr import mav_str
 from vehicle.link.endpoints import Channel, Endpoint, make_endpoint
+from vehicle.link.mission_link import MISSION_MESSAGES, MissionLink
 from vehicle.link.telemetry import DATA_STREAMS, STREAM_GROUPS, Telemetry
 
 COMP_ID = mav.MAV_COMP_ID_AUTOPILOT1
@@ -45,9 +47,7 @@ class _Out:
 
 
 def _param_id(s) -> str:
-    if isinstance(s, bytes):
-        s = s.decode("ascii", "replace")
-    return s.split("\x00", 1)[0].strip().upper()
+    return mav_str(s).strip().upper()
 
 
 class VehicleLink:
@@ -73,6 +73,7 @@ class VehicleLink:
             self.mav.signing.sign_outgoing = True
             self.mav.signing.link_id = 0
             self.mav.signing.timestamp = int((time.time() - SIGNING_EPOCH) * 1e5)
+        self.missions = MissionLink(self)      # mission / fence / rally protocol
         self._rebuild_schedule()
         ap.text = self.statustext
 
@@ -144,6 +145,7 @@ class VehicleLink:
             buf = b"".join(batch)
             for ep in self.endpoints:
                 ep.send(buf)
+        self.missions.update(t)
         if t >= self.next_stats:
             self.next_stats = t + 1.0
             for k, name in STAT_NAMES.items():
@@ -212,6 +214,8 @@ class VehicleLink:
         handler = getattr(self, "on_" + m.get_type(), None)
         if handler is not None:
             handler(m, channel)
+        elif m.get_type() in MISSION_MESSAGES or m.get_type() == "MISSION_SET_CURRENT":
+            self.missions.handle(m, channel)
 
     def _signature_ok(self, m) -> bool:
         """MAVLink 2 signing: verify the signature BEFORE recording the timestamp, so a
@@ -270,6 +274,8 @@ class VehicleLink:
     def _command(self, cmd, p, ch, m, frame, x, y) -> int:
         if cmd in LINK_COMMANDS:
             return self._link_command(cmd, p, ch)
+        if cmd == mav.MAV_CMD_DO_SET_MISSION_CURRENT:
+            return self.missions.command_set_current(p)
         return int(self.ap.command(cmd, p, frame, x, y))
 
     def _link_command(self, cmd, p, ch) -> int:
@@ -336,11 +342,6 @@ class VehicleLink:
             if g is not None:
                 self.ap.params.set(g, min(max(rate, 0), 50), save=False)
         self._rebuild_schedule()
-
-    def on_MISSION_REQUEST_LIST(self, m, ch) -> None:
-        # no missions (AUTO is not implemented): an empty list, so GCS downloads finish
-        self.send(mav.MAVLink_mission_count_message(m.get_srcSystem(), m.get_srcComponent(), 0,
-                                                    getattr(m, "mission_type", 0)), ch)
 
     # ----- parameters ------------------------------------------------------------------------
     def param_value(self, name: str):

@@ -82,7 +82,3 @@ class ScalarOps:
     def zeros_like(x):
         return 0.0
 
-
-def wrap_pi(a, xp=NumpyOps):
-    """Wrap angle(s) to [-pi, pi)."""
-    return (a + math.pi) % (2.0 * math.pi) - math.pi

@@ -16,7 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vehicle.physics import NumpyOps, wrap_pi
+from gcs.frames.batch import wrap_pi
+from vehicle.physics import NumpyOps
 
 
 @dataclass
@@ -62,7 +63,7 @@ def step(s: RoverState, speed_cmd, rate_cmd, m: RoverModel, gains, dt: float, xp
     dv = xp.clip((cmd - s.speed) * ks, -m.max_accel * dt, m.max_accel * dt)
     s.speed = s.speed + dv
     s.rate = s.rate + (xp.clip(rate_cmd, -gains.max_rate, gains.max_rate) - s.rate) * kr
-    s.yaw = wrap_pi(s.yaw + s.rate * dt, xp)
+    s.yaw = wrap_pi(s.yaw + s.rate * dt)
     vx = s.speed * xp.cos(s.yaw)
     vy = s.speed * xp.sin(s.yaw)
     s.ax, s.ay = (vx - s.vx) / dt, (vy - s.vy) / dt

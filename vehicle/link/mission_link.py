@@ -1,0 +1,85 @@
+"""Glue between a VehicleLink and the pure mission protocol: messages in, replies out, plus the
+autopilot side (MISSION_SET_CURRENT, MAV_CMD_DO_SET_MISSION_CURRENT, MISSION_ITEM_REACHED).
+
+Replies go back on the channel the request came from; STATUSTEXT goes to every endpoint
+(ArduPilot's gcs().send_text). MISSION_CURRENT is built here for the SR0_EXT_STAT stream
+(ArduPilot streams it in the EXTENDED_STATUS group).
+"""
+from __future__ import annotations
+
+import math
+
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+from vehicle.autopilot.mission_store import MISSION
+from vehicle.link.mission_protocol import MissionProtocol, home_item
+
+MISSION_MESSAGES = frozenset({"MISSION_COUNT", "MISSION_ITEM", "MISSION_ITEM_INT", "MISSION_REQUEST",
+                              "MISSION_REQUEST_INT", "MISSION_REQUEST_LIST", "MISSION_WRITE_PARTIAL_LIST",
+                              "MISSION_CLEAR_ALL", "MISSION_ACK"})
+
+
+class MissionLink:
+    def __init__(self, link) -> None:
+        self.link = link
+        ap = link.ap
+        self.protocol = MissionProtocol(
+            store=ap.missions, home_item=lambda: home_item(*ap.home_lla()),
+            running=lambda: ap.mission_current()[1] == mav.MISSION_STATE_ACTIVE,
+            current_seq=self._current_seq, stored=lambda t: ap.mission_uploaded(t))
+        ap.item_reached = self.item_reached
+
+    def _current_seq(self) -> int:
+        seq, state = self.link.ap.mission_current()
+        return seq if state in (mav.MISSION_STATE_ACTIVE, mav.MISSION_STATE_PAUSED) else -1
+
+    def _send(self, outs) -> None:
+        # replies first, then STATUSTEXT: ArduPilot queues its texts, so a GCS sees the
+        # MISSION_ACK / next request before "Flight plan received" or a warning
+        for o in outs:
+            if o.msg is not None:
+                self.link.send(o.msg, o.to)
+        for o in outs:
+            if o.msg is None:
+                self.link.statustext(o.severity, o.text)
+
+    def handle(self, m, channel) -> None:
+        """A MISSION_* message for us."""
+        if m.get_type() == "MISSION_SET_CURRENT":
+            self.set_current(m.seq)
+            return
+        self._send(self.protocol.handle(m, (m.get_srcSystem(), m.get_srcComponent()), channel,
+                                        self.link.clock()))
+
+    def update(self, t: float) -> None:
+        if self.protocol.uploads:
+            self._send(self.protocol.update(t))
+
+    # ----- the autopilot side -------------------------------------------------------------
+    def set_current(self, seq) -> bool:
+        """MISSION_SET_CURRENT: ArduPilot answers with MISSION_CURRENT when the seq is valid
+        (and says nothing otherwise)."""
+        ok = self.link.ap.set_mission_current(int(seq))
+        if ok:
+            self.link.send(self.mission_current())
+        return ok
+
+    def command_set_current(self, p) -> int:
+        """MAV_CMD_DO_SET_MISSION_CURRENT (224): param1 seq, param2 1 = reset the mission first
+        (handled by the runner through set_mission_current's seq)."""
+        seq = p[0]
+        if not math.isfinite(seq) or seq < 0 or seq > 65535:
+            return mav.MAV_RESULT_DENIED
+        return mav.MAV_RESULT_ACCEPTED if self.set_current(int(seq)) else mav.MAV_RESULT_FAILED
+
+    def item_reached(self, seq: int) -> None:
+        self.link.send(mav.MAVLink_mission_item_reached_message(int(seq)))
+
+    def mission_current(self):
+        """MISSION_CURRENT: seq, total (items after home, as ArduPilot), state, mission_mode
+        (1 in AUTO)."""
+        ap = self.link.ap
+        seq, state = ap.mission_current()
+        total = max(0, ap.missions.count(MISSION) - 1)
+        mode = 1 if ap.mode_name == "AUTO" else 0
+        return mav.MAVLink_mission_current_message(int(seq), total, int(state), mode)
