@@ -177,28 +177,38 @@ def _pct(xs: list[float], q: float) -> float:
 
 # ----------------------------------------------------------------------------- rate
 
-def _telemetry(n_vehicles: int, rounds: int) -> list[bytes]:
-    """Datagrams of one message each: `rounds` rounds of 8 messages per vehicle.
+def _telemetry(n_vehicles: int, messages: int) -> list[bytes]:
+    """About `messages` datagrams of one message each: rounds of 8 messages per vehicle.
 
-    The drone's (sysid 1) frame messages carry a time_boot_ms 10 ms later each round
-    (so the frame buffer takes every one); the others are the same bytes every round."""
-    out: list[bytes] = []
+    The drone's (sysid 1) LOCAL_POSITION_NED and ATTITUDE_QUATERNION carry a
+    time_boot_ms 10 ms later each round, so the frame buffer takes every one; everything
+    else is the same bytes every round (the bridge forwards it undecoded). Sent round and
+    round, the drone's clock jumps back once per pass (seen as a reboot), so a pass holds
+    enough messages for a measuring window at the rates seen (>= 1 s at 200,000 /s)."""
     others = []
     for sysid in range(2, n_vehicles + 1):
         m = tl.MAVLink(None, sysid, 1)
         others += [bytes(x.pack(m)) for x in _vehicle_msgs(1000, sysid)]
     m1 = tl.MAVLink(None, 1, 1)
-    for r in range(rounds):
-        out += [bytes(x.pack(m1)) for x in _vehicle_msgs(1000 + 10 * r, 1)]
+    fixed = [bytes(x.pack(m1)) for x in _vehicle_msgs(1000, 1)[2:]]
+    out: list[bytes] = []
+    for r in range(max(1, messages // (8 * n_vehicles))):
+        out += [bytes(x.pack(m1)) for x in _stamped_msgs(1000 + 10 * r)]
+        out += fixed
         out += others
     return out
 
 
+def _stamped_msgs(ms: int) -> list:
+    """The two messages the bridge turns into the drone's frames, at time_boot_ms `ms`."""
+    return [tl.MAVLink_local_position_ned_message(ms, 0.001 * ms, 2.0, -9.0, 1.0, 0.0, 0.0),
+            tl.MAVLink_attitude_quaternion_message(ms, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)]
+
+
 def _vehicle_msgs(ms: int, sysid: int) -> list:
-    x = 0.001 * ms
-    return [tl.MAVLink_heartbeat_message(tl.MAV_TYPE_QUADROTOR, tl.MAV_AUTOPILOT_ARDUPILOTMEGA, 217, 4, 4, 3),
-            tl.MAVLink_local_position_ned_message(ms, x, 2.0, -9.0, 1.0, 0.0, 0.0),
-            tl.MAVLink_attitude_quaternion_message(ms, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+    """A vehicle's telemetry round: 8 common telemetry messages, one of each."""
+    return _stamped_msgs(ms) + [
+            tl.MAVLink_heartbeat_message(tl.MAV_TYPE_QUADROTOR, tl.MAV_AUTOPILOT_ARDUPILOTMEGA, 217, 4, 4, 3),
             tl.MAVLink_attitude_message(ms, 0.01, 0.02, 0.3, 0.0, 0.0, 0.0),
             tl.MAVLink_global_position_int_message(ms, 473977420 + sysid, 85455940, 600000, 9000, 100, 0, 0, 3000),
             tl.MAVLink_vfr_hud_message(1.0, 1.0, 30, 50, 9.0, 0.0),
@@ -319,7 +329,8 @@ def main(argv: list[str] | None = None) -> int:
     old = os.sched_getaffinity(0)
     os.sched_setaffinity(0, mine)
     try:
-        traffic = {n: _telemetry(n, max(1, (200 if a.quick else 2000) // n)) for n in a.vehicles}
+        traffic = {n: _telemetry(n, 20_000 if a.quick else int(200_000 * max(1.0, seconds)))
+                   for n in a.vehicles}
         with _bridge(cpu) as bridge:            # one bridge process for every row, rows in turn
             lat = latency(bridge, samples)
             rates = [(n, bridge_rate(bridge, traffic[n], seconds)) for n in a.vehicles]
