@@ -18,6 +18,8 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from gcs import geo
 from gcs.frames import euler_from_quaternion
 from vehicle.autopilot import modes
+from vehicle.autopilot.auto import AutoMode
+from vehicle.autopilot.fence import Fence
 from vehicle.autopilot.guided import GuidedTarget, TargetError, decode_global, decode_local
 from vehicle.autopilot.mission_store import MissionStore
 from vehicle.autopilot.params import ParamStore
@@ -53,6 +55,7 @@ class Autopilot:
     armable: set[int] = set()
     needs_position: set[int] = set()
     guided_mode = -1
+    auto_mode = -1
 
     def __init__(self, fleet, index: int, params: ParamStore, origin: tuple[float, float, float],
                  start_ned, text: Callable[[int, str], None] | None = None,
@@ -84,6 +87,8 @@ class Autopilot:
         # missions, fence and rally points; the link fills the store, the runner flies it
         self.missions = missions if missions is not None else MissionStore()
         self.item_reached: Callable[[int], None] = lambda seq: None   # -> MISSION_ITEM_REACHED
+        self.auto = AutoMode(self)
+        self.fence = Fence(self)
         self.refresh()
 
     # ----- state read-back ------------------------------------------------------------
@@ -130,6 +135,7 @@ class Autopilot:
             self.text(SEV_INFO, "Home set")   # ArduPilot: EKF origin/home from GPS
         self._battery(dt)
         self._gcs_failsafe_check()
+        self.fence.check(t)
         self.run_mode(dt)
 
     def _battery(self, dt: float) -> None:
@@ -163,9 +169,22 @@ class Autopilot:
         if number in self.needs_position and not self.est_ok:
             self.text(SEV_WARNING, f"Mode change to {self.mode_names[number]} failed: requires position")
             return False
+        if number == self.auto_mode:
+            self.refresh()
+            if not self.auto.init():
+                self.mode_init_failed(number)
+                return False
+        if self.mode == self.auto_mode:
+            self.auto.exit()
         self.mode = number
         self.enter_mode(number)
         return True
+
+    def mode_init_failed(self, number: int) -> None:
+        self.text(SEV_WARNING, f"Mode change to {self.mode_names[number]} failed: init failed")
+
+    def mode_armable(self) -> bool:
+        return self.mode in self.armable
 
     def enter_mode(self, number: int) -> None:
         self.refresh()
@@ -190,8 +209,11 @@ class Autopilot:
             out.append("Need Position Estimate")
         elif self.home is None:
             out.append("Waiting for home")   # never long: home follows the first good estimate
-        if self.mode not in self.armable:
+        if not self.mode_armable():
             out.append("Mode not armable")
+        why = self.fence.prearm_failure()
+        if why:
+            out.append(why)
         return out
 
     def prearm_ok(self) -> bool:
@@ -230,6 +252,7 @@ class Autopilot:
         self.armed = False
         self.fleet.set_armed(self.i, False)
         self.target = None
+        self.auto.on_disarmed()
         self.on_disarmed()
         self.text(SEV_INFO, f"Disarming motors{': ' + reason if reason else ''}")
         return ACCEPTED
@@ -306,6 +329,17 @@ class Autopilot:
             return self.cmd_set_home(p, x, y, frame)
         if cmd == mav.MAV_CMD_DO_CHANGE_SPEED:
             return self.cmd_change_speed(p)
+        if cmd == mav.MAV_CMD_MISSION_START:
+            return self.cmd_mission_start(p)
+        if cmd == mav.MAV_CMD_DO_PAUSE_CONTINUE:
+            return self.cmd_pause_continue(p)
+        if cmd == mav.MAV_CMD_DO_SET_MISSION_CURRENT:
+            return ACCEPTED if self.set_mission_current(p[0]) else FAILED
+        if cmd == mav.MAV_CMD_DO_FENCE_ENABLE:
+            if p[0] not in (0, 1):
+                return FAILED
+            self.fence.set_enabled(p[0] == 1)
+            return ACCEPTED
         if cmd == mav.MAV_CMD_PREFLIGHT_CALIBRATION:
             # ArduPilot: "*preflight*, remember?" -> TEMPORARILY_REJECTED while armed; the
             # simulated sensors need no calibration, so it succeeds at once otherwise
@@ -361,15 +395,48 @@ class Autopilot:
 
     # ----- missions (the protocol side calls these; the runner overrides them) -----------
     def mission_uploaded(self, mission_type: int) -> None:
-        """A new list of `mission_type` was stored (upload, partial write or clear)."""
+        """A new list of `mission_type` was stored (upload, partial write or clear).
+
+        AUTO notices a new MISSION by the store's version on its next step (and restarts
+        the command it flies, as ArduPilot); the fence and rally points are read live."""
 
     def set_mission_current(self, seq: int) -> bool:
         """MISSION_SET_CURRENT / DO_SET_MISSION_CURRENT: False if seq is not valid."""
-        return False
+        try:
+            seq = int(seq)
+        except (TypeError, ValueError, OverflowError):
+            return False
+        return self.auto.runner.set_current(seq)
 
     def mission_current(self) -> tuple[int, int]:
         """(current seq, MISSION_STATE) for MISSION_CURRENT."""
-        return 0, mav.MISSION_STATE_NO_MISSION if self.missions.count() <= 1 else mav.MISSION_STATE_NOT_STARTED
+        return self.auto.runner.current_seq(), self.auto.mission_state()
+
+    def cmd_mission_start(self, p) -> int:
+        """MAV_CMD_MISSION_START: ArduPilot refuses first/last items (DENIED), else AUTO."""
+        if p[0] != 0 or p[1] != 0:
+            return DENIED
+        if not self.set_mode(self.auto_mode):
+            return FAILED
+        self.auto.mission_start()
+        return ACCEPTED
+
+    def cmd_pause_continue(self, p) -> int:
+        """MAV_CMD_DO_PAUSE_CONTINUE: param1 0 pause, 1 continue (AUTO waypoints only)."""
+        if self.mode != self.auto_mode or p[0] not in (0, 1):
+            return FAILED
+        ok = self.auto.pause() if p[0] == 0 else self.auto.resume()
+        return ACCEPTED if ok else FAILED
+
+    def auto_fly(self, auto, dt: float) -> None:
+        """Setpoints for AUTO's current sub-mode (vehicle specific)."""
+        raise NotImplementedError
+
+    def rtl_start(self) -> None:
+        raise NotImplementedError
+
+    def rtl_complete(self) -> bool:
+        raise NotImplementedError
 
     # ----- GCS failsafe ---------------------------------------------------------------
     def gcs_heartbeat(self) -> None:

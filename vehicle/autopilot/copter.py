@@ -23,12 +23,13 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from vehicle.autopilot import modes
 from vehicle.autopilot.base import (ACCEPTED, FAILED, SEV_INFO, SEV_WARNING, Autopilot,
                                     UNSUPPORTED)
+from vehicle.autopilot.copter_auto import CopterAutoFlight
 from vehicle.autopilot.guided import GuidedTarget
 
 LAND_ALT_LOW = 10.0     # m: below it LAND descends at LAND_SPEED
 
 
-class CopterAutopilot(Autopilot):
+class CopterAutopilot(CopterAutoFlight, Autopilot):
     kind = "copter"
     mav_type = mav.MAV_TYPE_QUADROTOR
     mode_names = modes.COPTER_MODES
@@ -36,12 +37,15 @@ class CopterAutopilot(Autopilot):
     armable = modes.COPTER_ARMABLE
     needs_position = modes.COPTER_NEEDS_POSITION
     guided_mode = modes.GUIDED
+    auto_mode = modes.AUTO
     rtl_mode = modes.RTL
     initial_mode = modes.STABILIZE
 
     def __init__(self, *a, **kw) -> None:
         self.takeoff_alt: float | None = None     # world z target of an active takeoff
         self.rtl_stage = ""
+        self.rtl_dest = np.zeros(3)
+        self.rtl_z = 0.0
         self.landed_since: float | None = None
         super().__init__(*a, **kw)
 
@@ -52,10 +56,7 @@ class CopterAutopilot(Autopilot):
         super().enter_mode(number)
         self.takeoff_alt = None
         if number == modes.RTL:
-            self.rtl_stage = "climb"
-            rtl_alt = float(self.params.get("RTL_ALT", 1500)) / 100.0
-            home_z = self.home[2] if self.home is not None else 0.0
-            self.rtl_z = min(self.pos[2], home_z - rtl_alt)
+            self.rtl_start()
         if number == modes.LAND:
             self.text(SEV_INFO, "Landing")
 
@@ -64,6 +65,21 @@ class CopterAutopilot(Autopilot):
 
     def on_armed(self) -> None:
         self.landed_since = self.t
+        if self.mode == modes.AUTO and int(self.params.get("AUTO_OPTIONS", 0)) & 2:
+            self.auto.auto_armed = True       # AllowTakeOffWithoutRaisingThrottle
+
+    def mode_armable(self) -> bool:
+        """AUTO is armable only with AUTO_OPTIONS bit 0 (AllowArming), as ArduCopter."""
+        if self.mode == modes.AUTO:
+            return bool(int(self.params.get("AUTO_OPTIONS", 0)) & 1)
+        return super().mode_armable()
+
+    def accept_target(self, tgt) -> bool:
+        """GUIDED: a destination outside an enabled fence is ignored (ArduPilot logs
+        DEST_OUTSIDE_FENCE and keeps flying its previous target)."""
+        if tgt.pos is not None and not self.fence.destination_ok(tgt.pos):
+            return False
+        return super().accept_target(tgt)
 
     def on_disarmed(self) -> None:
         self.takeoff_alt = None
@@ -82,6 +98,7 @@ class CopterAutopilot(Autopilot):
             self.hold_yaw = self.yaw
             self.echo = GuidedTarget("pos", self.hold_pos.copy(), None, None, self.hold_yaw, None)
             self.text(SEV_INFO, f"Takeoff to {alt:.1f} m")
+            self.auto.auto_armed = True
             return ACCEPTED
         if cmd == mav.MAV_CMD_NAV_LAND:
             return ACCEPTED if self.set_mode(modes.LAND) else FAILED
@@ -102,11 +119,13 @@ class CopterAutopilot(Autopilot):
     def landed_state(self) -> int:
         if not self.armed:
             return mav.MAV_LANDED_STATE_ON_GROUND
-        if self.takeoff_alt is not None:
+        auto_sub = self.auto.sub if self.mode == modes.AUTO else ""
+        if self.takeoff_alt is not None or (auto_sub == "takeoff" and self.auto.auto_armed):
             return mav.MAV_LANDED_STATE_TAKEOFF
         if self.on_ground:
             return mav.MAV_LANDED_STATE_ON_GROUND
-        if self.mode == modes.LAND or (self.mode == modes.RTL and self.rtl_stage == "land"):
+        if (self.mode == modes.LAND or auto_sub == "land"
+                or ((self.mode == modes.RTL or auto_sub == "rtl") and self.rtl_stage == "land")):
             return mav.MAV_LANDED_STATE_LANDING
         return mav.MAV_LANDED_STATE_IN_AIR
 
@@ -132,6 +151,9 @@ class CopterAutopilot(Autopilot):
 
     # ----- the mode loop ---------------------------------------------------------------
     def run_mode(self, dt: float) -> None:
+        if self.mode == modes.AUTO:
+            self.auto.run(dt)          # the mission runs disarmed too, as ArduCopter's
+            return
         if not self.armed:
             self.setpoint()
             return
@@ -139,14 +161,7 @@ class CopterAutopilot(Autopilot):
             if self.mode in (modes.LAND, modes.RTL) and self.t - self.arm_time > 1.0:
                 self.disarm(force=True, reason="landed")
                 return
-            if self.landed_since is None:
-                self.landed_since = self.t
-            delay = float(self.params.get("DISARM_DELAY", 10))
-            if delay > 0 and self.t - self.landed_since >= delay:
-                self.disarm(force=True, reason="auto-disarm")
-                return
-            self.setpoint()            # idle on the ground until a takeoff
-            self.hold_here()
+            self.ground_idle()         # idle on the ground until a takeoff
             return
         self.landed_since = None
         m = self.mode
@@ -197,7 +212,7 @@ class CopterAutopilot(Autopilot):
         self.setpoint(pos=np.array([x, y, np.nan]), vel=np.array([0.0, 0.0, speed]), yaw=self.hold_yaw)
 
     def _rtl(self, dt: float) -> None:
-        home = self.home if self.home is not None else self.start_ned
+        home = self.rtl_dest             # home, or the rally point chosen at RTL's start
         if self.rtl_stage == "climb":
             tgt = np.array([self.hold_pos[0], self.hold_pos[1], self.rtl_z])
             if abs(self.pos[2] - self.rtl_z) < 0.5:

@@ -2,8 +2,9 @@
 
 The numbers and names are ArduPilot's and live in gcs/modes.py (the bridge and the tools use
 them too), so pymavlink's `mode_mapping()` and MAVProxy decode them. Modes we list but do not
-implement (AUTO) are refused with "Mode change to AUTO failed: init failed", as ArduPilot
-says when a mode's init fails.
+implement are refused with "Mode change to X failed: init failed", as ArduPilot says when a
+mode's init fails. AUTO (both vehicles) is vehicle/autopilot/auto.py; the copter arms in AUTO
+only with AUTO_OPTIONS bit 0 (AllowArming), the rover may.
 """
 from __future__ import annotations
 
@@ -14,15 +15,15 @@ from gcs.modes import (AUTO, COPTER_MODES, GUIDED, LAND, LOITER, ROVER_AUTO,  # 
                        mode_name)
 
 # Copter
-COPTER_SUPPORTED = {STABILIZE, GUIDED, LOITER, RTL, LAND}
+COPTER_SUPPORTED = {STABILIZE, AUTO, GUIDED, LOITER, RTL, LAND}
 COPTER_ARMABLE = {STABILIZE, GUIDED, LOITER}
-COPTER_NEEDS_POSITION = {GUIDED, LOITER, RTL, LAND}
+COPTER_NEEDS_POSITION = {AUTO, GUIDED, LOITER, RTL, LAND}
 COPTER_AUTOPILOT_MODES = {AUTO, GUIDED, LOITER, RTL}      # ArduPilot sets GUIDED_ENABLED
 
 # Rover
-ROVER_SUPPORTED = {ROVER_MANUAL, ROVER_HOLD, ROVER_RTL, ROVER_GUIDED}
-ROVER_ARMABLE = {ROVER_MANUAL, ROVER_HOLD, ROVER_GUIDED}
-ROVER_NEEDS_POSITION = {ROVER_RTL, ROVER_GUIDED}
+ROVER_SUPPORTED = {ROVER_MANUAL, ROVER_HOLD, ROVER_AUTO, ROVER_RTL, ROVER_GUIDED}
+ROVER_ARMABLE = {ROVER_MANUAL, ROVER_HOLD, ROVER_AUTO, ROVER_GUIDED}
+ROVER_NEEDS_POSITION = {ROVER_AUTO, ROVER_RTL, ROVER_GUIDED}
 ROVER_AUTOPILOT_MODES = {ROVER_AUTO, ROVER_RTL, ROVER_GUIDED}
 ROVER_MANUAL_INPUT = {ROVER_MANUAL}
 

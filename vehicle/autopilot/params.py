@@ -57,6 +57,15 @@ _COMMON = [
     _d("ARMING_CHECK", 1, 0, 1, True, "1 run pre-arm checks, 0 skip them"),
     _d("BATT_CAPACITY", 3300, 0, 100000, True, "battery capacity (mAh)"),
     _d("GUID_TIMEOUT", 3, 0.1, 5, False, "GUIDED velocity/acceleration target timeout (s)"),
+    _d("MIS_RESTART", 0, 0, 1, True, "entering AUTO: 0 resume the mission where it stopped, 1 restart it"),
+    _d("FENCE_ENABLE", 0, 0, 1, True, "geofence: 0 disabled, 1 enabled"),
+    _d("FENCE_RADIUS", 300, 30, 10000, False, "circle fence radius around home (m)"),
+    _d("FENCE_MARGIN", 2, 1, 10, False, "distance to keep from the fence (m; pre-arm check only)"),
+]
+
+_FENCE_ALT = [
+    _d("FENCE_ALT_MAX", 100, 10, 1000, False, "maximum altitude above home (m)"),
+    _d("FENCE_ALT_MIN", -10, -100, 100, False, "minimum altitude above home (m)"),
 ]
 
 COPTER_TABLE = _STREAMS + _COMMON + [
@@ -69,7 +78,18 @@ COPTER_TABLE = _STREAMS + _COMMON + [
     _d("DISARM_DELAY", 10, 0, 127, True, "auto-disarm after this long landed (s), 0 = never"),
     _d("WPNAV_SPEED_DN", 150, 10, 500, False, "maximum descent speed (cm/s)"),
     _d("WPNAV_SPEED", 500, 20, 2000, False, "horizontal speed (cm/s)"),
-]
+    _d("WPNAV_RADIUS", 200, 5, 1000, False, "AUTO waypoint radius (cm): a waypoint is reached inside it"),
+    _d("WP_YAW_BEHAVIOR", 2, 0, 3, True,
+       "AUTO yaw: 0 never change, 1 face next waypoint, 2 face next waypoint except RTL, 3 face along GPS course"),
+    _d("AUTO_OPTIONS", 0, 0, 255, True,
+       "bitmask: 0 AllowArming, 1 AllowTakeOffWithoutRaisingThrottle, 2 IgnorePilotYaw, 7 AllowWeatherVaning"),
+    _d("CIRCLE_RATE", 20, -90, 90, False, "NAV_LOITER_TURNS turn rate (deg/s)"),
+    _d("FENCE_TYPE", 7, 0, 15, True, "fence types bitmask: 0 max altitude, 1 circle, 2 polygons/circles, 3 min altitude"),
+    _d("FENCE_ACTION", 1, 0, 5, True,
+       "breach: 0 report only, 1 RTL or Land, 2 always Land, 3 SmartRTL or RTL or Land, 4 Brake or Land, 5 SmartRTL or Land"),
+    _d("RALLY_LIMIT_KM", 0.3, 0, 100, False, "rally points further than this from home are ignored (km), 0 = no limit"),
+    _d("RALLY_INCL_HOME", 1, 0, 1, True, "1: RTL also considers home and goes there when it is nearer"),
+] + _FENCE_ALT
 
 ROVER_TABLE = _STREAMS + _COMMON + [
     _d("FS_GCS_ENABLE", 0, 0, 2, True, "GCS failsafe: 0 off, 1 on (action FS_ACTION), 2 on, continue in AUTO"),
@@ -77,6 +97,12 @@ ROVER_TABLE = _STREAMS + _COMMON + [
     _d("WP_RADIUS", 2, 0.1, 100, False, "waypoint radius (m): RTL done inside it"),
     _d("WP_SPEED", 0, 0, 100, False, "waypoint speed (m/s), 0 = CRUISE_SPEED"),
     _d("CRUISE_SPEED", 8, 0, 100, False, "cruise speed (m/s)"),
+    _d("MIS_DONE_BEHAVE", 0, 0, 3, True, "mission end: 0 Hold, 1 Loiter, 2 Acro, 3 Manual (towerlink: 0 only)"),
+    _d("FENCE_TYPE", 6, 0, 6, True, "fence types bitmask: 1 circle, 2 polygons/circles"),
+    _d("FENCE_ACTION", 1, 0, 4, True,
+       "breach: 0 report only, 1 RTL or Hold, 2 Hold, 3 SmartRTL or RTL or Hold, 4 SmartRTL or Hold"),
+    _d("RALLY_LIMIT_KM", 0.5, 0, 100, False, "rally points further than this from home are ignored (km), 0 = no limit"),
+    _d("RALLY_INCL_HOME", 1, 0, 1, True, "1: RTL also considers home and goes there when it is nearer"),
 ]
 
 

@@ -1,4 +1,4 @@
-"""ArduRover-like autopilot: MANUAL, HOLD, GUIDED, RTL.
+"""ArduRover-like autopilot: MANUAL, HOLD, AUTO, GUIDED, RTL.
 
 Setpoints (world NED; z ignored by the RoverFleet):
   MANUAL   no RC input, so throttle and steering are neutral: stopped.
@@ -6,7 +6,10 @@ Setpoints (world NED; z ignored by the RoverFleet):
   GUIDED   position target (drive there and stop, as a Rover guided WP), velocity target
            (heading and speed), yaw only (turn on the spot), yaw rate (+ speed); velocity
            and rate targets expire after GUID_TIMEOUT and the rover stops.
-  RTL      drives home, says "Reached destination" inside WP_RADIUS and holds there.
+  RTL      drives home (or to the nearest rally point, rally.py), says "Reached destination"
+           inside WP_RADIUS and holds there.
+  AUTO     the mission (auto.py): drives to each waypoint at WP_SPEED / CRUISE_SPEED, stops
+           for NAV_DELAY / hold times, holds at the end ("Mission Complete").
 """
 from __future__ import annotations
 
@@ -16,6 +19,8 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from vehicle.autopilot import modes
 from vehicle.autopilot.base import SEV_INFO, SEV_WARNING, Autopilot, UNSUPPORTED
 from vehicle.autopilot.guided import GuidedTarget
+from vehicle.autopilot.mission_store import RALLY
+from vehicle.autopilot.rally import best_return, rally_points
 
 ZERO = np.zeros(3)
 
@@ -28,11 +33,13 @@ class RoverAutopilot(Autopilot):
     armable = modes.ROVER_ARMABLE
     needs_position = modes.ROVER_NEEDS_POSITION
     guided_mode = modes.ROVER_GUIDED
+    auto_mode = modes.ROVER_AUTO
     rtl_mode = modes.ROVER_RTL
     initial_mode = modes.ROVER_HOLD
 
     def __init__(self, *a, **kw) -> None:
         self.rtl_done = False
+        self.rtl_dest = np.zeros(3)
         super().__init__(*a, **kw)
 
     def armed_current(self) -> float:
@@ -40,7 +47,54 @@ class RoverAutopilot(Autopilot):
 
     def enter_mode(self, number: int) -> None:
         super().enter_mode(number)
+        if number == modes.ROVER_RTL:
+            self.rtl_start()
+
+    def mode_init_failed(self, number: int) -> None:
+        self.text(SEV_WARNING, "Flight mode change failed")     # Rover::set_mode's words
+
+    # ----- RTL (home or rally point) ----------------------------------------------------
+    def rtl_start(self) -> None:
+        self.refresh()
         self.rtl_done = False
+        home = self.home if self.home is not None else self.start_ned
+        pts = rally_points(self.missions.items(RALLY), self.origin, float(home[2]))
+        self.rtl_dest, _ = best_return(self.pos, home, pts, float(self.params.get("RALLY_LIMIT_KM", 0.5)),
+                                       int(self.params.get("RALLY_INCL_HOME", 1)) == 1)
+
+    def rtl_complete(self) -> bool:
+        return self.rtl_done
+
+    def _rtl_drive(self) -> None:
+        dest = self.rtl_dest
+        if not self.rtl_done and np.linalg.norm(self.pos[:2] - dest[:2]) < float(self.params.get("WP_RADIUS", 2)) + 0.5:
+            self.rtl_done = True
+            self.text(SEV_INFO, "Reached destination")
+            self.hold_here()
+        if self.rtl_done:
+            self._stop()
+        else:
+            tgt = np.array([dest[0], dest[1], self.pos[2]])
+            self.echo = GuidedTarget("pos", tgt, None, None, None, None)
+            self.setpoint(pos=tgt)
+
+    # ----- AUTO -----------------------------------------------------------------------
+    def auto_fly(self, a, dt: float) -> None:
+        if not self.armed or a.sub == "stop" or a.paused or a.dest is None and a.sub != "rtl":
+            self._stop()
+            return
+        if a.sub == "rtl":
+            self._rtl_drive()
+            return
+        tgt = np.array([a.dest[0], a.dest[1], self.pos[2]])
+        self.echo = GuidedTarget("pos", tgt, None, None, None, None)
+        self.setpoint(pos=tgt)
+
+    def fence_action_rover(self, action: int) -> None:
+        """FENCE_ACTION 1/3: RTL (HOLD if RTL cannot start); 2/4: HOLD."""
+        if action in (1, 3) and self.set_mode(modes.ROVER_RTL, "fence breach"):
+            return
+        self.set_mode(modes.ROVER_HOLD, "fence breach")
 
     def landed_state(self) -> int:
         return mav.MAV_LANDED_STATE_ON_GROUND
@@ -49,7 +103,8 @@ class RoverAutopilot(Autopilot):
         return UNSUPPORTED
 
     def apply_speed(self) -> None:
-        speed = self.speed_override if self.speed_override is not None else float(self.params.get("CRUISE_SPEED", 8))
+        # WP_SPEED 0 means CRUISE_SPEED to the rover core, so the parameter itself is the default
+        speed = self.speed_override if self.speed_override is not None else float(self.params.get("WP_SPEED", 0))
         self.push_params({"WP_SPEED": speed})
 
     def gcs_failsafe_action(self, enable: int) -> None:
@@ -67,21 +122,14 @@ class RoverAutopilot(Autopilot):
         self.echo = GuidedTarget("vel", None, ZERO.copy(), None, None, 0.0)
 
     def run_mode(self, dt: float) -> None:
+        if self.mode == modes.ROVER_AUTO:
+            self.auto.run(dt)
+            return
         if not self.armed or self.mode in (modes.ROVER_MANUAL, modes.ROVER_HOLD):
             self._stop()
             return
         if self.mode == modes.ROVER_RTL:
-            home = self.home if self.home is not None else self.start_ned
-            if not self.rtl_done and np.linalg.norm(self.pos[:2] - home[:2]) < float(self.params.get("WP_RADIUS", 2)) + 0.5:
-                self.rtl_done = True
-                self.text(SEV_INFO, "Reached destination")
-                self.hold_here()
-            if self.rtl_done:
-                self._stop()
-            else:
-                tgt = np.array([home[0], home[1], self.pos[2]])
-                self.echo = GuidedTarget("pos", tgt, None, None, None, None)
-                self.setpoint(pos=tgt)
+            self._rtl_drive()
             return
         # GUIDED
         tgt = self.target
