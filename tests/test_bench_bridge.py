@@ -22,7 +22,8 @@ def _number(cell: str) -> float:
 
 
 def test_bench_bridge_smoke(capsys):
-    status = bench_bridge.main(["--quick", "--samples", "50", "--seconds", "0.3", "--vehicles", "1", "10", "100"])
+    status = bench_bridge.main(["--quick", "--samples", "50", "--seconds", "0.3", "--vehicles", "1", "10", "100",
+                                "--no-peer"])
     out = capsys.readouterr().out
     assert status == 0, out
     assert "cores | Python" in out.splitlines()[0]                 # the machine line
@@ -43,6 +44,16 @@ def test_bench_bridge_smoke(capsys):
         assert _number(cells[0]) > 0, f"nothing forwarded with {n} vehicles"
         assert cells[-2] == ">= 20,000 /s" and cells[-1] in ("met", "MISSED")
     assert out.count("forwarded per CPU-second") == 3
+
+
+def test_bench_bridge_peer_is_mavproxy_fed_the_same_traffic(capsys):
+    status = bench_bridge.main(["--quick", "--samples", "20", "--seconds", "0.5", "--vehicles", "10"])
+    out = capsys.readouterr().out
+    assert status == 0, out
+    cells = _row(out, "forwarded msg/s, telemetry from 10 vehicles")
+    assert cells[1] == "MAVProxy router, same CPU", cells
+    assert _number(cells[2]) > 0 and "cores" in cells[2], "MAVProxy forwarded nothing"
+    assert cells[3].endswith("x")
 
 
 def test_bench_bridge_is_registered():

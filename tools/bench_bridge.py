@@ -334,7 +334,7 @@ def main(argv: list[str] | None = None) -> int:
         with _bridge(cpu) as bridge:            # one bridge process for every row, rows in turn
             lat = latency(bridge, samples)
             rates = [(n, bridge_rate(bridge, traffic[n], seconds)) for n in a.vehicles]
-        rates = [(n, r, None if a.no_peer or a.quick else mavproxy_rate(traffic[n], seconds, cpu))
+        rates = [(n, r, None if a.no_peer else mavproxy_rate(traffic[n], seconds, cpu))
                  for n, r in rates]
     finally:
         os.sched_setaffinity(0, old)
