@@ -51,6 +51,20 @@ The bridge puts the rover in GUIDED and arms it. If the drone's telemetry stops 
 when telemetry returns. Each tick sends TOWERLINK_FOLLOW_STATUS with the ground point
 through both frames and the attitude-free reference (the wobble figure).
 
+Trust. A TOWERLINK_STATIC_TRANSFORM (e.g. `towerlink static-transform --publish`) moves
+every later tower goal, so it is accepted only from a sysid given with --trust-sysid
+(default 255, the tower GCS), never for a frame the bridge owns (world, drone, rover and
+their _yaw frames), and not for a frame the scenario defined unless --allow-redefine.
+With --signing-key the tower link takes only MAVLink 2 packets signed with that key
+(unsigned, wrong key, replayed or stale ones are counted and dropped) and the bridge signs
+what it sends. A refusal is answered with STATUSTEXT "static tf refused: <reason>" and
+counted (TOWERLINK_BRIDGE_STATUS.refused).
+
+Peers. A udpin link (the tower's, by default) sends to every peer that wrote to it: a
+peer silent for 30 s (wall) is dropped, at most 64 are kept (the most recent), and a
+peer is added only by a datagram holding a valid MAVLink packet that, with
+--signing-key, passed the signature check.
+
 Give negative offsets with '=': --follow-offset=-2,0 (2 m behind).
 """
 from __future__ import annotations
@@ -86,6 +100,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--rover-sysid", type=int, default=2)
     g.add_argument("--sysid", type=int, default=250, help="the bridge's own sysid (default %(default)s)")
     g.add_argument("--compid", type=int, default=191, help="the bridge's compid (default %(default)s)")
+    t = p.add_argument_group("trust")
+    t.add_argument("--trust-sysid", type=int, action="append", default=None, metavar="SYSID",
+                   help="sysid allowed to add static frames over the wire (repeatable; default 255, "
+                        "the tower GCS)")
+    t.add_argument("--allow-redefine", action="store_true",
+                   help="let a trusted sender redefine a frame the scenario defined")
+    t.add_argument("--signing-key", metavar="PASSPHRASE|HEX64",
+                   help="MAVLink 2 signing on the tower link: 64 hex digits, or a passphrase hashed "
+                        "with SHA-256 (as MAVProxy's 'signing setup'); unsigned packets are dropped "
+                        "and only signed senders become peers")
     f = p.add_argument_group("frames")
     f.add_argument("--scenario", default=None, help="scenario TOML (default: the built-in lab scenario)")
     f.add_argument("--tower-frame", default="tower", help="frame of the tower link (default %(default)s)")
@@ -120,7 +144,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def config_from_args(args):
-    from bridge.router import BridgeConfig
+    from bridge.config import TOWER_SYSID, BridgeConfig
+    from gcs.signing import key_from_text
     from gcs.scenario import load_scenario, parse_static_transform
 
     sc = load_scenario(args.scenario)
@@ -135,11 +160,13 @@ def config_from_args(args):
         follow_rate=max(args.follow_rate or sc.follow_rate_hz, 1.0),
         follow_timeout=args.follow_timeout, follow_ff=args.follow_ff, speedup=args.speedup,
         telemetry_rate=args.telemetry_rate, tf_rate=args.tf_rate, cache_time=args.cache_time,
-        max_transform_age=args.max_transform_age, time_grace=args.time_grace, quiet=args.quiet)
+        max_transform_age=args.max_transform_age, time_grace=args.time_grace, quiet=args.quiet,
+        trust_sysids=tuple(args.trust_sysid) if args.trust_sysid else (TOWER_SYSID,),
+        allow_redefine=args.allow_redefine, signing_key=key_from_text(args.signing_key))
 
 
 def run(args) -> int:
-    from bridge.router import Bridge
+    from bridge.loop import Bridge
 
     try:
         cfg = config_from_args(args)

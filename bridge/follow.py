@@ -98,12 +98,15 @@ class FollowSupervisor:
     last_tick_stamp: float | None = None
     holding: bool = False
 
-    def on_drone_sample(self, stamp: float, wall: float) -> bool:
-        """Record a drone sample; True when a follow tick is due at this stamp."""
-        if self.last_drone_stamp is None or stamp > self.last_drone_stamp or \
-                stamp < self.last_drone_stamp - max(1.0, self.timeout):   # reboot
-            if self.last_tick_stamp is not None and stamp < self.last_tick_stamp - 1.0:
-                self.last_tick_stamp = None
+    def on_drone_sample(self, stamp: float, wall: float, reset: bool = False) -> bool:
+        """Record a drone sample; True when a follow tick is due at this stamp.
+
+        `reset`: the drone's clock went back (the bridge's timeline decides that, not
+        this class): its newest stamp and the tick phase start over from `stamp`.
+        """
+        if reset:
+            self.last_drone_stamp = self.last_tick_stamp = None
+        if self.last_drone_stamp is None or stamp > self.last_drone_stamp:
             self.last_drone_stamp = stamp
             self.last_drone_wall = wall
         else:

@@ -14,9 +14,12 @@ One idea per class:
   caller's ``selectors`` loop: ``fileobjs()`` to register, ``on_readable(sock)`` to
   get packets, ``send(bytes)`` to write.
 
-udpin links answer every peer that wrote to them in the last ``PEER_TIMEOUT`` wall
-seconds (the most recent peer always), like the vehicles' UDP ports; udpout links
-send to their address and accept replies from anyone.
+udpin links answer their peers (bridge.peers: silent for more than 30 s wall, dropped;
+at most 64, the most recent kept), added only for a datagram holding a valid packet
+that passes ``Link.verify`` when one is set (MAVLink 2 signing on the tower link);
+udpout links send to their address and accept replies from anyone. A packet that fails
+``verify`` is still returned, marked ``refused`` with the reason, so the caller can
+answer it (to ``addr`` only) and drop it.
 """
 from __future__ import annotations
 
@@ -27,6 +30,7 @@ import time
 from dataclasses import dataclass
 
 from gcs.dialect import towerlink as _tl
+from bridge.peers import PeerTable
 from gcs.endpoints import parse_connection as parse_url
 
 try:  # pymavlink picks fastcrc when installed
@@ -34,7 +38,6 @@ try:  # pymavlink picks fastcrc when installed
 except Exception:  # pragma: no cover
     _fast_crc = None
 
-PEER_TIMEOUT = 30.0
 TCP_RETRY = 1.0
 MAX_STREAM_BUFFER = 1 << 20
 
@@ -103,6 +106,8 @@ class Packet:
     target_system: int      # 0 when the message has none (broadcast)
     target_component: int
     v2: bool
+    addr: object = None             # UDP sender address (a reply path that is not a peer)
+    refused: str | None = None      # why Link.verify refused it (then it is not to be used)
 
 
 class Framer:
@@ -207,6 +212,9 @@ class LinkStats:
     translated: int = 0
     deferred: int = 0
     send_errors: int = 0
+    unsigned: int = 0               # signing on: unsigned packets dropped
+    bad_signature: int = 0          # signing on: wrong key, replayed or stale, dropped
+    refused: int = 0                # static transforms refused (bridge.trust)
 
 
 class Link:
@@ -219,8 +227,8 @@ class Link:
         self.clock = clock
         self.stats = LinkStats()
         self.sysids: set[int] = set()          # systems seen behind this link
-        self.peers: dict[tuple, float] = {}    # udpin: addr -> last heard (wall)
-        self._last_peer = None
+        self.peers = PeerTable()               # udpin: who gets what we send
+        self.verify = None                     # (Packet) -> None or the reason it is refused
         self._framers: dict[object, Framer] = {}
         self._tcp_clients: list[socket.socket] = []
         self._retry_at = 0.0
@@ -281,9 +289,27 @@ class Link:
         return out
 
     def poll(self) -> None:
-        """Periodic upkeep: reconnect tcp clients."""
+        """Periodic upkeep: reconnect tcp clients, drop silent UDP peers."""
         if self.kind == "tcp" and self.sock is None:
             self._try_connect()
+        elif self.kind == "udpin":
+            self.peers.expire(self.clock())
+
+    def _check(self, pkts: list[Packet], addr=None) -> bool:
+        """Mark the packets `verify` refuses (counted); True if any passed."""
+        ok = False
+        for p in pkts:
+            p.addr = addr
+            why = self.verify(p) if self.verify is not None else None
+            if why is None:
+                ok = True
+            else:
+                p.refused = why
+                if why == "unsigned":
+                    self.stats.unsigned += 1
+                else:
+                    self.stats.bad_signature += 1
+        return ok
 
     def _drop_tcp(self, s: socket.socket) -> None:
         try:
@@ -313,10 +339,10 @@ class Link:
                     break
                 except OSError:   # ICMP port unreachable reported on a later read, etc.
                     continue
-                if self.kind == "udpin":
-                    self.peers[addr] = self.clock()
-                    self._last_peer = addr
-                out.extend(fr.feed(data, datagram=True))
+                pkts = fr.feed(data, datagram=True)
+                if self._check(pkts, addr) and self.kind == "udpin":
+                    self.peers.heard(addr, self.clock())
+                out.extend(pkts)
         elif self.kind == "tcpin" and s is self.sock:
             while True:
                 try:
@@ -346,7 +372,9 @@ class Link:
                 self._drop_tcp(s)
                 return out
             self._connecting = False
-            out.extend(fr.feed(data))
+            pkts = fr.feed(data)
+            self._check(pkts)
+            out.extend(pkts)
         self.stats.rx_packets += len(out)
         for p in out:
             self.sysids.add(p.sysid)
@@ -365,12 +393,8 @@ class Link:
             except OSError:
                 st.send_errors += 1
         elif self.kind == "udpin":
-            now = self.clock()
             sent = False
-            for addr, seen in list(self.peers.items()):
-                if addr != self._last_peer and now - seen > PEER_TIMEOUT:
-                    del self.peers[addr]
-                    continue
+            for addr in self.peers.addrs():
                 try:
                     self.sock.sendto(data, addr)
                     sent = True
@@ -395,6 +419,16 @@ class Link:
                     st.send_errors += 1
                 else:
                     st.tx_packets += 1
+
+    def reply(self, addr, data: bytes) -> None:
+        """Send to one UDP address that is not (yet) a peer, e.g. a refusal's answer."""
+        if addr is None or self.sock is None or self.kind not in ("udpin", "udpout"):
+            return
+        try:
+            self.sock.sendto(data, addr)
+            self.stats.tx_packets += 1
+        except OSError:
+            self.stats.send_errors += 1
 
     @property
     def connected(self) -> bool:

@@ -26,6 +26,15 @@ then presumes so (its stamps pass raw) until offsets arrive. A vehicle whose boo
 goes back by more than ``reboot_jump`` has restarted: its offset and presumption are
 forgotten (for the reference, everyone's presumptions too, since the timeline moved).
 
+The timeline is the one owner of vehicle clocks in the bridge, so the rule "the clock
+went back" (:func:`clock_went_back`) is decided here and nowhere else: on a vehicle's raw
+boot clock (:meth:`Timeline.clock`: a restart, its pairing starts over) and on its stamps
+once mapped (:meth:`Timeline.frame_stamp`: a reset of its edges, also when the
+reference's restart moved the mapping). It also holds back what cannot be placed yet
+(:meth:`Timeline.place` queues up to ``hold_max`` items per vehicle, :meth:`Timeline.release`
+gives them back in order once the shift is known) and keeps each vehicle's newest stamp
+on the reference timeline (:meth:`Timeline.seen`), which judges staleness elsewhere.
+
 SYSTEM_TIME aligns the timelines; TIMESYNC (:class:`TimesyncProbe`) only measures each
 link's round trip, as in ArduPilot/PX4 companion-computer setups (mavros' timesync): the
 vehicle answers ``tc1`` = its clock and echoes ``ts1``, the sender's clock, so
@@ -33,8 +42,16 @@ vehicle answers ``tc1`` = its clock and echoes ``ts1``, the sender's clock, so
 """
 from __future__ import annotations
 
-from collections import OrderedDict
-from dataclasses import dataclass
+from collections import OrderedDict, deque
+from dataclasses import dataclass, field
+
+REBOOT_JUMP = 1.0       # s: a clock that goes back by more than this started over
+HOLD_MAX = 256          # items held per vehicle while its timeline is unknown
+
+
+def clock_went_back(newest: float | None, t: float, jump: float = REBOOT_JUMP) -> bool:
+    """Did a clock whose newest reading is `newest` start over, reading `t` now (s)?"""
+    return newest is not None and t < newest - jump
 
 
 @dataclass
@@ -45,13 +62,20 @@ class VehicleClock:
     since: float | None = None           # wall time its unknown-timeline period began
     presumed_same: bool = False          # no SYSTEM_TIME within the grace: the reference's world
     offset_changes: int = 0
+    restarts: int = 0
+    reset_pending: bool = False          # restarted: the next frame stamp resets its edges
+    mapped: float | None = None          # s: newest reading on the reference timeline
+    mapped_wall: float | None = None     # bridge wall time of that reading
+    last_frame: float | None = None      # s: newest frame stamp on the reference timeline
+    held: int = 0                        # items held back, in all
+    queue: deque = field(default_factory=lambda: deque(maxlen=HOLD_MAX))
 
 
 class Timeline:
     """Offsets per vehicle and the mapping of their stamps onto the reference's clock."""
 
     def __init__(self, speedup: float = 1.0, same_world_tol: float = 0.002,
-                 grace: float = 1.5, reboot_jump: float = 1.0) -> None:
+                 grace: float = 1.5, reboot_jump: float = REBOOT_JUMP) -> None:
         self.speedup = speedup
         self.same_world_tol = same_world_tol
         self.grace = grace
@@ -76,9 +100,11 @@ class Timeline:
         if self.ref is None:
             self.ref = key
         c = self._get(key)
-        rebooted = c.newest is not None and boot_s < c.newest - self.reboot_jump
+        rebooted = clock_went_back(c.newest, boot_s, self.reboot_jump)
         if rebooted:
             self.forget(key)
+            c.restarts += 1
+            c.reset_pending = True
         if c.newest is None or boot_s >= c.newest or rebooted:
             c.newest, c.newest_wall = boot_s, wall
         if c.since is None:
@@ -119,6 +145,65 @@ class Timeline:
                 c.presumed_same = True
                 out.append(key)
         return out
+
+    def seen(self, key: str, stamp: float, wall: float) -> None:
+        """`key`'s clock read `stamp` on the reference timeline at bridge wall time `wall`."""
+        c = self._get(key)
+        if c.mapped is None or stamp > c.mapped or clock_went_back(c.mapped, stamp, self.reboot_jump):
+            c.mapped, c.mapped_wall = stamp, wall
+
+    def frame_stamp(self, key: str, stamp: float) -> bool:
+        """A frame of `key` stamped `stamp` (reference timeline) goes into the tree: True if
+        its edges must be reset first (it restarted, or its mapped clock went back)."""
+        c = self._get(key)
+        reset = c.reset_pending or clock_went_back(c.last_frame, stamp, self.reboot_jump)
+        c.reset_pending = False
+        if reset or c.last_frame is None or stamp > c.last_frame:
+            c.last_frame = stamp
+        return reset
+
+    # ------------------------------------------------------------------ holding back
+    def place(self, key: str, item) -> float | None:
+        """The shift for `item` of `key` if it can go now (known timeline, nothing waiting
+        before it), else None: the item is queued (at most hold_max, oldest dropped)."""
+        c = self._get(key)
+        s = self.shift(key)
+        if s is not None and not c.queue:
+            return s
+        c.held += 1
+        c.queue.append(item)
+        return None
+
+    def release(self) -> list[tuple[str, list, float]]:
+        """(key, items in arrival order, shift) for every vehicle whose held items can go now."""
+        out = []
+        for key, c in self.clocks.items():
+            if c.queue:
+                s = self.shift(key)
+                if s is not None:
+                    items = list(c.queue)
+                    c.queue.clear()
+                    out.append((key, items, s))
+        return out
+
+    def waiting(self, key: str) -> int:
+        """Items of `key` held back now."""
+        c = self.clocks.get(key)
+        return 0 if c is None else len(c.queue)
+
+    def held(self, key: str) -> int:
+        c = self.clocks.get(key)
+        return 0 if c is None else c.held
+
+    def newest(self, key: str) -> tuple[float | None, float | None]:
+        """(stamp on the reference timeline, bridge wall time) of `key`'s newest reading."""
+        c = self.clocks.get(key)
+        return (None, None) if c is None else (c.mapped, c.mapped_wall)
+
+    def world_clock(self) -> float | None:
+        """The newest reading of any vehicle on the reference timeline (s), or None."""
+        stamps = [c.mapped for c in self.clocks.values() if c.mapped is not None]
+        return max(stamps) if stamps else None
 
     # ------------------------------------------------------------------ queries
     def _offsets_known(self, key: str) -> bool:

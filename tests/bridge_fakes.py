@@ -12,7 +12,8 @@ import time
 from contextlib import contextmanager
 
 from gcs.dialect import towerlink as tl
-from bridge.router import Bridge, BridgeConfig
+from bridge.config import BridgeConfig
+from bridge.loop import Bridge
 from support import wait_until
 
 
@@ -192,12 +193,14 @@ def running_bridge(cfg: BridgeConfig):
 
 
 @contextmanager
-def bridge_with_fakes(rover: bool = True, out: bool = False, heartbeats: bool = True, **cfg_kw):
+def bridge_with_fakes(rover: bool = True, out: bool = False, heartbeats: bool = True,
+                      tower_heartbeat: bool = True, **cfg_kw):
     """A running bridge wired to a fake drone (and rover), a tower endpoint and, with
     out=True, a listener on a world-frame --out; the tower is known to the bridge, and
     with heartbeats=True the vehicles have sent one. Yields a dict with bridge, tower,
     drone, rover (or None) and out (or None); everything is closed after. Rover follow
-    is off unless follow=True is given (it would send the rover goals of its own)."""
+    is off unless follow=True is given (it would send the rover goals of its own).
+    tower_heartbeat=False: the tower endpoint stays silent (not yet a peer of the bridge)."""
     from support import free_ports
     cfg_kw.setdefault("follow", False)
     tport, dport, rport, oport = free_ports(4)
@@ -216,8 +219,9 @@ def bridge_with_fakes(rover: bool = True, out: bool = False, heartbeats: bool = 
             if heartbeats:
                 for v in vehicles:
                     v.heartbeat()
-            tower.mav.heartbeat_send(tl.MAV_TYPE_GCS, tl.MAV_AUTOPILOT_INVALID, 0, 0, 0)
-            wait_until(lambda: bridge.tower.peers, 5, "tower peer known")
+            if tower_heartbeat:
+                tower.mav.heartbeat_send(tl.MAV_TYPE_GCS, tl.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+                wait_until(lambda: bridge.tower.peers, 5, "tower peer known")
             yield {"bridge": bridge, "tower": tower, **fakes}
         finally:
             for e in (tower, *fakes.values()):

@@ -9,7 +9,10 @@ import pytest
 
 from gcs.dialect import towerlink as tl
 from gcs.frames import LATEST, Buffer, Transform
-from bridge.tf_stream import TransformListener, VehicleFrames, transform_message
+from bridge.codec import transform_message
+from bridge.listener import TransformListener
+from bridge.pairing import VehicleFrames
+from bridge.timeline import Timeline
 from bridge_fakes import bridge_with_fakes
 from support import wait_until
 
@@ -54,10 +57,16 @@ def test_duplicates_ignored_reorder_kept_reboot_resets():
     for s in samples:
         buf.set_transform(s.full)
     assert buf.lookup_transform("world", "rover", 0.25).transform.xyz == pytest.approx((2.5, 0, 0))
-    # reboot: the clock restarts near zero
+    # reboot: the clock restarts near zero; the timeline (the one owner of the vehicle's
+    # clock) says so, and pairing starts over on its word
+    line = Timeline()
+    assert not line.clock("rover", 50.0, wall=0.0)
     vf.on_local_position(50_000, 0, 0, 0, 0, 0, 0); vf.on_attitude_quaternion(50_000, 1, 0, 0, 0)
+    assert line.clock("rover", 0.02, wall=0.1)
+    vf.reset()
     out = vf.on_local_position(20, 7, 0, 0, 0, 0, 0) + vf.on_attitude_quaternion(20, 1, 0, 0, 0)
-    assert len(out) == 1 and out[0].reset and vf.resets == 1
+    assert len(out) == 1 and line.frame_stamp("rover", out[0].stamp) and vf.resets == 1
+    assert out[0].full.transform.xyz == pytest.approx((7, 0, 0))
 
 
 @pytest.fixture
@@ -112,7 +121,7 @@ def test_transform_stream_reaches_tower(world):
 
 def test_transform_message_roundtrip():
     from gcs.frames import TransformStamped
-    from bridge.tf_stream import transform_from_message
+    from bridge.codec import transform_from_message
     ts = TransformStamped("world", "a_long_frame_16c", 12.345678,
                           Transform.from_euler(yaw=1, pitch=0.2, roll=0.3, translation=(1, 2, 3)))
     msg = transform_message(ts, static=True)

@@ -100,7 +100,7 @@ def test_named_frame_goal_waits_for_transform_then_goes(world):
     # 5 m along the drone's heading (north + 90 deg = east), level whatever its pitch
     np.testing.assert_allclose((m.x, m.y, m.z), (1, 2 + 5, -9), atol=1e-4)
     assert m.coordinate_frame == tl.MAV_FRAME_LOCAL_NED and (m.get_srcSystem(), m.get_srcComponent()) == (255, 190)
-    assert 1 not in bridge.pending
+    assert 1 not in bridge.goals.pending
 
 
 def test_stale_dynamic_transform_never_used(world):
@@ -109,7 +109,7 @@ def test_stale_dynamic_transform_never_used(world):
     wait_until(lambda: bridge.buffer.can_transform("world", "drone"), 5, "drone frame")
     # the world clock moves on (rover telemetry at t = 3 s) but the drone is silent
     rover.pose(3000, (0, 0, 0))
-    wait_until(lambda: bridge.world_clock() == 3.0, 5, "rover clock")
+    wait_until(lambda: bridge.timeline.world_clock() == 3.0, 5, "rover clock")
     tower.mav.towerlink_position_target_send(1, 1, 1, b"drone", 0b1111_1111_1000, 1, 0, 0, 0, 0, 0, 0, 0)
     tower.wait("STATUSTEXT", lambda m: "goal waits" in m.text)
     wait_until(lambda: bridge.tower.stats.deferred >= 3, 5, "retried")

@@ -145,22 +145,22 @@ def test_follow_timeout_holds_then_resumes(world):
         for k in range(1, 30):
             rover.pose(1200 + 50 * k, (0, 0, 0))
         wait_until(lambda: rover.mode == 4, 5, "rover HOLD after the timeout")
-        assert bridge.follow.holding
+        assert bridge.follower.supervisor.holding
         # once holding, more rover time passes and no goal is sent
         n = len(rover.of_type("SET_POSITION_TARGET_LOCAL_NED"))
         for k in range(30, 50):
             rover.pose(1200 + 50 * k, (0, 0, 0))
-        wait_until(lambda: (bridge.vehicles[2].newest_stamp or 0) >= (1200 + 50 * 49) / 1000, 5,
+        wait_until(lambda: (bridge.timeline.newest("rover")[0] or 0) >= (1200 + 50 * 49) / 1000, 5,
                    "the bridge seeing the rover's later clock")
         tower = Endpoint(255, 190, tport, listen=False, name="tower")
         try:
             sync(tower, rover)          # whatever the bridge sent the rover so far has arrived
         finally:
             tower.close()
-        assert bridge.follow.holding
+        assert bridge.follower.supervisor.holding
         assert len(rover.of_type("SET_POSITION_TARGET_LOCAL_NED")) == n
         # telemetry returns: GUIDED and goals again
         fly(drone, rover, 3700, 4)
         wait_until(lambda: rover.mode == 15, 5, "GUIDED again")
         wait_until(lambda: len(rover.of_type("SET_POSITION_TARGET_LOCAL_NED")) > n, 5, "goals again")
-        assert not bridge.follow.holding
+        assert not bridge.follower.supervisor.holding

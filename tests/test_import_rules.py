@@ -4,7 +4,7 @@ Every import in the tree is read with ast (module level and inside functions ali
 lazy import is still a dependency), relative imports resolved, and checked against the rules:
 
 - gcs/ is the foundation: it never imports bridge/, vehicle/ or tools/.
-- vehicle/ imports only gcs's pure libraries (frames, geo, modes, mavstr, endpoints), never
+- vehicle/ imports only gcs's pure libraries (frames, geo, modes, mavstr, endpoints, wpl, signing), never
   bridge/, tools/, or gcs's programs (gcs.client, gcs.tower, ...).
 - bridge/ never imports vehicle/, tools/, gcs.client or gcs.tower.
 """
@@ -18,7 +18,8 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 
 # gcs modules the simulated vehicle may use: pure libraries, no sockets of their own.
-VEHICLE_MAY_USE = ("gcs.frames", "gcs.geo", "gcs.modes", "gcs.mavstr", "gcs.endpoints", "gcs.wpl")
+VEHICLE_MAY_USE = ("gcs.frames", "gcs.geo", "gcs.modes", "gcs.mavstr", "gcs.endpoints", "gcs.wpl",
+                   "gcs.signing")
 GCS_PROGRAMS = ("gcs.client", "gcs.tower")
 
 

@@ -47,7 +47,11 @@ def test_feed_stamps_every_record_with_sim_time_and_splits_static_from_dynamic()
     recs = list(records_of(flight()))
     tf = [r for r in recs if r.topic == "/tf"]
     static = [r for r in recs if r.topic == "/tf_static"]
-    assert len(tf) == 40 and len(static) == 1
+    assert len(tf) == 40 and len(static) == 2
+    # the feed's one edge of its own: a z-up display frame above the NED world
+    disp = static[0].body["transforms"][0]
+    assert (disp["parent_frame_id"], disp["child_frame_id"]) == ("world_enu", "world")
+    static = static[1:]
     ft = tf[-1].body["transforms"][0]
     assert tf[-1].sim_ns == 4_900_000_000 == ft["timestamp"]["sec"] * 10**9 + ft["timestamp"]["nsec"]
     assert (ft["parent_frame_id"], ft["child_frame_id"]) == ("world", "drone")
@@ -137,7 +141,7 @@ def test_live_view_serves_transforms_on_the_sim_clock():
         assert [t for t, _ in tf] == [int(round((1.0 + k * 0.1) * 1e9)) for k in range(40)]
         last_t, last = tf[-1]
         assert last["transforms"][0]["translation"]["x"] == pytest.approx(7.8, abs=1e-5)
-        assert client.of("/tf_static")[0][1]["transforms"][0]["child_frame_id"] == "tower"
+        assert [b["transforms"][0]["child_frame_id"] for _, b in client.of("/tf_static")] == ["world", "tower"]
         assert client.of("/goals")[-1][1]["entities"][0]["frame_id"] == "tower"
         client.wait_for(lambda: client.times and client.times[-1] == last_t, 10, "the sim time broadcast")
     finally:
@@ -170,3 +174,18 @@ def test_live_view_does_no_work_for_channels_nobody_watches(monkeypatch):
         assert logged == []
     finally:
         view.stop()
+
+
+def test_the_shipped_layout_is_what_the_generator_writes_and_shows_the_feeds_topics():
+    pytest.importorskip("foxglove")
+    import json
+    from pathlib import Path
+
+    from tools.foxglove_layout import DEFAULT_OUT, build
+
+    shipped = json.loads(Path(DEFAULT_OUT).read_text())
+    assert shipped == build()           # regenerate with: python -m tools.foxglove_layout
+    text = json.dumps(shipped)
+    for topic in ("/vehicles", "/goals", "/follow", "/summary.follow_error_rms"):
+        assert f'"{topic}' in text
+    assert '"fixedFrame": "world_enu"' in text   # the feed's z-up display frame

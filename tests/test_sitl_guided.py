@@ -66,19 +66,51 @@ def test_invalid_targets_refused(frame, mask, vals, why):
 
 # ---------------------------------------------------------------- over the wire, flying
 
+def _take_off(m, alt=4.0):
+    """GUIDED, armed, at `alt` m: whatever state the vehicle is in (each test starts from here)."""
+    hb = recv(m, "HEARTBEAT", 5)
+    if hb.custom_mode != 4:
+        assert set_mode(m, "GUIDED") == mav.MAV_RESULT_ACCEPTED
+    if not hb.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED:
+        wait_armable(m)
+        assert command(m, 400, 1) == mav.MAV_RESULT_ACCEPTED
+        assert command(m, mav.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, alt) == mav.MAV_RESULT_ACCEPTED
+    recv(m, "LOCAL_POSITION_NED", 40, cond=lambda p: p.z < -(alt - 0.2))
+
+
+def _start_flying(procs, tmp):
+    sitl = Sitl(procs, tmp, drones=1, rovers=0, speedup=5)
+    m = connect(sitl.udp[0])
+    _take_off(m)
+    return sitl, m
+
+
 @pytest.fixture(scope="module")
-def flying(tmp_path_factory):
+def shared_sitl(tmp_path_factory):
+    """One flying drone for the tests that leave it flying in GUIDED (order does not matter:
+    each test first brings it back to GUIDED at 4 m with `flying`)."""
     from support import Processes
     procs = Processes()
     try:
-        sitl = Sitl(procs, tmp_path_factory.mktemp("g"), drones=1, rovers=0, speedup=5)
-        m = connect(sitl.udp[0])
-        wait_armable(m)
-        assert set_mode(m, "GUIDED") == mav.MAV_RESULT_ACCEPTED
-        assert command(m, 400, 1) == mav.MAV_RESULT_ACCEPTED
-        assert command(m, mav.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 4) == mav.MAV_RESULT_ACCEPTED
-        recv(m, "LOCAL_POSITION_NED", 40, cond=lambda p: p.z < -3.8)
-        yield sitl, m
+        yield _start_flying(procs, tmp_path_factory.mktemp("g"))
+    finally:
+        procs.stop_all()
+
+
+@pytest.fixture
+def flying(shared_sitl):
+    sitl, m = shared_sitl
+    _take_off(m)
+    return sitl, m
+
+
+@pytest.fixture
+def own_flying(tmp_path):
+    """A drone of its own, for a test that changes parameters and lands it."""
+    from support import Processes
+    procs = Processes()
+    try:
+        yield _start_flying(procs, tmp_path)
     finally:
         procs.stop_all()
 
@@ -143,8 +175,8 @@ def test_wire_invalid_targets_hold(flying):
 
 
 @pytest.mark.timeout(120)
-def test_wire_gcs_failsafe_rtl_then_land(flying):
-    sitl, m = flying
+def test_wire_gcs_failsafe_rtl_then_land(own_flying):
+    sitl, m = own_flying
     for name, val in ((b"FS_GCS_ENABLE", 1), (b"FS_GCS_TIMEOUT", 2), (b"RTL_ALT", 600)):
         m.mav.param_set_send(1, 1, name, val, mav.MAV_PARAM_TYPE_INT32)
         recv(m, "PARAM_VALUE", 5, cond=lambda p, n=name: p.param_id == n.decode() and p.param_value == val)

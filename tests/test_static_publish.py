@@ -5,7 +5,7 @@ import subprocess
 import sys
 
 from gcs.dialect import mavlink_connection
-from bridge.tf_stream import transform_from_message
+from bridge.codec import transform_from_message
 from support import free_port, wait_until
 
 

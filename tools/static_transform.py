@@ -61,6 +61,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "and wait for the bridge to accept or refuse it")
     parser.add_argument("--timeout", type=float, default=3.0, metavar="S",
                         help="wall seconds to wait for the bridge's answer with --publish (default 3)")
+    parser.add_argument("--signing-key", metavar="PASSPHRASE|HEX64",
+                        help="sign the request (MAVLink 2), for a bridge started with --signing-key")
+    parser.add_argument("--sysid", type=int, default=255,
+                        help="sysid to send as (default 255; the bridge trusts --trust-sysid, default 255)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -71,9 +75,11 @@ def run(args: argparse.Namespace) -> int:
         return 2
     print(describe(ts))
     if args.publish:
-        from bridge.tf_stream import publish_static  # the bridge's own sender; imported only when used
+        from bridge.static_publisher import publish_static  # the bridge's own sender; imported only when used
         try:
-            verdict = publish_static(args.publish, ts, timeout=args.timeout)
+            from gcs.signing import key_from_text
+            verdict = publish_static(args.publish, ts, timeout=args.timeout, source_system=args.sysid,
+                                     signing_key=key_from_text(args.signing_key))
         except TimeoutError as exc:
             print(f"towerlink static-transform: {exc}", file=sys.stderr)
             return 1

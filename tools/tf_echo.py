@@ -58,7 +58,7 @@ def read_tlog(path: str, cache_time: float = 1e9):
     """A TransformListener filled with every TOWERLINK_TRANSFORM of a tlog (no window)."""
     from gcs.dialect import mavlink_connection
     from gcs.frames import Buffer
-    from bridge.tf_stream import TransformListener
+    from bridge.listener import TransformListener
 
     lis = TransformListener(Buffer(cache_time=cache_time))
     lis.stamps = {}     # child frame -> stamps of its dynamic samples
@@ -133,7 +133,7 @@ def run_offline(args) -> int:
 def run_live(args) -> int:
     from gcs.dialect import mavlink_connection
     from gcs.frames import LATEST, TransformException
-    from bridge.tf_stream import TransformListener
+    from bridge.listener import TransformListener
 
     try:
         conn = mavlink_connection(args.connect, source_system=254, source_component=195)

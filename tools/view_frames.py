@@ -42,7 +42,7 @@ DEFAULT_LISTEN = "udpin:127.0.0.1:14610"
 def buffer_from_messages(msgs, cache_time: float = 10.0):
     """A Buffer filled from decoded messages (TOWERLINK_TRANSFORM; others ignored)."""
     from gcs.frames import Buffer
-    from bridge.tf_stream import TransformListener
+    from bridge.listener import TransformListener
     listener = TransformListener(Buffer(cache_time=cache_time))
     for m in msgs:
         listener.feed(m)
@@ -67,7 +67,7 @@ def buffer_from_scenario(path: str | None):
 def buffer_from_live(url: str, duration: float, cache_time: float = 10.0):
     from gcs.dialect import mavlink_connection
     from gcs.frames import Buffer
-    from bridge.tf_stream import TransformListener
+    from bridge.listener import TransformListener
     conn = mavlink_connection(url, source_system=255, source_component=191)
     listener = TransformListener(Buffer(cache_time=cache_time))
     end = time.monotonic() + duration

@@ -5,7 +5,10 @@ By default one drone (sysid 1, MAV_TYPE_QUADROTOR, ArduCopter mode numbers) and 
 
 Endpoints (pymavlink connection strings), for vehicle i (drones first, then rovers):
   tcpin:127.0.0.1:{5760+10*i}    TCP server like ArduPilot SITL (several clients)
-  udpin:127.0.0.1:{14560+10*i}   UDP: write to it and the vehicle answers every peer that wrote
+  udpin:127.0.0.1:{14560+10*i}   UDP: send it a valid MAVLink packet and the vehicle streams to you;
+                                 a UDP peer silent for 30 s (wall time) is dropped, at most 64 peers
+                                 (the most recently heard) per endpoint; with --signing-key only
+                                 a correctly signed packet makes a peer
   --out udpout:HOST:PORT          push every vehicle's stream (e.g. 14550 GCS, 14540 MAVSDK)
 so: mavproxy.py --master tcp:127.0.0.1:5760, or mavutil.mavlink_connection('udpout:127.0.0.1:14560').
 
@@ -28,10 +31,10 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import hashlib
 import signal
 import sys
 
+from gcs.signing import key_from_text as signing_key
 from vehicle.world import DEFAULT_HOME, DEFAULT_STATE_DIR, World, WorldConfig
 
 
@@ -117,17 +120,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "(as MAVProxy's 'signing setup'); unsigned packets are then dropped")
 
 
-def signing_key(s: str | None) -> bytes | None:
-    if not s:
-        return None
-    if len(s) == 64:
-        try:
-            return bytes.fromhex(s)
-        except ValueError:
-            pass
-    return hashlib.sha256(s.encode()).digest()
-
-
 def config_from_args(a: argparse.Namespace) -> WorldConfig:
     endpoints: dict[int, list[str]] = {}
     for i, spec in a.endpoint:
@@ -151,7 +143,12 @@ def run(args: argparse.Namespace) -> int:
     if bad:
         print(f"towerlink sitl: --mission {bad[0]}=...: there are only {n} vehicles (0..{n - 1})", file=sys.stderr)
         return 2
-    world = World(config_from_args(args))
+    from vehicle.autopilot.params import ParamFileError
+    try:
+        world = World(config_from_args(args))
+    except (OSError, ParamFileError) as e:      # an unreadable --params FILE
+        print(f"towerlink sitl: {e}", file=sys.stderr)
+        return 1
 
     async def main() -> None:
         loop = asyncio.get_running_loop()

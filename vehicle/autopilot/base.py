@@ -39,6 +39,19 @@ SEV_WARNING = mav.MAV_SEVERITY_WARNING
 SEV_CRITICAL = mav.MAV_SEVERITY_CRITICAL
 
 
+def wire_int(v: float, lo: int, hi: int) -> int | None:
+    """A command parameter (float on the wire) as an integer in lo..hi, or None when it is
+    NaN, infinite, fractional or out of range (the caller answers DENIED)."""
+    if not math.isfinite(v) or v != round(v) or not lo <= v <= hi:
+        return None
+    return int(v)
+
+
+def finite(p, *idx: int) -> bool:
+    """True when the command parameters at `idx` (0-based) are all finite numbers."""
+    return all(math.isfinite(p[i]) for i in idx)
+
+
 def _vec(state, *names, default=None):
     for n in names:
         v = getattr(state, n, None)
@@ -64,6 +77,8 @@ class Autopilot:
         self.fleet = fleet
         self.i = index
         self.params = params
+        # SYSID_THISMAV takes effect at boot, as ArduPilot's (a PARAM_SET is saved, not applied)
+        self.boot_sysid = int(params["SYSID_THISMAV"])
         self.origin = origin
         self.start_ned = np.asarray(start_ned, float)
         self.text = text or (lambda sev, msg: None)
@@ -110,7 +125,25 @@ class Autopilot:
 
     @property
     def sysid(self) -> int:
-        return int(self.params["SYSID_THISMAV"])
+        """The MAVLink system id this boot runs with (SYSID_THISMAV as it was at boot)."""
+        return self.boot_sysid
+
+    def reboot(self) -> None:
+        """Start this autopilot afresh, as a reboot would: parameters re-read from where they
+        are kept (SYSID_THISMAV included), disarmed, initial mode, no home, no targets. The
+        vehicle stays where it is; the stored missions (the vehicle's eeprom) are kept; the
+        hooks the link and world set (text, push_params, item_reached) are kept."""
+        hooks = {k: self.__dict__[k] for k in ("text", "push_params", "item_reached") if k in self.__dict__}
+        args = (self.fleet, self.i, self.params, self.origin, self.start_ned)
+        missions = self.missions
+        if self.armed:
+            self.fleet.set_armed(self.i, False)
+        self.params.reload()
+        self.__dict__.clear()
+        type(self).__init__(self, *args, missions=missions)
+        self.__dict__.update(hooks)
+        self.setpoint()
+        self.push_params(dict(self.params.values))
 
     @property
     def mode_name(self) -> str:
@@ -156,7 +189,10 @@ class Autopilot:
     initial_mode = 0
 
     def set_mode(self, number: int, reason: str = "GCS") -> bool:
-        number = int(number)
+        number = wire_int(number, 0, 2**32 - 1)
+        if number is None:
+            self.text(SEV_WARNING, "Mode change failed: bad mode number")
+            return False
         if number == self.mode and number in self.supported:
             return True
         if number not in self.supported:
@@ -320,8 +356,11 @@ class Autopilot:
                 return self.disarm(force)
             return DENIED
         if cmd == mav.MAV_CMD_DO_SET_MODE:
-            if int(p[0]) & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
-                return ACCEPTED if self.set_mode(int(p[1])) else FAILED
+            base, custom = wire_int(p[0], 0, 255), wire_int(p[1], 0, 2**32 - 1)
+            if base is None or custom is None:
+                return DENIED             # NaN, inf or a non-integer where a mode number goes
+            if base & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+                return ACCEPTED if self.set_mode(custom) else FAILED
             return DENIED
         if cmd == mav.MAV_CMD_NAV_RETURN_TO_LAUNCH:
             return ACCEPTED if self.set_mode(self.rtl_mode) else FAILED
@@ -341,6 +380,8 @@ class Autopilot:
             self.fence.set_enabled(p[0] == 1)
             return ACCEPTED
         if cmd == mav.MAV_CMD_PREFLIGHT_CALIBRATION:
+            if not finite(p, 0, 1, 2, 3, 4, 5, 6):
+                return DENIED
             # ArduPilot: "*preflight*, remember?" -> TEMPORARILY_REJECTED while armed; the
             # simulated sensors need no calibration, so it succeeds at once otherwise
             if self.armed:
@@ -355,6 +396,8 @@ class Autopilot:
         return UNSUPPORTED
 
     def cmd_set_home(self, p, x, y, frame) -> int:
+        if p[0] not in (0, 1):
+            return DENIED             # param1 is a flag: current position (1) or the one given (0)
         if p[0] == 1:
             if not self.est_ok:
                 return FAILED
@@ -376,9 +419,11 @@ class Autopilot:
         self.text(SEV_INFO, "Home set")
         return ACCEPTED
 
+    max_speed = 100.0     # m/s: DO_CHANGE_SPEED above this is refused
+
     def cmd_change_speed(self, p) -> int:
         speed = p[1]
-        if not math.isfinite(speed):
+        if not math.isfinite(speed) or speed > self.max_speed:
             return FAILED
         if speed == -1:
             self.speed_override = None

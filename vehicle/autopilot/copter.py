@@ -21,7 +21,7 @@ import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from vehicle.autopilot import modes
-from vehicle.autopilot.base import (ACCEPTED, FAILED, SEV_INFO, SEV_WARNING, Autopilot,
+from vehicle.autopilot.base import (ACCEPTED, DENIED, FAILED, SEV_INFO, SEV_WARNING, Autopilot,
                                     UNSUPPORTED)
 from vehicle.autopilot.copter_auto import CopterAutoFlight
 from vehicle.autopilot.guided import GuidedTarget
@@ -39,6 +39,7 @@ class CopterAutopilot(CopterAutoFlight, Autopilot):
     guided_mode = modes.GUIDED
     auto_mode = modes.AUTO
     rtl_mode = modes.RTL
+    max_speed = 20.0      # m/s: WPNAV_SPEED's maximum
     initial_mode = modes.STABILIZE
 
     def __init__(self, *a, **kw) -> None:
@@ -105,7 +106,12 @@ class CopterAutopilot(CopterAutoFlight, Autopilot):
         if cmd == mav.MAV_CMD_NAV_LOITER_UNLIM:
             return ACCEPTED if self.set_mode(modes.LOITER) else FAILED
         if cmd == mav.MAV_CMD_CONDITION_YAW:
-            if self.mode != modes.GUIDED or not all(math.isfinite(v) for v in p[:4]):
+            # ArduPilot: angle 0..360 deg and param4 0 (absolute) or 1 (relative), else DENIED;
+            # a rate (deg/s) beyond ATC_RATE_Y_MAX's range is refused too
+            if (not all(math.isfinite(v) for v in p[:4]) or not 0 <= p[0] <= 360 or not 0 <= p[1] <= 1080
+                    or p[3] not in (0, 1)):
+                return DENIED
+            if self.mode != modes.GUIDED:
                 return FAILED
             ang = math.radians(p[0])
             if p[3]:

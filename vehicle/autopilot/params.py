@@ -12,7 +12,8 @@ from __future__ import annotations
 import math
 import os
 import re
-from collections.abc import Iterable, Mapping
+import sys
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
@@ -134,21 +135,46 @@ def _core_defs(params_core, kind: str) -> Iterable[ParamDef]:
         yield ParamDef(str(name), float(default), float(lo), float(hi), integer, str(doc))
 
 
-def read_parm_file(path: str) -> dict[str, float]:
-    """ArduPilot .parm / MAVProxy param file: "NAME VALUE" (comma or spaces), # comments."""
+class ParamFileError(ValueError):
+    """A parameter file that cannot be read at all (str() says why)."""
+
+
+def _warn(msg: str) -> None:
+    print(f"towerlink sitl: {msg}", file=sys.stderr, flush=True)
+
+
+def read_parm_file(path: str, warn: Callable[[str], None] = _warn) -> dict[str, float]:
+    """ArduPilot .parm / MAVProxy param file: "NAME VALUE" (comma or spaces), # comments.
+
+    A bad line (not ASCII, no NAME VALUE pair, a value that is no number) is skipped with a
+    warning naming the file and line. Raises OSError when the file cannot be opened, and
+    ParamFileError when it holds bad lines and not a single good one (binary garbage)."""
     out: dict[str, float] = {}
-    with open(path) as f:
-        for line in f:
-            line = line.split("#", 1)[0].strip()
-            if not line:
-                continue
-            parts = re.split(r"[\s,]+", line)
-            if len(parts) < 2:
-                continue
+    bad = 0
+    with open(path, "rb") as f:
+        data = f.read()
+    for n, raw in enumerate(data.splitlines(), 1):
+        why = None
+        try:
+            text = raw.decode("ascii")
+        except UnicodeDecodeError:
+            text, why = "", "not ASCII text"
+        line = text.split("#", 1)[0].strip()
+        if why is None and not line:
+            continue
+        parts = re.split(r"[\s,]+", line)
+        if why is None and (len(parts) < 2 or not re.fullmatch(r"[A-Za-z0-9_]{1,16}", parts[0])):
+            why = "expected NAME VALUE"
+        if why is None:
             try:
                 out[parts[0].upper()] = float(parts[1])
             except ValueError:
-                continue
+                why = f"value {parts[1][:20]!r} is not a number"
+        if why is not None:
+            bad += 1
+            warn(f"{path}:{n}: skipped a bad line ({why})")
+    if bad and not out:
+        raise ParamFileError(f"{path}: no readable parameter line ({bad} bad)")
     return out
 
 
@@ -166,28 +192,50 @@ class ParamStore:
     """Named values with ranges; set() refuses NaN/inf/out-of-range and persists on success."""
 
     def __init__(self, table: Iterable[ParamDef], defaults: Mapping[str, float] | None = None,
-                 save_path: str | None = None) -> None:
+                 save_path: str | None = None, warn: Callable[[str], None] = _warn) -> None:
         self.defs: dict[str, ParamDef] = {}
         for d in table:
             self.defs.setdefault(d.name, d)         # first table wins (cores before autopilot)
         self.names: list[str] = sorted(self.defs)
         self.index = {n: i for i, n in enumerate(self.names)}
-        self.values: dict[str, float] = {n: d.default for n, d in self.defs.items()}
+        self.defaults = dict(defaults or {})
         self.save_path = save_path
-        self.saved: dict[str, float] = {}
-        for source in (defaults or {}), self._load_saved():
+        self.warn = warn
+        self.saved: dict[str, float] = {}           # what persists (the file, or memory without one)
+        self.values: dict[str, float] = {}
+        self.saved = self._load_saved()
+        self._apply()
+
+    def _apply(self) -> None:
+        self.values = {n: d.default for n, d in self.defs.items()}
+        for source in self.defaults, self.saved:
             for name, value in source.items():
                 if name in self.defs and self.check(name, value) is None:
                     self.values[name] = self._coerce(name, value)
-        self.saved = {n: v for n, v in self._load_saved().items() if n in self.defs}
+
+    def reload(self) -> None:
+        """Re-read the saved parameters (a reboot): defaults, then what was saved."""
+        if self.save_path:
+            self.saved = self._load_saved()
+        self._apply()
 
     def _load_saved(self) -> dict[str, float]:
-        if self.save_path and os.path.exists(self.save_path):
+        """The saved file's known names; a file that cannot be read at all is set aside as
+        FILE.bad (like a damaged eeprom.bin) and the vehicle starts on its defaults."""
+        path = self.save_path
+        if not path or not os.path.exists(path):
+            return {}
+        try:
+            values = read_parm_file(path, self.warn)
+        except (OSError, ParamFileError) as e:
+            aside = path + ".bad"
             try:
-                return read_parm_file(self.save_path)
-            except OSError:
-                return {}
-        return {}
+                os.replace(path, aside)
+                self.warn(f"saved parameters unreadable ({e}); moved to {aside}, starting on defaults")
+            except OSError as e2:
+                self.warn(f"saved parameters unreadable ({e}) and not moved aside ({e2}); starting on defaults")
+            return {}
+        return {n: v for n, v in values.items() if n in self.defs}
 
     def __len__(self) -> int:
         return len(self.names)
@@ -222,7 +270,8 @@ class ParamStore:
         if why is not None:
             return why
         self.values[name] = self._coerce(name, value)
-        if save and self.save_path:
+        if save:
             self.saved[name] = self.values[name]
-            write_parm_file(self.save_path, self.saved)
+            if self.save_path:
+                write_parm_file(self.save_path, self.saved)
         return None

@@ -1,22 +1,32 @@
 """MAVLink endpoints on one asyncio event loop, named by pymavlink connection strings.
 
-  udpin:HOST:PORT    listen; every peer that has written gets everything the vehicle sends
+  udpin:HOST:PORT    listen; every peer that has sent a valid packet gets everything the
+                     vehicle sends, until it has been silent PEER_TIMEOUT (30) wall seconds;
+                     at most MAX_PEERS (64) peers, the most recently heard kept
   udpout:HOST:PORT   push to a listener (a GCS on 14550, MAVSDK on 14540); its replies are read
   tcpin:HOST:PORT    TCP server (ArduPilot SITL's 5760): several clients at once
 
 An endpoint hands each received chunk to `on_data(data, channel)`; a channel is where a
 reply goes (one UDP peer, one TCP client, or the udpout target). `send(buf)` goes to all.
+`on_data` returns True when the chunk held a packet that passed the link's checks (CRC and,
+with signing on, the signature): only then does a UDP sender become a peer, so garbage,
+forged or unsigned packets never subscribe anyone to the telemetry stream.
 """
 from __future__ import annotations
 
 import asyncio
 import socket
+import time
+from collections import OrderedDict
 from collections.abc import Callable
 
 from gcs.endpoints import parse_connection
 
 VEHICLE_KINDS = ("udpin", "udpout", "tcpin")
-Handler = Callable[[bytes, "Channel"], None]
+Handler = Callable[[bytes, "Channel"], "bool | None"]
+
+PEER_TIMEOUT = 30.0    # wall s: a UDP peer silent this long is dropped (a GCS sends 1 Hz heartbeats)
+MAX_PEERS = 64         # UDP peers per endpoint; past it the least recently heard is dropped
 
 
 def parse_endpoint(spec: str) -> tuple[str, str, int]:
@@ -33,6 +43,7 @@ class Channel:
         self.name = name
         self._send = sender
         self.parser = None          # set by the link on first use (TCP only)
+        self.closed = False         # the peer was dropped (its queued replies are discarded)
 
     def send(self, buf: bytes) -> None:
         try:
@@ -64,13 +75,21 @@ class _UdpProto(asyncio.DatagramProtocol):
 
 
 class UdpIn(Endpoint):
-    """Listen; reply to every peer that has written (like ArduPilot's udpin / MAVProxy)."""
+    """Listen; reply to every peer that has sent a valid packet (like ArduPilot's udpin /
+    MAVProxy), dropping peers silent for `peer_timeout` wall seconds and keeping at most
+    `max_peers` (the most recently heard). Wall time, not sim time: a peer's silence is a
+    fact about the network, and a paused or slowed world must not keep dead peers alive."""
 
-    def __init__(self, host: str, port: int, on_data: Handler) -> None:
+    def __init__(self, host: str, port: int, on_data: Handler, peer_timeout: float = PEER_TIMEOUT,
+                 max_peers: int = MAX_PEERS, clock: Callable[[], float] = time.monotonic) -> None:
         self.spec = f"udpin:{host}:{port}"
         self.host, self.port, self.on_data = host, port, on_data
         self.transport = None
-        self.peers: dict[tuple, Channel] = {}
+        self.peer_timeout, self.max_peers, self.clock = peer_timeout, max_peers, clock
+        self.peers: OrderedDict[tuple, Channel] = OrderedDict()   # least recently heard first
+        self.heard: dict[tuple, float] = {}
+        self.next_expiry = 0.0
+        self.dropped_peers = 0
 
     async def start(self) -> None:
         loop = asyncio.get_running_loop()
@@ -79,14 +98,41 @@ class UdpIn(Endpoint):
 
     def received(self, data: bytes, addr) -> None:
         ch = self.peers.get(addr)
-        if ch is None:
+        known = ch is not None
+        if ch is None:      # replies to this packet may go back; it is no peer until it checks out
             ch = Channel(f"{self.spec}<-{addr[0]}:{addr[1]}", lambda b, a=addr: self.transport.sendto(b, a))
-            self.peers[addr] = ch
-        self.on_data(data, ch)
+        if not self.on_data(data, ch):
+            return
+        self.heard[addr] = self.clock()
+        if known:
+            self.peers.move_to_end(addr)
+            return
+        self.peers[addr] = ch
+        while len(self.peers) > self.max_peers:
+            self._drop(next(iter(self.peers)))
+
+    def _drop(self, addr) -> None:
+        ch = self.peers.pop(addr, None)
+        self.heard.pop(addr, None)
+        if ch is not None:
+            ch.closed = True
+            self.dropped_peers += 1
+
+    def expire(self) -> None:
+        """Drop the peers silent for longer than peer_timeout (checked at most once a second)."""
+        now = self.clock()
+        if now < self.next_expiry:
+            return
+        self.next_expiry = now + min(1.0, self.peer_timeout / 4)
+        for addr in list(self.peers):          # least recently heard first
+            if now - self.heard.get(addr, now) <= self.peer_timeout:
+                break
+            self._drop(addr)
 
     def send(self, buf: bytes) -> None:
         if self.transport is None:
             return
+        self.expire()
         for addr in self.peers:
             try:
                 self.transport.sendto(buf, addr)

@@ -10,34 +10,54 @@ once non-zero (names in STAT_NAMES).
 Every COMMAND_LONG / COMMAND_INT for us gets exactly one COMMAND_ACK on the channel it came
 from; replies (PARAM_VALUE for reads/lists, TIMESYNC, requested messages) go back there too;
 streams, STATUSTEXT and PARAM_VALUE after a PARAM_SET go to every endpoint.
+
+Parameter replies are paced as ArduPilot paces them (vehicle/link/paced_queue.py): one
+outbox per peer, a PARAM_REQUEST_LIST restarts that peer's list instead of queueing another,
+PARAM_REQUEST_READ replies wait in a bounded queue. `paced(ch)` / `send_paced(msg, ch)` are
+the API for other reply kinds (the mission protocol).
+
+`on_data` returns True when the chunk held at least one packet that passed the checks (CRC,
+length, known id and, with signing on, the signature): the UDP endpoint adds a peer only then.
 """
 from __future__ import annotations
 
-import hashlib
 import math
 import traceback
-import struct
 import time
 from collections import Counter
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from gcs.mavstr import mav_str
+from gcs.signing import SIGNING_EPOCH, UNSIGNED, SignatureCheck
 from vehicle.link.endpoints import Channel, Endpoint, make_endpoint
 from vehicle.link.mission_link import MISSION_MESSAGES, MissionLink
+from vehicle.link.paced_queue import PacedQueue
 from vehicle.link.telemetry import DATA_STREAMS, STREAM_GROUPS, Telemetry
 
 COMP_ID = mav.MAV_COMP_ID_AUTOPILOT1
-SIGNING_EPOCH = 1420070400   # 2015-01-01, MAVLink signing timestamps count 10 us from here
 
 LINK_COMMANDS = {mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAV_CMD_GET_MESSAGE_INTERVAL,
-                 mav.MAV_CMD_REQUEST_MESSAGE, mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES}
+                 mav.MAV_CMD_REQUEST_MESSAGE, mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,
+                 mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN}
+MAX_INTERVAL_US = 2**31 - 1   # MESSAGE_INTERVAL.interval_us is an int32
 
 
 # stats key -> NAMED_VALUE_INT name (10 characters at most)
 STAT_NAMES = {"garbage": b"RX_GARBAGE", "bad_crc": b"RX_BADCRC", "bad_length": b"RX_BADLEN",
               "truncated": b"RX_TRUNC", "unknown_id": b"RX_UNKNOWN", "other_target": b"RX_OTHERTG",
               "bad_signature": b"RX_BADSIG", "unsigned": b"RX_UNSIGND"}
+
+
+# the bandwidth ArduPilot's pacing assumes for a network link (bytes/s); 30 % of it goes to
+# parameter replies, at most 5 a tick (ArduPilot's limit without flow control)
+LINK_BYTES_PER_S = 1_000_000.0
+MAV2_OVERHEAD = 12            # header + CRC of a MAVLink 2 frame (+13 when signed)
+
+
+def wire_size(msg, signed: bool = False) -> int:
+    """Bytes `msg` takes on the wire as a MAVLink 2 frame (payload untrimmed: an upper bound)."""
+    return type(msg).unpacker.size + MAV2_OVERHEAD + (13 if signed else 0)
 
 
 class _Out:
@@ -67,12 +87,13 @@ class VehicleLink:
         self.next_due: dict[int, float] = {}
         self.schedule: dict[int, float] = {}
         self.signing_key = signing_key
-        self.sign_ts: dict[tuple, int] = {}
+        self.outboxes: dict[Channel, PacedQueue] = {}   # paced replies per peer
         if signing_key:
             self.mav.signing.secret_key = signing_key
             self.mav.signing.sign_outgoing = True
             self.mav.signing.link_id = 0
             self.mav.signing.timestamp = int((time.time() - SIGNING_EPOCH) * 1e5)
+            self._sign_check = SignatureCheck(signing_key, clock=self.mav.signing)
         self.missions = MissionLink(self)      # mission / fence / rally protocol
         self._rebuild_schedule()
         ap.text = self.statustext
@@ -146,6 +167,8 @@ class VehicleLink:
             for ep in self.endpoints:
                 ep.send(buf)
         self.missions.update(t)
+        if self.outboxes:
+            self._drain_outboxes(t)
         if t >= self.next_stats:
             self.next_stats = t + 1.0
             for k, name in STAT_NAMES.items():
@@ -155,8 +178,34 @@ class VehicleLink:
 
     next_stats = 0.0
 
+    # ----- paced replies ------------------------------------------------------------------
+    def paced(self, ch: Channel) -> PacedQueue:
+        """The paced outbox of the peer behind `ch` (created on first use)."""
+        q = self.outboxes.get(ch)
+        if q is None:
+            q = self.outboxes[ch] = PacedQueue(LINK_BYTES_PER_S)
+        return q
+
+    def send_paced(self, msg, ch: Channel) -> bool:
+        """Queue one reply for `ch`; False (counted as tx_dropped) when its outbox is full."""
+        if self.paced(ch).push(msg, wire_size(msg, bool(self.signing_key))):
+            return True
+        self.stats["tx_dropped"] += 1
+        return False
+
+    def _drain_outboxes(self, t: float) -> None:
+        for ch, q in list(self.outboxes.items()):
+            if ch.closed:
+                del self.outboxes[ch]
+                continue
+            for msg in q.due(t):
+                self.send(msg, ch)
+            if q.idle():
+                del self.outboxes[ch]
+
     # ----- receiving --------------------------------------------------------------------
-    def on_data(self, data: bytes, channel: Channel) -> None:
+    def on_data(self, data: bytes, channel: Channel) -> bool:
+        """Parse and handle one received chunk; True if a packet in it passed the checks."""
         if channel.stream:
             if channel.parser is None:
                 channel.parser = self._parser()
@@ -175,14 +224,17 @@ class VehicleLink:
             parser.buf = bytearray()
             parser.buf_index = 0
             parser.expected_length = mav.HEADER_LEN_V1 + 2
+        ok = False
         for m in msgs:
             try:
-                self._classify_and_handle(m, channel)
+                ok = self._classify_and_handle(m, channel) or ok
             except Exception:  # a handler bug must not kill the vehicle: count it, say where
                 self.stats["handler_error"] += 1
                 traceback.print_exc()
+        return ok
 
-    def _classify_and_handle(self, m, channel: Channel) -> None:
+    def _classify_and_handle(self, m, channel: Channel) -> bool:
+        """Count or handle one parsed message; True if it passed the checks (a real peer)."""
         if isinstance(m, mav.MAVLink_bad_data):
             reason = str(getattr(m, "reason", ""))
             if "CRC" in reason:
@@ -193,55 +245,39 @@ class VehicleLink:
                 self.stats["bad_length"] += 1
             else:
                 self.stats["bad_data"] += 1
-            return
+            return False
         if isinstance(m, mav.MAVLink_unknown):
             self.stats["unknown_id"] += 1
-            return
+            return False
         if self.signing_key and not self._signature_ok(m):
-            return
+            return False
         self.stats["rx"] += 1
         sysid = m.get_srcSystem()
         if sysid == self.ap.sysid and m.get_srcComponent() == COMP_ID:
-            return                   # our own echo (e.g. a router reflecting us)
+            return False             # our own echo (e.g. a router reflecting us)
         tgt = getattr(m, "target_system", None)
         if tgt is not None and tgt not in (0, self.ap.sysid):
             self.stats["other_target"] += 1
-            return
+            return True
         tc = getattr(m, "target_component", None)
         if tc is not None and tc not in (0, COMP_ID) and m.get_type() not in ("HEARTBEAT",):
             self.stats["other_target"] += 1
-            return
+            return True
         handler = getattr(self, "on_" + m.get_type(), None)
         if handler is not None:
             handler(m, channel)
         elif m.get_type() in MISSION_MESSAGES or m.get_type() == "MISSION_SET_CURRENT":
             self.missions.handle(m, channel)
+        return True
 
     def _signature_ok(self, m) -> bool:
-        """MAVLink 2 signing: verify the signature BEFORE recording the timestamp, so a
-        forged packet with a far-future timestamp cannot lock out the real sender."""
-        buf = bytes(m.get_msgbuf())
-        if len(buf) < 13 or not (buf[0] == 253 and buf[2] & mav.MAVLINK_IFLAG_SIGNED):
-            self.stats["unsigned"] += 1
-            return False
-        sig = hashlib.sha256(self.signing_key + buf[:-6]).digest()[:6]
-        if sig != buf[-6:]:
-            self.stats["bad_signature"] += 1
-            return False
-        link_id = buf[-13]
-        tlow, thigh = struct.unpack("<IH", buf[-12:-6])
-        ts = tlow + (thigh << 32)
-        key = (link_id, m.get_srcSystem(), m.get_srcComponent())
-        last = self.sign_ts.get(key)
-        if last is not None and ts <= last:
-            self.stats["bad_signature"] += 1     # replay
-            return False
-        if last is None and ts + 6_000_000 < self.mav.signing.timestamp:
-            self.stats["bad_signature"] += 1     # a new stream more than a minute old
-            return False
-        self.sign_ts[key] = ts
-        self.mav.signing.timestamp = max(self.mav.signing.timestamp, ts)
-        return True
+        """MAVLink 2 signing (gcs.signing): unsigned, badly signed, replayed and stale
+        packets are counted and dropped."""
+        why = self._sign_check.check(m.get_msgbuf(), m.get_srcSystem(), m.get_srcComponent())
+        if why is None:
+            return True
+        self.stats["unsigned" if why == UNSIGNED else "bad_signature"] += 1
+        return False
 
     # ----- handlers ----------------------------------------------------------------------
     def on_HEARTBEAT(self, m, ch) -> None:
@@ -253,23 +289,32 @@ class VehicleLink:
 
     def on_COMMAND_LONG(self, m, ch) -> None:
         p = [m.param1, m.param2, m.param3, m.param4, m.param5, m.param6, m.param7]
-        self._after_ack = []
-        self.ack(ch, m.command, self._command(m.command, p, ch, m, None, None, None), m)
-        self._flush_after_ack(ch)
+        self._run_command(m, ch, p, None, None, None)
 
     def on_COMMAND_INT(self, m, ch) -> None:
         p = [m.param1, m.param2, m.param3, m.param4, float(m.x), float(m.y), m.z]
-        self._after_ack = []
-        self.ack(ch, m.command, self._command(m.command, p, ch, m, m.frame, m.x, m.y), m)
-        self._flush_after_ack(ch)
+        self._run_command(m, ch, p, m.frame, m.x, m.y)
 
     _after_ack: list = []
+    _reboot_after_ack = False
 
-    def _flush_after_ack(self, ch) -> None:
-        # like ArduPilot: the ACK first, then the message a command asked for
+    def _run_command(self, m, ch, p, frame, x, y) -> None:
+        self._after_ack = []
+        self._reboot_after_ack = False
+        try:
+            result = self._command(m.command, p, ch, m, frame, x, y)
+        except Exception:       # a handler bug: still exactly one ACK, and say where
+            self.stats["handler_error"] += 1
+            traceback.print_exc()
+            result, self._after_ack = mav.MAV_RESULT_FAILED, []
+        self.ack(ch, m.command, result, m)
+        # like ArduPilot: the ACK first, then the message a command asked for (or the reboot)
         msgs, self._after_ack = self._after_ack, []
         for msg in msgs:
             self.send(msg, ch)
+        if self._reboot_after_ack:
+            self._reboot_after_ack = False
+            self.reboot()
 
     def _command(self, cmd, p, ch, m, frame, x, y) -> int:
         if cmd in LINK_COMMANDS:
@@ -281,9 +326,15 @@ class VehicleLink:
     def _link_command(self, cmd, p, ch) -> int:
         if not all(math.isfinite(v) for v in p[:2]):
             return mav.MAV_RESULT_DENIED
+        if cmd == mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
+            return self._reboot_command(p)
         if cmd == mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
+            if p[0] != 1:                  # ArduPilot: param1 1 asks for the version
+                return mav.MAV_RESULT_FAILED
             self._after_ack.append(self.telemetry.autopilot_version())
             return mav.MAV_RESULT_ACCEPTED
+        if not 0 <= p[0] <= 2**24 - 1:          # MAVLink 2 message ids are 24 bits
+            return mav.MAV_RESULT_DENIED
         msgid = int(p[0])
         if cmd == mav.MAV_CMD_REQUEST_MESSAGE:
             if msgid not in self.telemetry.builders:
@@ -301,9 +352,11 @@ class VehicleLink:
             return mav.MAV_RESULT_ACCEPTED
         # SET_MESSAGE_INTERVAL: p2 interval us; -1 disable; 0 default
         if msgid not in self.telemetry.builders or msgid == mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
-            self.statustext(mav.MAV_SEVERITY_INFO, f"No ap_message for mavlink id ({msgid})")
+            self.statustext(mav.MAV_SEVERITY_INFO, f"No ap_message for mavlink id ({msgid})"[:50])
             return mav.MAV_RESULT_DENIED
         us = p[1]
+        if us > MAX_INTERVAL_US:
+            return mav.MAV_RESULT_DENIED
         if us == 0:
             self.intervals.pop(msgid, None)
         elif us < 0:
@@ -312,6 +365,33 @@ class VehicleLink:
             self.intervals[msgid] = max(us * 1e-6, 0.001)
         self._rebuild_schedule()
         return mav.MAV_RESULT_ACCEPTED
+
+    # ----- reboot ---------------------------------------------------------------------------
+    def _reboot_command(self, p) -> int:
+        """MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN as ArduPilot: param1 1 reboots the autopilot (3,
+        reboot into the bootloader, and shutdowns are not simulated); refused while armed;
+        the ACK goes out first, from the old sysid."""
+        if p[0] != 1:
+            return mav.MAV_RESULT_UNSUPPORTED
+        if self.ap.armed:
+            return mav.MAV_RESULT_FAILED
+        self._reboot_after_ack = True
+        return mav.MAV_RESULT_ACCEPTED
+
+    def reboot(self) -> None:
+        """Reboot the simulated vehicle: the autopilot re-reads its parameters and starts
+        afresh (modes, home, targets, failsafes); the link takes the new SYSID_THISMAV and
+        forgets message intervals and queued replies. Peers and the world clock stay (the
+        world's clock is every vehicle's time_boot_ms, so it does not restart)."""
+        self.ap.reboot()
+        self.ap.text = self.statustext
+        self.mav.srcSystem = self.ap.sysid
+        self.intervals.clear()
+        for q in self.outboxes.values():
+            q.clear()
+        self.outboxes.clear()
+        self._rebuild_schedule()
+        self.stats["reboots"] += 1
 
     def on_SET_MODE(self, m, ch) -> None:
         if m.base_mode & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
@@ -350,8 +430,16 @@ class VehicleLink:
                                                len(ps), ps.index[name])
 
     def on_PARAM_REQUEST_LIST(self, m, ch) -> None:
-        for name in self.ap.params.names:
-            self.send(self.param_value(name), ch)
+        # ArduPilot: a new request restarts this peer's list from the first parameter (one
+        # list in flight per peer, however many requests arrive), sent paced
+        self.paced(ch).start_stream("params", self._param_stream())
+
+    def _param_stream(self):
+        signed = bool(self.signing_key)
+        for name in list(self.ap.params.names):
+            if name in self.ap.params:           # the value as it is when it goes out
+                msg = self.param_value(name)
+                yield msg, wire_size(msg, signed)
 
     def on_PARAM_REQUEST_READ(self, m, ch) -> None:
         ps = self.ap.params
@@ -363,7 +451,7 @@ class VehicleLink:
             name = _param_id(m.param_id)
             if name not in ps:
                 return
-        self.send(self.param_value(name), ch)
+        self.send_paced(self.param_value(name), ch)
 
     def on_PARAM_SET(self, m, ch) -> None:
         ps = self.ap.params

@@ -1,0 +1,109 @@
+"""The project's dialect on the wire, for the bridge: pack, re-pack, decode, transforms.
+
+* :class:`Codec` packs the bridge's own messages (its sysid/compid, its own sequence,
+  MAVLink 2 signed when a key is given), re-packs a message it translated with the
+  original sender's sysid, compid, seq and protocol version, and decodes a raw packet
+  (None and counted when it does not decode).
+* :func:`transform_message` / :func:`transform_from_message` encode and decode
+  TOWERLINK_TRANSFORM (and read TOWERLINK_STATIC_TRANSFORM);
+  :func:`static_transform_message` builds the request to add a static frame.
+
+Frame ids are at most 16 bytes on the wire (char[16]); a longer id is a ValueError,
+never silently cut. Stamps are seconds on the sender's timeline, sent as microseconds.
+"""
+from __future__ import annotations
+
+from gcs.dialect import encoder
+from gcs.dialect import towerlink as tl
+from gcs.frames import Transform, TransformStamped
+from gcs.mavstr import mav_str
+
+STATIC_FLAG = tl.TOWERLINK_TRANSFORM_FLAGS_STATIC
+FRAME_ID_LEN = 16
+
+
+def frame_bytes(name: str) -> bytes:
+    b = name.encode()
+    if len(b) > FRAME_ID_LEN:
+        raise ValueError(f"frame id {name!r} is longer than {FRAME_ID_LEN} bytes")
+    return b
+
+
+def transform_message(ts: TransformStamped, static: bool = False):
+    """TOWERLINK_TRANSFORM message object for one stamped transform."""
+    tr = ts.transform
+    return tl.MAVLink_towerlink_transform_message(
+        int(round(ts.stamp * 1e6)), frame_bytes(ts.frame_id), frame_bytes(ts.child_frame_id),
+        [float(v) for v in tr.translation], [float(v) for v in tr.rotation],
+        STATIC_FLAG if static else 0)
+
+
+def transform_from_message(msg) -> tuple[TransformStamped, bool]:
+    """(TransformStamped, is_static) from a decoded TOWERLINK_TRANSFORM or TOWERLINK_STATIC_TRANSFORM."""
+    stamp = getattr(msg, "time_usec", 0) / 1e6
+    tr = Transform(translation=tuple(msg.translation), rotation=tuple(msg.rotation))
+    static = msg.get_type() == "TOWERLINK_STATIC_TRANSFORM" or bool(msg.flags & STATIC_FLAG)
+    return TransformStamped(mav_str(msg.frame_id), mav_str(msg.child_frame_id), float(stamp), tr), static
+
+
+def static_transform_message(ts: TransformStamped, target_system: int = 0):
+    """TOWERLINK_STATIC_TRANSFORM asking a bridge to add `ts` to its buffer."""
+    tr = ts.transform
+    return tl.MAVLink_towerlink_static_transform_message(
+        target_system, 0, frame_bytes(ts.frame_id), frame_bytes(ts.child_frame_id),
+        [float(v) for v in tr.translation], [float(v) for v in tr.rotation])
+
+
+class Codec:
+    """Bytes for the bridge's own messages and for the ones it translates."""
+
+    def __init__(self, sysid: int, compid: int, signing_key: bytes | None = None) -> None:
+        self.enc = encoder(sysid, compid)       # the bridge's own messages
+        self.reenc = encoder(0, 0)              # re-encoding others' messages
+        self.dec = tl.MAVLink(None)
+        self.dec.robust_parsing = True
+        self.decode_errors = 0
+        if signing_key:
+            from gcs.signing import setup_signing
+            setup_signing(self.enc, signing_key, link_id=0)
+            setup_signing(self.reenc, signing_key, link_id=1)   # its own stream: no replay clash
+
+    def pack_own(self, msg) -> bytes:
+        b = msg.pack(self.enc)
+        self.enc.seq = (self.enc.seq + 1) % 256
+        return b
+
+    def pack_as(self, msg, src: tuple) -> bytes:
+        """`msg` packed as (sysid, compid, seq, v2) = the original sender's header."""
+        sysid, compid, seq, v2 = src
+        e = self.reenc
+        e.srcSystem, e.srcComponent, e.seq = sysid, compid, seq
+        return msg.pack(e, force_mavlink1=not v2)
+
+    def decode(self, raw: bytes):
+        """The message in `raw`, or None (counted in decode_errors)."""
+        try:
+            return self.dec.decode(bytearray(raw))
+        except Exception:
+            self.decode_errors += 1
+            return None
+
+
+def command_message(target: int, command: int, *params):
+    """COMMAND_LONG to (target, compid 1) with params padded by zeros."""
+    p = [float(v) for v in params] + [0.0] * (7 - len(params))
+    return tl.MAVLink_command_long_message(target, 1, command, 0, *p)
+
+
+def statustext_message(text: str, severity: int = tl.MAV_SEVERITY_WARNING):
+    """STATUSTEXT, cut to MAVLink's 50 characters."""
+    return tl.MAVLink_statustext_message(severity, text[:50].encode())
+
+
+def bridge_status_message(usec: int, name: str, stats, malformed: int):
+    """TOWERLINK_BRIDGE_STATUS for one link (counters wrap at 2**32)."""
+    m = 0xFFFFFFFF
+    return tl.MAVLink_towerlink_bridge_status_message(
+        usec, name.encode()[:16], stats.rx_packets & m, stats.tx_packets & m, malformed & m,
+        stats.unroutable & m, stats.translated & m, stats.deferred & m, stats.refused & m,
+        (stats.unsigned + stats.bad_signature) & m)
