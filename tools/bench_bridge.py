@@ -15,6 +15,10 @@ Rows:
     link, forwarded as received (the bridge has a drone and a rover link, as
     mavlink-router chains further systems). Peer: MAVProxy as a router
     (--master udpin --out udpout), pinned to the same CPU, fed the same traffic.
+    Other processes may share that CPU: the bridge's CPU use is shown, and what one
+    CPU-second of it forwards (rate / CPU use), each row judged against the target.
+  * the time the bridge was runnable but waiting for its CPU (/proc/PID/schedstat),
+    per goal, and the load average: what a p99 on a shared machine is made of.
 
 Targets: added p99 <= 1 ms on loopback; >= 20,000 messages/s forwarded on one core.
 Usage: python -m tools.bench_bridge [--quick] [--samples N] [--seconds S]
