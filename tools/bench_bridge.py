@@ -319,7 +319,8 @@ def mavproxy_rate(frames: list[bytes], seconds: float, cpu: int) -> tuple[float,
 # ----------------------------------------------------------------------------- report
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="bench_bridge", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="bench_bridge", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="a smoke run of a few seconds")
     ap.add_argument("--samples", type=int, default=None, help="latency samples per link (default 5000)")
     ap.add_argument("--seconds", type=float, default=None, help="measuring window per rate row (default 5)")
