@@ -81,9 +81,18 @@ def _udp(port: int = 0, rcvbuf: int = 8 << 20) -> socket.socket:
 
 @contextmanager
 def _pinned_process(args: list[str], cpu: int, cwd: str | None = None):
-    """A child process pinned to `cpu` (os.sched_setaffinity before exec); always stopped."""
-    proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL,
+    """A child process pinned to `cpu` (os.sched_setaffinity before exec); always stopped.
+
+    Its stderr goes to a temporary file (a pipe nobody reads could fill and stall it);
+    `proc.stderr_tail()` returns the end of it, for error messages."""
+    err = tempfile.TemporaryFile()
+    proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=err, stdin=subprocess.DEVNULL,
                             cwd=cwd, start_new_session=True, preexec_fn=lambda: os.sched_setaffinity(0, {cpu}))
+
+    def stderr_tail(n: int = 2000) -> str:
+        err.seek(0)
+        return err.read().decode(errors="replace")[-n:]
+    proc.stderr_tail = stderr_tail
     try:
         yield proc
     finally:
@@ -93,7 +102,7 @@ def _pinned_process(args: list[str], cpu: int, cwd: str | None = None):
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait()
-        proc.stderr.close()
+        err.close()
 
 
 @contextmanager
@@ -110,7 +119,10 @@ def _bridge(cpu: int):
     try:
         with _pinned_process(args, cpu) as proc:
             drone.settimeout(15.0)
-            _data, link_addr = drone.recvfrom(65535)       # the bridge's first heartbeat
+            try:
+                _data, link_addr = drone.recvfrom(65535)   # the bridge's first heartbeat
+            except socket.timeout:
+                raise RuntimeError(f"`towerlink bridge` sent nothing in 15 s:\n{proc.stderr_tail()}") from None
             hb = bytes(tl.MAVLink_heartbeat_message(tl.MAV_TYPE_GCS, tl.MAV_AUTOPILOT_INVALID, 0, 0, 0, 3)
                        .pack(tl.MAVLink(None, 255, 190)))
             tower.settimeout(0.2)
@@ -122,7 +134,7 @@ def _bridge(cpu: int):
                     break
                 except socket.timeout:
                     if time.monotonic() > deadline or proc.poll() is not None:
-                        raise RuntimeError("the bridge did not answer the tower") from None
+                        raise RuntimeError(f"the bridge did not answer the tower:\n{proc.stderr_tail()}") from None
             yield proc, tower, drone, link_addr, ("127.0.0.1", tport)
     finally:
         tower.close()
