@@ -30,8 +30,9 @@ def test_sysid_applies_after_reboot(processes, tmp_path):
     # refused while armed
     assert command(m, 400, 1) == mav.MAV_RESULT_ACCEPTED
     assert command(m, mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1) == mav.MAV_RESULT_FAILED
+    assert command(m, mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0) == mav.MAV_RESULT_FAILED  # armed: checked first
     assert command(m, 400, 0) == mav.MAV_RESULT_ACCEPTED
-    assert command(m, mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0) == mav.MAV_RESULT_UNSUPPORTED  # 1 reboots
+    assert command(m, mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0) == mav.MAV_RESULT_UNSUPPORTED  # 1 or 3 reboot
     # reboot: the ACK comes first, from sysid 1; then heartbeats from 7
     m.mav.command_long_send(1, 1, mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0, 1, 0, 0, 0, 0, 0, 0)
     ack = recv(m, "COMMAND_ACK", 5, cond=lambda a: a.command == mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN)

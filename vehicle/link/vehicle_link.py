@@ -368,13 +368,14 @@ class VehicleLink:
 
     # ----- reboot ---------------------------------------------------------------------------
     def _reboot_command(self, p) -> int:
-        """MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN as ArduPilot: param1 1 reboots the autopilot (3,
-        reboot into the bootloader, and shutdowns are not simulated); refused while armed;
-        the ACK goes out first, from the old sysid."""
-        if p[0] != 1:
-            return mav.MAV_RESULT_UNSUPPORTED
+        """MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN as ArduPilot (GCS_Common.cpp): refused while armed
+        (FAILED, checked first); param1 1 reboots, 3 (into the bootloader) reboots the same here
+        (no bootloader to hold in); anything else UNSUPPORTED. The ACK goes out first, from the
+        old sysid."""
         if self.ap.armed:
             return mav.MAV_RESULT_FAILED
+        if p[0] not in (1, 3):
+            return mav.MAV_RESULT_UNSUPPORTED
         self._reboot_after_ack = True
         return mav.MAV_RESULT_ACCEPTED
 
