@@ -97,6 +97,7 @@ class VehicleLink:
         self.missions = MissionLink(self)      # mission / fence / rally protocol
         self._rebuild_schedule()
         ap.text = self.statustext
+        ap.params.deferred = True              # saved once a tick by update(), and at close()
 
     def _parser(self):
         p = mav.MAVLink(_Out(), srcSystem=0, srcComponent=0)
@@ -108,6 +109,7 @@ class VehicleLink:
             await ep.start()
 
     def close(self) -> None:
+        self.ap.params.flush()
         for ep in self.endpoints:
             ep.close()
 
@@ -123,7 +125,11 @@ class VehicleLink:
                 ep.send(buf)
 
     def statustext(self, severity: int, text: str) -> None:
-        self.send(mav.MAVLink_statustext_message(severity, text.encode("ascii", "replace")[:50], 0, 0))
+        self.send(self._statustext_msg(severity, text))
+
+    @staticmethod
+    def _statustext_msg(severity: int, text: str):
+        return mav.MAVLink_statustext_message(severity, text.encode("ascii", "replace")[:50], 0, 0)
 
     # ----- streams ----------------------------------------------------------------------
     def _rebuild_schedule(self) -> None:
@@ -169,6 +175,7 @@ class VehicleLink:
         self.missions.update(t)
         if self.outboxes:
             self._drain_outboxes(t)
+        self.ap.params.flush()         # PARAM_SETs of this tick reach the saved file together
         if t >= self.next_stats:
             self.next_stats = t + 1.0
             for k, name in STAT_NAMES.items():
@@ -225,13 +232,31 @@ class VehicleLink:
             parser.buf_index = 0
             parser.expected_length = mav.HEADER_LEN_V1 + 2
         ok = False
-        for m in msgs:
-            try:
-                ok = self._classify_and_handle(m, channel) or ok
-            except Exception:  # a handler bug must not kill the vehicle: count it, say where
-                self.stats["handler_error"] += 1
-                traceback.print_exc()
+        self._once = {}
+        try:
+            for m in msgs:
+                try:
+                    ok = self._classify_and_handle(m, channel) or ok
+                except Exception:  # a handler bug must not kill the vehicle: count it, say where
+                    self.stats["handler_error"] += 1
+                    traceback.print_exc()
+        finally:
+            once, self._once = self._once, None
+            for build in once.values():
+                self.send(build())
         return ok
+
+    # broadcasts a received chunk causes, sent once each after it (key -> message builder):
+    # a datagram packed with a thousand PARAM_SETs echoes each parameter once to every peer,
+    # not a thousand times (ArduPilot's full send queue drops the excess the same way)
+    _once: dict | None = None
+
+    def broadcast_once(self, key, build) -> None:
+        """Send build() to every endpoint, once per received chunk for the same key."""
+        if self._once is None:
+            self.send(build())
+        else:
+            self._once[key] = build
 
     def _classify_and_handle(self, m, channel: Channel) -> bool:
         """Count or handle one parsed message; True if it passed the checks (a real peer)."""
@@ -458,14 +483,16 @@ class VehicleLink:
         ps = self.ap.params
         name = _param_id(m.param_id)
         if name not in ps:
-            self.statustext(mav.MAV_SEVERITY_WARNING, f"Param set: unknown {name}"[:50])
+            text = f"Param set: unknown {name}"[:50]
+            self.broadcast_once(("text", text), lambda: self._statustext_msg(mav.MAV_SEVERITY_WARNING, text))
             return
         why = ps.set(name, float(m.param_value))
         if why is not None:
-            self.statustext(mav.MAV_SEVERITY_WARNING, why[:50])
+            text = why[:50]
+            self.broadcast_once(("text", text), lambda: self._statustext_msg(mav.MAV_SEVERITY_WARNING, text))
             self.send(self.param_value(name), ch)
             return
-        self.send(self.param_value(name))
+        self.broadcast_once(("param", name), lambda: self.param_value(name))
         if name.startswith("SR0_"):
             self._rebuild_schedule()
         self.params_changed({name: ps[name]})
