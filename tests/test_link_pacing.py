@@ -131,3 +131,25 @@ def test_param_set_flood_echoes_once_saves_once_and_real_time(tmp_path):
         assert "RTL_ALT 2000" in saved and "DISARM_DELAY 6" in saved
     finally:
         procs.stop_all()
+
+
+def test_statustext_per_received_chunk_is_bounded():
+    """A datagram of a thousand mode changes to an unknown mode: at most 30 STATUSTEXT (ArduPilot's
+    queue), yet every command gets its COMMAND_ACK; texts of later datagrams go out again."""
+    from test_command_nonfinite import Gcs
+    from vehicle.world import World, WorldConfig
+    w = World(WorldConfig(drones=1, rovers=0, state_dir=None, tcp_base=None, udp_base=None))
+    link = w.vehicles[0].link
+    sent = []
+    link.endpoints = [type("E", (), {"send": lambda self, b: sent.append(b), "close": lambda self: None})()]
+    gcs = Gcs(link)
+    one = gcs.enc.command_long_encode(1, 1, mav.MAV_CMD_DO_SET_MODE, 0, 1, 77, 0, 0, 0, 0, 0).pack(gcs.enc)
+    assert link.on_data(one * 1000, gcs.ch)
+    acks = [m for m in gcs.got if m.get_type() == "COMMAND_ACK"]
+    texts = [m for b in sent for m in gcs.dec.parse_buffer(b) or [] if m.get_type() == "STATUSTEXT"]
+    assert len(acks) == 1000 and all(a.result == mav.MAV_RESULT_FAILED for a in acks)
+    assert len(texts) == 30 and texts[0].text == "Mode change to 77 failed: unknown mode"
+    assert link.stats["text_dropped"] == 970
+    sent.clear()
+    assert link.on_data(one, gcs.ch)
+    assert len([m for b in sent for m in gcs.dec.parse_buffer(b) or [] if m.get_type() == "STATUSTEXT"]) == 1

@@ -124,8 +124,17 @@ class VehicleLink:
             for ep in self.endpoints:
                 ep.send(buf)
 
+    TEXTS_PER_CHUNK = 30      # ArduPilot's STATUSTEXT queue: what does not fit is dropped
+
     def statustext(self, severity: int, text: str) -> None:
+        if self._once is not None:           # inside a received chunk: bounded, see on_data
+            self._texts += 1
+            if self._texts > self.TEXTS_PER_CHUNK:
+                self.stats["text_dropped"] += 1
+                return
         self.send(self._statustext_msg(severity, text))
+
+    _texts = 0
 
     @staticmethod
     def _statustext_msg(severity: int, text: str):
@@ -232,7 +241,7 @@ class VehicleLink:
             parser.buf_index = 0
             parser.expected_length = mav.HEADER_LEN_V1 + 2
         ok = False
-        self._once = {}
+        self._once, self._texts = {}, 0
         try:
             for m in msgs:
                 try:
