@@ -16,6 +16,10 @@ outbox per peer, a PARAM_REQUEST_LIST restarts that peer's list instead of queue
 PARAM_REQUEST_READ replies wait in a bounded queue. `paced(ch)` / `send_paced(msg, ch)` are
 the API for other reply kinds (the mission protocol).
 
+What one received chunk (a datagram may hold thousands of frames) makes the vehicle
+broadcast is bounded: each parameter's PARAM_VALUE echo once, at most TEXTS_PER_CHUNK
+STATUSTEXT; parameters are written to the saved file once a tick.
+
 `on_data` returns True when the chunk held at least one packet that passed the checks (CRC,
 length, known id and, with signing on, the signature): the UDP endpoint adds a peer only then.
 """
