@@ -172,7 +172,7 @@ def config_from_args(args):
         allow_redefine=args.allow_redefine, signing_key=key_from_text(args.signing_key))
 
 
-def start_viewer(port: int) -> tuple[str, "subprocess.Popen"]:
+def start_viewer(port: int) -> tuple[str, object]:
     """A `towerlink view` child process on a free loopback UDP port; returns (out url, process).
     A separate process keeps the viewer's work (and its imports) out of the bridge's loop."""
     import socket
