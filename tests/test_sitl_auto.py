@@ -1,8 +1,9 @@
 """AUTO over the wire against a real `towerlink sitl`: pymavlink as ArduPilot users write it
 (mavwp upload, GUIDED, arm, MAV_CMD_MISSION_START; MISSION_CURRENT and MISSION_ITEM_REACHED
 in order, DO_JUMP repeats, each waypoint passed within WPNAV_RADIUS, the mission's end as
-ArduCopter's), and MAVSDK 4.x mission_raw start_mission with its progress to the end (the
-MAVSDK client in its own process, as in test_sitl_mavsdk_mission.py)."""
+ArduCopter's), a rover's mission in AUTO ("Reached waypoint #N", "Mission Complete", holds in
+AUTO), and MAVSDK 4.x mission_raw start_mission with its progress to the end (the MAVSDK
+client in its own process, as in test_sitl_mavsdk_mission.py)."""
 from __future__ import annotations
 
 import sys
@@ -104,6 +105,36 @@ def test_pymavlink_flies_a_mission_with_do_jump_in_auto(processes, tmp_path):
     p = recv(m, "GLOBAL_POSITION_INT", 5)
     n, e, _ = geo.lla_to_ned(home, p.lat * 1e-7, p.lon * 1e-7, 0.0)
     assert np.hypot(n, e) < 1.0 and p.relative_alt < 300
+
+
+@pytest.mark.timeout(120)
+def test_pymavlink_rover_runs_a_mission_in_auto(processes, tmp_path):
+    sitl = Sitl(processes, tmp_path, drones=0, rovers=1, speedup=10)
+    m = connect(sitl.udp[0])
+    assert m.messages["HEARTBEAT"].type == mav.MAV_TYPE_GROUND_ROVER
+    wait_armable(m)
+    g = recv(m, "GLOBAL_POSITION_INT", 5)
+    home = (g.lat * 1e-7, g.lon * 1e-7, g.alt * 1e-3)
+    loader = mavwp.MAVWPLoader()
+    for it in [item(m, 0, mav.MAV_CMD_NAV_WAYPOINT, home=home, frame=mav.MAV_FRAME_GLOBAL_INT, alt=home[2]),
+               item(m, 1, mav.MAV_CMD_NAV_WAYPOINT, 15.0, 0.0, home=home),
+               item(m, 2, mav.MAV_CMD_NAV_WAYPOINT, 15.0, 15.0, home=home)]:
+        loader.add(it)
+    assert mavwp_upload(m, loader) == mav.MAV_MISSION_ACCEPTED
+    m.arducopter_arm()
+    m.motors_armed_wait()
+    assert set_mode(m, "AUTO") == mav.MAV_RESULT_ACCEPTED
+    reached, texts = [], []
+    while "Mission Complete" not in texts:
+        msg = recv(m, ["MISSION_ITEM_REACHED", "STATUSTEXT"], 30)
+        if msg.get_type() == "MISSION_ITEM_REACHED":
+            reached.append(msg.seq)
+        else:
+            texts.append(msg.text)
+    assert reached == [1, 2], (reached, texts)
+    assert [t for t in texts if t.startswith("Reached waypoint")] == ["Reached waypoint #1", "Reached waypoint #2"]
+    assert recv(m, "MISSION_CURRENT", 5).mission_state == mav.MISSION_STATE_COMPLETE
+    assert recv(m, "HEARTBEAT", 5).custom_mode == 10                  # still AUTO, holding
 
 
 # ----- MAVSDK ---------------------------------------------------------------------------
