@@ -124,7 +124,7 @@ def test_mcap_write_is_atomic_and_leaves_no_temporary_on_failure(tmp_path):
 
 def test_live_view_serves_transforms_on_the_sim_clock():
     pytest.importorskip("foxglove")
-    from foxglove_client import FoxgloveClient
+    from tools.foxglove_client import FoxgloveClient
     from tools.live_view import LiveView
 
     view = LiveView(port=0)

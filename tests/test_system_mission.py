@@ -26,7 +26,7 @@ def run(tmp_path_factory):
     with launched(run_dir, goals=tower_goals(MISSION_WORLD), follow_frame="drone_yaw",
                   finish="land", speedup=2.0, view_port=0) as launch:
         # a Foxglove client watches the whole flight live (`towerlink fly --view`)
-        from foxglove_client import FoxgloveClient
+        from tools.foxglove_client import FoxgloveClient
         live = FoxgloveClient(launch.view.url, ("/tf", "/tf_static", "/vehicles", "/goals"))
         try:
             s = finish(launch, timeout=150)

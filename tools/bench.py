@@ -8,6 +8,7 @@ flight: one drone vs RotorPy, 1000 batched drones, flight quality.
 world:  100 vehicles with full MAVLink telemetry at real time, CPU used.
 bridge: latency the bridge adds to a tower goal (vs a direct link), forwarding rate
         with telemetry from 1, 10 and 100 vehicles (vs MAVProxy), bridge on one CPU.
+view:   what the live Foxglove view and run.mcap cost per message, vs writing the tlog.
 mission: a 1 km, 10-waypoint AUTO mission's flight time vs the sum of its legs' minimum times.
 """
 from __future__ import annotations
@@ -23,6 +24,7 @@ BENCHES = {
     "world": "tools.bench_world",
     "bridge": "tools.bench_bridge",
     "mission": "tools.bench_mission",
+    "view": "tools.bench_view",
 }
 
 

@@ -36,6 +36,8 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
+from gcs.mavstr import mav_str
+
 TOWER_SYSID = 255
 DISPLAY_FRAME = "world_enu"
 ENU_TO_NED_Q = (math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0)   # x, y, z, w: the NED axes seen in ENU
@@ -94,12 +96,6 @@ def schema_of(topic: str) -> tuple[str, dict]:
 
 def stamp(sim_ns: int) -> dict:
     return {"sec": sim_ns // 1_000_000_000, "nsec": sim_ns % 1_000_000_000}
-
-
-def _text(v: Any) -> str:
-    if isinstance(v, bytes):
-        v = v.decode(errors="replace")
-    return str(v).rstrip("\x00")
 
 
 def frame_transform(sim_ns: int, parent: str, child: str, t, q) -> dict:
@@ -229,7 +225,7 @@ class SceneFeed:
         return self._boot_ns.get(src, self.sim_ns if self.sim_ns else None)
 
     def _transform(self, m, ns: int) -> list[Record]:
-        parent, child = _text(m.frame_id), _text(m.child_frame_id)
+        parent, child = mav_str(m.frame_id), mav_str(m.child_frame_id)
         tr, q = m.translation, m.rotation
         if not all(math.isfinite(v) for v in (*tr, *q)):
             return []
