@@ -138,3 +138,31 @@ def test_route_only_sends_tower_goals_to_the_nodes_and_publishes_no_vehicle_fram
             assert "drone" not in bridge.buffer.frames() and not bridge.cfg.follow
             TransformBroadcaster(node).send_transform(TransformStamped("world", "drone", 1.2, Transform()))
             wait_until(lambda: bridge.buffer.can_transform("world", "drone", 1.2), 5, "the node's drone frame")
+
+
+def test_message_filter_in_a_node_waits_for_another_nodes_frame_and_drops_stale_data(lab):
+    from gcs.tf2_ros import FilterFailureReason
+    bridge, drone = lab["bridge"], lab["drone"]
+    user = lab["node"]("detector")
+    buf = Buffer()
+    mf = MessageFilter(TransformListener(buf, user), "world", queue_size=5, timeout=1.0)
+    got, dropped = [], []
+    mf.register_callback(lambda p: got.append(mf.transform(p)))
+    mf.register_failure_callback(lambda p, why: dropped.append((p, why)))
+    seen = PointStamped("camera", 2.0, (0.0, 0.0, 5.0))
+    mf.add(seen)                                        # no camera frame anywhere yet: it waits
+    assert got == [] and mf.waiting == 1
+    wait_until(lambda: bridge.node_links[0].peers, 5, "the detector is a peer")
+    cam = lab["node"]("camera_driver")
+    StaticTransformBroadcaster(cam).send_transform(TransformStamped("drone", "camera", 0.0, CAM))
+    fly_drone(drone, 1900, 4)                           # the drone's frame at 1.9 .. 2.05 s
+    wait_until(lambda: got, 5, "the filter's delivery once world <- camera exists at 2.0 s")
+    np.testing.assert_allclose(got[0].point, (7.2, 2.0, -8.9), atol=1e-4)
+    assert got[0].frame_id == "world" and got[0].stamp == 2.0 and dropped == []
+    # a frame no node publishes: dropped after the timeout, with tf2_ros's reason
+    lost = PointStamped("lidar", 2.0, (1.0, 0.0, 0.0))
+    mf.add(lost)
+    wait_until(lambda: dropped, 5, "the drop")
+    assert dropped == [(lost, FilterFailureReason.NoTransformFound)]
+    assert "lidar" in mf.last_drop[2] and mf.delivered == 1
+    mf.close()
