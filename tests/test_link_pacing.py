@@ -91,6 +91,8 @@ def test_param_request_list_flood_yields_one_list_and_real_time(tmp_path):
         w1 = time.monotonic()
         ratio = (t1.time_boot_ms - t0.time_boot_ms) / 1000.0 / (w1 - w0)
         assert ratio > 0.85, f"world ran at {ratio:.2f}x real time"
+        print(f"flood of {len(flood) // len(one)} PARAM_REQUEST_LIST: {values} PARAM_VALUE "
+              f"({count} parameters), world at {ratio:.2f}x real time")
         # the vehicle still answers a single read afterwards
         m.mav.param_request_read_send(1, 1, b"RTL_ALT", -1)
         assert recv(m, "PARAM_VALUE", 5, cond=lambda p: p.param_id == "RTL_ALT").param_value == 1500

@@ -189,3 +189,39 @@ def test_the_shipped_layout_is_what_the_generator_writes_and_shows_the_feeds_top
     for topic in ("/vehicles", "/goals", "/follow", "/summary.follow_error_rms"):
         assert f'"{topic}' in text
     assert '"fixedFrame": "world_enu"' in text   # the feed's z-up display frame
+
+
+def test_bridge_view_serves_its_frame_tree_to_a_foxglove_client(processes):
+    """`towerlink bridge --view PORT`: a Foxglove client sees the bridge's frames (its scenario's
+    static tower frame) with no vehicle connected, and nothing is left running afterwards."""
+    pytest.importorskip("foxglove")
+    import socket
+
+    from support import free_port, free_ports, wait_until
+    from tools.foxglove_client import FoxgloveClient
+
+    view_port = free_port(socket.SOCK_STREAM)
+    tower, drone, rover = free_ports(3)
+    bridge = processes.start(["towerlink", "bridge", "--tower", f"udpin:127.0.0.1:{tower}",
+                              "--drone", f"udpout:127.0.0.1:{drone}", "--rover", f"udpout:127.0.0.1:{rover}",
+                              "--view", str(view_port), "-q"])
+
+    def connect():
+        try:
+            return FoxgloveClient(f"ws://127.0.0.1:{view_port}", ("/tf_static",))
+        except Exception:   # noqa: BLE001 - refused, or a handshake before the server is up
+            return None
+
+    client = wait_until(connect, 30, "the bridge's Foxglove server")
+    try:
+        wait_until(lambda: any(ft["child_frame_id"] == "tower" for _, b in client.of("/tf_static")
+                               for ft in b["transforms"]), 30, "world -> tower from the bridge")
+        ft = next(ft for _, b in client.of("/tf_static") for ft in b["transforms"] if ft["child_frame_id"] == "tower")
+        assert ft["parent_frame_id"] == "world"
+        from gcs.scenario import load_scenario
+        want = load_scenario(None).buffer().lookup_transform("world", "tower").transform.translation
+        assert [ft["translation"][k] for k in "xyz"] == pytest.approx(list(want), abs=1e-3)
+    finally:
+        client.stop()
+    processes.stop(bridge)
+    assert bridge.returncode is not None
