@@ -12,7 +12,7 @@ from gcs.frames import LATEST, Buffer, PointStamped, Transform, TransformStamped
 from gcs.tf2_ros import (MessageFilter, Node, StaticTransformBroadcaster, TransformBroadcaster,
                          TransformListener)
 from gcs.tf2_ros.stream import TransformStream
-from bridge_fakes import Endpoint, bridge_with_fakes
+from bridge_fakes import bridge_with_fakes
 from support import free_port, wait_until
 
 # a camera 0.2 m ahead of and 0.1 m below the drone's origin (FRD), its optical axis (z) forward

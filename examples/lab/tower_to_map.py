@@ -11,7 +11,7 @@ static_transform_publisher), and sends the goal in world to the drone.
 import argparse
 
 from gcs.dialect import towerlink as tl
-from gcs.frames import LATEST, Buffer, PointStamped, TransformException
+from gcs.frames import LATEST, Buffer, InvalidArgumentException, PointStamped, TransformException
 from gcs.tf2_ros import DEFAULT_URL, Node, TransformListener
 
 TOWER_SYSID = 255
@@ -44,6 +44,9 @@ class TowerToMap:
                         *p, 0, 0, 0, 0, 0, 0, yaw, 0))
                     self.node.log(f"Publishing Transformed Goal {[round(float(v), 2) for v in p[:2]]}")
                     self.goal = None        # the tower re-sends its goal until the drone is there
+                except InvalidArgumentException as exc:       # NaN/inf from the wire: not a goal
+                    self.node.log(f"goal dropped: {exc}")
+                    self.goal = None
                 except TransformException as exc:
                     self.node.log(f"tf2 exception, continuing: {exc}")
             rate.sleep()

@@ -11,7 +11,8 @@ topic) it broadcasts, stamped with the drone's clock (time_boot_ms, sim seconds)
 """
 import argparse
 
-from gcs.frames import Transform, TransformStamped, euler_from_quaternion, quaternion_from_euler
+from gcs.frames import (Transform, TransformException, TransformStamped, euler_from_quaternion,
+                        quaternion_from_euler)
 from gcs.tf2_ros import DEFAULT_URL, Node, TransformBroadcaster
 
 
@@ -29,13 +30,15 @@ class WorldToDrone:
         if self.attitude is None:
             return
         t = m.time_boot_ms / 1000.0
-        roll, pitch, yaw = euler_from_quaternion(self.attitude)
         xyz = (m.x, m.y, m.z)
-        self.br.send_transform([
-            TransformStamped("world", "drone", t, Transform(translation=xyz, rotation=self.attitude)),
-            TransformStamped("world", "drone_yaw", t,
-                             Transform(translation=xyz, rotation=quaternion_from_euler(0.0, 0.0, yaw))),
-        ])
+        try:
+            full = Transform(translation=xyz, rotation=self.attitude)
+            roll, pitch, yaw = euler_from_quaternion(full.rotation)
+            level = Transform(translation=xyz, rotation=quaternion_from_euler(0.0, 0.0, yaw))
+        except TransformException:                         # NaN or a zero quaternion on the wire
+            return
+        self.br.send_transform([TransformStamped("world", "drone", t, full),
+                                TransformStamped("world", "drone_yaw", t, level)])
 
 
 if __name__ == "__main__":
