@@ -274,6 +274,8 @@ class Bridge:
             ts = transform_from_message(msg)[0] if msg is not None else None
             why = self.trust.verdict(pkt.sysid, ts.child_frame_id if ts else "", self.tree.owned,
                                      self.tree.authority(ts.child_frame_id) if ts else None, pkt.refused)
+            if why is None and ts is not None:
+                why = self.node_desk.frames.claimed(ts.child_frame_id)     # a node's frame stays the node's
             if why is None:
                 ts = self.tree.add_static(ts, f"static-transform:{pkt.sysid}")
         except (TransformException, ValueError) as exc:

@@ -47,6 +47,11 @@ class NodeFrames:
             why = f"{child!r} belongs to {owner}"
         return why
 
+    def claimed(self, child: str) -> str | None:
+        """For a TOWERLINK_STATIC_TRANSFORM request: the reason it may not set `child` (a node owns it)."""
+        owner = self.owners.get(child)
+        return None if owner is None else f"{child!r} belongs to {owner}"
+
     def accept(self, sysid: int, compid: int, ts: TransformStamped, static: bool,
                signature: str | None = None) -> tuple[str | None, bool]:
         """(reason refused or None, first time this publisher set this frame).

@@ -166,3 +166,15 @@ def test_message_filter_in_a_node_waits_for_another_nodes_frame_and_drops_stale_
     assert dropped == [(lost, FilterFailureReason.NoTransformFound)]
     assert "lidar" in mf.last_drop[2] and mf.delivered == 1
     mf.close()
+
+
+def test_a_static_transform_request_cannot_take_a_nodes_frame(lab):
+    from gcs.tf2_ros.wire import static_transform_message
+    bridge, tower = lab["bridge"], lab["tower"]
+    cam = lab["node"]("camera_driver")
+    TransformBroadcaster(cam).send_transform(TransformStamped("world", "beacon", 1.0, Transform(translation=(1, 1, 0))))
+    wait_until(lambda: bridge.node_desk.frames.owners.get("beacon"), 5, "beacon owned by the node")
+    tower.mav.send(static_transform_message(TransformStamped("world", "beacon", 0.0, Transform())))
+    m = tower.wait("STATUSTEXT", lambda m: m.text.startswith("static tf"))
+    assert m.text == f"static tf refused: 'beacon' belongs to node:255/{cam.source_component}"
+    assert not bridge.buffer.edge_stats()["beacon"].is_static
