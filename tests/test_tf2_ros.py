@@ -157,3 +157,50 @@ def test_message_filter_on_a_listener_delivers_when_the_frame_arrives(node_pair)
     wait_until(lambda: got, 5.0, "the filter's delivery")
     assert np.allclose(got[0].point, (11, 0, 0)) and got[0].frame_id == "world"
     mf.close()
+
+
+# ----------------------------------------------------------------------------- FilterQueue: properties
+
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+# one step: ("add", frame, stamp) | ("tf", stamp) a world->drone sample | ("wait", seconds)
+_steps = st.lists(st.one_of(
+    st.tuples(st.just("add"), st.sampled_from(["drone", "camera", "nowhere"]), st.floats(0, 20)),
+    st.tuples(st.just("tf"), st.floats(0, 20)),
+    st.tuples(st.just("wait"), st.floats(0, 1))), max_size=40)
+
+
+@settings(max_examples=150, deadline=None)
+@given(_steps, st.integers(0, 4), st.one_of(st.none(), st.floats(0.1, 2)))
+def test_filter_accounts_for_every_message_once_and_in_order(steps, queue_size, timeout):
+    buf = Buffer(cache_time=5.0)
+    buf.set_transform_static(ts("drone", "camera", 0.0, x=0.1), "cam")
+    q = FilterQueue(buf, "world", queue_size=queue_size, timeout=timeout)
+    now, added, fates = 0.0, [], {}
+    for step in steps:
+        if step[0] == "add":
+            m = PointStamped(step[1], step[2], (0, 0, 0))
+            added.append(m)
+            r = q.add(m, now)
+        elif step[0] == "tf":
+            buf.set_transform(ts("world", "drone", step[1]), "w")
+            r = q.poll(now)
+        else:
+            now += step[1]
+            r = q.poll(now)
+        for m in r.ready:
+            assert id(m) not in fates
+            assert buf.can_transform("world", m.frame_id, m.stamp)     # delivered only when transformable
+            fates[id(m)] = "ready"
+        for m, why, _detail in r.dropped:
+            assert id(m) not in fates
+            if why is R.QueueFull:
+                assert queue_size > 0
+            if why is R.NoTransformFound:
+                assert timeout is not None
+            fates[id(m)] = why
+        assert queue_size == 0 or len(q) <= queue_size
+    waiting = {id(w.msg) for w in q.queue}
+    assert all((id(m) in fates) != (id(m) in waiting) for m in added)   # each one: decided xor waiting
+    assert [w.msg for w in q.queue] == [m for m in added if id(m) in waiting]   # arrival order kept
+    assert not any(m.frame_id == "nowhere" and fates.get(id(m)) == "ready" for m in added)
