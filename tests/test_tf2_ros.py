@@ -99,6 +99,8 @@ def test_message_filter_over_a_buffer_counts_and_reports_drops():
     mf.poll()
     assert failed[-1] == (b, R.NoTransformFound) and got == []
     assert mf.dropped[R.QueueFull] == 1 and mf.dropped[R.NoTransformFound] == 1
+    with pytest.raises(TypeError, match="TransformListener or a Buffer"):
+        MessageFilter("world", "world")
 
 
 # ----------------------------------------------------------------------------- over sockets

@@ -166,7 +166,9 @@ class MessageFilter:
 
     def __init__(self, source, target_frame: str, queue_size: int = 10, timeout: float | None = None,
                  clock: Callable[[], float] = time.monotonic) -> None:
-        buffer = source if isinstance(source, Buffer) else source.buffer
+        buffer = source if isinstance(source, Buffer) else getattr(source, "buffer", None)
+        if not isinstance(buffer, Buffer):
+            raise TypeError(f"MessageFilter needs a TransformListener or a Buffer, got {type(source).__name__}")
         self.core = FilterQueue(buffer, target_frame, queue_size, timeout)
         self.buffer = buffer
         self.target_frame = target_frame

@@ -18,7 +18,8 @@ listens still gets the stream.
 
 Identity on the wire: ``source_system`` (default 255, a GCS-side system, the one a
 bridge trusts by default: --trust-sysid) and ``source_component`` (default: a
-MAV_COMP_ID_USER1..75 number derived from the node's name, so nodes on one host differ).
+MAV_COMP_ID_USER1..75 number derived from the node's name: names usually get different
+numbers, but two of 75 can meet, so give source_component= when two nodes must differ).
 The bridge's frame authority is per (sysid, compid): see bridge.node_frames.
 """
 from __future__ import annotations
