@@ -3,9 +3,10 @@
 
 Its goal is the ground point under the drone written in the drone's frame, (0, 0, height):
 transformed into world with the listener's buffer and sent to the rover (z 0, GUIDED,
-armed), 10 times a second of the drone's clock. --follow-frame drone goes through the tilting frame (checkpoint 2: it wobbles),
-drone_yaw through the level one (checkpoint 3). The drone's velocity, from two lookups
-0.1 s apart on its clock, goes with the goal so the rover keeps pace.
+armed), 10 times a second of the drone's clock. --follow-frame drone goes through the
+tilting frame (checkpoint 2: it wobbles), drone_yaw through the level one (checkpoint 3).
+The drone's velocity, from two lookups 0.1 s apart on its clock, goes with the goal so
+the rover keeps pace.
 
     python examples/lab/ground_robot_controller.py --connect udpout:127.0.0.1:14620 --follow-frame drone_yaw
 """
