@@ -5,7 +5,6 @@ return, auto-disarm after DISARM_DELAY, FS_GCS_ENABLE actions, FS_GCS_ENABLE=0; 
 jerk bound of the shaped position target."""
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pytest

@@ -5,7 +5,6 @@ import importlib.util
 import math
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from gcs.dialect import towerlink as tl

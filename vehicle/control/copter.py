@@ -21,7 +21,7 @@ import numpy as np
 from gcs.frames.batch import wrap_pi, yaw_of
 from vehicle.control import shaping
 from vehicle.physics import NumpyOps
-from vehicle.physics.multicopter import GRAVITY, QuadAirframe
+from vehicle.physics.multicopter import GRAVITY
 
 D2R = math.pi / 180.0
 
