@@ -14,6 +14,7 @@ Python API (tests, tools):
 from __future__ import annotations
 
 import asyncio
+import json
 import os
 import threading
 import time
@@ -26,8 +27,11 @@ from vehicle.autopilot.mission_persist import PersistentMissionStore, missions_p
 from vehicle.autopilot.mission_store import MISSION, MissionItem, MissionStore
 from vehicle.autopilot.params import COPTER_TABLE, ROVER_TABLE, core_table, read_parm_file
 from vehicle.link import VehicleLink
+from vehicle.network_plan import NetworkPlan
+from vehicle.network_plan import plan as plan_world
 
 DEFAULT_HOME = (-35.363261, 149.165230, 584.0)      # ArduPilot SITL's default (CMAC)
+PLAN_FILE = "network_plan.json"      # in the state dir: the network plan of the running world
 DEFAULT_STATE_DIR = os.path.join(os.environ.get("XDG_STATE_HOME", os.path.expanduser("~/.local/state")),
                                  "towerlink", "sitl")
 AP_RATE = 50.0
@@ -51,17 +55,17 @@ class WorldConfig:
     sysid_base: int = 1
     signing_key: bytes | None = None
     missions: dict[int, list[MissionItem]] = field(default_factory=dict)  # vehicle index -> MISSION at start
+    sysids: dict[int, int] = field(default_factory=dict)       # vehicle index -> explicit sysid
+    group_size: int | None = None                               # vehicles per MAVLink network (default 254)
+
+    def network_plan(self) -> NetworkPlan:
+        """Sysids, networks and ports of every vehicle (vehicle/network_plan.py); PlanError."""
+        return plan_world(self.drones, self.rovers, tcp_base=self.tcp_base, udp_base=self.udp_base,
+                          host=self.host, outs=self.outs, endpoints=self.endpoints,
+                          sysid_base=self.sysid_base, sysids=self.sysids, group_size=self.group_size)
 
     def vehicle_endpoints(self, i: int) -> list[str]:
-        if i in self.endpoints:
-            eps = list(self.endpoints[i])
-        else:
-            eps = []
-            if self.tcp_base:
-                eps.append(f"tcpin:{self.host}:{self.tcp_base + 10 * i}")
-            if self.udp_base:
-                eps.append(f"udpin:{self.host}:{self.udp_base + 10 * i}")
-        return eps + list(self.outs)
+        return list(self.network_plan().vehicles[i].endpoints)
 
 
 @dataclass
@@ -90,6 +94,7 @@ class World:
         self.unix_start_us = int(time.time() * 1e6)
         self.vehicles: list[Vehicle] = []
         self.fleets: list[tuple[str, object]] = []
+        self.plan = cfg.network_plan()        # PlanError before anything is built
         file_params = read_parm_file(cfg.params_file) if cfg.params_file else {}
         file_params.pop("SYSID_THISMAV", None)
         index = 0
@@ -103,7 +108,7 @@ class World:
             stores, saves = [], []
             for j in range(n):
                 defaults = dict(file_params)
-                defaults["SYSID_THISMAV"] = cfg.sysid_base + index + j
+                defaults["SYSID_THISMAV"] = self.plan.vehicles[index + j].sysid
                 save = (os.path.join(cfg.state_dir, f"{'drone' if kind == 'copter' else 'rover'}{j}.parm")
                         if cfg.state_dir else None)
                 stores.append(ParamStore(core + table, defaults, save))
@@ -122,13 +127,15 @@ class World:
                 # missions, fence and rally points persist beside the parameters
                 missions = PersistentMissionStore(missions_path(saves[j])) if saves[j] else MissionStore()
                 ap = ap_cls(fleet, j, stores[j], cfg.home, starts[j], push_params=push, missions=missions)
-                link = VehicleLink(ap, self.clock, self.unix_start_us, cfg.vehicle_endpoints(index),
+                link = VehicleLink(ap, self.clock, self.unix_start_us, list(self.plan.vehicles[index].endpoints),
                                    signing_key=cfg.signing_key, params_changed=push)
                 self.vehicles.append(Vehicle(index, kind, j, ap, link))
                 if index in cfg.missions:        # --mission I=FILE: as if uploaded at start
                     ap.missions.replace_all(MISSION, cfg.missions[index])
                     ap.mission_uploaded(MISSION)
                 index += 1
+        # a saved SYSID_THISMAV (a PARAM_SET before a restart) wins over the plan's: refuse a clash
+        self.plan = self.plan.with_sysids([v.sysid for v in self.vehicles])
         self._stop: asyncio.Event | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._thread: threading.Thread | None = None
@@ -238,13 +245,27 @@ class World:
         if self._thread is not None:
             self._thread.join(timeout)
 
+    def write_plan(self, path: str) -> None:
+        """The network plan as JSON (vehicle index, kind, network, sysid, tcp, udp, endpoints),
+        written atomically (tmp file, then os.replace) so a reader never sees half of it."""
+        os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+        tmp = f"{path}.tmp{os.getpid()}"
+        with open(tmp, "w") as f:
+            json.dump(self.plan.as_dict(), f, indent=1)
+        os.replace(tmp, path)
+
     def banner(self) -> str:
         lines = [f"towerlink sitl: {len(self.vehicles)} vehicle(s), home {self.cfg.home[0]:.6f},"
                  f"{self.cfg.home[1]:.6f},{self.cfg.home[2]:.1f}, rate {self.cfg.rate:g} Hz, "
                  f"speedup {self.cfg.speedup:g}, seed {self.cfg.seed}"]
+        if len(self.plan.groups) > 1 or self.plan.stride != 10:
+            lines.append(f"{len(self.plan.groups)} MAVLink network(s) of up to {self.plan.group_size} vehicles, "
+                         f"ports every {self.plan.stride}:")
+            lines += self.plan.summary()
         for v in self.vehicles:
             name = "drone" if v.kind == "copter" else "rover"
-            lines.append(f"  vehicle {v.index}: {name} sysid {v.sysid} ({'QUADROTOR' if v.kind == 'copter' else 'GROUND_ROVER'})"
+            net = f" network {v.index // self.plan.group_size}" if len(self.plan.groups) > 1 else ""
+            lines.append(f"  vehicle {v.index}: {name}{net} sysid {v.sysid} ({'QUADROTOR' if v.kind == 'copter' else 'GROUND_ROVER'})"
                          f"  {'  '.join(v.link.specs)}")
         return "\n".join(lines)
 
@@ -252,5 +273,6 @@ class World:
         parts = []
         for v in self.vehicles:
             s = v.link.stats
-            parts.append(f"sysid {v.sysid}: " + " ".join(f"{k}={s[k]}" for k in sorted(s)))
+            who = f"vehicle {v.index} sysid {v.sysid}" if len(self.plan.groups) > 1 else f"sysid {v.sysid}"
+            parts.append(f"{who}: " + " ".join(f"{k}={s[k]}" for k in sorted(s)))
         return "stats: " + "; ".join(parts)
