@@ -181,3 +181,47 @@ def test_saved_sysid_clash_refused(tmp_path):
     (tmp_path / "drone1.parm").write_text("SYSID_THISMAV 9\n")
     w = World(WorldConfig(drones=2, rovers=0, state_dir=str(tmp_path), tcp_base=None, udp_base=None))
     assert [v.sysid for v in w.vehicles] == [1, 9] and [v.sysid for v in w.plan.vehicles] == [1, 9]
+
+
+def test_workers_share_one_world(processes, tmp_path):
+    """--workers 2: the vehicles of one plan in two processes, every one reachable on its
+    planned port, all on one sim clock (SYSTEM_TIME: the same unix instant at t = 0)."""
+    tcp = _free_block(socket.SOCK_STREAM, range(20000, 23000), 6)
+    udp = _free_block(socket.SOCK_DGRAM, range(26000, 29000), 6)
+    plan_file = tmp_path / "plan.json"
+    proc = processes.start(["towerlink", "sitl", "--drones", "3", "--rovers", "3", "--group-size", "4",
+                            "--workers", "2", "--rate", "100", "--no-save", "--tcp-base", str(tcp),
+                            "--udp-base", str(udp), "--plan-out", str(plan_file)])
+    lines: list[str] = []
+    import threading
+    threading.Thread(target=lambda: lines.extend(proc.stdout), daemon=True).start()
+    wait_until(lambda: any(l.startswith("  vehicle 5:") for l in lines) or proc.poll() is not None, 60,
+               "sitl start")
+    assert proc.poll() is None, "".join(lines)
+    assert lines[0].rstrip().endswith(", 2 worker processes"), lines[0]
+    vs = json.loads(plan_file.read_text())["vehicles"]
+    assert [(v["group"], v["sysid"]) for v in vs] == [(0, 1), (0, 2), (0, 3), (0, 4), (1, 1), (1, 2)]
+    conns = {i: mavutil.mavlink_connection(f"udpout:127.0.0.1:{vs[i]['udp']}", source_system=255)
+             for i in range(6)}
+    starts: dict[int, float] = {}
+    hb: dict[int, int] = {}
+    try:
+        def poll() -> bool:
+            for i, m in conns.items():
+                m.mav.heartbeat_send(mav.MAV_TYPE_GCS, mav.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+                while (msg := m.recv_match(blocking=False)) is not None:
+                    if msg.get_type() == "HEARTBEAT":
+                        hb[i] = msg.type
+                    elif msg.get_type() == "SYSTEM_TIME":
+                        starts[i] = msg.time_unix_usec - msg.time_boot_ms * 1000
+            return len(starts) == 6 and len(hb) == 6
+        wait_until(poll, 20, "HEARTBEAT and SYSTEM_TIME from all six vehicles", interval=0.2)
+    finally:
+        for m in conns.values():
+            m.close()
+    assert [hb[i] for i in range(6)] == [mav.MAV_TYPE_QUADROTOR] * 3 + [mav.MAV_TYPE_GROUND_ROVER] * 3
+    # vehicles 0-2 run in one process, 3-5 in the other: one t = 0 (time_boot_ms is whole ms)
+    assert max(starts.values()) - min(starts.values()) <= 2000, starts
+    processes.stop(proc)
+    out = "".join(lines)
+    assert out.count("stats: ") == 2 and "Traceback" not in out, out

@@ -147,6 +147,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--plan-out", metavar="FILE",
                    help="also write the network plan (JSON) here; it always goes to STATE_DIR/network_plan.json "
                         "unless --no-save")
+    p.add_argument("--workers", type=int, default=1, metavar="K",
+                   help="run the world in K processes (one core each; default 1): worker w runs vehicles "
+                        "w*N/K..(w+1)*N/K-1 on the same plan and ports, all starting at one instant")
     p.add_argument("--signing-key", metavar="PASSPHRASE|HEX64",
                    help="MAVLink 2 signing: 64 hex digits, or a passphrase hashed with SHA-256 "
                         "(as MAVProxy's 'signing setup'); unsigned packets are then dropped")
@@ -176,8 +179,13 @@ def run(args: argparse.Namespace) -> int:
     if bad:
         print(f"towerlink sitl: --mission {bad[0]}=...: there are only {n} vehicles (0..{n - 1})", file=sys.stderr)
         return 2
+    if args.workers < 1:
+        print("towerlink sitl: --workers must be >= 1", file=sys.stderr)
+        return 2
     from vehicle.autopilot.params import ParamFileError
     from vehicle.network_plan import PlanError
+    if args.workers > 1:
+        return _run_workers(args)
     try:
         world = World(config_from_args(args))
     except PlanError as e:                      # sysids / ports that cannot work: nothing started
@@ -207,3 +215,33 @@ def run(args: argparse.Namespace) -> int:
         return 1
     print(world.stats_line(), flush=True)
     return 0
+
+
+def _run_workers(args: argparse.Namespace) -> int:
+    """--workers K: the plan is checked here, then vehicle/workers.py runs the shares."""
+    from vehicle import workers
+    from vehicle.autopilot.params import ParamFileError
+    from vehicle.network_plan import PlanError
+    cfg = config_from_args(args)
+    try:
+        cfg.network_plan()
+    except PlanError as e:
+        print(f"towerlink sitl: refused: {e}", file=sys.stderr)
+        return 2
+    paths = ([os.path.join(args.state_dir, PLAN_FILE)] if not args.no_save else []) + \
+        ([args.plan_out] if args.plan_out else [])
+
+    def out(text: str) -> None:
+        print(text, flush=True)
+        if text.startswith("towerlink sitl:") and out.world is not None:   # the banner: plan is final
+            for path in paths:
+                out.world.write_plan(path)
+    out.world = None
+    try:
+        return workers.run(cfg, args.workers, out=out, on_world=lambda w: setattr(out, "world", w))
+    except PlanError as e:
+        print(f"towerlink sitl: refused: {e}", file=sys.stderr)
+        return 2
+    except (OSError, ParamFileError, RuntimeError) as e:
+        print(f"towerlink sitl: {e}", file=sys.stderr)
+        return 1

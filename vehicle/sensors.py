@@ -53,7 +53,8 @@ def vehicle_rngs(seed: int | Sequence[int], n: int) -> list[np.random.Generator]
     seeds = list(seed)
     if len(seeds) != n:
         raise ValueError(f"need {n} seeds, got {len(seeds)}")
-    return [np.random.default_rng([int(s), 0]) for s in seeds]
+    # a (seed, i) pair is vehicle i of a fleet seeded `seed` (a world split over processes)
+    return [np.random.default_rng([int(x) for x in s] if isinstance(s, tuple) else [int(s), 0]) for s in seeds]
 
 
 class NoiseSource:
