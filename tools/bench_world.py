@@ -362,7 +362,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--workers", type=int, default=2, help="world processes (sitl --workers; default 2)")
     ap.add_argument("--only", choices=("world", "physics"), help="run one part")
     a = ap.parse_args(argv)
-    print(machine(), flush=True)
+    print(f"{machine()} | load average {os.getloadavg()[0]:.1f} (other processes share these cores)", flush=True)
     ok = True
     if a.only in (None, "world"):
         text, good = world_bench(a.drones, a.rovers, a.seconds, a.workers)

@@ -25,6 +25,8 @@ Networks and the port rule (any number of vehicles, every one reachable):
   the networks' --out ports on this host), ports above 65535.
   The plan is printed at start and written as JSON to STATE_DIR/network_plan.json (and
   --plan-out FILE): per vehicle its index, kind, network, sysid, tcp, udp and endpoints.
+  A process runs on one core: --workers K runs the same world (plan, ports, one sim t = 0)
+  in K processes, e.g. towerlink sitl --drones 500 --rovers 500 --workers 2.
 
 Parameters: ArduPilot names. --params FILE gives defaults ("NAME VALUE" lines, as SITL's
 --defaults); every PARAM_SET is saved to STATE_DIR/drone<j>.parm or rover<j>.parm and loaded
