@@ -14,6 +14,7 @@ import socket
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from support import wait_until
@@ -225,3 +226,21 @@ def test_workers_share_one_world(processes, tmp_path):
     processes.stop(proc)
     out = "".join(lines)
     assert out.count("stats: ") == 2 and "Traceback" not in out, out
+
+
+def test_a_share_of_the_world_flies_the_same_vehicles():
+    """--workers: vehicles 2-4 built by a process running only them are vehicles 2-4 of the
+    whole world (same sysid, start and sensor noise), step for step."""
+    from vehicle.world import World, WorldConfig
+    whole = World(WorldConfig(drones=3, rovers=3, state_dir=None, tcp_base=None, udp_base=None, rate=100))
+    part = World(WorldConfig(drones=3, rovers=3, state_dir=None, tcp_base=None, udp_base=None, rate=100,
+                             share=(2, 5)))
+    assert [(v.index, v.kind, v.kind_index, v.sysid) for v in part.vehicles] == \
+        [(v.index, v.kind, v.kind_index, v.sysid) for v in whole.vehicles[2:5]] == \
+        [(2, "copter", 2, 3), (3, "rover", 0, 4), (4, "rover", 1, 5)]
+    whole.run_for(3.0)
+    part.run_for(3.0)
+    for a, b in zip(whole.vehicles[2:5], part.vehicles):
+        ea, eb = a.ap.fleet.estimate(a.ap.i), b.ap.fleet.estimate(b.ap.i)
+        assert np.array_equal(ea.pos, eb.pos) and np.array_equal(ea.vel, eb.vel), (a.index, ea.pos, eb.pos)
+    assert "vehicle 5: rover sysid 6" in part.banner()          # the banner is the whole world's

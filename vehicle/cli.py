@@ -234,10 +234,10 @@ def _run_workers(args: argparse.Namespace) -> int:
         ([args.plan_out] if args.plan_out else [])
 
     def out(text: str) -> None:
-        print(text, flush=True)
         if text.startswith("towerlink sitl:") and out.world is not None:   # the banner: plan is final
-            for path in paths:
+            for path in paths:                                             # (written before it shows)
                 out.world.write_plan(path)
+        print(text, flush=True)
     out.world = None
     try:
         return workers.run(cfg, args.workers, out=out, on_world=lambda w: setattr(out, "world", w))

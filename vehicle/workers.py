@@ -40,8 +40,11 @@ def _child(cfg: WorldConfig, conn) -> None:
     except Exception as e:               # noqa: BLE001 - reported to the parent, which prints it
         conn.send(("error", f"{type(e).__name__}: {e}"))
         sys.exit(1)
-    conn.send(("ready", None))
-    msg = conn.recv() if conn.poll(READY_TIMEOUT) else ("stop", None)
+    try:
+        conn.send(("ready", None))
+        msg = conn.recv() if conn.poll(READY_TIMEOUT) else ("stop", None)
+    except (EOFError, OSError):          # the parent went away before the start
+        return
     if msg[0] != "start":
         return
     world.set_start(msg[1])
