@@ -146,10 +146,21 @@ def test_every_network_reachable(world, tmp_path):
     assert heard[1] <= set(range(1, 47))
 
 
-def test_overlaps_refused_with_their_message(tmp_path):
+def test_overlaps_refused_with_their_message(tmp_path, capsys):
+    # a real process: exit status 2, the message, no traceback, nothing written
+    p = _sitl(["--drones", "3", "--rovers", "0", "--sysid", "2=1", "--state-dir", str(tmp_path / "s")])
+    try:
+        out, _ = p.communicate(timeout=60)
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.wait()
+    assert p.returncode == 2 and "Traceback" not in out, out
+    assert "towerlink sitl: refused: sysid 1 used twice in network 0: vehicles 0 and 2" in out, out
+    assert not os.path.exists(tmp_path / "s" / "network_plan.json")
+    # the other refusals through the same CLI, in this process
+    from tools.cli import main
     cases = [
-        (["--drones", "3", "--rovers", "0", "--sysid", "2=1"],
-         "towerlink sitl: refused: sysid 1 used twice in network 0: vehicles 0 and 2"),
         (["--drones", "2", "--rovers", "0", "--tcp-base", "21000", "--udp-base", "26000",
           "--endpoint", "0=udpin:127.0.0.1:21010"],
          "towerlink sitl: refused: port 21010 used twice: --endpoint 0=udpin:127.0.0.1:21010 and vehicle 1's TCP port"),
@@ -157,18 +168,14 @@ def test_overlaps_refused_with_their_message(tmp_path):
          "towerlink sitl: refused: --out udpout:127.0.0.1:14560: port 14560-14563 (one per network) overlaps the UDP"),
         (["--drones", "9000", "--rovers", "0"],
          "towerlink sitl: refused: TCP (--tcp-base 5760) ports 5760-14759 for 9000 vehicles overlap UDP"),
+        (["--drones", "9000", "--rovers", "0", "--workers", "2"],
+         "towerlink sitl: refused: TCP (--tcp-base 5760) ports 5760-14759 for 9000 vehicles overlap UDP"),
     ]
-    procs = [(_sitl([*a, "--state-dir", str(tmp_path / "s")]), msg) for a, msg in cases]
-    for p, msg in procs:
-        try:
-            out, _ = p.communicate(timeout=60)
-        finally:
-            if p.poll() is None:
-                p.kill()
-                p.wait()
-        assert p.returncode == 2 and msg in out, out
-        assert "Traceback" not in out
-    assert not os.path.exists(tmp_path / "s" / "network_plan.json")   # refused: nothing written
+    for args, msg in cases:
+        assert main(["sitl", *args, "--state-dir", str(tmp_path / "s")]) == 2
+        err = capsys.readouterr().err
+        assert msg in err, err
+    assert not os.path.exists(tmp_path / "s" / "network_plan.json")
 
 
 def test_saved_sysid_clash_refused(tmp_path):
