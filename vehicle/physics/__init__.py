@@ -12,9 +12,6 @@ import math
 
 import numpy as np
 
-TAU = 2.0 * math.pi
-INV_TAU = 1.0 / TAU
-
 try:        # the clip ufunc itself: np.clip's Python wrapper costs ~1 us a call, the ufunc
     from numpy._core.umath import clip as _clip      # beats minimum(maximum()) at any n
 except ImportError:             # numpy < 2
@@ -61,13 +58,6 @@ class NumpyOps:
     clip = staticmethod(_clip)
 
     @staticmethod
-    def wrap_pi(x):
-        """Angle wrapped to [-pi, pi): the same as (x + pi) % 2pi - pi to rounding, without
-        np.remainder (a division and a floor instead, ~6x faster on 10,000 elements)."""
-        y = x + math.pi
-        return y - TAU * np.floor(y * INV_TAU) - math.pi
-
-    @staticmethod
     def sqrt_controller(err, k, lim, dt):
         """ArduPilot's sqrt controller on a non-negative error magnitude (see
         vehicle.control.shaping); the scalar version below computes the same numbers.
@@ -107,10 +97,6 @@ class ScalarOps:
     @staticmethod
     def clip(x, lo, hi):
         return lo if x < lo else hi if x > hi else x
-
-    @staticmethod
-    def wrap_pi(x):
-        return (x + math.pi) % TAU - math.pi
 
     @staticmethod
     def sqrt_controller(err, k, lim, dt):
