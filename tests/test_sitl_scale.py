@@ -50,8 +50,8 @@ def _sitl(args: list[str], **kw) -> subprocess.Popen:
 
 @pytest.fixture
 def world(processes, tmp_path):
-    tcp = _free_block(socket.SOCK_STREAM, range(20000, 23000), N)
-    udp = _free_block(socket.SOCK_DGRAM, range(26000, 29000), N)
+    tcp = _free_block(socket.SOCK_STREAM, range(20000, 22000), N)       # blocks 3000 wide, apart
+    udp = _free_block(socket.SOCK_DGRAM, range(25000, 27000), N)
     outs = []
     for _ in range(2):     # the two networks' --out listeners, on consecutive ports
         o = _free_block(socket.SOCK_DGRAM, range(30000, 32000), 2, stride=1)
