@@ -210,11 +210,22 @@ class Autopilot:
             if not self.auto.init():
                 self.mode_init_failed(number)
                 return False
+        if not self.mode_init(number):
+            self.mode_init_failed(number)
+            return False
         if self.mode == self.auto_mode:
             self.auto.exit()
+        self.exit_mode(self.mode)
         self.mode = number
         self.enter_mode(number)
         return True
+
+    def mode_init(self, number: int) -> bool:
+        """False when mode `number` cannot start now (its init fails, as ArduPilot's Mode::init)."""
+        return True
+
+    def exit_mode(self, number: int) -> None:
+        """Mode `number` is being left (its clean-up, as ArduPilot's Mode::exit)."""
 
     def mode_init_failed(self, number: int) -> None:
         self.text(SEV_WARNING, f"Mode change to {self.mode_names[number]} failed: init failed")

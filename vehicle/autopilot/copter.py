@@ -24,12 +24,13 @@ from vehicle.autopilot import modes
 from vehicle.autopilot.base import (ACCEPTED, DENIED, FAILED, SEV_INFO, SEV_WARNING, Autopilot,
                                     UNSUPPORTED)
 from vehicle.autopilot.copter_auto import CopterAutoFlight
+from vehicle.autopilot.copter_modes import CopterModes
 from vehicle.autopilot.guided import GuidedTarget
 
 LAND_ALT_LOW = 10.0     # m: below it LAND descends at LAND_SPEED
 
 
-class CopterAutopilot(CopterAutoFlight, Autopilot):
+class CopterAutopilot(CopterModes, CopterAutoFlight, Autopilot):
     kind = "copter"
     mav_type = mav.MAV_TYPE_QUADROTOR
     mode_names = modes.COPTER_MODES
@@ -60,6 +61,7 @@ class CopterAutopilot(CopterAutoFlight, Autopilot):
             self.rtl_start()
         if number == modes.LAND:
             self.text(SEV_INFO, "Landing")
+        self.enter_extra_mode(number)
 
     def may_disarm(self) -> bool:
         return self.on_ground
@@ -130,7 +132,7 @@ class CopterAutopilot(CopterAutoFlight, Autopilot):
             return mav.MAV_LANDED_STATE_TAKEOFF
         if self.on_ground:
             return mav.MAV_LANDED_STATE_ON_GROUND
-        if (self.mode == modes.LAND or auto_sub == "land"
+        if (self.mode == modes.LAND or auto_sub == "land" or self.srtl_stage == "land"
                 or ((self.mode == modes.RTL or auto_sub == "rtl") and self.rtl_stage == "land")):
             return mav.MAV_LANDED_STATE_LANDING
         return mav.MAV_LANDED_STATE_IN_AIR
@@ -147,9 +149,16 @@ class CopterAutopilot(CopterAutoFlight, Autopilot):
             self.text(SEV_WARNING, "GCS Failsafe")
             self.disarm(force=True, reason="GCS failsafe")
             return
-        if enable in (4, 5):
+        if enable == 5:
             self.text(SEV_WARNING, "GCS Failsafe On: LAND")
             self.set_mode(modes.LAND, "GCS failsafe")
+        elif enable == 3:
+            self.text(SEV_WARNING, "GCS Failsafe On: SmartRTL")
+            if not self.smart_rtl_or_rtl("GCS failsafe"):
+                self.set_mode(modes.LAND, "GCS failsafe")
+        elif enable == 4:
+            self.text(SEV_WARNING, "GCS Failsafe On: SmartRTL")
+            self.smart_rtl_or_land("GCS failsafe")
         else:
             self.text(SEV_WARNING, "GCS Failsafe On: RTL")
             if not self.set_mode(modes.RTL, "GCS failsafe"):
@@ -164,13 +173,15 @@ class CopterAutopilot(CopterAutoFlight, Autopilot):
             self.setpoint()
             return
         if self.on_ground and self.takeoff_alt is None:
-            if self.mode in (modes.LAND, modes.RTL) and self.t - self.arm_time > 1.0:
+            if self.mode in (modes.LAND, modes.RTL, modes.SMART_RTL) and self.t - self.arm_time > 1.0:
                 self.disarm(force=True, reason="landed")
                 return
             self.ground_idle()         # idle on the ground until a takeoff
             return
         self.landed_since = None
         m = self.mode
+        if self.run_extra_mode(m, dt):         # BRAKE, ALT_HOLD, POSHOLD, SMART_RTL (copter_modes.py)
+            return
         if m == modes.GUIDED:
             self._guided()
         elif m == modes.LOITER:

@@ -64,6 +64,11 @@ _COMMON = [
     _d("FENCE_MARGIN", 2, 1, 10, False, "distance to keep from the fence (m; pre-arm check only)"),
 ]
 
+_SRTL = [
+    _d("SRTL_ACCURACY", 2, 0, 10, False, "SmartRTL: minimum distance between path points (m)"),
+    _d("SRTL_POINTS", 300, 0, 500, True, "SmartRTL: maximum points on the path, 0 disables (reboot)"),
+]
+
 _FENCE_ALT = [
     _d("FENCE_ALT_MAX", 100, 10, 1000, False, "maximum altitude above home (m)"),
     _d("FENCE_ALT_MIN", -10, -100, 100, False, "minimum altitude above home (m)"),
@@ -90,7 +95,9 @@ COPTER_TABLE = _STREAMS + _COMMON + [
        "breach: 0 report only, 1 RTL or Land, 2 always Land, 3 SmartRTL or RTL or Land, 4 Brake or Land, 5 SmartRTL or Land"),
     _d("RALLY_LIMIT_KM", 0.3, 0, 100, False, "rally points further than this from home are ignored (km), 0 = no limit"),
     _d("RALLY_INCL_HOME", 1, 0, 1, True, "1: RTL also considers home and goes there when it is nearer"),
-] + _FENCE_ALT
+    _d("POSHOLD_BRAKE_RATE", 8, 4, 12, True, "POSHOLD braking rate: lean angle change (deg/s)"),
+    _d("POSHOLD_BRAKE_ANGLE", 3000, 2000, 4500, True, "POSHOLD braking angle max (cdeg)"),
+] + _FENCE_ALT + _SRTL
 
 ROVER_TABLE = _STREAMS + _COMMON + [
     _d("FS_GCS_ENABLE", 0, 0, 2, True, "GCS failsafe: 0 off, 1 on (action FS_ACTION), 2 on, continue in AUTO"),
@@ -104,7 +111,8 @@ ROVER_TABLE = _STREAMS + _COMMON + [
        "breach: 0 report only, 1 RTL or Hold, 2 Hold, 3 SmartRTL or RTL or Hold, 4 SmartRTL or Hold"),
     _d("RALLY_LIMIT_KM", 0.5, 0, 100, False, "rally points further than this from home are ignored (km), 0 = no limit"),
     _d("RALLY_INCL_HOME", 1, 0, 1, True, "1: RTL also considers home and goes there when it is nearer"),
-]
+    _d("LOIT_RADIUS", 2, 0.5, 100, False, "LOITER: distance from the loiter point before driving back (m)"),
+] + _SRTL
 
 
 def core_table(kind: str) -> list[ParamDef]:

@@ -21,11 +21,12 @@ from vehicle.autopilot.base import SEV_INFO, SEV_WARNING, Autopilot, UNSUPPORTED
 from vehicle.autopilot.guided import GuidedTarget
 from vehicle.autopilot.mission_store import RALLY
 from vehicle.autopilot.rally import best_return, rally_points
+from vehicle.autopilot.rover_modes import RoverModes
 
 ZERO = np.zeros(3)
 
 
-class RoverAutopilot(Autopilot):
+class RoverAutopilot(RoverModes, Autopilot):
     kind = "rover"
     mav_type = mav.MAV_TYPE_GROUND_ROVER
     mode_names = modes.ROVER_MODES
@@ -49,6 +50,7 @@ class RoverAutopilot(Autopilot):
         super().enter_mode(number)
         if number == modes.ROVER_RTL:
             self.rtl_start()
+        self.enter_extra_mode(number)
 
     def mode_init_failed(self, number: int) -> None:
         self.text(SEV_WARNING, "Flight mode change failed")     # Rover::set_mode's words
@@ -130,6 +132,8 @@ class RoverAutopilot(Autopilot):
             return
         if self.mode == modes.ROVER_RTL:
             self._rtl_drive()
+            return
+        if self.run_extra_mode(self.mode):      # ACRO, STEERING, LOITER, SMART_RTL (rover_modes.py)
             return
         # GUIDED
         tgt = self.target
