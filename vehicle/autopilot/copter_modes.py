@@ -41,6 +41,7 @@ class CopterModes:
         self.stopping = False          # BRAKE/POSHOLD: still decelerating
         self.srtl_stage = ""
         self.srtl_dest: np.ndarray | None = None
+        self.srtl_popped: np.ndarray | None = None   # taken off the path, not yet reached
         self._srtl_was_armed = False
         super().__init__(*a, **kw)
         self.srtl = SmartRTLPath(float(self.params.get("SRTL_ACCURACY", 2.0)),
@@ -63,10 +64,11 @@ class CopterModes:
     def exit_mode(self, number: int) -> None:
         if number in (modes.BRAKE, modes.POSHOLD) and self.stopping:
             self._restore_limits()
-        if number == modes.SMART_RTL and self.srtl_stage == "path" and self.srtl_dest is not None:
-            self.srtl.push(self.srtl_dest)            # not reached: back on the path
+        if number == modes.SMART_RTL and self.srtl_popped is not None:
+            self.srtl.push(self.srtl_popped)          # not reached: back on the path
         self.stopping = False
         self.srtl_stage = ""
+        self.guided_paused = False
         super().exit_mode(number)
 
     def enter_extra_mode(self, number: int) -> None:
@@ -82,8 +84,7 @@ class CopterModes:
         elif number == modes.SMART_RTL:
             self.srtl.cleanup()
             self.srtl_stage = "path"
-            self.srtl_dest = None
-            self._srtl_next()
+            self.srtl_dest = None            # the first point is taken when it flies
 
     # ----- BRAKE / POSHOLD: stop, then hold -------------------------------------------------
     def _start_stopping(self, decel: float, jerk: float) -> None:
@@ -99,8 +100,11 @@ class CopterModes:
         self.brake_acc = 0.0
         self.brake_pos = np.array([self.pos[0], self.pos[1], self.hold_pos[2]])
         self.brake_decel, self.brake_jerk = decel, jerk
-        # the shaped reference must be allowed the same limits while it stops
-        self.push_params({"WPNAV_ACCEL": decel * 100.0, "PSC_JERK_XY": jerk})
+        # the shaped reference must be allowed this deceleration while it follows the stop
+        # (the stop's own jerk limit is in the profile below; the reference keeps PSC_JERK_XY
+        # when that is higher, so it does not lag the profile)
+        self.push_params({"WPNAV_ACCEL": max(decel * 100.0, float(self.params.get("WPNAV_ACCEL", 250))),
+                          "PSC_JERK_XY": max(jerk, float(self.params.get("PSC_JERK_XY", 5.0)))})
 
     def _restore_limits(self) -> None:
         self.push_params({"WPNAV_ACCEL": float(self.params.get("WPNAV_ACCEL", 250)),
@@ -120,7 +124,8 @@ class CopterModes:
                 self.stopping = False
                 self.brake_stop_time = self.t - self.brake_t0
                 self._restore_limits()
-                self.hold_pos = self.brake_pos.copy()     # the stopping point
+                # hold where it stopped (within a few cm of the profile's stopping point)
+                self.hold_pos = np.array([self.pos[0], self.pos[1], self.hold_pos[2]])
             else:
                 # the stopping trajectory as position + velocity + acceleration, so the
                 # position loop corrects the lag as ArduPilot's brake (a stopping point) does
@@ -133,7 +138,7 @@ class CopterModes:
 
     # ----- SMART_RTL --------------------------------------------------------------------------
     def _srtl_next(self) -> None:
-        p = self.srtl.pop()
+        p = self.srtl_popped = self.srtl.pop()
         if p is None or not self.srtl.points:
             # the last point (where it armed): 2 m above it, then land there
             dest = self.pos.copy() if p is None else p.copy()
@@ -147,12 +152,15 @@ class CopterModes:
         if self.srtl_stage == "land":
             self._land(dt)
             return
+        if self.srtl_dest is None:
+            self._srtl_next()
         radius = max(float(self.params.get("WPNAV_RADIUS", 200)) / 100.0, 0.5)
         dest = self.srtl_dest
         if np.linalg.norm(self.pos - dest) < radius:
             if self.srtl_stage == "preland":
                 if np.linalg.norm(self.vel) < 0.5:
                     self.srtl_stage = "land"
+                    self.srtl_popped = None
                     self.hold_pos = np.array([dest[0], dest[1], self.pos[2]])
                     self._land(dt)
                     return
@@ -162,10 +170,27 @@ class CopterModes:
         self.echo = GuidedTarget("pos", dest.copy(), None, None, self.hold_yaw, None)
         self.setpoint(pos=dest, yaw=self.hold_yaw)
 
+    # ----- GUIDED pause (ArduCopter ModeGuided::pause/resume) ----------------------------------
+    guided_paused = False
+
+    def guided_pause(self, pause: bool) -> bool:
+        if self.mode != modes.GUIDED:
+            return False
+        if pause and not self.guided_paused:
+            self.guided_paused = True
+            self.hold_here()                          # stop where it is
+        elif not pause:
+            self.guided_paused = False
+            self.target_time = self.t                 # the target's timeout restarts
+        return True
+
     # ----- the loop ------------------------------------------------------------------------
     def run_extra_mode(self, m: int, dt: float) -> bool:
         """Setpoints for the modes of this module (armed, in the air); False for other modes."""
-        if m in (modes.BRAKE, modes.POSHOLD):
+        if m == modes.GUIDED and self.guided_paused:
+            self.echo = GuidedTarget("pos", self.hold_pos.copy(), None, None, self.hold_yaw, None)
+            self.setpoint(pos=self.hold_pos, yaw=self.hold_yaw)
+        elif m in (modes.BRAKE, modes.POSHOLD):
             self._stop_then_hold(dt)
         elif m == modes.ALT_HOLD:
             self.echo = GuidedTarget("acc", None, None, np.zeros(3), self.hold_yaw, None)

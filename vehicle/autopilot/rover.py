@@ -104,6 +104,12 @@ class RoverAutopilot(RoverModes, Autopilot):
     def vehicle_command(self, cmd, p, frame, x, y) -> int:
         return UNSUPPORTED
 
+    def reposition_speed(self, speed: float | None) -> None:
+        """ArduRover: a positive DO_REPOSITION param1 is the GUIDED speed (m/s)."""
+        if speed is not None:
+            self.speed_override = min(float(speed), 100.0)
+            self.apply_speed()
+
     def apply_speed(self) -> None:
         # WP_SPEED 0 means CRUISE_SPEED to the rover core, so the parameter itself is the default
         speed = self.speed_override if self.speed_override is not None else float(self.params.get("WP_SPEED", 0))

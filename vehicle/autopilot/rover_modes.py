@@ -54,10 +54,12 @@ class RoverModes:
         if number == modes.ROVER_SMART_RTL:
             self.srtl.cleanup()
             self.srtl_done = False
-            self.srtl_dest = self.srtl.pop()
+            self.srtl_dest = None            # the first point is taken when it drives
 
     def _smart_rtl(self) -> None:
         radius = float(self.params.get("WP_RADIUS", 2))
+        if self.srtl_dest is None and not self.srtl_done:
+            self.srtl_dest = self.srtl.pop()
         while (not self.srtl_done and self.srtl_dest is not None
                and np.linalg.norm(self.pos[:2] - self.srtl_dest[:2]) < radius):
             nxt = self.srtl.pop()

@@ -167,6 +167,12 @@ class VehicleLink:
             for ep in self.endpoints:
                 ep.send(buf)
         self.missions.update(t)
+        origin = self.ap.ekf_origin()
+        if origin != self._origin_sent:          # set (first good estimate) or moved
+            self._origin_sent = origin
+            msg = self.telemetry.gps_global_origin()
+            if msg is not None:
+                self.send(msg)
         if self.outboxes:
             self._drain_outboxes(t)
         if t >= self.next_stats:
@@ -177,6 +183,7 @@ class VehicleLink:
                                                                   int(self.stats[k])))
 
     next_stats = 0.0
+    _origin_sent: tuple | None = None
 
     # ----- paced replies ------------------------------------------------------------------
     def paced(self, ch: Channel) -> PacedQueue:
@@ -337,12 +344,14 @@ class VehicleLink:
             return mav.MAV_RESULT_DENIED
         msgid = int(p[0])
         if cmd == mav.MAV_CMD_REQUEST_MESSAGE:
+            # ArduPilot: an id it has no ap_message for -> FAILED; a known one -> ACCEPTED, and
+            # the message follows when there is one to send (HOME_POSITION / GPS_GLOBAL_ORIGIN
+            # before home / the origin are set: ACCEPTED, nothing sent)
             if msgid not in self.telemetry.builders:
                 return mav.MAV_RESULT_FAILED
             msg = self.telemetry.build(msgid)
-            if msg is None:
-                return mav.MAV_RESULT_FAILED
-            self._after_ack.append(msg)
+            if msg is not None:
+                self._after_ack.append(msg)
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_GET_MESSAGE_INTERVAL:
             if msgid not in self.telemetry.builders:
