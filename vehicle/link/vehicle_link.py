@@ -30,6 +30,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from gcs.mavstr import mav_str
 from gcs.signing import SIGNING_EPOCH, UNSIGNED, SignatureCheck
+from vehicle.link import ftp
 from vehicle.link.endpoints import Channel, Endpoint, make_endpoint
 from vehicle.link.mission_link import MISSION_MESSAGES, MissionLink
 from vehicle.link.paced_queue import PacedQueue
@@ -416,6 +417,14 @@ class VehicleLink:
     def on_SET_POSITION_TARGET_GLOBAL_INT(self, m, ch) -> None:
         self.ap.position_target_global(m.coordinate_frame, m.type_mask, m.lat_int, m.lon_int, m.alt,
                                        (m.vx, m.vy, m.vz), (m.afx, m.afy, m.afz), m.yaw, m.yaw_rate)
+
+    def on_FILE_TRANSFER_PROTOCOL(self, m, ch) -> None:
+        """MAVFTP: answered at once (vehicle/link/ftp.py) so clients fall back to
+        PARAM_REQUEST_LIST without waiting for a timeout."""
+        reply = ftp.answer(m.payload)
+        if reply is not None:
+            self.send(mav.MAVLink_file_transfer_protocol_message(0, m.get_srcSystem(), m.get_srcComponent(),
+                                                                 list(reply)), ch)
 
     def on_TIMESYNC(self, m, ch) -> None:
         # a request (tc1 0): answer tc1 = our sim clock in ns (never 0, which would read as a
