@@ -99,7 +99,7 @@ def test_poshold_brakes_then_holds_where_it_stopped():
     z0 = ap.pos[2]
     assert ap.set_mode(modes.POSHOLD)
     took = _until(w, lambda: np.linalg.norm(ap.vel[:2]) < 0.1, 15, step=0.01)
-    # POSHOLD_BRAKE_ANGLE 30 deg reached at POSHOLD_BRAKE_RATE 8 deg/s: a gentler stop than BRAKE
+    # PHLD_BRAKE_ANGLE 30 deg reached at PHLD_BRAKE_RATE 8 deg/s: a gentler stop than BRAKE
     t_ideal, _ = brake_bound(5.0, G * math.tan(math.radians(30)), G * math.radians(8))
     print(f"POSHOLD from 5 m/s: {took:.2f} s to < 0.1 m/s (ideal {t_ideal:.2f} s)")
     assert t_ideal - 1.0 <= took <= t_ideal + 0.6      # gentler than BRAKE (about 2 s)

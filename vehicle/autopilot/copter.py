@@ -216,7 +216,7 @@ class CopterAutopilot(CopterModes, CopterAutoFlight, Autopilot):
     def _descent_speed(self) -> float:
         home_z = self.home[2] if self.home is not None else 0.0
         alt = home_z - self.pos[2]
-        if alt > LAND_ALT_LOW:
+        if alt > float(self.params.get("LAND_ALT_LOW", 100 * LAND_ALT_LOW)) / 100.0:
             hi = float(self.params.get("LAND_SPEED_HIGH", 0)) or float(self.params.get("WPNAV_SPEED_DN", 150))
             return hi / 100.0
         return float(self.params.get("LAND_SPEED", 50)) / 100.0

@@ -6,7 +6,7 @@ No RC is simulated, so each mode runs as ArduCopter does with the sticks centred
             it holds that point. `brake_stop_time` is the time (s) from entering to stopped.
   ALT_HOLD  level attitude (roll/pitch 0), climb rate 0: the altitude at entry is held and the
             copter drifts horizontally with what momentum it has, as with the sticks centred.
-  POSHOLD   sticks centred: brakes with POSHOLD_BRAKE_ANGLE (cdeg) / POSHOLD_BRAKE_RATE (deg/s)
+  POSHOLD   sticks centred: brakes with PHLD_BRAKE_ANGLE (cdeg) / PHLD_BRAKE_RATE (deg/s)
             as its deceleration and jerk limit, then holds the point where it stopped.
   SMART_RTL retraces the SmartRTL breadcrumbs (smartrtl.py: SRTL_ACCURACY, SRTL_POINTS) at
             WPNAV_SPEED, goes 2 m above the first point (where it armed) and lands there.
@@ -78,8 +78,8 @@ class CopterModes:
         if number == modes.BRAKE:
             self._start_stopping(BRAKE_MODE_DECEL_RATE / 100.0, float(self.params.get("PSC_JERK_XY", 5.0)))
         elif number == modes.POSHOLD:
-            angle = math.radians(float(self.params.get("POSHOLD_BRAKE_ANGLE", 3000)) / 100.0)
-            rate = math.radians(float(self.params.get("POSHOLD_BRAKE_RATE", 8)))
+            angle = math.radians(float(self.params.get("PHLD_BRAKE_ANGLE", 3000)) / 100.0)
+            rate = math.radians(float(self.params.get("PHLD_BRAKE_RATE", 8)))
             self._start_stopping(GRAVITY * math.tan(angle), GRAVITY * rate)
         elif number == modes.SMART_RTL:
             self.srtl.cleanup()
