@@ -13,6 +13,8 @@ No RC is simulated, so each mode runs as ArduCopter does with the sticks centred
             The path is recorded while armed in every other mode. Without a usable path the
             mode refuses to start ("Mode change to SMART_RTL failed: init failed"); the GCS
             failsafe then says "SmartRTL Unavailable, Trying RTL Mode" and flies RTL.
+  GUIDED    DO_PAUSE_CONTINUE pauses (decelerates at WPNAV_ACCEL to a stop and holds) and
+            continues the target, as ArduCopter's ModeGuided::pause()/resume().
 Setpoints are world NED (see copter.py).
 """
 from __future__ import annotations
@@ -62,7 +64,7 @@ class CopterModes:
         return super().mode_init(number)
 
     def exit_mode(self, number: int) -> None:
-        if number in (modes.BRAKE, modes.POSHOLD) and self.stopping:
+        if number in (modes.BRAKE, modes.POSHOLD, modes.GUIDED) and self.stopping:
             self._restore_limits()
         if number == modes.SMART_RTL and self.srtl_popped is not None:
             self.srtl.push(self.srtl_popped)          # not reached: back on the path
@@ -178,8 +180,14 @@ class CopterModes:
             return False
         if pause and not self.guided_paused:
             self.guided_paused = True
-            self.hold_here()                          # stop where it is
+            self.hold_here()
+            if self.armed and not self.on_ground:     # decelerate to a stop, then hold there
+                self._start_stopping(float(self.params.get("WPNAV_ACCEL", 250)) / 100.0,
+                                     float(self.params.get("PSC_JERK_XY", 5.0)))
         elif not pause:
+            if self.stopping:
+                self._restore_limits()
+                self.stopping = False
             self.guided_paused = False
             self.target_time = self.t                 # the target's timeout restarts
         return True
@@ -187,10 +195,7 @@ class CopterModes:
     # ----- the loop ------------------------------------------------------------------------
     def run_extra_mode(self, m: int, dt: float) -> bool:
         """Setpoints for the modes of this module (armed, in the air); False for other modes."""
-        if m == modes.GUIDED and self.guided_paused:
-            self.echo = GuidedTarget("pos", self.hold_pos.copy(), None, None, self.hold_yaw, None)
-            self.setpoint(pos=self.hold_pos, yaw=self.hold_yaw)
-        elif m in (modes.BRAKE, modes.POSHOLD):
+        if (m == modes.GUIDED and self.guided_paused) or m in (modes.BRAKE, modes.POSHOLD):
             self._stop_then_hold(dt)
         elif m == modes.ALT_HOLD:
             self.echo = GuidedTarget("acc", None, None, np.zeros(3), self.hold_yaw, None)
