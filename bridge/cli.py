@@ -57,8 +57,10 @@ every later tower goal, so it is accepted only from a sysid given with --trust-s
 their _yaw frames), and not for a frame the scenario defined unless --allow-redefine.
 With --signing-key the tower link takes only MAVLink 2 packets signed with that key
 (unsigned, wrong key, replayed or stale ones are counted and dropped) and the bridge signs
-what it sends. A refusal is answered with STATUSTEXT "static tf refused: <reason>" and
-counted (TOWERLINK_BRIDGE_STATUS.refused).
+what it sends. Vehicle packets are forwarded as they arrive: give the vehicles the same
+key (`towerlink sitl --signing-key`) so a signing GCS accepts them too. A refusal is
+answered with STATUSTEXT "static tf refused: <reason>" and counted
+(TOWERLINK_BRIDGE_STATUS.refused).
 
 Peers. A udpin link (the tower's, by default) sends to every peer that wrote to it: a
 peer silent for 30 s (wall) is dropped, at most 64 are kept (the most recent), and a
@@ -139,6 +141,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="no velocity feed-forward in rover targets")
     w.add_argument("--speedup", type=float, default=1.0,
                    help="world speedup, only for the wall-clock fallback of the follow timeout")
+    p.add_argument("--view", nargs="?", type=int, const=8765, default=None, metavar="PORT",
+                   help="serve the bridge's stream live to Foxglove on ws://127.0.0.1:PORT (default port "
+                        "8765): the bridge pushes its stream to one more out on loopback and a `towerlink view` "
+                        "process serves it, so the bridge's own loop pays one sendto per packet and no more "
+                        "(needs towerlink[view])")
     p.add_argument("-q", "--quiet", action="store_true", help="no log lines on stderr")
     p.add_argument("--duration", type=float, default=None, help="stop after this many wall seconds")
 
@@ -165,7 +172,36 @@ def config_from_args(args):
         allow_redefine=args.allow_redefine, signing_key=key_from_text(args.signing_key))
 
 
+def start_viewer(port: int) -> tuple[str, "subprocess.Popen"]:
+    """A `towerlink view` child process on a free loopback UDP port; returns (out url, process).
+    A separate process keeps the viewer's work (and its imports) out of the bridge's loop."""
+    import socket
+    import subprocess
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        udp = s.getsockname()[1]
+    proc = subprocess.Popen([sys.executable, "-m", "tools.cli", "view", "--connect", f"udpin:127.0.0.1:{udp}",
+                             "--port", str(port)])   # same process group: a kill of the bridge's group takes it too
+    return f"udpout:127.0.0.1:{udp}", proc
+
+
 def run(args) -> int:
+    viewer = None
+    if args.view is not None:
+        url, viewer = start_viewer(args.view)
+        args.out = list(args.out) + [url]
+    try:
+        return _run(args)
+    finally:
+        if viewer is not None:
+            viewer.terminate()
+            try:
+                viewer.wait(5)
+            except Exception:  # noqa: BLE001 - never leave it behind
+                viewer.kill()
+
+
+def _run(args) -> int:
     from bridge.loop import Bridge
 
     try:

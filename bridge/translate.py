@@ -33,6 +33,8 @@ TRANSLATED_FRAMES = (FRAME_LOCAL_NED, FRAME_LOCAL_OFFSET_NED)
 
 def heading(T, yaw: float) -> float:
     """Yaw (rad) in src -> yaw in dst for transform T (dst <- src)."""
+    if not math.isfinite(yaw):
+        return float(yaw)   # passed on as sent: the vehicle refuses it ("Guided: yaw not finite")
     d = np.asarray(T.apply_vector((math.cos(yaw), math.sin(yaw), 0.0)), dtype=float)
     if abs(d[0]) < 1e-12 and abs(d[1]) < 1e-12:
         return float(yaw)   # heading vertical in dst: nothing better to say

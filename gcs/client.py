@@ -45,6 +45,10 @@ RESULT_NAMES = {
     4: "FAILED", 5: "IN_PROGRESS", 6: "CANCELLED",
 }
 
+# A vehicle clock (time_boot_ms) that goes back by more than this is a reboot (ms), not
+# a late packet: its clock is followed from there.
+REBOOT_JUMP_MS = 5000
+
 # Position-only SET_POSITION_TARGET_LOCAL_NED: ignore velocity, acceleration, yaw, yaw rate.
 MASK_POS_ONLY = 0b0000_1101_1111_1000
 MASK_POS_YAW = MASK_POS_ONLY & ~0b0100_0000_0000  # also command yaw
@@ -165,7 +169,8 @@ class SystemState:
     heartbeat_wall: float | None = None
     position: Position | None = None
     landed_state: int | None = None   # MAV_LANDED_STATE from EXTENDED_SYS_STATE
-    time_boot_ms: int = 0             # newest vehicle time seen, any message
+    time_boot_ms: int = 0             # newest vehicle time seen, any message (since its last reboot)
+    reboots: int = 0                  # times its clock went back by more than REBOOT_JUMP_MS
     statustexts: deque = field(default_factory=lambda: deque(maxlen=200))
 
     @property
@@ -313,8 +318,14 @@ class Client:
         src = msg.get_srcSystem()
         st = self.system(src)
         tb = getattr(msg, "time_boot_ms", None)
-        if isinstance(tb, int) and tb > st.time_boot_ms:
-            st.time_boot_ms = tb
+        if isinstance(tb, int):
+            if tb > st.time_boot_ms:
+                st.time_boot_ms = tb
+            elif st.time_boot_ms - tb > REBOOT_JUMP_MS:     # its clock restarted
+                self.log(f"system {src} rebooted: its clock went back from "
+                         f"{st.time_boot_ms / 1000:.3f} s to {tb / 1000:.3f} s")
+                st.time_boot_ms = tb
+                st.reboots += 1
         if mtype == "HEARTBEAT":
             if msg.type != mavlink.MAV_TYPE_GCS and msg.autopilot != mavlink.MAV_AUTOPILOT_INVALID:
                 st.mav_type, st.autopilot = msg.type, msg.autopilot
@@ -324,7 +335,7 @@ class Client:
         elif mtype == "LOCAL_POSITION_NED":
             p = Position(msg.x, msg.y, msg.z, msg.vx, msg.vy, msg.vz, msg.time_boot_ms)
             if st.position is None or p.time_boot_ms >= st.position.time_boot_ms \
-                    or st.position.time_boot_ms - p.time_boot_ms > 5000:  # vehicle rebooted
+                    or st.position.time_boot_ms - p.time_boot_ms > REBOOT_JUMP_MS:  # rebooted
                 st.position = p
         elif mtype == "EXTENDED_SYS_STATE":
             st.landed_state = msg.landed_state
@@ -619,18 +630,21 @@ class Client:
         """Wait until a fresh position of sysid is within `radius` of `goal`.
 
         Only samples stamped after `after_ms` (default: the newest vehicle time at the
-        call) count. `resend` is called every `resend_interval` wall seconds while
-        waiting (re-send the goal over a lossy link). Raises GoalTimeout.
+        call) count, and, once the vehicle has rebooted, every sample received since
+        (its clock started again). `resend` is called every `resend_interval` wall
+        seconds while waiting (re-send the goal over a lossy link). Raises GoalTimeout.
         """
         st = self.system(sysid)
         after = st.time_boot_ms if after_ms is None else after_ms
+        reboots, stale = st.reboots, st.position
         end = time.monotonic() + timeout
         last_resend = time.monotonic()
         last_seen: Position | None = None
         dist: float | None = None
         while True:
             p = st.position
-            if p is not None and p is not last_seen and p.time_boot_ms > after:
+            if p is not None and p is not last_seen and \
+                    (p.time_boot_ms > after or (st.reboots != reboots and p is not stale)):
                 last_seen = p
                 dist = p.distance_to(goal, horizontal)
                 if on_sample is not None:

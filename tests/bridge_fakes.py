@@ -5,6 +5,7 @@ message they receive, and let a test wait on a condition with a deadline.
 """
 from __future__ import annotations
 
+import itertools
 import socket
 import threading
 import time
@@ -146,6 +147,24 @@ class FakeVehicle(Endpoint):
             self.mav.local_position_ned_send(t_ms, *xyz, *vel)
         if att:
             self.mav.attitude_quaternion_send(t_ms, *q_wxyz, 0, 0, 0)
+
+
+_marks = itertools.count(1)
+
+
+def sync(sender: Endpoint, *receivers: Endpoint, timeout: float = 5.0) -> None:
+    """Send a marker from `sender` through the bridge and wait until every receiver has it.
+
+    The marker is a NAMED_VALUE_INT "sync" with a fresh value, which the bridge routes like
+    any message without a target. The bridge handles packets one at a time and loopback UDP
+    keeps a socket's order, so once a receiver has the marker it also has everything the
+    bridge sent it before: an `assert not ep.of_type(...)` after sync() checks that nothing
+    was sent, not merely that nothing has arrived yet."""
+    k = next(_marks)
+    sender.mav.named_value_int_send(0, b"sync", k)
+    for r in receivers:
+        r.wait("NAMED_VALUE_INT", lambda m: m.name == "sync" and m.value == k, timeout,
+               f"sync marker {k} from {sender.name} at {r.name}")
 
 
 def bridge_config(tower_port, drone_port=None, rover_port=None, **kw) -> BridgeConfig:

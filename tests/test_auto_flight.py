@@ -11,7 +11,7 @@ from auto_world import Flight
 from vehicle.autopilot import modes
 
 C = mav
-ACTIVE, PAUSED, COMPLETE = mav.MISSION_STATE_ACTIVE, mav.MISSION_STATE_PAUSED, mav.MISSION_STATE_COMPLETE
+ACTIVE, NOT_STARTED, COMPLETE = mav.MISSION_STATE_ACTIVE, mav.MISSION_STATE_NOT_STARTED, mav.MISSION_STATE_COMPLETE
 
 
 def six_item_mission(f: Flight):
@@ -136,7 +136,7 @@ def test_leaving_auto_and_coming_back_follows_mis_restart(restart, resumes_at):
     f.until(lambda: f.ap.mission_current()[0] == 3, 60, "on the leg to item 3")
     f.step(2.0)
     assert f.ap.set_mode(modes.LOITER)
-    assert f.ap.mission_current() == (3, PAUSED)
+    assert f.ap.mission_current() == (3, NOT_STARTED)      # ArduPilot: STOPPED reads NOT_STARTED
     f.step(2.0)
     n = len(f.texts)
     assert f.ap.set_mode(modes.AUTO)
@@ -177,7 +177,7 @@ def test_pause_and_continue_a_leg():
     f.ap.command(C.MAV_CMD_MISSION_START, [0] * 7)
     f.until(lambda: f.ap.mission_current()[0] == 2 and np.linalg.norm(f.ap.vel) > 3, 60, "cruising")
     assert f.ap.command(C.MAV_CMD_DO_PAUSE_CONTINUE, [0] + [0] * 6) == C.MAV_RESULT_ACCEPTED
-    assert f.ap.mission_current() == (2, PAUSED)
+    assert f.ap.mission_current() == (2, ACTIVE)           # ArduPilot has no PAUSED state to report
     f.step(8.0)
     assert np.linalg.norm(f.ap.vel) < 0.3 and 2 not in f.reached_seqs()
     assert f.ap.command(C.MAV_CMD_DO_PAUSE_CONTINUE, [1] + [0] * 6) == C.MAV_RESULT_ACCEPTED
@@ -203,6 +203,7 @@ def test_do_and_condition_items_in_flight():
     times = dict((s, t) for t, s in f.reached)
     assert times[3] - times[1] >= 4.0                       # the delay held the mission
     assert times[1] < times[2] < times[3]                   # the yaw (90 deg, cw) done during the delay
+    assert times[2] - times[1] >= 90 / 45 - 0.1             # ... at CONDITION_YAW's 45 deg/s
     leg = [np.linalg.norm(v[:2]) for t, p, v, s in f.track if s == 6]
     assert max(leg) < 2.3                                   # DO_CHANGE_SPEED 2 m/s, not 5
     # the waypoint's hold time (param1 3 s) before it is reported reached
@@ -265,3 +266,72 @@ def test_roi_circle_and_land_at_a_position():
     assert 5 not in f.reached_seqs()
     f.step(0.5)
     assert f.ap.mission_current() == (1, ACTIVE)
+
+
+def test_waypoint_radius_is_wpnav_radius_and_param2_is_ignored_as_arducopter():
+    """ArduCopter keeps only param1 (hold time) of a NAV_WAYPOINT: a 15 m param2 does not make
+    the waypoint reached early; WPNAV_RADIUS (cm) does."""
+    f = Flight("copter", params={"WPNAV_RADIUS": 500})
+    assert f.ap.auto.wp_radius() == 5.0
+    wp = f.at(40, 0, 10, param2=15.0)
+    f.upload([f.at(0, 0, 10, C.MAV_CMD_NAV_TAKEOFF), wp, f.at(40, 40, 10)])
+    armed_in_guided(f)
+    f.ap.command(C.MAV_CMD_MISSION_START, [0] * 7)
+    f.until(lambda: 2 in f.reached_seqs(), 60, "the waypoint")
+    t = [t for t, s in f.reached if s == 2][0]
+    d = np.linalg.norm(f.pos_at(t) - f.ned(wp))
+    assert 4.0 < d <= 5.05                                   # at WPNAV_RADIUS, not at 15 m
+    r = Flight("rover", params={"WP_RADIUS": 3.5})
+    assert r.ap.auto.wp_radius() == 3.5
+
+
+def test_set_mission_current_jumps_now_in_auto_and_sets_the_resume_point_outside():
+    f = Flight("copter")
+    f.upload([f.at(0, 0, 10, C.MAV_CMD_NAV_TAKEOFF), f.at(20, 0, 10), f.at(20, 20, 10), f.at(0, 20, 10)])
+    armed_in_guided(f)
+    assert f.ap.command(C.MAV_CMD_NAV_TAKEOFF, [0, 0, 0, 0, 0, 0, 10]) == C.MAV_RESULT_ACCEPTED
+    f.step(6.0)
+    assert f.ap.set_mission_current(3) is True               # not in AUTO: where AUTO will begin
+    assert f.ap.mission_current() == (3, NOT_STARTED)
+    assert f.ap.set_mode(modes.AUTO)
+    f.step(0.2)
+    assert f.said()[-1] == "Mission: 3 WP" and f.ap.mission_current() == (3, ACTIVE)
+    assert f.ap.set_mission_current(4) is True               # in AUTO: flies there now
+    assert f.said()[-1] == "Mission: 4 WP"
+    f.until(lambda: 4 in f.reached_seqs(), 60, "item 4")
+    assert 3 not in f.reached_seqs() and 2 not in f.reached_seqs()
+    assert f.ap.set_mission_current(9) is False and f.ap.set_mission_current(float("nan")) is False
+
+
+def test_unflyable_items_are_skipped_with_a_warning_never_a_crash():
+    """Items the upload would refuse can still reach the store (code, an old file): a NaN
+    altitude, a terrain frame, a NaN jump target and NaN params are skipped or read as 0."""
+    f = Flight("copter")
+    bad_alt = f.at(10, 0, float("nan"))
+    terrain = f.at(10, 10, 10, frame=C.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT)
+    f.upload([f.at(0, 0, 8, C.MAV_CMD_NAV_TAKEOFF), bad_alt, terrain,
+              f.do(C.MAV_CMD_DO_CHANGE_SPEED, param1=float("nan"), param2=float("nan")),
+              f.at(15, 5, 8, param1=float("inf")), f.do(C.MAV_CMD_DO_JUMP, param1=float("nan"), param2=3)])
+    armed_in_guided(f)
+    f.ap.command(C.MAV_CMD_MISSION_START, [0] * 7)
+    f.until(lambda: f.ap.mission_current()[1] == COMPLETE, 60, "mission complete")
+    said = f.said()
+    assert "item 2: altitude not finite" in said and "item 3: frame 11 not supported" in said
+    assert 2 not in f.reached_seqs() and 3 not in f.reached_seqs()
+    assert 5 in f.reached_seqs()                             # inf hold time read as 0
+    assert f.ap.armed and f.ap.mode == modes.AUTO            # loiters at the end
+
+
+def test_rover_loiter_time_and_unlimited():
+    f = Flight("rover", params={"WP_RADIUS": 1.0, "WP_SPEED": 4.0})
+    f.upload([f.at(10, 0, 0, C.MAV_CMD_NAV_LOITER_TIME, param1=3), f.at(10, 10, 0, C.MAV_CMD_NAV_LOITER_UNLIM)])
+    f.settle()
+    assert f.ap.arm() == C.MAV_RESULT_ACCEPTED and f.ap.set_mode(modes.ROVER_AUTO)
+    f.until(lambda: "Reached waypoint #2" in f.said(), 60, "the unlimited loiter point")
+    said = f.said()
+    assert "Reached waypoint #1. Loiter for 3 seconds" in said and "Finished active loiter" in said
+    t_reach = next(t for t, _, m in f.texts if m.startswith("Reached waypoint #1"))
+    assert f.reached[0][1] == 1 and f.reached[0][0] - t_reach >= 3.0 - 0.05
+    f.step(5.0)
+    assert f.ap.mission_current() == (2, ACTIVE) and 2 not in f.reached_seqs()
+    assert np.linalg.norm(f.ap.vel[:2]) < 0.1

@@ -11,7 +11,7 @@ import os
 import pytest
 
 from gcs.dialect import towerlink as tl
-from bridge_fakes import Endpoint, FakeVehicle, bridge_with_fakes
+from bridge_fakes import Endpoint, FakeVehicle, bridge_with_fakes, sync
 from support import free_ports, wait_until
 
 
@@ -40,6 +40,7 @@ def test_heartbeat_command_ack_param_pass_through(world):
     tower.wait("HEARTBEAT", lambda m: m.get_srcSystem() == 1 and m.custom_mode == 4 and
                m.base_mode & tl.MAV_MODE_FLAG_SAFETY_ARMED)
     assert drone.armed and drone.mode == 4
+    sync(tower, rover)                  # whatever the bridge sent the rover so far has arrived
     assert not rover.armed and not rover.of_type("COMMAND_LONG", lambda m: m.get_srcSystem() == 255)
     # parameters, by target
     tower.mav.param_request_read_send(2, 1, b"SYSID_THISMAV", -1)

@@ -12,7 +12,7 @@ import pytest
 
 from gcs.frames import LATEST, TransformException
 from bridge.timeline import Timeline, TimesyncProbe
-from bridge_fakes import Endpoint, FakeVehicle, bridge_config, running_bridge
+from bridge_fakes import Endpoint, FakeVehicle, bridge_config, running_bridge, sync
 from gcs.dialect import towerlink as tl
 from support import free_ports, wait_until
 
@@ -154,6 +154,8 @@ def test_router_maps_a_vehicle_on_another_clock():
             wait_until(lambda: bridge.vehicles[1].probe.count and bridge.vehicles[2].probe.count, 5, "round trips")
             assert any("drone: TIMESYNC round trip" in s for s in bridge.logs)
             assert any("rover: TIMESYNC round trip" in s for s in bridge.logs)
+            sync(drone, out)            # whatever the bridge sent out so far has arrived
+            sync(rover, out)
             assert not out.of_type("TIMESYNC", lambda m: m.tc1 == 424242), "probe answers forwarded to a GCS"
             assert any("held back" in s for s in bridge.logs)
     finally:
@@ -175,10 +177,12 @@ def test_two_sitl_processes_one_timeline(processes):
             wait_until(lambda: bridge.timeline.offset("drone") is not None and
                        bridge.buffer.can_transform("world", "drone"), 30, "the drone's clock and frames")
             assert bridge.timeline.ref == "drone"
-            # the deliberate start gap: the rover's process starts 2 s (wall) after the drone's
-            # clock was seen, so its boot clock runs ~2 s behind
-            gap_from = time.monotonic()
-            wait_until(lambda: time.monotonic() >= gap_from + 2.0, 5, "the 2 s start gap")
+            # the deliberate start gap: the rover's process starts once the drone's own clock
+            # has run 2 s on from where the bridge first saw it (sim time, however slowly the
+            # loaded machine runs it), so the rover's boot clock is >= 2 s behind the drone's
+            gap_from = bridge.timeline.clocks["drone"].newest
+            wait_until(lambda: bridge.timeline.clocks["drone"].newest >= gap_from + 2.0, 30,
+                       "2 s of the drone's clock")
             processes.start(["towerlink", "sitl", "--drones", "0", "--rovers", "1", "--sysid-base", "2",
                              *common, "--endpoint", f"0=udpin:127.0.0.1:{rport}"])
 

@@ -15,7 +15,7 @@ import pytest
 from gcs.dialect import towerlink as tl
 from gcs.frames import Transform
 from gcs.scenario import load_scenario
-from bridge_fakes import bridge_with_fakes
+from bridge_fakes import bridge_with_fakes, sync
 from support import wait_until
 
 SC = load_scenario()
@@ -59,6 +59,7 @@ def test_tower_goal_to_world(world):
                                                  3, 4, 0, 0, 0, 0, 0, 0, 0, 0, 0)
     m = drone.wait("SET_POSITION_TARGET_LOCAL_NED", lambda m: m.coordinate_frame == tl.MAV_FRAME_BODY_OFFSET_NED)
     assert (m.x, m.y) == (3, 4)
+    sync(tower, rover)                  # whatever the bridge sent the rover so far has arrived
     assert not rover.of_type("SET_POSITION_TARGET_LOCAL_NED")
 
 

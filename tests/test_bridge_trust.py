@@ -152,6 +152,11 @@ def test_unsigned_sender_is_no_peer_and_gets_no_stream():
             # ... the unsigned one gets nothing at all (it is not a peer)
             assert unsigned.recv_match(blocking=False) is None
             assert bridge.tower.stats.unsigned >= 1
+            # and the drop is on the wire, in the tower link's status
+            st = wait_until(lambda: signed.recv_match(type="TOWERLINK_BRIDGE_STATUS", blocking=True, timeout=0.5,
+                                                      condition="TOWERLINK_BRIDGE_STATUS.link=='tower'"),
+                            5, "tower link status")
+            assert st.unsigned >= 1 and st.refused == 0
         finally:
             unsigned.close(); signed.close()
 

@@ -122,3 +122,48 @@ def test_rtl_goes_home_when_home_is_nearer_than_any_rally_point():
     assert f.ap.set_mode(modes.RTL)
     f.until(lambda: not f.ap.armed, 90, "RTL home")
     assert np.linalg.norm(f.ap.pos[:2] - f.ap.home[:2]) < 1.0
+
+
+def test_sys_status_geofence_bits_follow_the_fence():
+    """SYS_STATUS as ArduPilot fills it: geofence present when a fence type is configured,
+    enabled with FENCE_ENABLE (and an action), healthy until a breach."""
+    f = Flight("copter", params={"FENCE_TYPE": 2, "FENCE_RADIUS": 30})
+    G = C.MAV_SYS_STATUS_GEOFENCE
+    s = f.v.link.telemetry.sys_status()
+    assert s.onboard_control_sensors_present & G and not s.onboard_control_sensors_enabled & G
+    assert s.onboard_control_sensors_health & G
+    f.ap.params.set("FENCE_ENABLE", 1, save=False)
+    airborne(f)
+    for _ in range(40):                                  # a velocity target lives GUID_TIMEOUT: renew it
+        f.ap.position_target_local(C.MAV_FRAME_LOCAL_NED, VEL_ONLY, [0, 0, 0], [4, 0, 0], [0, 0, 0], 0, 0)
+        f.step(0.5)
+        if f.ap.fence.breaches:
+            break
+    s = f.v.link.telemetry.sys_status()
+    assert s.onboard_control_sensors_enabled & G and not s.onboard_control_sensors_health & G
+
+
+def test_prearm_checks_the_fence_altitudes_and_margin_in_ac_fences_words():
+    f = Flight("copter", params={"FENCE_ENABLE": 1, "FENCE_TYPE": 1, "FENCE_ALT_MAX": 20, "FENCE_ALT_MIN": 30})
+    f.until(lambda: f.ap.home is not None, 30, "home")
+    assert f.ap.arm() == C.MAV_RESULT_FAILED and f.said()[-1] == "PreArm: FENCE_ALT_MAX < FENCE_ALT_MIN"
+    f.ap.params.set("FENCE_ALT_MIN", 15, save=False)
+    f.ap.params.set("FENCE_MARGIN", 3, save=False)
+    assert f.ap.arm() == C.MAV_RESULT_FAILED and f.said()[-1] == "PreArm: FENCE_MARGIN too big"
+    f.ap.params.set("FENCE_ALT_MIN", -10, save=False)
+    assert f.ap.arm() == C.MAV_RESULT_ACCEPTED
+
+
+def test_min_alt_fence_arms_itself_above_the_floor_and_a_descent_below_it_breaches():
+    f = Flight("copter", params={"FENCE_ENABLE": 1, "FENCE_TYPE": 8, "FENCE_ALT_MIN": 5, "FENCE_ACTION": 0})
+    airborne(f, alt=10.0)                            # armed on the ground below the floor: allowed
+    assert "Min Alt fence enabled (auto enable)" in f.said()
+    assert goto(f, 0, 0, -3) is False                # below FENCE_ALT_MIN: refused
+    for _ in range(30):                              # descend at 1 m/s (renewed within GUID_TIMEOUT)
+        f.ap.position_target_local(C.MAV_FRAME_LOCAL_NED, VEL_ONLY, [0, 0, 0], [0, 0, 1.0], [0, 0, 0], 0, 0)
+        f.step(0.5)
+        if "Min Alt fence breached" in f.said():
+            break
+    assert "Min Alt fence breached" in f.said()
+    assert f.ap.home[2] - f.ap.pos[2] < 5.0 + 0.2
+    assert f.ap.mode == modes.GUIDED                 # FENCE_ACTION 0: report only

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from gcs.dialect import towerlink as tl
 from bridge.follow import FollowSupervisor, ground_points
 from gcs.frames import Transform
-from bridge_fakes import Endpoint, FakeVehicle, bridge_config, running_bridge
+from bridge_fakes import Endpoint, FakeVehicle, bridge_config, running_bridge, sync
 from support import free_ports, wait_until
 
 angle = st.floats(-math.pi, math.pi, allow_nan=False)
@@ -152,6 +152,11 @@ def test_follow_timeout_holds_then_resumes(world):
             rover.pose(1200 + 50 * k, (0, 0, 0))
         wait_until(lambda: (bridge.timeline.newest("rover")[0] or 0) >= (1200 + 50 * 49) / 1000, 5,
                    "the bridge seeing the rover's later clock")
+        tower = Endpoint(255, 190, tport, listen=False, name="tower")
+        try:
+            sync(tower, rover)          # whatever the bridge sent the rover so far has arrived
+        finally:
+            tower.close()
         assert bridge.follower.supervisor.holding
         assert len(rover.of_type("SET_POSITION_TARGET_LOCAL_NED")) == n
         # telemetry returns: GUIDED and goals again

@@ -344,7 +344,7 @@ def test_introspection_and_clear():
     assert st_["drone"].rate_hz == pytest.approx(10.0) and not st_["drone"].is_static
     assert st_["tower"].is_static and st_["tower"].authority == "scenario"
     b.clear()
-    assert b.frames() == ["tower", "world"]
+    assert b.frames() == ["drone", "tower", "world"]   # tf2 keeps knowing them (tests/test_frames_tf2_rules.py)
     assert b.lookup_transform("world", "tower").transform == Transform((1, 0, 0))
     assert not b.can_transform("world", "drone")
     assert Buffer().all_frames_as_yaml() == "[]"

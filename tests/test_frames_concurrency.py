@@ -1,8 +1,8 @@
 """Timeouts wake on inserts; one writer and many readers see consistent transforms."""
 from __future__ import annotations
 
+import importlib
 import threading
-import time
 
 import pytest
 
@@ -16,90 +16,115 @@ def ts(parent, child, stamp, tf=None):
     return TransformStamped(parent, child, stamp, tf or Transform())
 
 
-def test_lookup_with_timeout_returns_as_soon_as_data_arrives():
+class FakeClock:
+    """Stands in for the buffer's wall clock (gcs.frames.buffer._monotonic): it moves only
+    when the test moves it, and counts how often the buffer read it."""
+
+    def __init__(self, now: float = 100.0) -> None:
+        self.now = now
+        self.calls = 0
+        self._lock = threading.Lock()
+
+    def __call__(self) -> float:
+        with self._lock:
+            self.calls += 1
+            return self.now
+
+    def advance_to(self, t: float) -> None:
+        with self._lock:
+            self.now = t
+
+
+@pytest.fixture
+def clock(monkeypatch):
+    c = FakeClock()
+    monkeypatch.setattr(importlib.import_module("gcs.frames.buffer"), "_monotonic", c)
+    return c
+
+
+class Waiter(threading.Thread):
+    """Runs one blocking buffer call; keeps its result or its exception."""
+
+    def __init__(self, b: Buffer, fn) -> None:
+        super().__init__(daemon=True)
+        self.b, self.fn, self.result, self.error = b, fn, None, None
+        self.start()
+        wait_until(lambda: b._waiting > 0 or not self.is_alive(), 5.0, "the call to block", interval=0.001)
+
+    def run(self) -> None:
+        try:
+            self.result = self.fn()
+        except Exception as e:  # reported by the test
+            self.error = e
+
+    def done(self, timeout: float = 5.0):
+        self.join(timeout)
+        assert not self.is_alive(), "the call is still blocked"
+        return self
+
+
+def _poke(b: Buffer, k: int = 0) -> None:
+    """An insert on an edge nobody waits for: wakes every waiter to re-check."""
+    b.set_transform(ts("world", "unrelated", float(k)))
+
+
+def test_lookup_with_timeout_returns_as_soon_as_data_arrives(clock):
     b = Buffer()
     b.set_transform(ts("world", "drone", 1.0))
-    waiting = threading.Event()
-    result: dict = {}
-
-    def reader():
-        waiting.set()
-        t0 = time.monotonic()
-        try:
-            result["ts"] = b.lookup_transform("world", "drone", 2.0, timeout=10.0)
-        except Exception as e:  # reported below
-            result["error"] = e
-        result["elapsed"] = time.monotonic() - t0
-
-    th = threading.Thread(target=reader)
-    th.start()
-    assert waiting.wait(5.0)
-    # make sure the reader is actually blocked in the condition before inserting
-    wait_until(lambda: b._waiting > 0, 5.0, "the reader to block", interval=0.001)
-    t_insert = time.monotonic()
+    w = Waiter(b, lambda: b.lookup_transform("world", "drone", 2.0, timeout=10.0))
+    assert w.is_alive() and w.error is None
     b.set_transform(ts("world", "drone", 2.0, Transform((2, 0, 0))))
-    th.join(5.0)
-    assert not th.is_alive()
-    assert "error" not in result, result.get("error")
-    assert result["ts"].transform.translation[0] == 2.0
-    assert result["elapsed"] < 5.0  # far below the 10 s timeout
-    assert time.monotonic() - t_insert < 2.0
+    w.done()
+    assert w.error is None, w.error
+    assert w.result.transform.translation[0] == 2.0 and w.result.stamp == 2.0
+    assert clock.now == 100.0      # the clock never moved: the insert, not a timeout, ended it
 
 
-def test_lookup_with_timeout_waits_for_new_frame_and_can_transform():
+def test_lookup_with_timeout_waits_for_new_frame_and_can_transform(clock):
     b = Buffer()
-    done = threading.Event()
-    out = {}
-
-    def reader():
-        out["ok"] = b.can_transform("world", "rover", LATEST, timeout=10.0)
-        done.set()
-
-    th = threading.Thread(target=reader)
-    th.start()
-    wait_until(lambda: b._waiting > 0, 5.0, "the reader to block", interval=0.001)
+    w = Waiter(b, lambda: b.can_transform("world", "rover", LATEST, timeout=10.0))
+    assert w.is_alive()
     b.set_transform_static(ts("world", "rover", 0.0))
-    assert done.wait(5.0)
-    th.join(5.0)
-    assert out["ok"] is True
+    assert w.done().result is True
 
 
 @pytest.mark.parametrize("timeout", [0.2, 0.5])
-def test_timeout_expires_after_about_timeout(timeout):
+@pytest.mark.parametrize("call", ["lookup_transform", "can_transform"])
+def test_timeout_expires_at_the_deadline_not_before(clock, timeout, call):
     b = Buffer()
     b.set_transform(ts("world", "drone", 1.0))
-    t0 = time.monotonic()
-    with pytest.raises(TimeoutException):
-        b.lookup_transform("world", "drone", 5.0, timeout=timeout)
-    elapsed = time.monotonic() - t0
-    assert timeout * 0.95 <= elapsed < timeout + 0.5
-    t0 = time.monotonic()
-    assert b.can_transform("world", "drone", 5.0, timeout=timeout) is False
-    assert timeout * 0.95 <= time.monotonic() - t0 < timeout + 0.5
+    w = Waiter(b, lambda: getattr(b, call)("world", "drone", 5.0, timeout=timeout))
+    # just before the deadline, woken: it looks at the clock again and keeps waiting
+    clock.advance_to(100.0 + timeout * 0.99)
+    n = clock.calls
+    _poke(b)
+    wait_until(lambda: clock.calls > n, 5.0, "the waiter to re-read the clock", interval=0.001)
+    assert w.is_alive() and w.error is None and b._waiting == 1
+    # at the deadline: it gives up
+    clock.advance_to(100.0 + timeout)
+    _poke(b, 1)
+    w.done()
+    if call == "can_transform":
+        assert w.error is None and w.result is False
+    else:
+        assert isinstance(w.error, TimeoutException), w.error
+        assert f"Timed out after {timeout:.3f} s" in str(w.error)
+        assert isinstance(w.error.last_error, ExtrapolationException)
+    assert b._waiting == 0
 
 
-def test_unrelated_inserts_do_not_end_the_wait_early():
+def test_unrelated_inserts_do_not_end_the_wait_early(clock):
     b = Buffer()
     b.set_transform(ts("world", "drone", 1.0))
-    stop = threading.Event()
-
-    def noise():
-        k = 0
-        while not stop.is_set():
-            k += 1
-            b.set_transform(ts("world", "rover", float(k)))
-            stop.wait(0.005)
-
-    th = threading.Thread(target=noise)
-    th.start()
-    try:
-        t0 = time.monotonic()
-        with pytest.raises(TimeoutException):
-            b.lookup_transform("world", "drone", 5.0, timeout=0.3)
-        assert time.monotonic() - t0 >= 0.28
-    finally:
-        stop.set()
-        th.join(5.0)
+    w = Waiter(b, lambda: b.lookup_transform("world", "drone", 5.0, timeout=0.3))
+    n = clock.calls
+    for k in range(200):                        # every one wakes it; none is what it waits for
+        _poke(b, k)
+    wait_until(lambda: clock.calls > n, 5.0, "the waiter to wake", interval=0.001)
+    assert w.is_alive() and w.error is None
+    clock.advance_to(100.3)
+    _poke(b, 200)
+    assert isinstance(w.done().error, TimeoutException)
 
 
 def test_one_writer_many_readers_consistent():

@@ -47,8 +47,12 @@ class FakeCopter(threading.Thread):
         self.stop = threading.Event()
         self.commands = []
         self.command_sims = []          # sim time each COMMAND_LONG arrived (dropped ones too)
+        self.command_stamps = []        # and the newest position stamp sent before it (s)
+        self.pos_stamp = 0.0
         self.drop_commands = drop_commands
         self.streaming = True           # LOCAL_POSITION_NED on (a test may pause it)
+        self.next_reset = False
+        self.steps = self.pos_sent = 0  # loop iterations; LOCAL_POSITION_NED sent
 
     def send(self, msg):
         if self.peer and self.rng.random() >= self.loss:
@@ -69,6 +73,10 @@ class FakeCopter(threading.Thread):
             now = time.monotonic()
             dt, last = (now - last) * self.sim_rate, now
             self.sim += dt
+            self.steps += 1
+            if self.next_reset:
+                self.next_reset = False
+                self.sim = next_hb = next_pos = 0.0
             if self.target is not None and self.armed:
                 d = [t - p for t, p in zip(self.target, self.pos)]
                 n = sum(v * v for v in d) ** 0.5
@@ -84,7 +92,14 @@ class FakeCopter(threading.Thread):
                 self.send(apm.MAVLink_extended_sys_state_message(0, landed))
             if self.sim >= next_pos and self.streaming:
                 next_pos = self.sim + 0.05
+                self.pos_stamp = int(self.sim * 1000) / 1000.0
+                self.pos_sent += self.peer is not None and self.loss == 0
                 self.send(apm.MAVLink_local_position_ned_message(int(self.sim * 1000), *self.pos, 0, 0, 0))
+
+    def reboot(self):
+        """Restart the vehicle's clock from zero (as a reboot does), where it stands; done
+        by the vehicle's own thread on its next step."""
+        self.next_reset = True
 
     def ack(self, cmd, result):
         self.send(apm.MAVLink_command_ack_message(cmd, result, 0, 0, 255, 190))
@@ -93,6 +108,7 @@ class FakeCopter(threading.Thread):
         t = m.get_type()
         if t == "COMMAND_LONG":
             self.command_sims.append(self.sim)
+            self.command_stamps.append(self.pos_stamp)
             if self.drop_commands > 0:      # this one is "lost on the way"
                 self.drop_commands -= 1
                 return
@@ -231,6 +247,36 @@ def test_wait_reached_ignores_a_stale_sample_inside_the_radius(copter):
     assert hit.position.t - sent >= 29.5 / fc.speed      # it had to fly the 30 m back first
 
 
+@pytest.mark.parametrize("copter", [{"sim_rate": 20.0}], indirect=True)
+def test_a_rebooted_vehicle_clock_is_followed(copter):
+    """A reboot while a goal is waited for: the vehicle's clock starts again near zero.
+    The client follows its clock (sim_time goes back, the reboot is logged), and the
+    samples after the reboot count for wait_reached although their stamps are older than
+    the call's; the sample from before the reboot still does not."""
+    fc, url = copter
+    logs = []
+    got = [0]                                         # LOCAL_POSITION_NED received
+    with Client.connect(url, log=logs.append) as c:
+        c.add_listener(lambda m: got.__setitem__(0, got[0] + (m.get_type() == "LOCAL_POSITION_NED")))
+        c.wait_heartbeat(1, timeout=5)
+        c.wait_position(1, timeout=5)
+        wait_until(lambda: c.poll(0.05) < 0 or c.sim_time(1) > 8.0, 10, "8 s of vehicle time")
+        fc.streaming = False
+        s0 = fc.steps                                 # two steps on, nothing more is sent ...
+        wait_until(lambda: c.poll(0.02) >= 0 and fc.steps > s0 + 1 and got[0] >= fc.pos_sent, 5,
+                   "every position sent before the pause, received")   # ... and all was read
+        before = c.sim_time(1)
+        stale = c.position(1)
+        fc.reboot()                                   # quiet until the wait below has begun
+        seen = []
+        hit = c.wait_reached(stale.xyz, 0.5, 10, sysid=1, resend=lambda: setattr(fc, "streaming", True),
+                             resend_interval=0.0, on_sample=lambda p, d: seen.append(p))
+        # the first sample after the reboot counted (not one once its clock passed the old one)
+        assert hit.position.t < before - 5.0 and stale not in seen, (before, hit, seen[:3])
+        assert c.system(1).reboots == 1 and any("system 1 rebooted" in line for line in logs), logs
+        assert c.sim_time(1) < before - 5.0
+
+
 def test_heartbeat_timeout_when_nobody_is_there():
     with Client.connect(f"udpout:127.0.0.1:{free_port()}") as c:
         t0 = time.monotonic()
@@ -240,18 +286,21 @@ def test_heartbeat_timeout_when_nobody_is_there():
         assert isinstance(HeartbeatTimeout("x"), TimeoutError)
 
 
-@pytest.mark.parametrize("copter", [{"sim_rate": 10.0, "drop_commands": 1, "prearm_fails": 0}], indirect=True)
+@pytest.mark.parametrize("copter", [{"sim_rate": 300.0, "drop_commands": 1, "prearm_fails": 0}], indirect=True)
 def test_command_retry_is_paced_on_the_vehicle_clock(copter):
-    """A lost command is re-sent after ack_timeout seconds of the vehicle's time: at 10x
-    speed that is ~0.1 s of wall time, so sim-time timers (DISARM_DELAY) never run out."""
+    """A lost command is re-sent after ack_timeout seconds of the vehicle's time, so in a
+    sped-up SITL sim-time timers (DISARM_DELAY) do not run out between tries. Here the
+    vehicle runs 300x: ack_timeout 30 s of its time is 0.1 s of wall time, while the whole
+    call may take only 10 wall s. Paced on the wall clock instead, the first retry would
+    come after 30 wall s and the call would fail with CommandTimeout; no wall time is
+    measured."""
     fc, url = copter
     with Client.connect(url) as c:
         c.wait_heartbeat(1, timeout=5)
         c.wait_position(1, timeout=5)
-        t0 = time.monotonic()
-        c.command_long(1, apm.MAV_CMD_COMPONENT_ARM_DISARM, [1], ack_timeout=1.0, timeout=10)
-        wall = time.monotonic() - t0
+        c.command_long(1, apm.MAV_CMD_COMPONENT_ARM_DISARM, [1], ack_timeout=30.0, timeout=10)
     assert fc.armed and len(fc.command_sims) == 2
-    gap = fc.command_sims[1] - fc.command_sims[0]
-    assert 1.0 <= gap < 1.6, gap          # one second of vehicle time between the tries
-    assert wall < 0.6, wall               # not one second of wall time
+    # not before 30 s of vehicle time: the client can only know the vehicle's time from the
+    # stamps it has received, the newest of which (when it sent) is at most the vehicle's
+    # last one before the first try arrived
+    assert fc.command_sims[1] >= fc.command_stamps[0] + 30.0, (fc.command_stamps, fc.command_sims)

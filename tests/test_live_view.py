@@ -47,7 +47,11 @@ def test_feed_stamps_every_record_with_sim_time_and_splits_static_from_dynamic()
     recs = list(records_of(flight()))
     tf = [r for r in recs if r.topic == "/tf"]
     static = [r for r in recs if r.topic == "/tf_static"]
-    assert len(tf) == 40 and len(static) == 1
+    assert len(tf) == 40 and len(static) == 2
+    # the feed's one edge of its own: a z-up display frame above the NED world
+    disp = static[0].body["transforms"][0]
+    assert (disp["parent_frame_id"], disp["child_frame_id"]) == ("world_enu", "world")
+    static = static[1:]
     ft = tf[-1].body["transforms"][0]
     assert tf[-1].sim_ns == 4_900_000_000 == ft["timestamp"]["sec"] * 10**9 + ft["timestamp"]["nsec"]
     assert (ft["parent_frame_id"], ft["child_frame_id"]) == ("world", "drone")
@@ -120,7 +124,7 @@ def test_mcap_write_is_atomic_and_leaves_no_temporary_on_failure(tmp_path):
 
 def test_live_view_serves_transforms_on_the_sim_clock():
     pytest.importorskip("foxglove")
-    from foxglove_client import FoxgloveClient
+    from tools.foxglove_client import FoxgloveClient
     from tools.live_view import LiveView
 
     view = LiveView(port=0)
@@ -137,7 +141,7 @@ def test_live_view_serves_transforms_on_the_sim_clock():
         assert [t for t, _ in tf] == [int(round((1.0 + k * 0.1) * 1e9)) for k in range(40)]
         last_t, last = tf[-1]
         assert last["transforms"][0]["translation"]["x"] == pytest.approx(7.8, abs=1e-5)
-        assert client.of("/tf_static")[0][1]["transforms"][0]["child_frame_id"] == "tower"
+        assert [b["transforms"][0]["child_frame_id"] for _, b in client.of("/tf_static")] == ["world", "tower"]
         assert client.of("/goals")[-1][1]["entities"][0]["frame_id"] == "tower"
         client.wait_for(lambda: client.times and client.times[-1] == last_t, 10, "the sim time broadcast")
     finally:
@@ -170,3 +174,54 @@ def test_live_view_does_no_work_for_channels_nobody_watches(monkeypatch):
         assert logged == []
     finally:
         view.stop()
+
+
+def test_the_shipped_layout_is_what_the_generator_writes_and_shows_the_feeds_topics():
+    pytest.importorskip("foxglove")
+    import json
+    from pathlib import Path
+
+    from tools.foxglove_layout import DEFAULT_OUT, build
+
+    shipped = json.loads(Path(DEFAULT_OUT).read_text())
+    assert shipped == build()           # regenerate with: python -m tools.foxglove_layout
+    text = json.dumps(shipped)
+    for topic in ("/vehicles", "/goals", "/follow", "/summary.follow_error_rms"):
+        assert f'"{topic}' in text
+    assert '"fixedFrame": "world_enu"' in text   # the feed's z-up display frame
+
+
+def test_bridge_view_serves_its_frame_tree_to_a_foxglove_client(processes):
+    """`towerlink bridge --view PORT`: a Foxglove client sees the bridge's frames (its scenario's
+    static tower frame) with no vehicle connected, and nothing is left running afterwards."""
+    pytest.importorskip("foxglove")
+    import socket
+
+    from support import free_port, free_ports, wait_until
+    from tools.foxglove_client import FoxgloveClient
+
+    view_port = free_port(socket.SOCK_STREAM)
+    tower, drone, rover = free_ports(3)
+    bridge = processes.start(["towerlink", "bridge", "--tower", f"udpin:127.0.0.1:{tower}",
+                              "--drone", f"udpout:127.0.0.1:{drone}", "--rover", f"udpout:127.0.0.1:{rover}",
+                              "--view", str(view_port), "-q"])
+
+    def connect():
+        try:
+            return FoxgloveClient(f"ws://127.0.0.1:{view_port}", ("/tf_static",))
+        except Exception:   # noqa: BLE001 - refused, or a handshake before the server is up
+            return None
+
+    client = wait_until(connect, 30, "the bridge's Foxglove server")
+    try:
+        wait_until(lambda: any(ft["child_frame_id"] == "tower" for _, b in client.of("/tf_static")
+                               for ft in b["transforms"]), 30, "world -> tower from the bridge")
+        ft = next(ft for _, b in client.of("/tf_static") for ft in b["transforms"] if ft["child_frame_id"] == "tower")
+        assert ft["parent_frame_id"] == "world"
+        from gcs.scenario import load_scenario
+        want = load_scenario(None).buffer().lookup_transform("world", "tower").transform.translation
+        assert [ft["translation"][k] for k in "xyz"] == pytest.approx(list(want), abs=1e-3)
+    finally:
+        client.stop()
+    processes.stop(bridge)
+    assert bridge.returncode is not None

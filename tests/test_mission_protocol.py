@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from vehicle.autopilot.mission_store import FENCE, MISSION, RALLY, MissionItem, MissionStore
+from vehicle.autopilot.mission_store import FENCE, MISSION, RALLY, MissionStore
 from vehicle.link import mission_items as mi
 from vehicle.link.mission_protocol import MissionProtocol, home_item
 
@@ -135,6 +135,10 @@ def test_legacy_item_accepted_with_one_warning_and_legacy_request_answered_with_
     item = msgs(out, "MISSION_ITEM")[0]
     assert (item.x, item.y, item.z) == (pytest.approx(-35.5), pytest.approx(149.25), 10)
     assert "got MISSION_REQUEST; use MISSION_REQUEST_INT!" in texts(out)
+    assert texts(p.handle(mav.MAVLink_mission_request_message(1, 1, 0, 0), GCS, A, 1)) == []   # once per transfer
+    p.handle(mav.MAVLink_mission_request_list_message(1, 1, 0), GCS, A, 2)
+    assert texts(p.handle(mav.MAVLink_mission_request_message(1, 1, 0, 0), GCS, A, 2)) == \
+        ["got MISSION_REQUEST; use MISSION_REQUEST_INT!"]
 
 
 def test_count_zero_clears_and_acks_at_once():
@@ -213,6 +217,19 @@ def test_legacy_item_with_bad_latitude_refused_but_upload_goes_on():
     out = p.handle(mav.MAVLink_mission_item_message(1, 1, 0, 0, WP, 0, 1, 0, 0, 0, 0, math.nan, 149.0, 0, 0), GCS, A, 0)
     assert acks(out) == [mav.MAV_MISSION_INVALID_PARAM5_X]
     assert p.receiving(MISSION)
+
+
+def test_legacy_raw_xy_that_does_not_fit_int32_refused():
+    p, _, _ = make()
+    p.handle(count(2), GCS, A, 0)
+    p.handle(wp(0), GCS, A, 0)
+    cam = mav.MAV_CMD_DO_DIGICAM_CONTROL          # x / y are raw values, not degrees
+    out = p.handle(mav.MAVLink_mission_item_message(1, 1, 1, 0, cam, 0, 1, 0, 0, 0, 0, 3e9, 1, 0, 0), GCS, A, 0)
+    assert acks(out) == [mav.MAV_MISSION_INVALID_PARAM5_X]
+    out = p.handle(mav.MAVLink_mission_item_message(1, 1, 1, 0, cam, 0, 1, 0, 0, 0, 0, 1, 2, 0, 0), GCS, A, 0)
+    assert acks(out) == [mav.MAV_MISSION_ACCEPTED]
+    got = msgs(p.handle(mav.MAVLink_mission_request_message(1, 1, 1, 0), GCS, A, 0), "MISSION_ITEM")[0]
+    assert (got.x, got.y) == (1.0, 2.0)
 
 
 def test_too_many_items_no_space_with_ardupilots_text():
@@ -441,3 +458,38 @@ def test_any_order_of_items_stores_exactly_the_requested_sequence(seqs):
     else:
         assert [it.seq for it in store.items()] == list(range(n))
         assert [it.x for it in store.items()] == [int(round((-35 + s * 1e-3) * 1e7)) for s in range(n)]
+
+
+_f = st.floats(allow_nan=True, allow_infinity=True, width=32)
+_msg = st.one_of(
+    st.builds(lambda n, t: mav.MAVLink_mission_count_message(1, 1, n, t), st.integers(0, 800), st.integers(0, 3)),
+    st.builds(lambda s, fr, c, p, x, y, z, t: mav.MAVLink_mission_item_int_message(1, 1, s, fr, c, 0, 1, *p, x, y, z, t),
+              st.integers(0, 8), st.sampled_from([0, 1, 3, 5, 6, 10, 12]), st.sampled_from([0, 16, 22, 177, 5001, 5004, 5100, 203]),
+              st.tuples(_f, _f, _f, _f), st.integers(-2**31, 2**31 - 1), st.integers(-2**31, 2**31 - 1), _f, st.integers(0, 2)),
+    st.builds(lambda s, c, x, y, t: mav.MAVLink_mission_item_message(1, 1, s, 3, c, 0, 1, 0, 0, 0, 0, x, y, 5, t),
+              st.integers(0, 8), st.sampled_from([16, 203, 5100]), _f, _f, st.integers(0, 2)),
+    st.builds(lambda s, t: mav.MAVLink_mission_request_int_message(1, 1, s, t), st.integers(0, 9), st.integers(0, 2)),
+    st.builds(lambda s, t: mav.MAVLink_mission_request_message(1, 1, s, t), st.integers(0, 9), st.integers(0, 2)),
+    st.builds(lambda a, b, t: mav.MAVLink_mission_write_partial_list_message(1, 1, a, b, t),
+              st.integers(-2, 9), st.integers(-2, 9), st.integers(0, 2)),
+    st.builds(lambda t: mav.MAVLink_mission_clear_all_message(1, 1, t), st.sampled_from([0, 1, 2, 255])),
+    st.builds(lambda t: mav.MAVLink_mission_request_list_message(1, 1, t), st.integers(0, 2)),
+)
+
+
+@given(st.lists(st.tuples(_msg, st.sampled_from([GCS, OTHER]), st.floats(0, 3)), max_size=40))
+def test_any_message_sequence_never_raises_and_every_reply_packs(steps):
+    """Whatever arrives, in whatever order and timing: no exception, every reply encodes to a
+    MAVLink 2 frame, and the stored lists keep seqs 0..n-1."""
+    p, store, _ = make()
+    enc = mav.MAVLink(None, srcSystem=1, srcComponent=1)
+    now = 0.0
+    for m, src, dt in steps:
+        now += dt
+        for o in p.handle(m, src, A, now) + p.update(now):
+            if o.msg is not None:
+                o.msg.pack(enc)
+            else:
+                assert 0 < len(o.text) <= 50
+    for t in (MISSION, FENCE, RALLY):
+        assert [it.seq for it in store.items(t)] == list(range(store.count(t)))

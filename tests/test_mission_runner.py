@@ -99,6 +99,14 @@ def test_jump_to_an_invalid_target_ends_the_mission(target):
     assert s.r.state == COMPLETE
 
 
+def test_a_forever_loop_of_commands_that_cannot_start_ends_the_mission():
+    s = Script([HOME, item(WP), item(WP), item(JUMP, 1, -1)])
+    s.refuse.update({1, 2})
+    s.r.start()                                      # must return: no nav command ever starts
+    assert s.r.state == COMPLETE and s.completed == 1
+    assert 0 < len(s.started) <= 300
+
+
 def test_jump_counts_reset_when_the_mission_starts_again():
     s = Script([HOME, item(WP), item(JUMP, 1, 1), item(WP)])
     s.r.start()

@@ -106,6 +106,11 @@ def test_six_items_built_in_code_round_trip_and_refusals(sitl):
     assert abs(home.x - round(HOME[0] * 1e7)) <= 2 and abs(home.y - round(HOME[1] * 1e7)) <= 2
     cur = recv(m, "MISSION_CURRENT", 5)
     assert (cur.total, cur.mission_state) == (5, mav.MISSION_STATE_NOT_STARTED)
+    # the current item, set by command and by the legacy message, shows in MISSION_CURRENT
+    assert command(m, mav.MAV_CMD_DO_SET_MISSION_CURRENT, 4) == mav.MAV_RESULT_ACCEPTED
+    recv(m, "MISSION_CURRENT", 5, cond=lambda c: c.seq == 4)
+    m.mav.mission_set_current_send(m.target_system, m.target_component, 2)
+    recv(m, "MISSION_CURRENT", 5, cond=lambda c: c.seq == 2)
     # refusals, on the wire
     bad = items[:2] + [item_int(m, 2, 16, HOME[0], HOME[1], 10, p=(math.nan, 0, 0, 0))]
     assert upload(m, bad) == mav.MAV_MISSION_INVALID_PARAM1
@@ -179,7 +184,7 @@ def test_dropped_items_rerequested_over_a_lossy_link(sitl):
     try:
         m = connect(port, timeout=20)
         lat, lon = HOME[:2]
-        items = [item_int(m, i, 16, lat + 1e-5 * i, lon, 10 + i) for i in range(20)]
+        items = [item_int(m, i, 16, lat + 1e-5 * i, lon, 10 + i) for i in range(12)]
         asked = []
         assert upload(m, items, log=asked) == mav.MAV_MISSION_ACCEPTED
         assert proxy.dropped["up"] > 0 and proxy.dropped["down"] > 0
@@ -264,3 +269,29 @@ def test_bad_mission_file_is_a_clear_cli_error(tmp_path, content, arg, message):
                        capture_output=True, text=True, timeout=30)
     assert r.returncode == 2
     assert message in r.stderr and "Traceback" not in r.stderr
+
+
+@pytest.mark.timeout(90)
+def test_second_gcs_denied_during_an_upload_and_answered_on_its_own_link(sitl):
+    """GCS A (sysid 255, UDP) uploads; GCS B (sysid 254, TCP) starting its own upload or a
+    download meanwhile is DENIED on its link (ArduPilot's MissionItemProtocol), and A's upload
+    completes; afterwards B downloads what A stored."""
+    a = connect(sitl.udp[0])
+    b = connect(sitl.tcp[0], tcp=True, sysid=254)
+    items = six(a)
+    a.mav.mission_count_send(1, 1, 6, 0)
+    first = recv(a, "MISSION_REQUEST_INT", 5)
+    assert (first.seq, first.target_system) == (0, 255)
+    b.mav.mission_count_send(1, 1, 2, 0)
+    ack = recv(b, "MISSION_ACK", 5)
+    assert (ack.type, ack.target_system) == (mav.MAV_MISSION_DENIED, 254)
+    b.mav.mission_request_list_send(1, 1, 0)
+    assert recv(b, "MISSION_ACK", 5).type == mav.MAV_MISSION_DENIED
+    a.mav.send(items[0])
+    while True:
+        msg = recv(a, ["MISSION_REQUEST_INT", "MISSION_ACK"], 5)
+        if msg.get_type() == "MISSION_ACK":
+            assert msg.type == mav.MAV_MISSION_ACCEPTED
+            break
+        a.mav.send(items[msg.seq])
+    assert [fields(g) for g in download(b)[1:]] == [fields(i) for i in items[1:]]

@@ -62,13 +62,9 @@ def test_command_ack_each_result(drone):
     # exactly one ack per command
     drone.mav.command_long_send(1, 1, 203, 0, 0, 0, 0, 0, 0, 0, 0)
     drone.mav.command_long_send(1, 1, mav.MAV_CMD_DO_SET_MODE, 0, 1, 4, 0, 0, 0, 0, 0)
-    acks = []
-    deadline = time.monotonic() + 1.5
-    while time.monotonic() < deadline:
-        a = drone.recv_match(type="COMMAND_ACK", blocking=True, timeout=0.1)
-        if a:
-            acks.append(a.command)
-    assert sorted(acks) == sorted([203, mav.MAV_CMD_DO_SET_MODE])
+    drone.mav.command_long_send(1, 1, mav.MAV_CMD_USER_1, 0, 0, 0, 0, 0, 0, 0, 0)   # a marker, handled after
+    acks = [a.command for a in _until_marker_and_two_ticks(drone, mav.MAV_CMD_USER_1)]
+    assert sorted(acks) == sorted([203, mav.MAV_CMD_DO_SET_MODE, mav.MAV_CMD_USER_1])
     # COMMAND_INT too
     drone.mav.command_int_send(1, 1, 0, 203, 0, 0, 0, 0, 0, 0, 0, 0, 0)
     assert recv(drone, "COMMAND_ACK", 5, cond=lambda a: a.command == 203).result == mav.MAV_RESULT_UNSUPPORTED
@@ -146,11 +142,13 @@ def test_stream_rates_change_on_the_wire(drone):
     recv(drone, "SYSTEM_TIME", 5)
     while drone.recv_match(type="ATTITUDE", blocking=False):
         pass
-    t_end = time.monotonic() + 1.0
-    got = 0
-    while time.monotonic() < t_end:
-        got += bool(drone.recv_match(type="ATTITUDE", blocking=True, timeout=0.1))
-    assert got == 0
+    # then none over 2 s of the vehicle's clock (three SYSTEM_TIMEs at SR0_EXTRA3 = 1 Hz;
+    # at 25 Hz that would have been ~50 ATTITUDE), not over a wall-clock window
+    got = collect(drone, ["ATTITUDE", "SYSTEM_TIME"],
+                  lambda g: sum(m.get_type() == "SYSTEM_TIME" for m in g) >= 3)
+    times = [m.time_boot_ms for m in got if m.get_type() == "SYSTEM_TIME"]
+    assert times[-1] - times[0] >= 1900, times
+    assert [m for m in got if m.get_type() == "ATTITUDE"] == []
     assert command(drone, mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_ATTITUDE, 0) == mav.MAV_RESULT_ACCEPTED
     r = _rate(drone, "ATTITUDE", 12)
     assert 7 < r < 13, r            # back to SR0_EXTRA1 = 10 Hz
@@ -225,13 +223,24 @@ def test_two_clients_tcp_and_udp(sitl, drone):
     t.close()
 
 
+def _until_marker_and_two_ticks(m, marker: int) -> list:
+    """Every COMMAND_ACK up to the marker command's ack and two SYSTEM_TIMEs after it.
+
+    The vehicle handles commands in the order they arrive, so anything it answers to the
+    commands sent before the marker arrives first; two SYSTEM_TIMEs more are later ticks
+    of its own clock (a late or repeated answer would show). No wall-clock window."""
+    def done(got):
+        i = next((k for k, g in enumerate(got) if g.get_type() == "COMMAND_ACK" and g.command == marker), None)
+        return i is not None and sum(g.get_type() == "SYSTEM_TIME" for g in got[i:]) >= 2
+    return [g for g in collect(m, ["COMMAND_ACK", "SYSTEM_TIME"], done) if g.get_type() == "COMMAND_ACK"]
+
+
 def test_other_target_system_ignored(drone):
     drone.mav.command_long_send(99, 1, mav.MAV_CMD_DO_SET_MODE, 0, 1, 5, 0, 0, 0, 0, 0)
     drone.mav.set_mode_send(99, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 5)
-    end = time.monotonic() + 1.0
-    while time.monotonic() < end:
-        a = drone.recv_match(type="COMMAND_ACK", blocking=True, timeout=0.1)
-        assert a is None or a.command not in (mav.MAV_CMD_DO_SET_MODE, 11)
+    drone.mav.command_long_send(1, 1, mav.MAV_CMD_USER_1, 0, 0, 0, 0, 0, 0, 0, 0)   # a marker, handled after
+    acks = [a.command for a in _until_marker_and_two_ticks(drone, mav.MAV_CMD_USER_1)]
+    assert acks == [mav.MAV_CMD_USER_1]
     assert recv(drone, "HEARTBEAT", 5).custom_mode == 4
     # broadcast target 0 is accepted
     assert command(drone, 203) == mav.MAV_RESULT_UNSUPPORTED

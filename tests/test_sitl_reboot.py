@@ -30,8 +30,9 @@ def test_sysid_applies_after_reboot(processes, tmp_path):
     # refused while armed
     assert command(m, 400, 1) == mav.MAV_RESULT_ACCEPTED
     assert command(m, mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1) == mav.MAV_RESULT_FAILED
+    assert command(m, mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0) == mav.MAV_RESULT_FAILED  # armed: checked first
     assert command(m, 400, 0) == mav.MAV_RESULT_ACCEPTED
-    assert command(m, mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0) == mav.MAV_RESULT_UNSUPPORTED  # 1 reboots
+    assert command(m, mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0) == mav.MAV_RESULT_UNSUPPORTED  # 1 or 3 reboot
     # reboot: the ACK comes first, from sysid 1; then heartbeats from 7
     m.mav.command_long_send(1, 1, mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0, 1, 0, 0, 0, 0, 0, 0)
     ack = recv(m, "COMMAND_ACK", 5, cond=lambda a: a.command == mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN)
@@ -63,3 +64,23 @@ def test_sysid_applies_after_reboot(processes, tmp_path):
     m2 = connect(sitl2.udp[0])
     assert m2.target_system == 7
     m2.close()
+
+
+def test_reboot_in_process_keeps_missions_and_touches_only_its_vehicle():
+    from test_command_nonfinite import Gcs
+    from vehicle.autopilot import modes
+    from vehicle.world import World, WorldConfig
+    w = World(WorldConfig(drones=1, rovers=1, state_dir=None, tcp_base=None, udp_base=None))
+    w.run_for(2.0)
+    drone, rover = w.vehicles
+    assert rover.ap.set_mode(modes.ROVER_GUIDED) and drone.ap.set_mode(modes.GUIDED)
+    store, gcs = rover.ap.missions, Gcs(rover.link)
+    assert rover.ap.params.set("SYSID_THISMAV", 9) is None and rover.ap.params.set("CRUISE_SPEED", 3) is None
+    assert rover.sysid == 2
+    assert gcs.command(mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, [1, 0, 0, 0, 0, 0, 0]) == mav.MAV_RESULT_ACCEPTED
+    assert rover.sysid == 9 and rover.link.mav.srcSystem == 9 and rover.ap.mode == modes.ROVER_HOLD
+    assert rover.ap.missions is store and rover.ap.home is None and rover.ap.params["CRUISE_SPEED"] == 3
+    assert w.fleets[1][1].params_of(0)["CRUISE_SPEED"] == 3          # the fleet has the re-read values
+    assert drone.sysid == 1 and drone.ap.mode == modes.GUIDED        # the other vehicle is untouched
+    w.run_for(1.0)
+    assert rover.ap.home is not None and rover.ap.arm() == mav.MAV_RESULT_ACCEPTED

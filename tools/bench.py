@@ -8,7 +8,9 @@ flight: one drone vs RotorPy, 1000 batched drones, flight quality.
 world:  100 vehicles with full MAVLink telemetry at real time, CPU used.
 bridge: latency the bridge adds to a tower goal (vs a direct link), forwarding rate
         with telemetry from 1, 10 and 100 vehicles (vs MAVProxy), bridge on one CPU.
+view:   what the live Foxglove view and run.mcap cost per message, vs writing the tlog.
 mission: a 1 km, 10-waypoint AUTO mission's flight time vs the sum of its legs' minimum times.
+mission-transfer: 100-item mission upload and download, pymavlink vs MAVSDK.
 """
 from __future__ import annotations
 
@@ -23,6 +25,8 @@ BENCHES = {
     "world": "tools.bench_world",
     "bridge": "tools.bench_bridge",
     "mission": "tools.bench_mission",
+    "view": "tools.bench_view",
+    "mission-transfer": "tools.bench_mission_transfer",
 }
 
 

@@ -29,17 +29,18 @@ LEGS_M = (60, 140, 80, 120, 100, 90, 110, 70, 130, 100)     # 1000 m in all
 ALT = 10.0
 
 
-def waypoints() -> list[np.ndarray]:
-    """North/east of WP1..WP10 from the takeoff point (0, 0), turning +-90 deg each leg."""
+def waypoints(legs=LEGS_M) -> list[np.ndarray]:
+    """North/east of the waypoints from the takeoff point (0, 0), turning +-90 deg each leg."""
     pts, p, heading = [], np.zeros(2), 0.0
-    for k, d in enumerate(LEGS_M):
+    for k, d in enumerate(legs):
         p = p + d * np.array([math.cos(heading), math.sin(heading)])
         pts.append(p.copy())
         heading += math.pi / 2 if k % 2 == 0 else -math.pi / 2
     return pts
 
 
-def fly() -> dict:
+def fly(legs=LEGS_M) -> dict:
+    """Fly the mission in-process; times in sim seconds, wall_s in wall seconds."""
     w = World(WorldConfig(drones=1, rovers=0, state_dir=None, tcp_base=None, udp_base=None))
     ap = w.vehicles[0].ap
     texts: list[tuple[float, str]] = []
@@ -52,7 +53,7 @@ def fly() -> dict:
         return MissionItem(0, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, cmd, x=int(round(lat * 1e7)),
                            y=int(round(lon * 1e7)), z=alt)
 
-    wps = waypoints()
+    wps = waypoints(legs)
     ap.missions.replace_all(MISSION, [at(0, 0, alt=0.0), at(0, 0, mav.MAV_CMD_NAV_TAKEOFF)]
                             + [at(p[0], p[1]) for p in wps])
     end = w.steps + int(30 / w.dt)

@@ -16,6 +16,11 @@ recording (`run.mcap`, tools/run_mcap.py), so the two always carry the same chan
                                        the wobble is the distance between them
   /summary   towerlink.Summary         running figures: sim time, follow error RMS, wobble RMS
 
+Display frame: the world is NED (z down) while Foxglove's 3D view is z up, so the feed adds
+one static edge of its own, `world_enu -> world` (ENU to NED: x and y swapped, z flipped),
+on /tf_static with the first record and again every 10 s. It is the only edge not from the
+bridge; choose `world_enu` as the display frame and the drone flies above the ground.
+
 Time: every record is stamped with sim time in nanoseconds. TOWERLINK_* messages carry
 sim time themselves (time_usec); vehicle messages carry the vehicle's time_boot_ms, which
 in towerlink is the world's sim clock; a message with neither (SIM_STATE) takes the latest
@@ -31,7 +36,11 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
+from gcs.mavstr import mav_str
+
 TOWER_SYSID = 255
+DISPLAY_FRAME = "world_enu"
+ENU_TO_NED_Q = (math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0)   # x, y, z, w: the NED axes seen in ENU
 FRAME_COLORS = {"drone": (0.15, 0.45, 0.95, 1.0), "rover": (0.95, 0.55, 0.1, 1.0)}
 TRACK_STEP_M = 0.25          # a track point every quarter metre: a 1 km flight is 4,000 points
 SCENE_PERIOD_S = 0.1         # scene updates at 10 Hz of sim time (transforms go at full rate)
@@ -87,12 +96,6 @@ def schema_of(topic: str) -> tuple[str, dict]:
 
 def stamp(sim_ns: int) -> dict:
     return {"sec": sim_ns // 1_000_000_000, "nsec": sim_ns % 1_000_000_000}
-
-
-def _text(v: Any) -> str:
-    if isinstance(v, bytes):
-        v = v.decode(errors="replace")
-    return str(v).rstrip("\x00")
 
 
 def frame_transform(sim_ns: int, parent: str, child: str, t, q) -> dict:
@@ -179,6 +182,7 @@ class SceneFeed:
     _tracks: dict[str, list[tuple[float, float, float]]] = field(default_factory=dict)
     _last_scene: int = -10**18
     _last_resend: float = -1e9
+    _last_display: int = -10**18
     _goals: list[tuple[float, float, float]] = field(default_factory=list)
     _follow: tuple | None = None
     _err: _Running = field(default_factory=_Running)
@@ -194,6 +198,10 @@ class SceneFeed:
             return []
         self.sim_ns = max(self.sim_ns, ns)
         out: list[Record] = []
+        if self.sim_ns - self._last_display >= int(TRACK_RESEND_S * 1e9):
+            self._last_display = self.sim_ns
+            out.append(Record("/tf_static", self.sim_ns, {"transforms": [
+                frame_transform(self.sim_ns, DISPLAY_FRAME, "world", (0.0, 0.0, 0.0), ENU_TO_NED_Q)]}))
         if t == "TOWERLINK_TRANSFORM":
             out += self._transform(m, ns)
         elif t == "SET_POSITION_TARGET_LOCAL_NED" and src == TOWER_SYSID:
@@ -217,7 +225,7 @@ class SceneFeed:
         return self._boot_ns.get(src, self.sim_ns if self.sim_ns else None)
 
     def _transform(self, m, ns: int) -> list[Record]:
-        parent, child = _text(m.frame_id), _text(m.child_frame_id)
+        parent, child = mav_str(m.frame_id), mav_str(m.child_frame_id)
         tr, q = m.translation, m.rotation
         if not all(math.isfinite(v) for v in (*tr, *q)):
             return []

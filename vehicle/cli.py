@@ -101,8 +101,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
     p.add_argument("--params", metavar="FILE", help="parameter defaults, ArduPilot .parm format")
     p.add_argument("--state-dir", default=DEFAULT_STATE_DIR,
-                   help=f"where saved parameters live (default {DEFAULT_STATE_DIR})")
-    p.add_argument("--no-save", action="store_true", help="do not load or save parameters in the state dir")
+                   help=f"where saved parameters, missions, fences and rally points live (default {DEFAULT_STATE_DIR})")
+    p.add_argument("--no-save", action="store_true", help="do not load or save parameters or missions in the state dir")
     p.add_argument("--out", action="append", default=[], type=_out, metavar="udpout:HOST:PORT",
                    help="extra endpoint for every vehicle (repeatable)")
     p.add_argument("--endpoint", action="append", default=[], type=_endpoint, metavar="I=SPEC",

@@ -22,19 +22,41 @@ Semantics (tf2's unless stated)
       common time: the minimum over the chain's dynamic edges of each edge's newest
       stamp. Static edges do not constrain it; a chain with no dynamic edge answers
       LATEST with stamp 0.0 (tf2's Time(0)). For a frame to itself LATEST is that
-      frame's own newest stamp (0.0 if it is static or a root), as in tf2.
-      A numeric 0.0 is a real sim time, not LATEST.
+      frame's own newest stamp (see below). A numeric 0.0 is a real sim time, not LATEST.
     * A dynamic edge keeps samples with ``stamp >= newest - cache_time``. An insert
       older than that is *not* stored: ``set_transform`` returns False and the edge's
       ``rejected_old`` counter goes up (tf2 logs TF_OLD_DATA). Out-of-order inserts
       inside the window are placed in order; a duplicate stamp replaces the sample.
+      Pruning is tf2's before release 0.37 (ROS 2 Humble and Jazzy, ROS 1): insert,
+      then drop what is older than the new newest stamp - cache_time, so the window is
+      exactly cache_time long. tf2 0.37 and later prune against the previous newest
+      stamp before inserting, so they briefly keep one sample more. Deviation: tf2 (every
+      release) keeps two different samples with the same stamp; we keep the last one.
     * Giving a child a new parent re-parents it (tf2 allows this). Unlike tf2, which
       keeps the parent per sample, the edge's old history is dropped, since samples
       relative to different parents cannot be interpolated. A parent change that
       would close a loop raises InvalidArgumentException naming the frames.
       Likewise switching an edge between static and dynamic replaces it.
-    * ``clear()`` drops all dynamic edges and keeps the static ones (tf2 keeps its
-      static caches on clear too).
+    * A frame looked up against itself is identity without any check of the id (even
+      unknown or empty), stamped with the requested time, or for LATEST the frame's own
+      newest stamp (0.0 if static, a root or unknown); ``can_transform(x, x)`` is True.
+      (tf2's lookupTransformImpl / canTransform short-circuit.) Deviation: a non-str id
+      still raises InvalidArgumentException; tf2's ids are always strings.
+    * Where a lookup at a numeric time fails, the error is the one tf2's walkToTopParent
+      reports: it walks up from the source until the root or the first edge without data
+      (remembering that edge's extrapolation), then up from the target; an edge without
+      data on that side is reported at once; reaching the target's root reports the
+      source side's extrapolation if there was one, else ConnectivityException. So frames
+      in different trees give an ExtrapolationException when an edge walked has no data
+      at that time, and with failures on both sides the target side's edge is named. At
+      LATEST different trees are a ConnectivityException (tf2's getLatestCommonTime).
+    * ``lookup_transform_full`` validates target, source and fixed frame (in that order)
+      before any lookup, as tf2 does.
+    * ``clear()`` empties every dynamic edge and keeps static ones, and every frame stays
+      known with its parent (tf2 clears its time caches but not its frame table): through
+      an emptied edge a numeric-time lookup raises ExtrapolationException (no data) and
+      LATEST a ConnectivityException; ``all_frames_as_string`` shows the emptied frame's
+      parent as NO_PARENT and ``all_frames_as_yaml`` leaves it out, as tf2's do.
     * Timeouts are wall seconds (tf2's semantics); waiting blocks on a
       :class:`threading.Condition` that every insert notifies.
 
@@ -126,6 +148,12 @@ def _fmt(t: float) -> str:
 
 def _extrapolation(e: _Edge, t: float, target: str, source: str) -> ExtrapolationException:
     stamps = e.stamps
+    if not stamps:   # an edge emptied by clear(): tf2 reports an extrapolation with no data
+        return ExtrapolationException(
+            f"Lookup would require extrapolation at time {_fmt(t)}, but edge [{e.parent}] -> "
+            f"[{e.child}] holds no data (cleared) when looking up transform from frame "
+            f"[{source}] to frame [{target}].",
+            target_frame=target, source_frame=source, edge=(e.parent, e.child), requested=t)
     s0, s1 = stamps[0], stamps[-1]
     tail = (f" when looking up transform from frame [{source}] to frame [{target}]. "
             f"Edge [{e.parent}] -> [{e.child}] holds data from {_fmt(s0)} to {_fmt(s1)} "
@@ -144,6 +172,58 @@ def _extrapolation(e: _Edge, t: float, target: str, source: str) -> Extrapolatio
 
 
 _NO_SEGMENT = (0.0, 1.0, 1.0)
+
+
+def _edge_error(e: _Edge, t: float, target: str, source: str) -> ExtrapolationException | None:
+    """The error sampling edge e at time t would raise, or None if it has data there."""
+    stamps = e.stamps
+    if stamps is None or (stamps and stamps[0] <= t <= stamps[-1]):
+        return None
+    return _extrapolation(e, t, target, source)
+
+
+def _not_connected(target: str, source: str, target_root: str, source_root: str) -> ConnectivityException:
+    return ConnectivityException(
+        f"Could not find a connection between '{target}' and '{source}' because they are not "
+        f"part of the same tree. Tf has two or more unconnected trees. ('{target}' is in the "
+        f"tree rooted at '{target_root}', '{source}' in the tree rooted at '{source_root}'.)",
+        target_frame=target, source_frame=source)
+
+
+def _walk_error(edges: dict, target: str, source: str, t: float,
+                fallback: TransformException) -> TransformException:
+    """The error tf2's walkToTopParent reports for a failed lookup at time t (lock held).
+
+    tf2 walks up from the source until the root or the first edge without data at t
+    (remembering that edge's error), then up from the target until it meets the frame
+    where the source walk stopped: an edge without data there is reported at once;
+    reaching the target's root instead reports the source side's extrapolation if
+    there was one, else that the frames are not connected. `fallback` is returned if
+    the walk finds nothing wrong (it cannot when the caller's lookup failed).
+    """
+    src_err = None
+    f = source
+    while f in edges and f != target:
+        e = edges[f]
+        src_err = _edge_error(e, t, target, source)
+        if src_err is not None:
+            break
+        f = e.parent
+    top = f
+    g = target
+    while g != top and g != source:
+        e = edges.get(g)
+        if e is None:
+            break
+        err = _edge_error(e, t, target, source)
+        if err is not None:
+            return err
+        g = e.parent
+    if g == top or g == source:
+        return fallback
+    if src_err is not None:
+        return src_err
+    return _not_connected(target, source, g, top)
 
 
 def _segment(a: tuple, b: tuple) -> tuple[float, float, float]:
@@ -371,12 +451,8 @@ class Buffer:
             while f not in up:
                 e = edges.get(f)
                 if e is None:
-                    raise ConnectivityException(
-                        f"Could not find a connection between '{target}' and '{source}' because "
-                        f"they are not part of the same tree. Tf has two or more unconnected "
-                        f"trees. ('{target}' is in the tree rooted at '{f}', '{source}' in the "
-                        f"tree rooted at '{chain_s[-1].parent if chain_s else source}'.)",
-                        target_frame=target, source_frame=source)
+                    raise _not_connected(target, source, f,
+                                         chain_s[-1].parent if chain_s else source)
                 chain_t.append(e)
                 f = e.parent
             chain_s = chain_s[:up[f]]
@@ -392,27 +468,48 @@ class Buffer:
         return p
 
     # ------------------------------------------------------------------ core lookup
+    def _own_latest(self, frame: str) -> float:
+        """LATEST for a frame to itself: its own newest stamp, 0.0 if static, a root,
+        emptied by clear() or unknown (tf2's getLatestTimestamp of its cache). Lock held."""
+        e = self._edges.get(frame)
+        return e.stamps[-1] if e is not None and e.stamps else 0.0
+
     def _lookup_locked(self, target: str, source: str, time: Any,
                        fn: str = "lookupTransform") -> tuple[float, tuple]:
         """(stamp used, 7-tuple of target <- source). Lock held."""
+        if target == source and type(target) is str:
+            # tf2: identity without validating the id (even unknown or empty); stamp = the
+            # requested time, or for LATEST the frame's own newest stamp
+            return (self._own_latest(target) if time is LATEST else time), IDENTITY7
         try:
             p = self._paths.get((target, source))
         except TypeError:  # unhashable frame id
             p = None
         if p is None:
-            p = self._path(target, source, fn)
+            try:
+                p = self._path(target, source, fn)
+            except ConnectivityException as exc:
+                if time is LATEST:
+                    raise   # tf2's getLatestCommonTime: different trees are a connectivity error
+                raise _walk_error(self._edges, target, source, time, exc) from None
         src, tgt, dyn, ev = p
         if time is LATEST:
             t = 0.0
             if dyn:
-                t = dyn[0].stamps[-1]
+                t = math.inf
                 for e in dyn:
-                    s = e.stamps[-1]
-                    if s < t:
-                        t = s
+                    st = e.stamps
+                    if not st:   # emptied by clear(): at LATEST tf2 finds no parent here
+                        raise _not_connected(target, source, e.child if e in tgt else target,
+                                             e.child if e in src else source)
+                    if st[-1] < t:
+                        t = st[-1]
         else:
             t = time
-        return t, ev(t)
+        try:
+            return t, ev(t)
+        except ExtrapolationException as exc:
+            raise _walk_error(self._edges, target, source, t, exc) from None
 
     def _wait(self, attempt: Callable[[], Any], timeout: float, what: str) -> Any:
         """Retry `attempt` (lock held) each time the buffer changes, until `timeout` wall s."""
@@ -463,7 +560,10 @@ class Buffer:
                 except TypeError:  # unhashable frame id: let _path say what is wrong
                     p = None
                 if p is not None:
-                    v = p[3](time)
+                    try:
+                        v = p[3](time)
+                    except ExtrapolationException as exc:
+                        raise _walk_error(self._edges, target_frame, source_frame, time, exc) from None
                 else:
                     time, v = self._lookup_locked(target_frame, source_frame, time)
             finally:
@@ -480,11 +580,13 @@ class Buffer:
 
     def _full_locked(self, target: str, target_time: Any, source: str, source_time: Any,
                      fixed: str) -> tuple[float, tuple]:
-        if fixed not in self._frames:
-            _check_frame_id(fixed, "lookupTransform argument fixed_frame")
-            raise LookupException(
-                f"\"{fixed}\" passed to lookupTransform argument fixed_frame does not exist. ",
-                frame=fixed, argument="fixed_frame")
+        # tf2 validates all three ids before any lookup
+        for frame, arg in ((target, "target_frame"), (source, "source_frame"), (fixed, "fixed_frame")):
+            _check_frame_id(frame, f"lookupTransform argument {arg}")
+            if frame not in self._frames:
+                raise LookupException(
+                    f"\"{frame}\" passed to lookupTransform argument {arg} does not exist. ",
+                    frame=frame, argument=arg)
         _, a = self._lookup_locked(fixed, source, source_time)
         t, b = self._lookup_locked(target, fixed, target_time)
         return t, _compose(b, a)
@@ -550,7 +652,14 @@ class Buffer:
         """What LATEST resolves to for this pair (0.0 if the chain is all static).
         Raises LookupException / ConnectivityException like a lookup."""
         with self._lock:
-            _, _, dyn, _ = self._path(target_frame, source_frame, "getLatestCommonTime")
+            src, tgt, dyn, _ = self._path(target_frame, source_frame, "getLatestCommonTime")
+            if target_frame == source_frame:
+                return self._own_latest(source_frame)
+            for e in dyn:
+                if not e.stamps:
+                    raise _not_connected(target_frame, source_frame,
+                                         e.child if e in tgt else target_frame,
+                                         e.child if e in src else source_frame)
             return min((e.stamps[-1] for e in dyn), default=0.0)
 
     # ------------------------------------------------------------------ stamped helpers
@@ -612,7 +721,9 @@ class Buffer:
     def all_frames_as_string(self) -> str:
         """tf2's listing: one "Frame X exists with parent Y." line per child frame."""
         with self._lock:
-            return "".join(f"Frame {c} exists with parent {e.parent}.\n"
+            # an edge emptied by clear() has no parent to show (tf2 prints NO_PARENT)
+            return "".join(f"Frame {c} exists with parent "
+                           f"{e.parent if e.stamps is None or e.stamps else 'NO_PARENT'}.\n"
                            for c, e in self._edges.items())
 
     def all_frames_as_yaml(self, current_time: float | None = None) -> str:
@@ -620,8 +731,8 @@ class Buffer:
         most_recent_transform, oldest_transform, (transform_delay if current_time is
         given) and buffer_length, 3 decimals. Static edges read like tf2's: rate
         10000.000 and stamps 0.000. An empty buffer gives "[]"."""
-        with self._lock:
-            stats = [self._stats(e) for e in self._edges.values()]
+        with self._lock:   # tf2 leaves out edges emptied by clear()
+            stats = [self._stats(e) for e in self._edges.values() if e.stamps is None or e.stamps]
         if not stats:
             return "[]"
         out = []
@@ -642,16 +753,19 @@ class Buffer:
         return "".join(out)
 
     def clear(self) -> None:
-        """Drop every dynamic edge; static edges stay (as in tf2)."""
+        """Empty every dynamic edge, as tf2's clear() empties its time caches.
+
+        Static edges keep their value, and every frame stays known with its parent: a
+        lookup through an emptied edge raises ExtrapolationException at a numeric time and
+        ConnectivityException at LATEST, and a frame to itself is still identity (tf2).
+        The tree's structure is unchanged, so structure_version is too.
+        """
         with self._lock:
-            self._edges = {c: e for c, e in self._edges.items() if e.stamps is None}
-            frames: dict[str, None] = {}
-            for c, e in self._edges.items():
-                frames.setdefault(e.parent, None)
-                frames.setdefault(c, None)
-            self._frames = frames
-            self._paths.clear()
-            self._version += 1
+            for e in self._edges.values():
+                if e.stamps is not None:
+                    e.stamps.clear()
+                    e.values.clear()
+                    e.segs.clear()
 
     def __repr__(self) -> str:
         return f"Buffer(cache_time={self._cache_time}, frames={len(self._frames)})"

@@ -20,6 +20,7 @@ import math
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
+from gcs.frames.batch import wrap_pi
 from vehicle.autopilot import modes
 from vehicle.autopilot.base import (ACCEPTED, DENIED, FAILED, SEV_INFO, SEV_WARNING, Autopilot,
                                     UNSUPPORTED)
@@ -118,7 +119,7 @@ class CopterAutopilot(CopterModes, CopterAutoFlight, Autopilot):
             ang = math.radians(p[0])
             if p[3]:
                 ang = self.yaw + (ang if p[2] >= 0 else -ang)
-            self.hold_yaw = (ang + math.pi) % (2 * math.pi) - math.pi
+            self.hold_yaw = wrap_pi(ang)
             if self.target is not None:
                 self.target.yaw = self.hold_yaw
             return ACCEPTED

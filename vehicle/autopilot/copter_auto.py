@@ -65,7 +65,7 @@ class CopterAutoFlight:
             self.setpoint(pos=a.dest, yaw=self.hold_yaw)
             self.echo = GuidedTarget("pos", a.dest.copy(), None, None, self.hold_yaw, None)
         elif sub == "wp" and not a.paused:
-            yaw = self._auto_yaw(a)
+            yaw = self._auto_yaw(a, dt)
             self.setpoint(pos=a.dest, yaw=yaw)
             self.echo = GuidedTarget("pos", a.dest.copy(), None, None, yaw, None)
         elif sub == "land":
@@ -75,15 +75,18 @@ class CopterAutoFlight:
         elif sub == "circle":
             self._circle(a, dt)
         else:
-            self.setpoint(pos=self.hold_pos, yaw=self._auto_yaw(a, face=False))
+            self.setpoint(pos=self.hold_pos, yaw=self._auto_yaw(a, dt, face=False))
 
-    def _auto_yaw(self, a, face: bool = True) -> float:
+    def _auto_yaw(self, a, dt: float, face: bool = True) -> float:
         if a.roi is not None:
             d = a.roi[:2] - self.pos[:2]
             if np.linalg.norm(d) > 0.5:
                 self.hold_yaw = math.atan2(d[1], d[0])
         elif a.fixed_yaw is not None:
-            self.hold_yaw = a.fixed_yaw
+            # CONDITION_YAW turns at its own rate (param2 deg/s); the attitude loop may be slower
+            step = a.yaw_rate_max * dt
+            err = wrap_pi(a.fixed_yaw - self.hold_yaw)
+            self.hold_yaw = wrap_pi(self.hold_yaw + max(-step, min(step, err)))
         elif face and int(self.params.get("WP_YAW_BEHAVIOR", 2)) != 0 and a.dest is not None:
             d = a.dest[:2] - self.pos[:2]
             if np.linalg.norm(d) > FACE_MIN_M:

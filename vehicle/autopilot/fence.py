@@ -4,8 +4,10 @@ ArduPilot's AC_Fence and the vehicles' fence_check (learned from their source):
 - FENCE_ENABLE 0/1 (also MAV_CMD_DO_FENCE_ENABLE); FENCE_TYPE bits: 1 max altitude,
   2 circle around home (FENCE_RADIUS, default 300 m), 4 inclusion/exclusion polygons and
   circles from the FENCE list, 8 min altitude (copter; rover has only 2 and 4). FENCE_ALT_MAX
-  100 m, FENCE_ALT_MIN -10 m (above home), FENCE_MARGIN 2 m (only checked at pre-arm here:
-  ArduPilot uses it for avoidance, which towerlink does not model).
+  100 m, FENCE_ALT_MIN -10 m (above home; this floor arms itself once the vehicle is
+  FENCE_MARGIN above it, "Min Alt fence enabled (auto enable)", and disarms on the ground),
+  FENCE_MARGIN 2 m (pre-arm checks and the floor; ArduPilot also uses it for avoidance, which
+  towerlink does not model).
 - A breach is new when a fence type goes from clear to breached; a "backup" fence 20 m
   further out (altitude and circle) makes a further breach new again.
 - New breaches while armed say "<Max Alt|Circle|Polygon|Min Alt> fence breached"
@@ -15,9 +17,14 @@ ArduPilot's AC_Fence and the vehicles' fence_check (learned from their source):
   BRAKE here: LAND), 5 SmartRTL->LAND (LAND); more than 100 m outside forces LAND; landed ->
   disarm. Rover: 0 report, 1 RTL (HOLD if not), 2 HOLD, 3 RTL, 4 HOLD.
 - Pre-arm (only with FENCE_ENABLE 1): "Fences enabled, but none selected",
-  "Polygon fence(s) invalid", "Vehicle breaching <names>".
-- GUIDED destinations outside an enabled fence are refused (ArduPilot only logs
-  DEST_OUTSIDE_FENCE: the vehicle keeps its previous target).
+  "Polygon fence(s) invalid", "Polygon fence margin is less than inclusion circle radius",
+  "FENCE_ALT_MAX < FENCE_ALT_MIN", "FENCE_MARGIN too big" (altitudes closer than two
+  margins), "Vehicle breaching <names>".
+- Copter GUIDED destinations outside an enabled fence are refused (ArduCopter only logs
+  DEST_OUTSIDE_FENCE: the vehicle keeps its previous target; copter.accept_target). Velocity
+  and acceleration targets are not destinations: they may cross, and the breach acts.
+- SYS_STATUS geofence bits: present (a fence type configured), enabled (FENCE_ENABLE and an
+  action other than report-only), healthy (no breach).
 """
 from __future__ import annotations
 
@@ -49,6 +56,7 @@ class Fence:
         self.alt_max_backup = 0.0
         self.circle_backup = 0.0
         self.breach_distance = 0.0
+        self.floor_enabled = False        # the Min Alt fence arms itself once above it (AC_Fence)
         self._zones: FenceZones | None = None
         self._zones_version = -1
         self._zones_error: str | None = None
@@ -80,7 +88,10 @@ class Fence:
         return self.types() & mask
 
     def active(self) -> int:
-        return self.present() if self.enabled() else 0
+        if not self.enabled():
+            return 0
+        mask = self.present()
+        return mask if self.floor_enabled else mask & ~ALT_MIN
 
     def set_enabled(self, on: bool) -> None:
         """MAV_CMD_DO_FENCE_ENABLE: runtime switch (not saved, as ArduPilot)."""
@@ -122,8 +133,23 @@ class Fence:
             return None
         if not self.present():
             return "Fences enabled, but none selected"
-        if self.types() & POLYGON and self.zones() is None:
-            return "Polygon fence(s) invalid"
+        p = self.ap.params
+        margin = float(p.get("FENCE_MARGIN", 2))
+        types = self.types()
+        if types & POLYGON:
+            z = self.zones()
+            if z is None:
+                return "Polygon fence(s) invalid"
+            if any(r < margin for _, r in z.inclusion_circles):
+                return "Polygon fence margin is less than inclusion circle radius"
+        if types & CIRCLE and float(p.get("FENCE_RADIUS", 300)) < margin:
+            return "Circle FENCE_MARGIN is less than FENCE_RADIUS"
+        if self.ap.kind == "copter":
+            alt_max, alt_min = float(p.get("FENCE_ALT_MAX", 100)), float(p.get("FENCE_ALT_MIN", -10))
+            if alt_max < alt_min:
+                return "FENCE_ALT_MAX < FENCE_ALT_MIN"
+            if alt_max - alt_min <= 2 * margin:
+                return "FENCE_MARGIN too big"
         b = self.breached_at(self.ap.pos)
         if b:
             return f"Vehicle breaching {fence_names(b)}"
@@ -132,6 +158,7 @@ class Fence:
     def check(self, t: float) -> None:
         """Periodic: record breaches, and act on new ones while armed."""
         ap = self.ap
+        self._auto_floor()
         active = self.active()
         if not active:
             self.breaches = 0
@@ -159,6 +186,22 @@ class Fence:
             self.circle_backup = 0.0
         if new and ap.armed:
             self.act(new)
+
+    def _auto_floor(self) -> None:
+        """AC_Fence: the Min Alt fence is enabled once the vehicle is FENCE_MARGIN above it, and
+        disabled again on the ground (landing)."""
+        ap = self.ap
+        if ap.on_ground or not ap.armed:
+            self.floor_enabled = False
+            return
+        if self.floor_enabled or not (self.enabled() and self.types() & ALT_MIN):
+            return
+        home = self._home()
+        alt = float(home[2] - ap.pos[2])
+        p = ap.params
+        if alt >= float(p.get("FENCE_ALT_MIN", -10)) + float(p.get("FENCE_MARGIN", 2)):
+            self.floor_enabled = True
+            ap.text(mav.MAV_SEVERITY_NOTICE, "Min Alt fence enabled (auto enable)")
 
     def act(self, new: int) -> None:
         ap = self.ap

@@ -18,6 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
+from gcs.frames.batch import wrap_pi
+
 POS_BITS = 0b111
 VEL_BITS = 0b111000
 ACC_BITS = 0b111000000
@@ -105,7 +107,7 @@ def _yaws(type_mask: int, yaw: float, yaw_rate: float, relative: bool, cur_yaw: 
     if not type_mask & YAW_IGNORE:
         _finite("yaw", yaw)
         y = float(yaw) + (cur_yaw if relative else 0.0)
-        y = (y + math.pi) % (2 * math.pi) - math.pi
+        y = wrap_pi(y)
     if not type_mask & YAW_RATE_IGNORE:
         _finite("yaw_rate", yaw_rate)
         if abs(yaw_rate) > MAX_YAW_RATE:

@@ -108,6 +108,32 @@ class MissionRunner:
         """The navigation command being flown (what MISSION_CURRENT.seq reports)."""
         return max(self.nav_index, 0)
 
+    def mission_state(self) -> int:
+        """MISSION_STATE for MISSION_CURRENT, as ArduPilot's GCS_MAVLINK::mission_state maps it:
+        no mission -> NO_MISSION, STOPPED -> NOT_STARTED (also part way, after leaving AUTO),
+        RUNNING -> ACTIVE, COMPLETE -> COMPLETE. ArduPilot never reports PAUSED."""
+        if not self.present():
+            return mav.MISSION_STATE_NO_MISSION
+        return {STOPPED: mav.MISSION_STATE_NOT_STARTED, RUNNING: mav.MISSION_STATE_ACTIVE,
+                COMPLETE: mav.MISSION_STATE_COMPLETE}[self.state]
+
+    def starts_with_takeoff(self, restart: bool) -> bool:
+        """AP_Mission: the first navigation command flown next (from item 1 when restarting or
+        never started, else the current one; up to 16 looked at, NAV_DELAY skipped) is a takeoff."""
+        seq = 1 if restart or self.nav_index < 1 else self.nav_index
+        for _ in range(16):
+            item = self._next_cmd(seq, increment=False)
+            while item is not None and not is_nav(item.command):
+                item = self._next_cmd(item.seq + 1, increment=False)
+            if item is None:
+                return False
+            if item.command == mav.MAV_CMD_NAV_TAKEOFF:
+                return True
+            if item.command != mav.MAV_CMD_NAV_DELAY:
+                return False
+            seq = item.seq + 1
+        return False
+
     def _read(self, seq: int) -> MissionItem | None:
         lst = self.items()
         return lst[seq] if 0 < seq < len(lst) else None
@@ -235,6 +261,10 @@ class MissionRunner:
             idx = self.nav_index + 1
         loops = MAX_DO_LOOP
         while not self.nav_loaded:
+            # a jump loop whose commands all fail to start would never end: give up (AP_Mission)
+            loops -= 1
+            if loops < 0:
+                return False
             item = self._next_cmd(idx, increment=True)
             if item is None:
                 return False
@@ -245,10 +275,6 @@ class MissionRunner:
             elif not self.do_loaded:
                 self.do, self.do_index, self.do_loaded = item, item.seq, True
                 self._start(item)
-            else:
-                loops -= 1
-                if loops <= 0:
-                    return False
             idx = item.seq + 1
         if not self.do_loaded:
             self.do_all_done = True

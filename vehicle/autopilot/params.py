@@ -255,6 +255,7 @@ class ParamStore:
 
     def reload(self) -> None:
         """Re-read the saved parameters (a reboot): defaults, then what was saved."""
+        self.flush()
         if self.save_path:
             self.saved = self._load_saved()
         self._apply()
@@ -312,6 +313,19 @@ class ParamStore:
         self.values[name] = self._coerce(name, value)
         if save:
             self.saved[name] = self.values[name]
-            if self.save_path:
-                write_parm_file(self.save_path, self.saved)
+            self.dirty = True
+            if not self.deferred:
+                self.flush()
         return None
+
+    # the link sets deferred: PARAM_SETs are written once a tick (flush), not once each (a
+    # datagram of 1871 PARAM_SETs cost 2.3 s of file writes and stalled the world); ArduPilot
+    # also saves parameters from a queue, not in the message handler
+    deferred = False
+    dirty = False
+
+    def flush(self) -> None:
+        """Write the saved parameters if a set() changed them since the last write."""
+        if self.dirty and self.save_path:
+            write_parm_file(self.save_path, self.saved)
+        self.dirty = False

@@ -18,13 +18,12 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from gcs.frames.batch import yaw_of
+from gcs.frames.batch import wrap_pi, yaw_of
 from vehicle.control import shaping
 from vehicle.physics import NumpyOps
 from vehicle.physics.multicopter import GRAVITY, QuadAirframe
 
 D2R = math.pi / 180.0
-TAU = 2.0 * math.pi
 
 
 class CopterGains:
@@ -133,9 +132,9 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
         c.ax, c.ay = w(level, 0.0, c.ax), w(level, 0.0, c.ay)
     # yaw reference: slew to the target yaw, or integrate a yaw rate
     ymax = g.rate_y_max
-    dy = (sp.yaw - c.yaw + math.pi) % TAU - math.pi          # wrapped to [-pi, pi)
+    dy = wrap_pi(sp.yaw - c.yaw)
     yr = w(sp.use_yaw, xp.clip(dy * g.ang_y, -ymax, ymax), xp.clip(sp.yaw_rate, -ymax, ymax))
-    c.yaw = (c.yaw + yr * dt + math.pi) % TAU - math.pi
+    c.yaw = wrap_pi(c.yaw + yr * dt)
 
     # ---- position / velocity -----------------------------------------------------
     vtx = c.vx + g.kp_xy * (c.px - est.px)

@@ -18,7 +18,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from gcs.frames.batch import wrap_pi
+from gcs.frames.batch import wrap_pi, yaw_of
 from vehicle.physics import NumpyOps
 
 D2R = math.pi / 180.0
@@ -49,7 +49,7 @@ class RoverSetpointArrays:
 
 def step(est, sp: RoverSetpointArrays, g: RoverGains, dt: float, xp=NumpyOps):
     """Returns (speed command m/s, turn-rate command rad/s) arrays."""
-    yaw = xp.atan2(2.0 * (est.qw * est.qz + est.qx * est.qy), 1.0 - 2.0 * (est.qy * est.qy + est.qz * est.qz))
+    yaw = yaw_of(est.qx, est.qy, est.qz, est.qw, xp.atan2)
     ex = sp.px - est.px
     ey = sp.py - est.py
     dist = xp.sqrt(ex * ex + ey * ey)

@@ -215,6 +215,7 @@ class TcpIn(Endpoint):
         except (ConnectionError, OSError):
             pass
         finally:
+            ch.closed = True            # its queued replies are dropped
             self.clients.pop(writer, None)
             writer.close()
 

@@ -202,7 +202,12 @@ def from_legacy(m, mission_type: int) -> tuple[int, MissionItem | None]:
     """A MISSION_ITEM (float x/y in degrees) as a stored item, or the result refusing it."""
     x, y = float(m.x), float(m.y)
     if m.command in XY_NOT_LATLON:
-        xi, yi = (int(v) if math.isfinite(v) else 0 for v in (x, y))
+        # raw values stored in MISSION_ITEM_INT's int32 x / y: refuse what does not fit
+        if not (math.isfinite(x) and -2**31 <= x < 2**31):
+            return R.MAV_MISSION_INVALID_PARAM5_X, None
+        if not (math.isfinite(y) and -2**31 <= y < 2**31):
+            return R.MAV_MISSION_INVALID_PARAM6_Y, None
+        xi, yi = int(x), int(y)
     else:
         if not abs(x) <= 90.0:
             return R.MAV_MISSION_INVALID_PARAM5_X, None

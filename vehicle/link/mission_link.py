@@ -1,5 +1,6 @@
 """Glue between a VehicleLink and the pure mission protocol: messages in, replies out, plus the
-autopilot side (MISSION_SET_CURRENT, MAV_CMD_DO_SET_MISSION_CURRENT, MISSION_ITEM_REACHED).
+autopilot side (MISSION_SET_CURRENT, MAV_CMD_DO_SET_MISSION_CURRENT, MISSION_ITEM_REACHED,
+the GUIDED "fly to here" item with current = 2).
 
 Replies go back on the channel the request came from; STATUSTEXT goes to every endpoint
 (ArduPilot's gcs().send_text). MISSION_CURRENT is built here for the SR0_EXT_STAT stream
@@ -12,7 +13,13 @@ import math
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from vehicle.autopilot.mission_store import MISSION
+from vehicle.link.mission_items import check_mission_item, from_int, from_legacy
 from vehicle.link.mission_protocol import MissionProtocol, home_item
+
+# a guided item's frame as SET_POSITION_TARGET_GLOBAL_INT names it
+GUIDED_FRAMES = {mav.MAV_FRAME_GLOBAL: mav.MAV_FRAME_GLOBAL_INT, mav.MAV_FRAME_MISSION: mav.MAV_FRAME_GLOBAL_INT,
+                 mav.MAV_FRAME_GLOBAL_RELATIVE_ALT: mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT}
+POSITION_ONLY = 0b110111111000      # POSITION_TARGET_TYPEMASK: x y z used; velocity, acceleration, yaw ignored
 
 MISSION_MESSAGES = frozenset({"MISSION_COUNT", "MISSION_ITEM", "MISSION_ITEM_INT", "MISSION_REQUEST",
                               "MISSION_REQUEST_INT", "MISSION_REQUEST_LIST", "MISSION_WRITE_PARTIAL_LIST",
@@ -48,12 +55,36 @@ class MissionLink:
         if m.get_type() == "MISSION_SET_CURRENT":
             self.set_current(m.seq)
             return
+        if m.get_type() in ("MISSION_ITEM", "MISSION_ITEM_INT") and m.current == 2 \
+                and int(getattr(m, "mission_type", 0) or 0) == MISSION:
+            self._guided_item(m, channel)
+            return
         self._send(self.protocol.handle(m, (m.get_srcSystem(), m.get_srcComponent()), channel,
                                         self.link.clock()))
 
     def update(self, t: float) -> None:
         if self.protocol.uploads:
             self._send(self.protocol.update(t))
+
+    def _guided_item(self, m, channel) -> None:
+        """A mission item with current = 2 is a GUIDED "fly to here" (ArduPilot's
+        handle_guided_request; MAVProxy's `guided` and Mission Planner's Fly To Here send it):
+        checked like a mission item, then the autopilot's GUIDED position target; MISSION_ACK
+        ACCEPTED, or ERROR when not in GUIDED."""
+        src = (m.get_srcSystem(), m.get_srcComponent())
+        if m.get_type() == "MISSION_ITEM":
+            result, item = from_legacy(m, MISSION)
+        else:
+            item = from_int(m, MISSION)
+            result = mav.MAV_MISSION_ACCEPTED
+        if item is not None:
+            result = check_mission_item(item)
+        if result == mav.MAV_MISSION_ACCEPTED:
+            frame = GUIDED_FRAMES.get(item.frame, item.frame)
+            ok = self.link.ap.position_target_global(frame, POSITION_ONLY, item.x, item.y, item.z,
+                                                     (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, 0.0)
+            result = mav.MAV_MISSION_ACCEPTED if ok else mav.MAV_MISSION_ERROR
+        self.link.send(mav.MAVLink_mission_ack_message(src[0], src[1], result, MISSION), channel)
 
     # ----- the autopilot side -------------------------------------------------------------
     def set_current(self, seq) -> bool:

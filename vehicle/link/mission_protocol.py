@@ -236,6 +236,7 @@ class MissionProtocol:
     def _on_MISSION_REQUEST_LIST(self, m, t, src, chan, now) -> list[Out]:
         if t in self.uploads:
             return [self._ack(src, chan, mav.MAV_MISSION_DENIED, t)]
+        self.warned_request = False          # the legacy-request warning: once per transfer
         return [self._count(src, chan, t)]
 
     def _get(self, seq: int, t: int) -> MissionItem | None:

@@ -40,6 +40,8 @@ class PacedQueue:
         self.streams: dict[str, Iterator[Item]] = {}
         self.dropped = 0                         # single replies refused because the queue was full
         self.last: float | None = None           # sim time of the last due()
+        # an item taken out that did not fit the budget, with its stream key (None: a single reply)
+        self._held: tuple[Item, str | None] | None = None
 
     def __len__(self) -> int:
         return len(self.items) + len(self.streams) + (self._held is not None)
@@ -97,9 +99,6 @@ class PacedQueue:
             budget -= nbytes                  # the first always goes: a slow link still progresses
             out.append(msg)
         return out
-
-    # an item taken from the queue that did not fit the budget, with its stream key (None: single)
-    _held: tuple[Item, str | None] | None = None
 
     def _next(self) -> tuple[Item, str | None] | None:
         if self._held is not None:

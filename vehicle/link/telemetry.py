@@ -117,12 +117,16 @@ class Telemetry:
             health &= ~POSITION_DEPENDENT
         if ap.prearm_ok():
             health |= S.MAV_SYS_STATUS_PREARM_CHECK
-        health |= S.MAV_SYS_STATUS_GEOFENCE     # no fence, never breached (MAVProxy reads this bit)
-        enabled = SENSORS_PRESENT
+        # geofence bits as ArduPilot's AC_Fence sys_status_*: present, enabled, healthy (not breached)
+        f_present, f_enabled, f_healthy = ap.fence.sys_status_bits()
+        present = SENSORS_PRESENT | (S.MAV_SYS_STATUS_GEOFENCE if f_present else 0)
+        if f_healthy:
+            health |= S.MAV_SYS_STATUS_GEOFENCE     # MAVProxy says "fence breach" when this clears
+        enabled = SENSORS_PRESENT | (S.MAV_SYS_STATUS_GEOFENCE if f_enabled else 0)
         if not ap.armed:
             enabled &= ~S.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
         return mav.MAVLink_sys_status_message(
-            SENSORS_PRESENT, enabled, health, 100, _i(ap.battery_voltage() * 1000, 0, 65535),
+            present, enabled, health, 100, _i(ap.battery_voltage() * 1000, 0, 65535),
             _i(ap.current_a * 100, -1, 32767), ap.battery_remaining(), 0, 0, 0, 0, 0, 0, 0, 0, 0)
 
     def gps_raw_int(self):

@@ -16,6 +16,10 @@ outbox per peer, a PARAM_REQUEST_LIST restarts that peer's list instead of queue
 PARAM_REQUEST_READ replies wait in a bounded queue. `paced(ch)` / `send_paced(msg, ch)` are
 the API for other reply kinds (the mission protocol).
 
+What one received chunk (a datagram may hold thousands of frames) makes the vehicle
+broadcast is bounded: each parameter's PARAM_VALUE echo once, at most TEXTS_PER_CHUNK
+STATUSTEXT; parameters are written to the saved file once a tick.
+
 `on_data` returns True when the chunk held at least one packet that passed the checks (CRC,
 length, known id and, with signing on, the signature): the UDP endpoint adds a peer only then.
 """
@@ -98,6 +102,7 @@ class VehicleLink:
         self.missions = MissionLink(self)      # mission / fence / rally protocol
         self._rebuild_schedule()
         ap.text = self.statustext
+        ap.params.deferred = True              # saved once a tick by update(), and at close()
 
     def _parser(self):
         p = mav.MAVLink(_Out(), srcSystem=0, srcComponent=0)
@@ -109,6 +114,7 @@ class VehicleLink:
             await ep.start()
 
     def close(self) -> None:
+        self.ap.params.flush()
         for ep in self.endpoints:
             ep.close()
 
@@ -123,8 +129,21 @@ class VehicleLink:
             for ep in self.endpoints:
                 ep.send(buf)
 
+    TEXTS_PER_CHUNK = 30      # ArduPilot's STATUSTEXT queue: what does not fit is dropped
+
     def statustext(self, severity: int, text: str) -> None:
-        self.send(mav.MAVLink_statustext_message(severity, text.encode("ascii", "replace")[:50], 0, 0))
+        if self._once is not None:           # inside a received chunk: bounded, see on_data
+            self._texts += 1
+            if self._texts > self.TEXTS_PER_CHUNK:
+                self.stats["text_dropped"] += 1
+                return
+        self.send(self._statustext_msg(severity, text))
+
+    _texts = 0
+
+    @staticmethod
+    def _statustext_msg(severity: int, text: str):
+        return mav.MAVLink_statustext_message(severity, text.encode("ascii", "replace")[:50], 0, 0)
 
     # ----- streams ----------------------------------------------------------------------
     def _rebuild_schedule(self) -> None:
@@ -176,6 +195,7 @@ class VehicleLink:
                 self.send(msg)
         if self.outboxes:
             self._drain_outboxes(t)
+        self.ap.params.flush()         # PARAM_SETs of this tick reach the saved file together
         if t >= self.next_stats:
             self.next_stats = t + 1.0
             for k, name in STAT_NAMES.items():
@@ -233,13 +253,31 @@ class VehicleLink:
             parser.buf_index = 0
             parser.expected_length = mav.HEADER_LEN_V1 + 2
         ok = False
-        for m in msgs:
-            try:
-                ok = self._classify_and_handle(m, channel) or ok
-            except Exception:  # a handler bug must not kill the vehicle: count it, say where
-                self.stats["handler_error"] += 1
-                traceback.print_exc()
+        self._once, self._texts = {}, 0
+        try:
+            for m in msgs:
+                try:
+                    ok = self._classify_and_handle(m, channel) or ok
+                except Exception:  # a handler bug must not kill the vehicle: count it, say where
+                    self.stats["handler_error"] += 1
+                    traceback.print_exc()
+        finally:
+            once, self._once = self._once, None
+            for build in once.values():
+                self.send(build())
         return ok
+
+    # broadcasts a received chunk causes, sent once each after it (key -> message builder):
+    # a datagram packed with a thousand PARAM_SETs echoes each parameter once to every peer,
+    # not a thousand times (ArduPilot's full send queue drops the excess the same way)
+    _once: dict | None = None
+
+    def broadcast_once(self, key, build) -> None:
+        """Send build() to every endpoint, once per received chunk for the same key."""
+        if self._once is None:
+            self.send(build())
+        else:
+            self._once[key] = build
 
     def _classify_and_handle(self, m, channel: Channel) -> bool:
         """Count or handle one parsed message; True if it passed the checks (a real peer)."""
@@ -378,13 +416,14 @@ class VehicleLink:
 
     # ----- reboot ---------------------------------------------------------------------------
     def _reboot_command(self, p) -> int:
-        """MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN as ArduPilot: param1 1 reboots the autopilot (3,
-        reboot into the bootloader, and shutdowns are not simulated); refused while armed;
-        the ACK goes out first, from the old sysid."""
-        if p[0] != 1:
-            return mav.MAV_RESULT_UNSUPPORTED
+        """MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN as ArduPilot (GCS_Common.cpp): refused while armed
+        (FAILED, checked first); param1 1 reboots, 3 (into the bootloader) reboots the same here
+        (no bootloader to hold in); anything else UNSUPPORTED. The ACK goes out first, from the
+        old sysid."""
         if self.ap.armed:
             return mav.MAV_RESULT_FAILED
+        if p[0] not in (1, 3):
+            return mav.MAV_RESULT_UNSUPPORTED
         self._reboot_after_ack = True
         return mav.MAV_RESULT_ACCEPTED
 
@@ -475,14 +514,16 @@ class VehicleLink:
         ps = self.ap.params
         name = _param_id(m.param_id)
         if name not in ps:
-            self.statustext(mav.MAV_SEVERITY_WARNING, f"Param set: unknown {name}"[:50])
+            text = f"Param set: unknown {name}"[:50]
+            self.broadcast_once(("text", text), lambda: self._statustext_msg(mav.MAV_SEVERITY_WARNING, text))
             return
         why = ps.set(name, float(m.param_value))
         if why is not None:
-            self.statustext(mav.MAV_SEVERITY_WARNING, why[:50])
+            text = why[:50]
+            self.broadcast_once(("text", text), lambda: self._statustext_msg(mav.MAV_SEVERITY_WARNING, text))
             self.send(self.param_value(name), ch)
             return
-        self.send(self.param_value(name))
+        self.broadcast_once(("param", name), lambda: self.param_value(name))
         if name.startswith("SR0_"):
             self._rebuild_schedule()
         self.params_changed({name: ps[name]})

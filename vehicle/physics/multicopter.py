@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gcs.frames.batch import yaw_of
 from vehicle.physics import NumpyOps
 
 GRAVITY = 9.80665
@@ -167,7 +168,7 @@ def step(s: QuadState, cmd, af: QuadAirframe, dt: float, ground_z, xp=NumpyOps) 
         vx_n = xp.where(g, vx_n * fr, vx_n)
         vy_n = xp.where(g, vy_n * fr, vy_n)
         # level roll/pitch on the ground, keep yaw
-        yaw = xp.atan2(2.0 * (nw * nz + nx * ny), 1.0 - 2.0 * (ny * ny + nz * nz))
+        yaw = yaw_of(nx, ny, nz, nw, xp.atan2)
         nx = xp.where(g, 0.0, nx)
         ny = xp.where(g, 0.0, ny)
         nz = xp.where(g, xp.sin(0.5 * yaw), nz)

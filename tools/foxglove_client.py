@@ -1,4 +1,4 @@
-"""A small Foxglove WebSocket client for tests (the protocol is public: foxglove/ws-protocol).
+"""A small Foxglove WebSocket client for tests and bench_view (the protocol is public: foxglove/ws-protocol).
 
 Connects with the SDK's subprotocol, reads the server's `advertise`, subscribes to the
 topics asked for, and collects (topic, log_time_ns, decoded JSON) and the server's time
