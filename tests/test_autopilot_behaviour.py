@@ -89,8 +89,8 @@ def test_rover_guided_velocity_target_times_out(rover):
 @pytest.mark.parametrize("action, mode, text", [(0, modes.ROVER_GUIDED, "GCS Failsafe"),
                                                 (1, modes.ROVER_RTL, "GCS Failsafe On: RTL"),
                                                 (2, modes.ROVER_HOLD, "GCS Failsafe On: Hold"),
-                                                (3, modes.ROVER_RTL, "GCS Failsafe On: RTL"),
-                                                (4, modes.ROVER_HOLD, "GCS Failsafe On: Hold")])
+                                                (3, modes.ROVER_SMART_RTL, "GCS Failsafe On: SmartRTL"),
+                                                (4, modes.ROVER_SMART_RTL, "GCS Failsafe On: SmartRTL")])
 def test_rover_gcs_failsafe_actions(rover, action, mode, text):
     w, ap, texts = rover
     for name, v in (("FS_GCS_ENABLE", 1), ("FS_ACTION", action), ("FS_GCS_TIMEOUT", 2)):

@@ -164,6 +164,52 @@ def test_every_built_in_mode_accepted_disarmed():
         cap.disarm(force=True)
 
 
+@pytest.mark.parametrize("action, usable, mode, said", [
+    (3, True, modes.SMART_RTL, []), (4, True, modes.BRAKE, []), (5, True, modes.SMART_RTL, []),
+    (3, False, modes.RTL, ["SmartRTL Unavailable, Trying RTL Mode"]),
+    (5, False, modes.LAND, ["SmartRTL Unavailable, Using Land Mode"])])
+def test_copter_fence_actions_smartrtl_and_brake(action, usable, mode, said):
+    w = _world()
+    ap = _fly(w, alt=5.0)
+    texts = []
+    ap.text = lambda sev, t: texts.append(t)
+    if not usable:
+        ap.srtl.deactivate("bad position")
+        texts.clear()
+    ap.fence_action_copter(action, False)
+    assert ap.mode == mode
+    assert [t for t in texts if "Unavailable" in t] == said
+
+
+def test_fence_breach_with_brake_action_stops_the_copter():
+    from auto_world import Flight
+    f = Flight("copter", params={"FENCE_ENABLE": 1, "FENCE_TYPE": 2, "FENCE_RADIUS": 30, "FENCE_ACTION": 4})
+    f.settle()
+    assert f.ap.set_mode(modes.GUIDED) and f.ap.arm() == A.MAV_RESULT_ACCEPTED
+    assert f.ap.command(A.MAV_CMD_NAV_TAKEOFF, [0, 0, 0, 0, 0, 0, 8]) == A.MAV_RESULT_ACCEPTED
+    f.until(lambda: f.ap.pos[2] < f.ap.home[2] - 7.7, 30, "takeoff")
+    for _ in range(40):
+        f.ap.position_target_local(A.MAV_FRAME_LOCAL_NED, VEL_MASK, [0, 0, 0], [5, 0, 0], [0, 0, 0], 0, 0)
+        f.step(0.5)
+        if f.ap.mode != modes.GUIDED:
+            break
+    assert "Circle fence breached" in f.said() and f.ap.mode == modes.BRAKE
+    f.until(lambda: np.linalg.norm(f.ap.vel[:2]) < 0.1, 5, "braked")
+    assert np.linalg.norm(f.ap.pos[:2] - f.ap.home[:2]) < 30 + 8      # stopped within BRAKE's distance
+
+
+def test_rover_failsafe_smartrtl_falls_back_without_a_path():
+    w = _world(drones=0, rovers=1)
+    ap = w.vehicles[0].ap
+    assert ap.set_mode(modes.ROVER_GUIDED) and ap.arm() == A.MAV_RESULT_ACCEPTED
+    ap.srtl.deactivate("bad position")
+    ap.fence_action_rover(3)
+    assert ap.mode == modes.ROVER_RTL
+    ap.set_mode(modes.ROVER_GUIDED)
+    ap.fence_action_rover(4)
+    assert ap.mode == modes.ROVER_HOLD
+
+
 # ------------------------------------------------------------------ rover
 
 def test_rover_acro_steering_stop_and_loiter_holds():

@@ -213,6 +213,20 @@ class CopterModes:
         self.text(mav.MAV_SEVERITY_WARNING, "SmartRTL Unavailable, Trying RTL Mode")
         return self.set_mode(modes.RTL, reason)
 
+    def fence_action_copter(self, action: int, far_outside: bool) -> None:
+        """FENCE_ACTION 3 SmartRTL or RTL or LAND, 4 BRAKE or LAND, 5 SmartRTL or LAND (ArduCopter's
+        fence_check); 1, 2, landed and more than 100 m outside: as copter_auto.py does."""
+        if self.on_ground or far_outside or action not in (3, 4, 5):
+            super().fence_action_copter(action, far_outside)
+        elif action == 3:
+            if not self.smart_rtl_or_rtl("fence breach"):
+                self.set_mode(modes.LAND, "fence breach")
+        elif action == 4:
+            if not self.set_mode(modes.BRAKE, "fence breach"):
+                self.set_mode(modes.LAND, "fence breach")
+        else:
+            self.smart_rtl_or_land("fence breach")
+
     def smart_rtl_or_land(self, reason: str) -> bool:
         if self.set_mode(modes.SMART_RTL, reason):
             return True

@@ -93,10 +93,19 @@ class RoverAutopilot(RoverModes, Autopilot):
         self.setpoint(pos=tgt)
 
     def fence_action_rover(self, action: int) -> None:
-        """FENCE_ACTION 1/3: RTL (HOLD if RTL cannot start); 2/4: HOLD."""
-        if action in (1, 3) and self.set_mode(modes.ROVER_RTL, "fence breach"):
-            return
-        self.set_mode(modes.ROVER_HOLD, "fence breach")
+        """FENCE_ACTION 1: RTL (HOLD if RTL cannot start); 2: HOLD; 3: SmartRTL, else RTL, else
+        HOLD; 4: SmartRTL, else HOLD (ArduRover's fence actions)."""
+        self._failsafe_mode(action, "fence breach")
+
+    def _failsafe_mode(self, action: int, reason: str) -> int:
+        """FS_ACTION / FENCE_ACTION 1 RTL, 2 Hold, 3 SmartRTL->RTL->Hold, 4 SmartRTL->Hold:
+        the mode it got into."""
+        tries = {1: [modes.ROVER_RTL], 3: [modes.ROVER_SMART_RTL, modes.ROVER_RTL],
+                 4: [modes.ROVER_SMART_RTL]}.get(action, [])
+        for m in tries + [modes.ROVER_HOLD]:
+            if self.set_mode(m, reason):
+                return m
+        return self.mode
 
     def landed_state(self) -> int:
         return mav.MAV_LANDED_STATE_ON_GROUND
@@ -117,13 +126,12 @@ class RoverAutopilot(RoverModes, Autopilot):
 
     def gcs_failsafe_action(self, enable: int) -> None:
         action = int(self.params.get("FS_ACTION", 2))
-        if action in (1, 3) and self.set_mode(modes.ROVER_RTL, "GCS failsafe"):
-            self.text(SEV_WARNING, "GCS Failsafe On: RTL")
-        elif action != 0:
-            self.set_mode(modes.ROVER_HOLD, "GCS failsafe")
-            self.text(SEV_WARNING, "GCS Failsafe On: Hold")
-        else:
+        if action == 0:
             self.text(SEV_WARNING, "GCS Failsafe")
+            return
+        got = self._failsafe_mode(action, "GCS failsafe")
+        name = {modes.ROVER_RTL: "RTL", modes.ROVER_SMART_RTL: "SmartRTL"}.get(got, "Hold")
+        self.text(SEV_WARNING, f"GCS Failsafe On: {name}")
 
     def _stop(self) -> None:
         self.setpoint(vel=ZERO.copy(), yaw_rate=0.0)
