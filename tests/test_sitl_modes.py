@@ -187,3 +187,45 @@ def test_do_reposition_and_guided_commands(sitl):
     # DO_FLIGHTTERMINATION: disarmed at once
     assert command(m, mav.MAV_CMD_DO_FLIGHTTERMINATION, 1) == mav.MAV_RESULT_ACCEPTED
     recv(m, "HEARTBEAT", 5, cond=lambda h: h.get_srcSystem() == 1 and not h.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
+
+
+STREAMED_OR_ASKED = ["HEARTBEAT", "SYS_STATUS", "GPS_RAW_INT", "GLOBAL_POSITION_INT", "LOCAL_POSITION_NED",
+                     "ATTITUDE", "ATTITUDE_QUATERNION", "VFR_HUD", "HOME_POSITION", "EXTENDED_SYS_STATE",
+                     "SYSTEM_TIME", "BATTERY_STATUS", "POSITION_TARGET_LOCAL_NED", "SIM_STATE", "MISSION_CURRENT",
+                     "GPS_GLOBAL_ORIGIN", "AUTOPILOT_VERSION"]
+
+
+@pytest.mark.timeout(120)
+def test_request_message_for_every_message_the_vehicle_sends(sitl):
+    _s, _d, m = sitl
+    wait_armable(m, 30)
+    for name in STREAMED_OR_ASKED:
+        msgid = getattr(mav, f"MAVLINK_MSG_ID_{name}")
+        if name != "AUTOPILOT_VERSION":          # stop its stream, so what arrives was asked for
+            assert command(m, mav.MAV_CMD_SET_MESSAGE_INTERVAL, msgid, -1) == mav.MAV_RESULT_ACCEPTED
+            while m.recv_match(type=name, blocking=False) is not None:
+                pass
+        m.mav.command_long_send(m.target_system, 1, mav.MAV_CMD_REQUEST_MESSAGE,
+                                0, msgid, 0, 0, 0, 0, 0, 0)
+        got = []
+        while not any(g.get_type() == name for g in got):
+            got.append(recv(m, ["COMMAND_ACK", name], 3))
+        acks = [g for g in got if g.get_type() == "COMMAND_ACK" and g.command == mav.MAV_CMD_REQUEST_MESSAGE]
+        assert acks and acks[0].result == mav.MAV_RESULT_ACCEPTED, name
+        assert got.index(acks[0]) < next(i for i, g in enumerate(got) if g.get_type() == name), name
+        if name != "AUTOPILOT_VERSION":
+            assert command(m, mav.MAV_CMD_SET_MESSAGE_INTERVAL, msgid, 0) == mav.MAV_RESULT_ACCEPTED
+    # an id the vehicle has no message for: FAILED, as ArduPilot
+    assert command(m, mav.MAV_CMD_REQUEST_MESSAGE, mav.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT) == mav.MAV_RESULT_FAILED
+
+
+@pytest.mark.timeout(90)
+def test_gps_global_origin_sent_when_it_is_set(sitl):
+    _s, _d, m = sitl
+    before = recv(m, "HEARTBEAT", 5, cond=lambda h: not h.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
+    assert before is not None
+    # a reboot forgets the EKF origin; it is set again with the first good estimate, and said
+    assert command(m, mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1) == mav.MAV_RESULT_ACCEPTED
+    o = recv(m, "GPS_GLOBAL_ORIGIN", 20)
+    hp = recv(m, "HOME_POSITION", 10)
+    assert o.latitude != 0 and abs(o.latitude - hp.latitude) * 1e-7 * 111_319.5 < 50

@@ -436,6 +436,7 @@ class VehicleLink:
         self.ap.text = self.statustext
         self.mav.srcSystem = self.ap.sysid
         self.intervals.clear()
+        self._origin_sent = None               # a new boot says its EKF origin again
         for q in self.outboxes.values():
             q.clear()
         self.outboxes.clear()
