@@ -119,3 +119,25 @@ def test_sitl_params_takes_a_real_parm_file(processes, tmp_path):
            "INS_GYROFFS_X, SERVO1_FUNCTION" in out
     assert "LAND_SPEED 9999 out of range 30..200 for the copter, default kept" in out
     assert sitl.proc.poll() is None
+
+
+@pytest.mark.parametrize("loit_ms, final_cm", [(5000, 0), (2000, 300)])
+def test_rtl_loit_time_and_rtl_alt_final(loit_ms, final_cm):
+    from test_autopilot_behaviour import _goto
+    w = _world()
+    ap = _fly(w, alt=6.0)
+    for n, v in (("RTL_LOIT_TIME", loit_ms), ("RTL_ALT_FINAL", final_cm), ("RTL_ALT", 1000)):
+        assert ap.params.set(n, v, save=False) is None
+    _goto(ap, 20, 0, -10)
+    _until(w, lambda: np.linalg.norm(ap.pos - [20, 0, -10]) < 0.5, 40)
+    assert ap.set_mode(modes.RTL)
+    _until(w, lambda: ap.rtl_stage == "loiter", 40)
+    t_over = w.t
+    _until(w, lambda: ap.rtl_stage != "loiter", 70)
+    assert abs((w.t - t_over) - loit_ms / 1000.0) < 0.1            # RTL_LOIT_TIME above home
+    if final_cm == 0:
+        _until(w, lambda: not ap.armed, 60)                         # then lands and disarms
+    else:
+        w.run_for(15)                                               # RTL_ALT_FINAL: hovers there
+        assert ap.armed and ap.mode == modes.RTL
+        assert abs((ap.home[2] - ap.pos[2]) - final_cm / 100.0) < 0.3

@@ -6,7 +6,8 @@ Setpoints per mode (world NED, sent to the CopterFleet every autopilot tick):
            rate), holding position when there is none; velocity and acceleration targets
            expire after GUID_TIMEOUT (3 s) and the copter stops and holds.
   LOITER   holds the position where it was entered.
-  RTL      climbs to RTL_ALT (or stays higher), flies home, descends and lands, disarms.
+  RTL      climbs to RTL_ALT (or stays higher), flies home, waits RTL_LOIT_TIME above it, then
+           lands and disarms (or, RTL_ALT_FINAL > 0, descends to that height and hovers).
   LAND     descends at LAND_SPEED (WPNAV_SPEED_DN / LAND_SPEED_HIGH above 10 m) over the point
            where it was entered, disarms once landed.
   STABILIZE with no RC: level attitude (zero horizontal acceleration) at constant altitude.
@@ -49,6 +50,7 @@ class CopterAutopilot(CopterModes, CopterAutoFlight, Autopilot):
         self.rtl_stage = ""
         self.rtl_dest = np.zeros(3)
         self.rtl_z = 0.0
+        self.rtl_loiter_t0 = 0.0
         self.landed_since: float | None = None
         super().__init__(*a, **kw)
 
@@ -238,8 +240,17 @@ class CopterAutopilot(CopterModes, CopterAutoFlight, Autopilot):
         if self.rtl_stage == "return":
             tgt = np.array([home[0], home[1], self.rtl_z])
             if np.linalg.norm(self.pos[:2] - home[:2]) < 0.5 and np.linalg.norm(self.vel) < 0.3:
-                self.rtl_stage = "land"
+                self.rtl_stage = "loiter"          # RTL_LOIT_TIME above home, then down
+                self.rtl_loiter_t0 = self.t
                 self.hold_pos = np.array([home[0], home[1], self.pos[2]])
+        if self.rtl_stage == "loiter":
+            tgt = self.hold_pos.copy()
+            if self.t - self.rtl_loiter_t0 >= float(self.params.get("RTL_LOIT_TIME", 5000)) / 1000.0:
+                final = float(self.params.get("RTL_ALT_FINAL", 0)) / 100.0
+                self.rtl_stage = "final" if final > 0 else "land"
+        if self.rtl_stage == "final":              # RTL_ALT_FINAL > 0: hover there, stay in RTL
+            home_z = self.home[2] if self.home is not None else home[2]
+            tgt = np.array([home[0], home[1], home_z - float(self.params.get("RTL_ALT_FINAL", 0)) / 100.0])
         if self.rtl_stage == "land":
             self._land(dt)
             return

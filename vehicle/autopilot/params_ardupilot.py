@@ -120,8 +120,8 @@ _COPTER_ONLY = [
     ("BATT_FS_LOW_ACT", 0, 0, 7, I8, "", "low battery action: 0 none, 1 Land, 2 RTL, 3 SmartRTL or RTL, 4 SmartRTL or Land, "
      "5 Terminate, 6 DO_LAND_START or RTL, 7 Brake or Land (battery part of issue 10)"),
     ("BATT_FS_CRT_ACT", 0, 0, 7, I8, "", "critical battery action, values as BATT_FS_LOW_ACT (battery part of issue 10)"),
-    ("RTL_ALT_FINAL", 0, 0, 1000, I32, "cm", f"RTL final altitude, 0 = land ({NS}: towerlink's RTL always lands)"),
-    ("RTL_LOIT_TIME", 5000, 0, 60000, I32, "ms", f"RTL loiter above home before descending ({NS}: descends at once)"),
+    ("RTL_ALT_FINAL", 0, 0, 1000, I32, "cm", "RTL final altitude above home, 0 = land"),
+    ("RTL_LOIT_TIME", 5000, 0, 60000, I32, "ms", "RTL loiter time above home before the final descent"),
     ("RTL_CLIMB_MIN", 0, 0, 3000, I16, "cm", f"RTL minimum climb ({NS})"),
     ("RTL_CONE_SLOPE", 3, 0.5, 10, F, "", f"RTL cone slope ({NS})"),
     ("RTL_OPTIONS", 0, 0, 7, I32, "", f"RTL options bitmask ({NS})"),
