@@ -1,7 +1,8 @@
-"""MAVFTP: every request answered at once as ArduPilot's GCS_FTP answers it (vehicle/link/ftp.py),
-so MAVProxy's parameter download tries "@PARAM/param.pck", is refused and falls back to
-PARAM_REQUEST_LIST without waiting on a timeout (issue 10). MAVProxy runs as a user starts it;
-its telemetry log (mav.tlog, both directions, wall-clock stamped) shows the exchange."""
+"""MAVFTP as ArduPilot's GCS_FTP answers it (vehicle/link/ftp.py): "@PARAM/param.pck" served in
+ArduPilot's packed format (decoded here by MAVProxy's own decoder), every other request answered
+at once (NAK with ArduPilot's error), so MAVProxy's parameter download never waits on a timeout
+(issue 10). MAVProxy runs as a user starts it; its telemetry log (mav.tlog, both directions,
+wall-clock stamped) shows the exchange."""
 from __future__ import annotations
 
 import os
@@ -55,11 +56,49 @@ def test_session_resets_acked_bad_sizes_refused_short_ignored():
     assert ftp.answer(_req(ftp.NAK)) is None                             # a looped-back reply
 
 
+def test_param_pck_decodes_with_mavproxys_decoder():
+    from MAVProxy.modules.lib.param_ftp import ftp_param_decode
+    entries = [("ANGLE_MAX", 3000.0, mav.MAV_PARAM_TYPE_INT16, 3000.0),
+               ("ATC_ANG_PIT_P", 4.5, mav.MAV_PARAM_TYPE_REAL32, 4.5),
+               ("ATC_ANG_RLL_P", 6.0, mav.MAV_PARAM_TYPE_REAL32, 4.5),
+               ("BATT_CAPACITY", 5200.0, mav.MAV_PARAM_TYPE_INT32, 3300.0),
+               ("FRAME_CLASS", 1.0, mav.MAV_PARAM_TYPE_INT8, 1.0),
+               ("FS_OPTIONS_LONGNAME", -3.0, mav.MAV_PARAM_TYPE_INT8, 0.0)]
+    for with_defaults in (False, True):
+        d = ftp_param_decode(ftp.param_pck(entries, with_defaults))
+        assert [(n.decode(), v, t) for n, v, t in d.params] == [
+            ("ANGLE_MAX", 3000, 2), ("ATC_ANG_PIT_P", 4.5, 4), ("ATC_ANG_RLL_P", 6.0, 4),
+            ("BATT_CAPACITY", 5200, 3), ("FRAME_CLASS", 1, 1), ("FS_OPTIONS_LONGN", -3, 1)]
+        if with_defaults:
+            assert [v for _n, v, _t in d.defaults] == [3000, 4.5, 4.5, 3300, 1, 0]
+
+
+def test_server_reads_a_file_in_bursts_and_chunks():
+    content = bytes(range(256)) * 3                       # 768 bytes
+    srv = ftp.FtpServer({"@PARAM/param.pck": lambda with_defaults: content})
+    (r,) = srv.handle(_req(ftp.OPEN_FILE_RO, seq=1, session=2, data=b"@PARAM/param.pck?withdefaults=1"))
+    assert _hdr(r)[2] == ftp.ACK and struct.unpack_from("<I", r, 12)[0] == 768
+    (again,) = srv.handle(_req(ftp.OPEN_FILE_RO, seq=2, session=2, data=b"@PARAM/param.pck"))
+    assert again[3] == ftp.NAK and again[12] == ftp.ERR_FAIL               # that session is open
+    out = srv.handle(_req(ftp.BURST_READ_FILE, seq=3, session=2, size=239))
+    data = b"".join(p[12:12 + p[4]] for p in out if p[3] == ftp.ACK)
+    assert data == content and [_hdr(p)[7] for p in out[:-1]] == [0, 239, 478, 717]
+    assert out[-1][3] == ftp.NAK and out[-1][12] == ftp.ERR_EOF and _hdr(out[-1])[7] == 768
+    (r,) = srv.handle(_req(ftp.READ_FILE, seq=4, session=2, size=100, offset=700))
+    assert r[12:12 + r[4]] == content[700:768]
+    (r,) = srv.handle(_req(ftp.READ_FILE, seq=5, session=2, size=100, offset=768))
+    assert r[3] == ftp.NAK and r[12] == ftp.ERR_EOF
+    assert srv.handle(_req(ftp.TERMINATE_SESSION, seq=6, session=2))[0][3] == ftp.ACK
+    assert srv.handle(_req(ftp.TERMINATE_SESSION, seq=7, session=2))[0][12] == ftp.ERR_INVALID_SESSION
+    (r,) = srv.handle(_req(ftp.OPEN_FILE_RO, seq=8, session=0, data=b"/APM/LOGS/1.BIN"))
+    assert r[12:14] == bytes([ftp.ERR_FAIL_ERRNO, ftp.ENOENT])
+
+
 @pytest.mark.timeout(60)
 def test_pymavlink_ftp_open_nak_on_the_wire(processes, tmp_path):
     sitl = Sitl(processes, tmp_path, drones=1, rovers=0, speedup=2)
     m = connect(sitl.udp[0])
-    payload = list(_req(ftp.OPEN_FILE_RO, seq=5, data=b"@PARAM/param.pck?withdefaults=1"))
+    payload = list(_req(ftp.OPEN_FILE_RO, seq=5, data=b"/APM/missing.txt"))
     t0 = time.monotonic()
     m.mav.file_transfer_protocol_send(0, 1, 1, payload)
     r = recv(m, "FILE_TRANSFER_PROTOCOL", 3)
@@ -72,14 +111,16 @@ def test_pymavlink_ftp_open_nak_on_the_wire(processes, tmp_path):
 
 
 @pytest.mark.timeout(120)
-def test_mavproxy_param_download_does_not_wait_on_mavftp(processes, tmp_path):
+def test_mavproxy_downloads_parameters_over_mavftp(processes, tmp_path):
     assert os.path.exists(MAVPROXY), f"mavproxy.py not found next to {sys.executable}"
     sitl = Sitl(processes, tmp_path, drones=1, rovers=0, speedup=2)
     m = connect(sitl.udp[0])
-    m.mav.param_request_read_send(1, 1, b"SYSID_THISMAV", -1)
-    count = recv(m, "PARAM_VALUE", 5, cond=lambda p: p.param_id == "SYSID_THISMAV").param_count
+    m.mav.param_set_send(1, 1, b"RTL_ALT", 2345, mav.MAV_PARAM_TYPE_INT32)
+    pv = recv(m, "PARAM_VALUE", 5, cond=lambda p: p.param_id == "RTL_ALT")
+    count = pv.param_count
     m.close()
-    # MAVProxy's defaults: the ftp module loaded, param_ftp on (it tries MAVFTP first)
+    # MAVProxy's defaults: the ftp module loaded, param_ftp on: it asks for @PARAM/param.pck first
+    t0 = time.monotonic()
     proxy = processes.start([sys.executable, MAVPROXY, f"--master=tcp:127.0.0.1:{sitl.tcp[0]}",
                              "--state-basedir", str(tmp_path)], stdin=subprocess.PIPE, cwd=str(tmp_path))
     lines: list[str] = []
@@ -89,37 +130,38 @@ def test_mavproxy_param_download_does_not_wait_on_mavftp(processes, tmp_path):
         return any(text in l for l in lines)
     try:
         wait_until(lambda: saw("Received") and saw("parameters"), 60, "parameters: " + "".join(lines[-5:]))
+        took = time.monotonic() - t0
         got = [l for l in lines if "Received" in l and "parameters" in l][-1]
-        assert int(got.split("Received")[1].split()[0]) == count, got
-        assert "(ftp)" not in got
+        assert int(got.split("Received")[1].split()[0]) == count and "(ftp)" in got, got
         assert not saw("FTP: retry request")
+        # MAVProxy saves what it received (mav.parm) and the defaults (withdefaults=1)
+        wait_until(lambda: saw("Saved") and saw("defaults to"), 10, "parameter files saved")
+        saved = tmp_path / "mav.parm"
+        vals = dict(line.split()[:2] for line in saved.read_text().splitlines() if line.strip()
+                    and not line.startswith("#"))
+        assert float(vals["RTL_ALT"]) == 2345 and float(vals["FRAME_CLASS"]) == 1
+        defaults = tmp_path / "defaults.parm"
+        dvals = dict(line.split()[:2] for line in defaults.read_text().splitlines() if line.strip()
+                     and not line.startswith("#"))
+        assert float(dvals["RTL_ALT"]) == 1500
         proxy.stdin.write("exit\n")
         proxy.stdin.flush()
     finally:
         processes.stop(proxy)
-    # the tlog: MAVProxy's open of @PARAM/param.pck, our NAK, then the PARAM_VALUE stream
+    print(f"MAVProxy start to all {count} parameters over MAVFTP: {took:.2f} s")
+    # the tlog: MAVProxy's open of @PARAM/param.pck, our ACK with the file size, no PARAM_VALUE list
     tlogs = [os.path.join(dp, f) for dp, _d, fs in os.walk(tmp_path) for f in fs if f.endswith(".tlog")]
-    assert tlogs, os.listdir(tmp_path)
     from pymavlink import mavutil
     log = mavutil.mavlink_connection(max(tlogs, key=os.path.getsize))
-    open_t = nak_t = param_t = None
+    opened = acked = None
     while True:
-        msg = log.recv_match(type=["FILE_TRANSFER_PROTOCOL", "PARAM_VALUE"])
+        msg = log.recv_match(type="FILE_TRANSFER_PROTOCOL")
         if msg is None:
             break
-        t = msg._timestamp
-        if msg.get_type() == "FILE_TRANSFER_PROTOCOL":
-            raw = bytes(msg.payload)
-            if raw[3] == ftp.OPEN_FILE_RO and b"@PARAM/param.pck" in raw and open_t is None:
-                open_t = t
-            if raw[3] == ftp.NAK and raw[5] == ftp.OPEN_FILE_RO and nak_t is None:
-                nak_t = t
-                assert raw[12:14] == bytes([ftp.ERR_FAIL_ERRNO, ftp.ENOENT])
-        elif nak_t is not None and param_t is None:
-            param_t = t
-    assert open_t is not None and nak_t is not None and param_t is not None, (open_t, nak_t, param_t)
-    print(f"MAVFTP open -> NAK {nak_t - open_t:.3f} s, NAK -> first PARAM_VALUE {param_t - nak_t:.3f} s")
-    assert nak_t - open_t < 0.5
-    # MAVProxy's param module checks once a second (param_period) and then asks for the list;
-    # a timeout would have cost its FTP retries (retry_time 0.5 s, several of them) first
-    assert param_t - nak_t < 1.6
+        raw = bytes(msg.payload)
+        if raw[3] == ftp.OPEN_FILE_RO and b"@PARAM/param.pck" in raw and opened is None:
+            opened = msg._timestamp
+        if raw[3] == ftp.ACK and raw[5] == ftp.OPEN_FILE_RO and acked is None:
+            acked = msg._timestamp
+    assert opened is not None and acked is not None and acked - opened < 0.5
+    # (the tlog's PARAM_VALUEs are MAVProxy's own copies of what came over MAVFTP, its log_params)

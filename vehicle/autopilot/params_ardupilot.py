@@ -56,7 +56,7 @@ _SHARED = [
     ("FENCE_AUTOENABLE", 0, 0, 3, I8, "", f"auto-enable the fence on takeoff ({NS})"),
     ("FENCE_RET_RALLY", 0, 0, 1, I8, "", f"fence breach returns to the nearest rally point ({NS})"),
     ("FENCE_RET_ALT", 0, 0, 32767, I16, "m", f"fence return altitude ({NS})"),
-    ("FENCE_TOTAL", 0, 0, 255, I8, "", f"legacy polygon fence point count ({NS}: MAVLink fence items are used)"),
+    ("FENCE_TOTAL", 0, 0, 127, I8, "", f"legacy polygon fence point count ({NS}: MAVLink fence items are used)"),
     ("FENCE_OPTIONS", 0, 0, 7, I16, "", f"fence options bitmask ({NS})"),
     ("FS_EKF_ACTION", 1, 0, 3, I8, "", f"EKF failsafe action ({NS}: the estimate never fails)"),
     ("FS_EKF_THRESH", 0.8, 0.6, 1.0, F, "", f"EKF failsafe variance threshold ({NS})"),

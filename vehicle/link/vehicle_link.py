@@ -437,6 +437,7 @@ class VehicleLink:
         self.mav.srcSystem = self.ap.sysid
         self.intervals.clear()
         self._origin_sent = None               # a new boot says its EKF origin again
+        self._ftp = None                       # and has no MAVFTP session open
         for q in self.outboxes.values():
             q.clear()
         self.outboxes.clear()
@@ -458,13 +459,21 @@ class VehicleLink:
         self.ap.position_target_global(m.coordinate_frame, m.type_mask, m.lat_int, m.lon_int, m.alt,
                                        (m.vx, m.vy, m.vz), (m.afx, m.afy, m.afz), m.yaw, m.yaw_rate)
 
+    _ftp: ftp.FtpServer | None = None
+
     def on_FILE_TRANSFER_PROTOCOL(self, m, ch) -> None:
-        """MAVFTP: answered at once (vehicle/link/ftp.py) so clients fall back to
-        PARAM_REQUEST_LIST without waiting for a timeout."""
-        reply = ftp.answer(m.payload)
-        if reply is not None:
+        """MAVFTP (vehicle/link/ftp.py): @PARAM/param.pck served, everything else answered at
+        once, so clients never wait on a timeout."""
+        if self._ftp is None:
+            self._ftp = ftp.FtpServer({"@PARAM/param.pck": self._param_pck})
+        for reply in self._ftp.handle(m.payload):
             self.send(mav.MAVLink_file_transfer_protocol_message(0, m.get_srcSystem(), m.get_srcComponent(),
                                                                  list(reply)), ch)
+
+    def _param_pck(self, with_defaults: bool) -> bytes:
+        ps = self.ap.params
+        return ftp.param_pck([(n, ps[n], ps.defs[n].mav_type, ps.defs[n].default) for n in ps.names],
+                             with_defaults)
 
     def on_TIMESYNC(self, m, ch) -> None:
         # a request (tc1 0): answer tc1 = our sim clock in ns (never 0, which would read as a
