@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from test_autopilot_behaviour import A, _fly, _until, _world
+from test_autopilot_behaviour import _fly, _until, _world
 from test_sitl_support import Sitl, connect, mav, recv
 from vehicle.autopilot import modes
 from vehicle.autopilot.params import COPTER_TABLE, ROVER_TABLE, ParamStore, core_table, file_warnings

@@ -7,16 +7,12 @@ from __future__ import annotations
 
 import os
 import struct
-import subprocess
-import sys
-import threading
 import time
 
 import pytest
 
 from support import wait_until
-from test_sitl_mavproxy import MAVPROXY
-from test_sitl_support import Sitl, connect, mav, recv
+from test_sitl_support import MavProxy, Sitl, connect, mav, recv
 from vehicle.link import ftp
 
 
@@ -112,7 +108,6 @@ def test_pymavlink_ftp_open_nak_on_the_wire(processes, tmp_path):
 
 @pytest.mark.timeout(120)
 def test_mavproxy_downloads_parameters_over_mavftp(processes, tmp_path):
-    assert os.path.exists(MAVPROXY), f"mavproxy.py not found next to {sys.executable}"
     sitl = Sitl(processes, tmp_path, drones=1, rovers=0, speedup=2)
     m = connect(sitl.udp[0])
     m.mav.param_set_send(1, 1, b"RTL_ALT", 2345, mav.MAV_PARAM_TYPE_INT32)
@@ -121,13 +116,8 @@ def test_mavproxy_downloads_parameters_over_mavftp(processes, tmp_path):
     m.close()
     # MAVProxy's defaults: the ftp module loaded, param_ftp on: it asks for @PARAM/param.pck first
     t0 = time.monotonic()
-    proxy = processes.start([sys.executable, MAVPROXY, f"--master=tcp:127.0.0.1:{sitl.tcp[0]}",
-                             "--state-basedir", str(tmp_path)], stdin=subprocess.PIPE, cwd=str(tmp_path))
-    lines: list[str] = []
-    threading.Thread(target=lambda: [lines.append(l) for l in proxy.stdout], daemon=True).start()
-
-    def saw(text):
-        return any(text in l for l in lines)
+    mp = MavProxy(processes, tmp_path, sitl.tcp[0])
+    lines, saw = mp.lines, mp.saw
     try:
         wait_until(lambda: saw("Received") and saw("parameters"), 60, "parameters: " + "".join(lines[-5:]))
         took = time.monotonic() - t0
@@ -144,10 +134,9 @@ def test_mavproxy_downloads_parameters_over_mavftp(processes, tmp_path):
         dvals = dict(line.split()[:2] for line in defaults.read_text().splitlines() if line.strip()
                      and not line.startswith("#"))
         assert float(dvals["RTL_ALT"]) == 1500
-        proxy.stdin.write("exit\n")
-        proxy.stdin.flush()
+        mp.send("exit")
     finally:
-        processes.stop(proxy)
+        processes.stop(mp.proc)
     print(f"MAVProxy start to all {count} parameters over MAVFTP: {took:.2f} s")
     # the tlog: MAVProxy's open of @PARAM/param.pck, our ACK with the file size, no PARAM_VALUE list
     tlogs = [os.path.join(dp, f) for dp, _d, fs in os.walk(tmp_path) for f in fs if f.endswith(".tlog")]

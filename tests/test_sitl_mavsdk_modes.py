@@ -102,6 +102,8 @@ def client(port: int, kind: str) -> int:
 
 
 def _run(processes, tmp_path, kind):
+    """As test_sitl_support.run_client_script, plus the vehicle kind for the client and a
+    pymavlink listener on the sitl beside it (so it needs the Sitl handle)."""
     from support import free_ports, wait_until
     from test_sitl_support import Sitl
     (port,) = free_ports(1)
