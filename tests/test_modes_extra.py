@@ -135,6 +135,23 @@ def test_smart_rtl_retraces_the_path_and_lands_where_it_armed():
     assert np.linalg.norm(ap.pos[:2] - home[:2]) < 1.0
 
 
+def test_leaving_smart_rtl_puts_the_unreached_point_back():
+    w = _world()
+    ap = _fly(w, alt=5.0)
+    _goto(ap, 30, 0, -5)
+    _until(w, lambda: np.linalg.norm(ap.pos - [30, 0, -5]) < 0.5, 40)
+    _goto(ap, 30, 30, -5)
+    _until(w, lambda: np.linalg.norm(ap.pos - [30, 30, -5]) < 0.5, 40)
+    assert ap.set_mode(modes.SMART_RTL)
+    w.run_for(0.5)
+    popped = ap.srtl_popped.copy()
+    n = len(ap.srtl.points)
+    assert ap.set_mode(modes.LOITER)                  # ArduCopter's ModeSmartRTL::exit()
+    assert len(ap.srtl.points) == n + 1 and np.allclose(ap.srtl.points[-1], popped)
+    assert ap.set_mode(modes.SMART_RTL) and ap.set_mode(modes.LOITER)
+    assert len(ap.srtl.points) == n + 1               # nothing popped in between: nothing doubled
+
+
 def test_smart_rtl_refused_without_a_path_as_arducopter():
     w = _world()
     ap = _fly(w, alt=5.0)

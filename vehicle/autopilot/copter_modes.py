@@ -68,6 +68,7 @@ class CopterModes:
             self._restore_limits()
         if number == modes.SMART_RTL and self.srtl_popped is not None:
             self.srtl.push(self.srtl_popped)          # not reached: back on the path
+        self.srtl_popped = self.srtl_dest = None
         self.stopping = False
         self.srtl_stage = ""
         self.guided_paused = False
