@@ -170,7 +170,10 @@ def test_pause_and_continue_a_leg():
     f = Flight("copter")
     f.upload([f.at(0, 0, 10, C.MAV_CMD_NAV_TAKEOFF), f.at(60, 0, 10)])
     armed_in_guided(f)
-    assert f.ap.command(C.MAV_CMD_DO_PAUSE_CONTINUE, [0] + [0] * 6) == C.MAV_RESULT_FAILED   # not in AUTO
+    # GUIDED pauses and resumes too, as ArduCopter's ModeGuided::pause()/resume() (issue 10)
+    assert f.ap.command(C.MAV_CMD_DO_PAUSE_CONTINUE, [0] + [0] * 6) == C.MAV_RESULT_ACCEPTED
+    assert f.ap.command(C.MAV_CMD_DO_PAUSE_CONTINUE, [1] + [0] * 6) == C.MAV_RESULT_ACCEPTED
+    assert f.ap.command(C.MAV_CMD_DO_PAUSE_CONTINUE, [2] + [0] * 6) == C.MAV_RESULT_DENIED
     f.ap.command(C.MAV_CMD_MISSION_START, [0] * 7)
     f.until(lambda: f.ap.mission_current()[0] == 2 and np.linalg.norm(f.ap.vel) > 3, 60, "cruising")
     assert f.ap.command(C.MAV_CMD_DO_PAUSE_CONTINUE, [0] + [0] * 6) == C.MAV_RESULT_ACCEPTED

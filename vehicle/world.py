@@ -25,7 +25,8 @@ import numpy as np
 from vehicle.autopilot import CopterAutopilot, ParamStore, RoverAutopilot
 from vehicle.autopilot.mission_persist import PersistentMissionStore, missions_path
 from vehicle.autopilot.mission_store import MISSION, MissionItem, MissionStore
-from vehicle.autopilot.params import COPTER_TABLE, ROVER_TABLE, core_table, read_parm_file
+from vehicle.autopilot.params import (COPTER_TABLE, ROVER_TABLE, _warn, core_table, file_warnings,
+                                      read_parm_file)
 from vehicle.link import VehicleLink
 from vehicle.network_plan import NetworkPlan
 from vehicle.network_plan import plan as plan_world
@@ -120,6 +121,9 @@ class World:
                         if cfg.state_dir else None)
                 stores.append(ParamStore(core + table, defaults, save))
                 saves.append(save)
+            if cfg.params_file:          # once per kind: unknown names / bad values, not fatal
+                for msg in file_warnings(file_params, stores[0].defs, kind, cfg.params_file):
+                    _warn(msg)
             starts = np.array([self.start_position(kind, j) for j in js], float)
             fleet_params = {name: stores[0][name] for name in core_names} if core_names else \
                 {name: stores[0][name] for name in stores[0].names}
