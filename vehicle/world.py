@@ -26,6 +26,7 @@ from vehicle.autopilot.mission_persist import PersistentMissionStore, missions_p
 from vehicle.autopilot.mission_store import MISSION, MissionItem, MissionStore
 from vehicle.autopilot.params import COPTER_TABLE, ROVER_TABLE, core_table, read_parm_file
 from vehicle.link import VehicleLink
+from vehicle.physics.wind import WindField, WindParams
 
 DEFAULT_HOME = (-35.363261, 149.165230, 584.0)      # ArduPilot SITL's default (CMAC)
 DEFAULT_STATE_DIR = os.path.join(os.environ.get("XDG_STATE_HOME", os.path.expanduser("~/.local/state")),
@@ -51,6 +52,7 @@ class WorldConfig:
     sysid_base: int = 1
     signing_key: bytes | None = None
     missions: dict[int, list[MissionItem]] = field(default_factory=dict)  # vehicle index -> MISSION at start
+    wind: WindParams | None = None    # None: from the vehicles' SIM_WIND_* parameters
 
     def vehicle_endpoints(self, i: int) -> list[str]:
         if i in self.endpoints:
@@ -90,6 +92,8 @@ class World:
         self.unix_start_us = int(time.time() * 1e6)
         self.vehicles: list[Vehicle] = []
         self.fleets: list[tuple[str, object]] = []
+        # one air mass for the world (SIM_WIND_*), turbulence seeded by the world's seed
+        self.wind = WindField(cfg.wind, cfg.seed)
         file_params = read_parm_file(cfg.params_file) if cfg.params_file else {}
         file_params.pop("SYSID_THISMAV", None)
         index = 0
@@ -118,7 +122,7 @@ class World:
                     fleet.set_params(own, i=j)
             self.fleets.append((kind, fleet))
             for j in range(n):
-                push = self._pusher(fleet, core_names, j)
+                push = self._pusher(fleet, core_names, j, stores[j])
                 # missions, fence and rally points persist beside the parameters
                 missions = PersistentMissionStore(missions_path(saves[j])) if saves[j] else MissionStore()
                 ap = ap_cls(fleet, j, stores[j], cfg.home, starts[j], push_params=push, missions=missions)
@@ -129,6 +133,7 @@ class World:
                     ap.missions.replace_all(MISSION, cfg.missions[index])
                     ap.mission_uploaded(MISSION)
                 index += 1
+        self._init_wind()
         self._stop: asyncio.Event | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._thread: threading.Thread | None = None
@@ -141,14 +146,48 @@ class World:
         every 2 m, rovers 3 m south of them."""
         return (0.0, 2.0 * j, 0.0) if kind == "copter" else (-3.0, 2.0 * j, 0.0)
 
-    @staticmethod
-    def _pusher(fleet, core_names, j):
-        """Parameter changes of vehicle j (PARAM_SET, DO_CHANGE_SPEED) reach vehicle j only."""
+    def _pusher(self, fleet, core_names, j, store):
+        """Parameter changes of vehicle j (PARAM_SET, DO_CHANGE_SPEED) reach vehicle j only;
+        SIM_WIND_* change the world's air (there is one) and every vehicle's copy of them."""
         def push(values: dict) -> None:
             sel = {k: float(v) for k, v in values.items() if not core_names or k in core_names}
             if sel:
                 fleet.set_params(sel, i=j)
+            if any(k in WindParams.NAMES for k in values) and self.vehicles:
+                self.set_wind(WindParams.from_params(store.values))
         return push
+
+    # ----- wind ---------------------------------------------------------------------------
+    def _init_wind(self) -> None:
+        if self.cfg.wind is not None:
+            self.set_wind(self.cfg.wind)
+        elif self.vehicles:
+            self.set_wind(WindParams.from_params(self.vehicles[0].ap.params.values))
+
+    def set_wind(self, params: WindParams) -> None:
+        """The world's wind from now on (the air follows within wind.SMOOTH_TAU); every
+        vehicle's SIM_WIND_* show it (not saved: the world's option, not the vehicle's)."""
+        self.wind.set(params)
+        for v in self.vehicles:
+            store = v.ap.params
+            for name, value in params.as_params().items():
+                if name in store and store.get(name) != value:
+                    store.set(name, value, save=False)
+
+    def _update_air(self) -> None:
+        """Each fleet's air velocity for the next autopilot period (50 Hz is plenty for a
+        wind whose turbulence has a 0.5 s correlation time)."""
+        w = self.wind
+        if not w.active:
+            for _, fleet in self.fleets:
+                if fleet.air is not None:
+                    fleet.set_air(None)
+            return
+        dt = self.dt * self.ap_every
+        w.advance(dt)
+        for kind, fleet in self.fleets:
+            h = fleet.home[:, 2] - fleet.pos[:, 2]        # height above its home ground, m
+            fleet.set_air(w.air_velocity(kind, h, h > 0.05, dt))
 
     def clock(self) -> float:
         return self.t
@@ -156,6 +195,8 @@ class World:
     # ----- stepping ---------------------------------------------------------------------
     def step(self) -> None:
         dt = self.dt
+        if self.steps % self.ap_every == 0:
+            self._update_air()
         for _, fleet in self.fleets:
             fleet.step(dt)
         self.steps += 1
