@@ -138,7 +138,7 @@ class Battery:
         cap = float(p.get("BATT_CAPACITY", 3300))
         if cap <= 0:
             return None
-        return int(max(0.0, min(100.0, 100.0 * (1.0 - self.consumed_mah / cap))))
+        return int(round(max(0.0, min(100.0, 100.0 * (1.0 - self.consumed_mah / cap)))))
 
     def reading(self, p: Mapping[str, float]) -> BatteryReading:
         """What BATTERY_STATUS / SYS_STATUS report now."""
