@@ -1,8 +1,9 @@
 """Hover figures: where the drone hovers in a run, how well it holds, and the wobble there.
 
 A hover is a stretch of truth (SIM_STATE) of at least HOVER_MIN_S seconds where the drone is
-HOVER_MIN_HEIGHT m or more above its ground and its speed is under HOVER_SPEED horizontally
-and vertically. In it:
+HOVER_MIN_HEIGHT m or more above its ground, its horizontal speed is under HOVER_SPEED and its
+vertical speed under HOVER_VSPEED: holding a position, so a slow LAND descent (LAND_SPEED
+0.5 m/s, the end of every `towerlink fly` run) counts, a WPNAV_SPEED_UP climb does not. In it:
 - hover error: horizontal distance of the true position from that stretch's mean position
   (what wind and turbulence push it off by; the first SETTLE_S seconds are left out);
 - wobble: the ground-point error the attitude adds through the full-attitude drone frame
@@ -22,7 +23,8 @@ from typing import Any
 
 import numpy as np
 
-HOVER_SPEED = 0.3       # m/s
+HOVER_SPEED = 0.3       # m/s, horizontal
+HOVER_VSPEED = 1.0      # m/s, vertical
 HOVER_MIN_S = 3.0       # s
 HOVER_MIN_HEIGHT = 2.0  # m
 SETTLE_S = 1.0          # s left out at the start of each hover
@@ -32,7 +34,7 @@ def hover_segments(t: np.ndarray, xyz: np.ndarray, vel: np.ndarray) -> list[tupl
     """(start, end) sim times of the hovers in a truth track (t (N,), xyz/vel (N,3) NED)."""
     if len(t) == 0:
         return []
-    ok = ((np.hypot(vel[:, 0], vel[:, 1]) < HOVER_SPEED) & (np.abs(vel[:, 2]) < HOVER_SPEED)
+    ok = ((np.hypot(vel[:, 0], vel[:, 1]) < HOVER_SPEED) & (np.abs(vel[:, 2]) < HOVER_VSPEED)
           & (-xyz[:, 2] > HOVER_MIN_HEIGHT))
     out = []
     start = None
@@ -105,7 +107,8 @@ def format_hover(h: dict, wind: Any = None) -> list[str]:
     """The summary's hover lines."""
     wtxt = (f"wind {wind[0]:g} m/s from {wind[1]:g}°, turbulence {wind[2]:g} m/s" if wind else "no wind")
     if not h:
-        return [f"hover ({wtxt}): the drone did not hover ({HOVER_MIN_S:g} s under {HOVER_SPEED:g} m/s)"]
+        return [f"hover ({wtxt}): the drone did not hover ({HOVER_MIN_S:g} s under {HOVER_SPEED:g} m/s "
+                f"horizontally, {HOVER_VSPEED:g} m/s vertically, {HOVER_MIN_HEIGHT:g} m up)"]
     e = h["error"]
     lines = [f"hover ({wtxt}; {h['seconds']:.0f} s in {len(h['segments'])} hover(s), "
              f"mean tilt {h['tilt_mean_deg']:.1f}°): position error RMS {e['rms']:.3f} m, max {e['max']:.3f} m"]

@@ -1,6 +1,12 @@
 """The SITL world: one sim clock, batched fleets, per-vehicle autopilots and MAVLink links,
 all stepped in lockstep on one asyncio event loop.
 
+Wind: one air mass per world (vehicle/physics/wind.py, ArduPilot's SIM_WIND_*), from
+WorldConfig.wind (`towerlink sitl --wind`, a scenario's wind table) or else vehicle 0's
+SIM_WIND_* parameters; every vehicle's SIM_WIND_* show it and a PARAM_SET of one on any
+vehicle changes it. Turbulence is seeded by the world's seed. The fleets get their air
+velocity at the autopilot rate.
+
 Time: physics advances in fixed steps of 1/rate sim seconds; autopilots and telemetry run
 every `ap_every` steps (50 Hz). With `speedup` N the world tracks N sim seconds per wall
 second; when the CPU cannot keep up it runs slower (re-anchoring its wall reference), never
