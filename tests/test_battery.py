@@ -249,8 +249,12 @@ def test_sys_status_battery_bits():
 # ---------------------------------------------------------------- over pymavlink
 
 def test_battery_status_shows_the_drain_over_pymavlink(processes, tmp_path):
-    sitl = Sitl(processes, tmp_path, drones=1, rovers=0, speedup=10.0)
+    """Also: `sitl --wind` shows in the vehicle's SIM_WIND_* parameters (PARAM_READ)."""
+    sitl = Sitl(processes, tmp_path, drones=1, rovers=0, speedup=10.0, extra=("--wind", "8,270,1"))
     m = connect(sitl.udp[0])
+    for name, want in (("SIM_WIND_SPD", 8.0), ("SIM_WIND_DIR", 270.0), ("SIM_WIND_TURB", 1.0)):
+        m.mav.param_request_read_send(m.target_system, m.target_component, name.encode(), -1)
+        assert recv(m, "PARAM_VALUE", 5, cond=lambda p: p.param_id == name).param_value == want
     m.mav.request_data_stream_send(m.target_system, m.target_component, mav.MAV_DATA_STREAM_EXTRA3, 5, 1)
     rest = recv(m, "BATTERY_STATUS", 10)
     assert rest.current_battery < 50 and rest.voltages[0] > 12400 and rest.battery_remaining == 100
