@@ -30,7 +30,7 @@ import time
 from dataclasses import dataclass
 
 from gcs.dialect import towerlink as _tl
-from bridge.peers import PeerTable
+from gcs.peers import PeerTable
 from gcs.endpoints import parse_connection as parse_url
 
 try:  # pymavlink picks fastcrc when installed

@@ -15,7 +15,7 @@ import sys
 import threading
 import time
 
-from tools.benchtable import machine, table
+from tools.benchtable import machine, table, stop_process
 
 
 def _cpu_seconds(pid: int) -> float:
@@ -126,12 +126,7 @@ def main(argv: list[str] | None = None) -> int:
         c1, w1, p1, b1, s1, d1 = (_cpu_seconds(proc.pid), time.monotonic(), sink.packets, sink.bytes,
                                   sink.boot_ms, sink.datagrams)
     finally:
-        proc.terminate()
-        try:
-            proc.wait(10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+        stop_process(proc)
         sink.close()
     wall = w1 - w0
     cpu = (c1 - c0) / wall

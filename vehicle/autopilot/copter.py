@@ -1,4 +1,4 @@
-"""ArduCopter-like autopilot: STABILIZE, GUIDED (takeoff, targets), LOITER, RTL, LAND.
+"""ArduCopter-like autopilot: STABILIZE, AUTO, GUIDED (takeoff, targets), LOITER, RTL, LAND.
 
 Setpoints per mode (world NED, sent to the CopterFleet every autopilot tick):
   GUIDED   on the ground: nothing (motors idle) until NAV_TAKEOFF; in the air: the last
@@ -6,7 +6,9 @@ Setpoints per mode (world NED, sent to the CopterFleet every autopilot tick):
            rate), holding position when there is none; velocity and acceleration targets
            expire after GUID_TIMEOUT (3 s) and the copter stops and holds.
   LOITER   holds the position where it was entered.
-  RTL      climbs to RTL_ALT (or stays higher), flies home, descends and lands, disarms.
+  AUTO     the stored mission (auto.py, auto_commands.py; the copter's side in copter_auto.py).
+  RTL      climbs to RTL_ALT (or stays higher), flies home or to the nearest rally point
+           (rally.py), descends and lands, disarms.
   LAND     descends at LAND_SPEED (WPNAV_SPEED_DN / LAND_SPEED_HIGH above 10 m) over the point
            where it was entered, disarms once landed.
   STABILIZE with no RC: level attitude (zero horizontal acceleration) at constant altitude.

@@ -17,16 +17,14 @@ from __future__ import annotations
 import asyncio
 import socket
 import time
-from collections import OrderedDict
 from collections.abc import Callable
 
 from gcs.endpoints import parse_connection
+from gcs.peers import MAX_PEERS, PEER_TIMEOUT, PeerTable
 
 VEHICLE_KINDS = ("udpin", "udpout", "tcpin")
 Handler = Callable[[bytes, "Channel"], "bool | None"]
 
-PEER_TIMEOUT = 30.0    # wall s: a UDP peer silent this long is dropped (a GCS sends 1 Hz heartbeats)
-MAX_PEERS = 64         # UDP peers per endpoint; past it the least recently heard is dropped
 
 
 def parse_endpoint(spec: str) -> tuple[str, str, int]:
@@ -85,11 +83,22 @@ class UdpIn(Endpoint):
         self.spec = f"udpin:{host}:{port}"
         self.host, self.port, self.on_data = host, port, on_data
         self.transport = None
-        self.peer_timeout, self.max_peers, self.clock = peer_timeout, max_peers, clock
-        self.peers: OrderedDict[tuple, Channel] = OrderedDict()   # least recently heard first
-        self.heard: dict[tuple, float] = {}
+        self.clock = clock
+        self.peers = PeerTable(peer_timeout, max_peers)   # addr -> its reply Channel (gcs.peers)
         self.next_expiry = 0.0
         self.dropped_peers = 0
+
+    @property
+    def peer_timeout(self) -> float:
+        return self.peers.timeout
+
+    @peer_timeout.setter
+    def peer_timeout(self, seconds: float) -> None:
+        self.peers.timeout = seconds
+
+    @property
+    def max_peers(self) -> int:
+        return self.peers.max_peers
 
     async def start(self) -> None:
         loop = asyncio.get_running_loop()
@@ -98,36 +107,24 @@ class UdpIn(Endpoint):
 
     def received(self, data: bytes, addr) -> None:
         ch = self.peers.get(addr)
-        known = ch is not None
         if ch is None:      # replies to this packet may go back; it is no peer until it checks out
             ch = Channel(f"{self.spec}<-{addr[0]}:{addr[1]}", lambda b, a=addr: self.transport.sendto(b, a))
         if not self.on_data(data, ch):
             return
-        self.heard[addr] = self.clock()
-        if known:
-            self.peers.move_to_end(addr)
-            return
-        self.peers[addr] = ch
-        while len(self.peers) > self.max_peers:
-            self._drop(next(iter(self.peers)))
+        self._closed(self.peers.heard(addr, self.clock(), ch))
 
-    def _drop(self, addr) -> None:
-        ch = self.peers.pop(addr, None)
-        self.heard.pop(addr, None)
-        if ch is not None:
+    def _closed(self, dropped) -> None:
+        for _addr, ch in dropped:
             ch.closed = True
             self.dropped_peers += 1
 
     def expire(self) -> None:
-        """Drop the peers silent for longer than peer_timeout (checked at most once a second)."""
+        """Drop the peers silent for longer than the timeout (checked at most once a second)."""
         now = self.clock()
         if now < self.next_expiry:
             return
         self.next_expiry = now + min(1.0, self.peer_timeout / 4)
-        for addr in list(self.peers):          # least recently heard first
-            if now - self.heard.get(addr, now) <= self.peer_timeout:
-                break
-            self._drop(addr)
+        self._closed(self.peers.expire(now))
 
     def send(self, buf: bytes) -> None:
         if self.transport is None:
