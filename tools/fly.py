@@ -286,7 +286,16 @@ class Launch:
                              "--no-save", "--tcp-base", "0", "--udp-base", "0",
                              "--endpoint", f"0=udpin:{h}:{self.ports['drone']}",
                              "--endpoint", f"1=udpin:{h}:{self.ports['rover']}",
-                             "--out", f"udpout:{h}:{self.ports['vehicles']}", *self.sitl_args)
+                             "--out", f"udpout:{h}:{self.ports['vehicles']}", *self._scenario_wind(),
+                             *self.sitl_args)
+
+    def _scenario_wind(self) -> list[str]:
+        """The scenario's wind table as `sitl --wind` (none when it has no wind)."""
+        if not self.scenario:
+            return []
+        from gcs.scenario import load_scenario
+        w = load_scenario(self.scenario).wind_arg()
+        return ["--wind", w] if w else []
 
     def bridge_cmd(self) -> list[str]:
         h = self.host

@@ -38,6 +38,13 @@ Examples:
   towerlink sitl --endpoint 0=udpin:127.0.0.1:20000 --out udpout:127.0.0.1:14550
   towerlink sitl --mission 0=survey.waypoints       # vehicle 0 starts with this mission
 
+Wind (as ArduPilot SITL's SIM_WIND_*): --wind SPD,DIR[,TURB] sets one air mass for the world:
+speed m/s, the direction it comes FROM in degrees (270 = from the west), turbulence m/s (standard
+deviation). Every vehicle's SIM_WIND_* parameters show it, and a PARAM_SET of SIM_WIND_* on any
+vehicle changes it. With ArduPilot's default profile (SIM_WIND_T 0) the wind grows as the square
+root of height up to SIM_WIND_T_ALT (60 m); SIM_WIND_T 1 blows at full speed at every height.
+  towerlink sitl --wind 8,270,1                     # 8 m/s westerly, 1 m/s turbulence
+
 Missions, fences and rally points uploaded by a GCS are saved beside the parameters
 (STATE_DIR/drone<j>.missions.json) and loaded on the next start. --mission I=FILE loads a
 QGC WPL 110 file (as written by QGroundControl, Mission Planner, MAVProxy 'wp save') into
@@ -117,6 +124,14 @@ def _mission(s: str):
     return int(i), items
 
 
+def _wind(s: str):
+    from vehicle.physics.wind import parse_wind
+    try:
+        return parse_wind(s)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e))
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--drones", type=int, default=1, metavar="N", help="number of drones (default 1)")
     p.add_argument("--rovers", type=int, default=1, metavar="M", help="number of rovers (default 1)")
@@ -136,6 +151,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="endpoint for vehicle I; replaces its defaults (repeatable)")
     p.add_argument("--mission", action="append", default=[], type=_mission, metavar="I=FILE",
                    help="QGC WPL 110 file loaded into vehicle I's mission at start (repeatable)")
+    p.add_argument("--wind", type=_wind, default=None, metavar="SPD,DIR[,TURB]",
+                   help="wind: speed m/s, direction it comes from (deg), turbulence m/s "
+                        "(default: the SIM_WIND_* parameters, calm)")
     p.add_argument("--host", default="127.0.0.1", help="address of the default endpoints (default 127.0.0.1)")
     p.add_argument("--base-port", "--tcp-base", dest="tcp_base", type=int, default=5760,
                    help="TCP port of vehicle 0, +10 per vehicle, +1 when +10 does not fit (default 5760; 0: none)")
@@ -166,7 +184,8 @@ def config_from_args(a: argparse.Namespace) -> WorldConfig:
                        tcp_base=a.tcp_base or None, udp_base=a.udp_base or None, host=a.host,
                        outs=list(a.out), endpoints=endpoints, sysid_base=a.sysid_base,
                        signing_key=signing_key(a.signing_key), missions=dict(a.mission),
-                       sysids=dict(a.sysid), group_size=a.group_size)
+                       sysids=dict(a.sysid), group_size=a.group_size,
+                       wind=getattr(a, "wind", None))
 
 
 def run(args: argparse.Namespace) -> int:

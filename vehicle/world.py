@@ -1,6 +1,12 @@
 """The SITL world: one sim clock, batched fleets, per-vehicle autopilots and MAVLink links,
 all stepped in lockstep on one asyncio event loop.
 
+Wind: one air mass per world (vehicle/physics/wind.py, ArduPilot's SIM_WIND_*), from
+WorldConfig.wind (`towerlink sitl --wind`, a scenario's wind table) or else vehicle 0's
+SIM_WIND_* parameters; every vehicle's SIM_WIND_* show it and a PARAM_SET of one on any
+vehicle changes it. Turbulence is seeded by the world's seed. The fleets get their air
+velocity at the autopilot rate.
+
 Time: physics advances in fixed steps of 1/rate sim seconds; autopilots and telemetry run
 every `ap_every` steps (50 Hz). With `speedup` N the world tracks N sim seconds per wall
 second; when the CPU cannot keep up it runs slower (re-anchoring its wall reference), never
@@ -30,6 +36,7 @@ from vehicle.autopilot.params import (COPTER_TABLE, ROVER_TABLE, _warn, core_tab
 from vehicle.link import VehicleLink
 from vehicle.network_plan import NetworkPlan
 from vehicle.network_plan import plan as plan_world
+from vehicle.physics.wind import WindField, WindParams
 
 DEFAULT_HOME = (-35.363261, 149.165230, 584.0)      # ArduPilot SITL's default (CMAC)
 PLAN_FILE = "network_plan.json"      # in the state dir: the network plan of the running world
@@ -60,6 +67,7 @@ class WorldConfig:
     group_size: int | None = None                               # vehicles per MAVLink network (default 254)
     share: tuple[int, int] | None = None      # vehicle indices [lo, hi) this process runs (--workers)
     start_at: float | None = None             # unix time of sim t = 0 (default: now)
+    wind: WindParams | None = None            # None: from the vehicles' SIM_WIND_* parameters
 
     def network_plan(self) -> NetworkPlan:
         """Sysids, networks and ports of every vehicle (vehicle/network_plan.py); PlanError."""
@@ -100,6 +108,8 @@ class World:
         self.vehicles: list[Vehicle] = []
         self.fleets: list[tuple[str, object]] = []
         self.plan = cfg.network_plan()        # PlanError before anything is built
+        # one air mass for the world (SIM_WIND_*), turbulence seeded by the world's seed
+        self.wind = WindField(cfg.wind, cfg.seed)
         file_params = read_parm_file(cfg.params_file) if cfg.params_file else {}
         file_params.pop("SYSID_THISMAV", None)
         lo, hi = cfg.share if cfg.share is not None else (0, cfg.drones + cfg.rovers)
@@ -138,7 +148,7 @@ class World:
             self.fleets.append((kind, fleet))
             for k, j in enumerate(js):     # k: index in the fleet, j: the kind's index
                 index = first + j
-                push = self._pusher(fleet, core_names, k)
+                push = self._pusher(fleet, core_names, k, stores[k])
                 # missions, fence and rally points persist beside the parameters
                 missions = PersistentMissionStore(missions_path(saves[k])) if saves[k] else MissionStore()
                 ap = ap_cls(fleet, k, stores[k], cfg.home, starts[k], push_params=push, missions=missions)
@@ -155,6 +165,7 @@ class World:
         for v in self.vehicles:
             booted[v.index] = v.sysid
         self.plan = self.plan.with_sysids(booted)
+        self._init_wind()
         self._stop: asyncio.Event | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._thread: threading.Thread | None = None
@@ -167,14 +178,48 @@ class World:
         every 2 m, rovers 3 m south of them."""
         return (0.0, 2.0 * j, 0.0) if kind == "copter" else (-3.0, 2.0 * j, 0.0)
 
-    @staticmethod
-    def _pusher(fleet, core_names, j):
-        """Parameter changes of vehicle j (PARAM_SET, DO_CHANGE_SPEED) reach vehicle j only."""
+    def _pusher(self, fleet, core_names, j, store):
+        """Parameter changes of vehicle j (PARAM_SET, DO_CHANGE_SPEED) reach vehicle j only;
+        SIM_WIND_* change the world's air (there is one) and every vehicle's copy of them."""
         def push(values: dict) -> None:
             sel = {k: float(v) for k, v in values.items() if not core_names or k in core_names}
             if sel:
                 fleet.set_params(sel, i=j)
+            if any(k in WindParams.NAMES for k in values) and self.vehicles:
+                self.set_wind(WindParams.from_params(store.values))
         return push
+
+    # ----- wind ---------------------------------------------------------------------------
+    def _init_wind(self) -> None:
+        if self.cfg.wind is not None:
+            self.set_wind(self.cfg.wind)
+        elif self.vehicles:
+            self.set_wind(WindParams.from_params(self.vehicles[0].ap.params.values))
+
+    def set_wind(self, params: WindParams) -> None:
+        """The world's wind from now on (the air follows within wind.SMOOTH_TAU); every
+        vehicle's SIM_WIND_* show it (not saved: the world's option, not the vehicle's)."""
+        self.wind.set(params)
+        for v in self.vehicles:
+            store = v.ap.params
+            for name, value in params.as_params().items():
+                if name in store and store.get(name) != value:
+                    store.set(name, value, save=False)
+
+    def _update_air(self) -> None:
+        """Each fleet's air velocity for the next autopilot period (50 Hz is plenty for a
+        wind whose turbulence has a 0.5 s correlation time)."""
+        w = self.wind
+        if not w.active:
+            for _, fleet in self.fleets:
+                if fleet.air is not None:
+                    fleet.set_air(None)
+            return
+        dt = self.dt * self.ap_every
+        w.advance(dt)
+        for kind, fleet in self.fleets:
+            h = fleet.home[:, 2] - fleet.pos[:, 2]        # height above its home ground, m
+            fleet.set_air(w.air_velocity(kind, h, h > 0.05, dt))
 
     def clock(self) -> float:
         return self.t
@@ -182,6 +227,8 @@ class World:
     # ----- stepping ---------------------------------------------------------------------
     def step(self) -> None:
         dt = self.dt
+        if self.steps % self.ap_every == 0:
+            self._update_air()
         for _, fleet in self.fleets:
             fleet.step(dt)
         self.steps += 1
