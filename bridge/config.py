@@ -40,6 +40,7 @@ class BridgeConfig:
     trust_sysids: tuple = (TOWER_SYSID,)
     allow_redefine: bool = False    # may a trusted sender redefine a scenario frame?
     signing_key: bytes | None = None
+    lockstep: bool = False      # issue 11: a participant of the world's lockstep (bridge.lockstep_desk)
 
 
 @dataclass

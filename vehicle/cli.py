@@ -38,6 +38,14 @@ from gcs.signing import key_from_text as signing_key
 from vehicle.world import DEFAULT_HOME, DEFAULT_STATE_DIR, World, WorldConfig
 
 
+def _speedup(s: str) -> float:
+    from gcs.lockstep import speedup_arg
+    try:
+        return speedup_arg(s)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e))
+
+
 def _home(s: str) -> tuple[float, float, float]:
     try:
         lat, lon, alt = (float(x) for x in s.split(","))
@@ -93,8 +101,17 @@ def _mission(s: str):
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--drones", type=int, default=1, metavar="N", help="number of drones (default 1)")
     p.add_argument("--rovers", type=int, default=1, metavar="M", help="number of rovers (default 1)")
-    p.add_argument("--speedup", type=float, default=1.0, metavar="N",
-                   help="sim seconds per wall second, lockstep (default 1)")
+    p.add_argument("--speedup", type=_speedup, default=1.0, metavar="N|max",
+                   help="at most N sim seconds per wall second (default 1); 'max': as fast as the CPU "
+                        "and the --lockstep participants allow")
+    p.add_argument("--lockstep", type=int, default=0, metavar="N",
+                   help="whole-system lockstep (issue 11): wait at t=0 until N participants (bridge, "
+                        "tower) sent TOWERLINK_LOCKSTEP JOIN on every vehicle, then never step past a "
+                        "TICK until every participant ACKed it (default 0: off)")
+    p.add_argument("--lockstep-period", type=float, default=0.04, metavar="S",
+                   help="sim seconds between lockstep TICKs (default 0.04; rounded to the 50 Hz autopilot tick)")
+    p.add_argument("--lockstep-timeout", type=float, default=10.0, metavar="S",
+                   help="wall seconds a participant may stay silent before it is dropped (default 10)")
     p.add_argument("--rate", type=float, default=400.0, metavar="HZ", help="physics rate (default 400)")
     p.add_argument("--home", type=_home, default=DEFAULT_HOME, metavar="LAT,LON,ALT",
                    help="world origin = home (default %s,%s,%s, ArduPilot SITL's)" % DEFAULT_HOME)
@@ -128,7 +145,9 @@ def config_from_args(a: argparse.Namespace) -> WorldConfig:
                        seed=a.seed, params_file=a.params, state_dir=None if a.no_save else a.state_dir,
                        tcp_base=a.tcp_base or None, udp_base=a.udp_base or None, host=a.host,
                        outs=list(a.out), endpoints=endpoints, sysid_base=a.sysid_base,
-                       signing_key=signing_key(a.signing_key), missions=dict(a.mission))
+                       signing_key=signing_key(a.signing_key), missions=dict(a.mission),
+                       lockstep=a.lockstep, lockstep_period=a.lockstep_period,
+                       lockstep_timeout=a.lockstep_timeout)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -137,6 +156,10 @@ def run(args: argparse.Namespace) -> int:
         return 2
     if args.speedup <= 0 or args.rate < 50:
         print("towerlink sitl: --speedup must be > 0 and --rate >= 50", file=sys.stderr)
+        return 2
+    if args.lockstep < 0 or args.lockstep_period <= 0 or args.lockstep_timeout <= 0:
+        print("towerlink sitl: --lockstep must be >= 0, --lockstep-period and --lockstep-timeout > 0",
+              file=sys.stderr)
         return 2
     n = args.drones + args.rovers
     bad = [i for i, _ in args.mission if i >= n]
