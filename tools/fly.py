@@ -390,6 +390,7 @@ class Launch:
             if now - last_params > 2.0 and self.monitor is not None:
                 last_params = now
                 self.monitor.request_params()
+            sp = self.achieved_speedup()     # also anchors sim0 for the summary when quiet
             if progress and now - last_print >= progress:
                 last_print = now
                 print(self.progress_line(), file=out, flush=True)

@@ -372,4 +372,8 @@ class World:
         for v in self.vehicles:
             s = v.link.stats
             parts.append(f"sysid {v.sysid}: " + " ".join(f"{k}={s[k]}" for k in sorted(s)))
-        return "stats: " + "; ".join(parts)
+        line = "stats: " + "; ".join(parts)
+        if self.gate is not None:
+            line += (f"\nlockstep: {self.lockstep_waits} waits for ACKs, {self.lockstep_wait_wall:.2f} s wall "
+                     f"waiting; {self.gate.dropped} participant(s) dropped for silence")
+        return line
