@@ -23,6 +23,10 @@ The rooms, and what a packet meets on its way
     and TIMESYNC -> clock_desk. Tower goals -> goals.GoalDesk.try_goal (one hop: lookup,
     translate, send). Telemetry to the tower is mapped world -> tower here (a telemetry
     message without a transform is dropped and counted, never sent in the wrong frame).
+Lockstep (--lockstep, bridge.lockstep_desk)
+    The world's TOWERLINK_LOCKSTEP TICKs (never routed on) make a barrier once they came on
+    every vehicle link; goal retries and the follower's checks then run at barriers on sim
+    time instead of every wall tick, the bridge ACKs, and relays the TICK to the tower.
 """
 from __future__ import annotations
 

@@ -33,6 +33,12 @@ drone's ground point, from truth); and the wobble figure for both follow frames
 (the bridge computes the ground point through the full-attitude and the yaw-only
 frame on every follow tick, whichever one it steers by).
 
+With --lockstep (issue 11) the world waits for the bridge and the tower (TOWERLINK_LOCKSTEP),
+so a seed gives the same summary figures at any --speedup (max: as fast as the machine allows)
+and under any CPU load:
+
+  towerlink fly --lockstep --speedup max
+
 Exit status 0 iff the tower reached every goal.
 """
 from __future__ import annotations

@@ -22,6 +22,12 @@ Examples:
   towerlink sitl --endpoint 0=udpin:127.0.0.1:20000 --out udpout:127.0.0.1:14550
   towerlink sitl --mission 0=survey.waypoints       # vehicle 0 starts with this mission
 
+Lockstep (issue 11): with --lockstep N the world waits at t=0 for N participants (towerlink
+bridge --lockstep, towerlink tower --lockstep through it) and never steps past a TOWERLINK_LOCKSTEP
+TICK until each has ACKed it; one silent for --lockstep-timeout wall seconds is dropped. Other
+clients see an ordinary vehicle. --speedup max then runs as fast as the slowest participant allows:
+  towerlink sitl --lockstep 2 --speedup max
+
 Missions, fences and rally points uploaded by a GCS are saved beside the parameters
 (STATE_DIR/drone<j>.missions.json) and loaded on the next start. --mission I=FILE loads a
 QGC WPL 110 file (as written by QGroundControl, Mission Planner, MAVProxy 'wp save') into

@@ -4,7 +4,14 @@ all stepped in lockstep on one asyncio event loop.
 Time: physics advances in fixed steps of 1/rate sim seconds; autopilots and telemetry run
 every `ap_every` steps (50 Hz). With `speedup` N the world tracks N sim seconds per wall
 second; when the CPU cannot keep up it runs slower (re-anchoring its wall reference), never
-skipping or stretching a step. All MAVLink time fields are this sim time.
+skipping or stretching a step. All MAVLink time fields are this sim time. `speedup`
+inf (`--speedup max`) does not pace at all.
+
+Lockstep (issue 11, `lockstep` N > 0, off by default): the world waits at t = 0 for N
+participants (TOWERLINK_LOCKSTEP JOIN on every vehicle), then at every lockstep frame sends
+TICK(t) after everything it sent up to t and does not step on until every participant ACKed
+t (vehicle/lockstep.py). Participants' packets arriving between TICKs are held to the next
+TICK boundary, so they take effect at a sim time fixed by the data they react to.
 
 Python API (tests, tools):
     w = World(WorldConfig(drones=1, rovers=1, endpoints={0: ["udpin:127.0.0.1:14560"]}))
