@@ -71,6 +71,15 @@ def is_lockstep(data: bytes) -> bool:
     return len(data) >= 12 and data[0] == _STX2 and data[7] | (data[8] << 8) | (data[9] << 16) == MSG_ID
 
 
+def sender(data: bytes) -> tuple[int, int] | None:
+    """(sysid, compid) from the header of the MAVLink frame `data` starts with, or None."""
+    if len(data) >= 10 and data[0] == _STX2:
+        return data[5], data[6]
+    if len(data) >= 6 and data[0] == 0xFE:
+        return data[3], data[4]
+    return None
+
+
 def unpack(data: bytes) -> tuple[Lockstep | None, bytes]:
     """The first frame of `data` if it is a valid TOWERLINK_LOCKSTEP, and the bytes after it.
 

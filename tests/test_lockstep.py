@@ -111,6 +111,16 @@ def test_gate_drops_a_silent_participant_and_a_leaving_one():
     assert g.participants == {} and g.passed(10**12)
 
 
+def test_gate_holds_a_participants_packets_to_the_next_boundary_once_it_acked():
+    g = LockstepGate(vehicles=1, expect=1)
+    g.on_message(msg(L.JOIN), 0, "a", 0.0)
+    assert not g.holds(250, 191, 0, 40000)       # at TICK(40 ms), not yet ACKed: handled now
+    assert g.holds(250, 191, 0, None)            # between TICKs: the next boundary
+    g.on_message(msg(L.ACK, 40000), 0, "a", 0.1)
+    assert g.holds(250, 191, 0, 40000)           # after its ACK(40 ms): belongs to the next frame
+    assert not g.holds(1, 190, 0, None)          # anyone else: an ordinary vehicle, on arrival
+
+
 # ----------------------------------------------------------------------------- a world held over UDP
 
 
@@ -141,14 +151,35 @@ class Participant:
         self.sock.close()
 
 
-@pytest.fixture
-def held_world():
+    def messages_until_tick(self) -> tuple[list, int]:
+        """(messages before the next TICK, that TICK's time_usec)."""
+        out = []
+        while True:
+            data, _ = self.sock.recvfrom(65535)
+            for m in self.parser.parse_buffer(data) or []:
+                if m.get_type() == "TOWERLINK_LOCKSTEP" and m.kind == L.TICK:
+                    return out, m.time_usec
+                out.append(m)
+
+    def request_system_time(self) -> None:
+        mav = tl.MAVLink(None, srcSystem=self.sysid, srcComponent=self.compid)
+        self.sock.sendto(tl.MAVLink_command_long_message(1, 1, tl.MAV_CMD_REQUEST_MESSAGE, 0,
+                                                         tl.MAVLINK_MSG_ID_SYSTEM_TIME, 0, 0, 0, 0, 0, 0).pack(mav),
+                         self.addr)
+
+
+def start_world(speedup: float = math.inf):
     port = free_port()
-    w = World(WorldConfig(drones=1, rovers=0, state_dir=None, tcp_base=None, udp_base=None, speedup=math.inf,
+    w = World(WorldConfig(drones=1, rovers=0, state_dir=None, tcp_base=None, udp_base=None, speedup=speedup,
                           endpoints={0: [f"udpin:127.0.0.1:{port}"]}, lockstep=1, lockstep_period=0.04,
                           lockstep_timeout=1.0))
     w.start_thread()
-    p = Participant(port)
+    return w, Participant(port)
+
+
+@pytest.fixture
+def held_world():
+    w, p = start_world()
     try:
         yield w, p
     finally:
@@ -179,3 +210,60 @@ def test_a_silent_participant_is_dropped_and_the_world_goes_on(held_world, capsy
     assert w.gate.dropped == 1
     assert "lockstep: bridge (sysid 250, compid 191) silent for 1 s (wall): dropped, the world goes on" \
         in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("speedup", [math.inf, 20.0])
+def test_a_participants_packets_take_effect_at_a_tick_boundary(speedup):
+    """Sent before its ACK(t): handled at t. Sent after it: at the next TICK, t + 40 ms, never
+    in between, whenever the machine delivered it (paced at 20x the world sleeps mid-frame).
+    (The answer to a packet sent after the ACK may come before or after that next TICK: a
+    participant's reactions go before its ACK, so their answers come before the next TICK.)"""
+    w, p = start_world(speedup)
+    try:
+        p.send(L.JOIN)
+        t = p.next_tick()
+        sent_at, msgs = [], []
+        for _ in range(12):
+            p.request_system_time()
+            p.send(L.ACK, t)
+            p.request_system_time()
+            sent_at += [t // 1000, t // 1000 + 40]
+            before, nxt = p.messages_until_tick()
+            msgs += before
+            assert nxt == t + 40000
+            t = nxt
+        p.send(L.ACK, t)
+        msgs += p.messages_until_tick()[0]
+        replies = [msgs[i + 1].time_boot_ms for i, m in enumerate(msgs[:-1])
+                   if m.get_type() == "COMMAND_ACK" and m.command == tl.MAV_CMD_REQUEST_MESSAGE]
+        assert replies == sent_at
+    finally:
+        p.close()
+        w.stop()
+
+
+def test_a_third_party_client_sees_an_ordinary_vehicle_beside_a_participant(held_world):
+    """A pymavlink GCS (ardupilotmega, no towerlink dialect) gets heartbeats from the held world
+    and never a TOWERLINK_LOCKSTEP (it would not decode it)."""
+    from pymavlink import mavutil
+    w, p = held_world
+    port = p.addr[1]
+    p.send(L.JOIN)
+    t = p.next_tick()
+    gcs = mavutil.mavlink_connection(f"udpout:127.0.0.1:{port}", source_system=254, dialect="ardupilotmega")
+    try:
+        gcs.mav.heartbeat_send(6, 8, 0, 0, 4)
+        seen: list = []
+        while w.t < 2.5:                         # the participant keeps the world going
+            p.send(L.ACK, t)
+            t = p.next_tick()
+            while (m := gcs.recv_match(blocking=False)) is not None:
+                seen.append(m)
+        while (m := gcs.recv_match(blocking=True, timeout=0.5)) is not None:
+            seen.append(m)
+        types = {m.get_type() for m in seen}
+        assert "HEARTBEAT" in types and "ATTITUDE" in types
+        assert not types & {"BAD_DATA", "UNKNOWN_43005", "TOWERLINK_LOCKSTEP"}
+        assert all(m.get_msgId() != L.MSG_ID for m in seen)
+    finally:
+        gcs.close()

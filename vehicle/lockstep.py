@@ -11,6 +11,8 @@ vehicle index whose endpoint it arrived on and the reply channel, and asks it:
   vehicle link it joined on? Per link, because UDP keeps order only per socket pair: a
   reaction sent to vehicle 1 before the ACK is known to have arrived only when the ACK came
   on vehicle 1's endpoint too;
+* ``holds(sysid, compid, vehicle, boundary)``: must this participant's packet wait for the
+  next TICK boundary? (then it takes effect at a sim time the data fixes, not the machine);
 * ``drop_silent(wall)``: participants not heard from for ``timeout`` wall seconds, dropped
   (returned, to be logged) so the world goes on.
 
@@ -95,8 +97,16 @@ class LockstepGate:
             self.dropped += 1
         return gone
 
-    def is_participant_channel(self, channel) -> bool:
-        return any(ch is channel for p in self.participants.values() for ch in p.channels.values())
+    def holds(self, sysid: int, compid: int, vehicle: int, boundary_usec: int | None) -> bool:
+        """Must a packet from (sysid, compid) on `vehicle`'s endpoint wait for the next TICK?
+
+        Yes for a participant's packet while the world is between TICKs (boundary None), or
+        when it already ACKed the TICK the world stands at (it belongs to the next frame).
+        Packets of anyone else are handled on arrival (an ordinary vehicle)."""
+        p = self.participants.get((sysid, compid))
+        if p is None:
+            return False
+        return boundary_usec is None or p.acked.get(vehicle, -1) >= boundary_usec
 
     def channels(self, vehicle: int) -> list:
         """Where TICKs for `vehicle` go: each joined channel once."""

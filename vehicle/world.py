@@ -180,8 +180,9 @@ class World:
         self.gate = LockstepGate(len(self.vehicles), cfg.lockstep, cfg.lockstep_timeout)
         self._ticked_steps = -1
         self._gate_event: asyncio.Event | None = None
-        # packets from participants wait for the next TICK boundary, so each takes effect at
-        # a sim time fixed by the data it reacts to, never by when the machine delivered it
+        # a participant's packets take effect at a TICK boundary: the one the world stands at
+        # if it has not ACKed that TICK yet, else the next; so each takes effect at a sim time
+        # fixed by the data it reacts to, never by when the machine delivered it
         self._held: list[tuple] = []
         self._at_boundary = True
         self.lockstep_waits = 0
@@ -195,7 +196,8 @@ class World:
         def on_data(data: bytes, channel) -> bool:
             m, rest = lockstep_wire.unpack(data)
             if m is None:
-                if not self._at_boundary and self.gate.is_participant_channel(channel):
+                sender = lockstep_wire.sender(data)
+                if sender is not None and self.gate.holds(*sender, v.index, self._boundary_usec()):
                     self._held.append((inner, data, channel))
                     return True
                 return inner(data, channel)
@@ -213,6 +215,10 @@ class World:
 
     def t_usec(self) -> int:
         return int(round(self.steps * self.dt * 1e6))
+
+    def _boundary_usec(self) -> int | None:
+        """The TICK time the world stands at, or None while it is between TICKs."""
+        return self.t_usec() if self._at_boundary else None
 
     def _flush_held(self) -> None:
         """Deliver the participants' packets that came while the world was between TICKs."""
