@@ -419,4 +419,7 @@ def summary(b: Bridge) -> str:
                      f"samples held back {b.timeline.held(v.name)}")
     parts.append(f"follow ticks {b.follower.ticks}; decode errors {b.codec.decode_errors}; "
                  f"tower telemetry dropped (no transform) {b.tower_drops}")
+    if b.lockstep is not None:
+        parts.append(f"lockstep: {b.lockstep.barriers} barriers, last at {b.lockstep.sim_now:.3f} s sim; "
+                     f"tower {'joined' if b.lockstep.tower_joined else 'not joined'}")
     return "\n".join(parts)

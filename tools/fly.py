@@ -592,6 +592,9 @@ def run(args: argparse.Namespace) -> int:
                     echo=args.verbose, view_port=args.view, lockstep=args.lockstep)
     print(f"towerlink fly: world + bridge + tower on 127.0.0.1 (ports {launch.ports}); run folder {out}",
           flush=True)
+    if math.isinf(args.speedup) and not args.lockstep:
+        print("towerlink fly: --speedup max without --lockstep: the world runs as fast as the CPU and the "
+              "bridge and the tower fall behind it; the figures will depend on the machine", file=sys.stderr)
 
     def on_term(signum, frame):  # SIGTERM: same clean stop as Ctrl-C
         raise KeyboardInterrupt

@@ -113,7 +113,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--lockstep", type=int, default=0, metavar="N",
                    help="whole-system lockstep (issue 11): wait at t=0 until N participants (bridge, "
                         "tower) sent TOWERLINK_LOCKSTEP JOIN on every vehicle, then never step past a "
-                        "TICK until every participant ACKed it (default 0: off)")
+                        "TICK until every participant ACKed it; participants reach the world over its UDP "
+                        "endpoints (default 0: off)")
     p.add_argument("--lockstep-period", type=float, default=0.04, metavar="S",
                    help="sim seconds between lockstep TICKs (default 0.04; rounded to the 50 Hz autopilot tick)")
     p.add_argument("--lockstep-timeout", type=float, default=10.0, metavar="S",
