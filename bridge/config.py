@@ -40,6 +40,10 @@ class BridgeConfig:
     trust_sysids: tuple = (TOWER_SYSID,)
     allow_redefine: bool = False    # may a trusted sender redefine a scenario frame?
     signing_key: bytes | None = None
+    # a family (issue 12): every vehicle as (name, url, sysid), and (drone, rover) sysid pairs to
+    # follow; empty: the lab's drone and rover above
+    vehicles: list = field(default_factory=list)
+    pairs: list = field(default_factory=list)
 
 
 @dataclass
