@@ -544,9 +544,10 @@ def run_family(args: argparse.Namespace, sc, *, radius: float, finish: str, fram
             tlog = args.tlog if k == 0 else None     # one recording of the link is enough
             c = Client.connect(args.connect, log=logger(d.name), tlog=tlog)
             clients.append(c)
-            if k == 0:
-                c.add_listener(frames.on_message)
-                c.add_listener(watch.on_message)
+            # every connection gets the whole stream; each feeds the shared frames and watch
+            # (both locked), so they stay current while any drone is still flying
+            c.add_listener(frames.on_message)
+            c.add_listener(watch.on_message)
             i = order.index(d)
             above = gates[order[i - 1].sysid] if i > 0 else None
             goals = [(x, y, z) for x, y, z in d.goals]
@@ -562,8 +563,6 @@ def run_family(args: argparse.Namespace, sc, *, radius: float, finish: str, fram
         for c in clients:
             c.close()
         return 2
-    # the first connection also carries the transform stream and every drone's positions to
-    # the watch: keep it read while the other missions wait on their own links
     results: dict[int, MissionResult] = {}
 
     def fly(m: Mission) -> None:

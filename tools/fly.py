@@ -33,6 +33,16 @@ drone's ground point, from truth); and the wobble figure for both follow frames
 (the bridge computes the ground point through the full-attitude and the yaw-only
 frame on every follow tick, whichever one it steers by).
 
+A family or van scenario (`towerlink fly family`, `towerlink fly van`; shipped
+scenarios are named without .toml): the world starts every vehicle the scenario lists
+(--drones N --rovers M, one loopback port each), the bridge serves each (--vehicle
+SYSID=URL) with a follower per (drone, rover) pair, and the tower flies every drone at
+once. A van gets its route as a mission (van.waypoints: DO_CHANGE_SPEED, the route,
+DO_JUMP back, forever) and a driver on a port of its own puts it in AUTO and arms it
+(van.log). The summary then has a row per vehicle, a row per goal of every drone (with
+the time-travel figure when the tower rides the van) and the closest approach of two
+airborne drones; tracks.png draws every vehicle.
+
 Exit status 0 iff the tower reached every goal.
 """
 from __future__ import annotations
@@ -57,6 +67,7 @@ from gcs.mavstr import mav_str
 os.environ.setdefault("MAVLINK20", "1")
 
 DRONE, ROVER = 1, 2
+SITL_HOME = (-35.363261, 149.16523, 584.0)     # towerlink sitl's default --home (ArduPilot's CMAC)
 SCORING_PARAMS = ("WPNAV_SPEED", "WPNAV_ACCEL", "PSC_JERK_XY")
 
 
@@ -226,9 +237,12 @@ class Launch:
                  loss_seed: int = 1, sitl_args: tuple[str, ...] = (), bridge_args: tuple[str, ...] = (),
                  tower_args: tuple[str, ...] = (), echo: bool = False, host: str = "127.0.0.1",
                  view_port: int | None = None) -> None:
+        from gcs.scenario import load_scenario, scenario_path
         self.dir = Path(run_dir)
         self.dir.mkdir(parents=True, exist_ok=True)
-        self.scenario = str(Path(scenario).resolve()) if scenario else None
+        self.scenario = str(scenario_path(scenario).resolve()) if scenario else None
+        self.sc = load_scenario(self.scenario)
+        self.family = self.sc.is_family
         self.speedup = speedup
         self.seed = seed
         self.follow_frame = follow_frame
@@ -239,8 +253,14 @@ class Launch:
         self.sitl_args, self.bridge_args, self.tower_args = sitl_args, bridge_args, tower_args
         self.echo = echo
         self.host = host
-        names = ("drone", "rover", "tower", "vehicles", "bridge", "proxy")
+        names = ["drone", "rover", "tower", "vehicles", "bridge", "proxy"]
+        if self.family:
+            names += [f"vehicle{s}" for _n, s, _k in self.sc.vehicles]
+            if self.sc.van is not None:
+                names.append("van_driver")
         self.ports = dict(zip(names, free_udp_ports(len(names), host)))
+        self.van_driver: threading.Thread | None = None
+        self._van_stop = threading.Event()
         self.procs: dict[str, subprocess.Popen] = {}
         self.logs: dict[str, object] = {}
         self.proxy = None
@@ -272,17 +292,75 @@ class Launch:
 
     def sitl_cmd(self) -> list[str]:
         h = self.host
+        if self.family:
+            return self.family_sitl_cmd()
         return towerlink_cmd("sitl", "--speedup", f"{self.speedup:g}", "--seed", str(self.seed),
                              "--no-save", "--tcp-base", "0", "--udp-base", "0",
                              "--endpoint", f"0=udpin:{h}:{self.ports['drone']}",
                              "--endpoint", f"1=udpin:{h}:{self.ports['rover']}",
                              "--out", f"udpout:{h}:{self.ports['vehicles']}", *self.sitl_args)
 
+    def family_sitl_cmd(self) -> list[str]:
+        """Every vehicle of the scenario, vehicle i (sysid i+1) on its own udpin port."""
+        h, sc = self.host, self.sc
+        cmd = towerlink_cmd("sitl", "--drones", str(len(sc.drones)), "--rovers", str(len(sc.rovers)),
+                            "--speedup", f"{self.speedup:g}", "--seed", str(self.seed), "--no-save",
+                            "--tcp-base", "0", "--udp-base", "0",
+                            "--home", ",".join(f"{v:.7g}" for v in SITL_HOME),
+                            "--out", f"udpout:{h}:{self.ports['vehicles']}")
+        for _name, sysid, _kind in sc.vehicles:
+            cmd += ["--endpoint", f"{sysid - 1}=udpin:{h}:{self.ports[f'vehicle{sysid}']}"]
+        if sc.van is not None:
+            i = sc.van.sysid - 1
+            cmd += ["--endpoint", f"{i}=udpin:{h}:{self.ports['van_driver']}",
+                    "--mission", f"{i}={self.write_van_mission()}"]
+        return cmd + list(self.sitl_args)
+
+    def write_van_mission(self) -> Path:
+        """The van's route as a QGC WPL 110 mission, looped with DO_JUMP (world NED -> lat/lon)."""
+        from gcs.geo import ned_to_lla
+        from gcs.wpl import WplItem, write
+        van = self.sc.van
+        items = [WplItem(0, 1, 0, 16, 0, 0, 0, 0, SITL_HOME[0], SITL_HOME[1], SITL_HOME[2]),
+                 WplItem(1, 0, 3, 178, 1, van.speed, -1, 0, 0, 0, 0)]      # DO_CHANGE_SPEED ground
+        for x, y in van.route:
+            lat, lon, _alt = ned_to_lla(SITL_HOME, (x, y, 0.0))
+            items.append(WplItem(len(items), 0, 3, 16, 0, 0, 0, 0, lat, lon, 0.0))
+        items.append(WplItem(len(items), 0, 3, 177, 2, -1, 0, 0, 0, 0, 0))  # DO_JUMP to 2, forever
+        path = self.dir / "van.waypoints"
+        write(str(path), items)
+        return path
+
+    def drive_van(self) -> None:
+        """The van's driver: AUTO and arm on its own link, then keep the link read (van.log)."""
+        from gcs.client import Client, ClientError
+        van = self.sc.van
+        with open(self.dir / "van.log", "a") as f:
+            def log(msg: str) -> None:
+                f.write(f"van: {msg}\n")
+                f.flush()
+            try:
+                with Client.connect(f"udpout:{self.host}:{self.ports['van_driver']}", log=log) as c:
+                    c.wait_heartbeat(van.sysid, timeout=60)
+                    c.set_mode("AUTO", van.sysid, timeout=30)
+                    c.arm(van.sysid, timeout=60)
+                    log(f"AUTO and armed at t={c.sim_time(van.sysid):.2f} s: driving its route "
+                        f"at {van.speed:g} m/s")
+                    while not self._van_stop.is_set():
+                        c.poll(0.2)
+            except (ClientError, OSError) as exc:
+                log(f"could not start the van: {exc}")
+
     def bridge_cmd(self) -> list[str]:
         h = self.host
-        cmd = towerlink_cmd("bridge", "--tower", f"udpin:{h}:{self.ports['tower']}",
-                            "--drone", f"udpout:{h}:{self.ports['drone']}",
-                            "--rover", f"udpout:{h}:{self.ports['rover']}",
+        if self.family:
+            vehicles = []
+            for _name, sysid, _kind in self.sc.vehicles:
+                vehicles += ["--vehicle", f"{sysid}=udpout:{h}:{self.ports[f'vehicle{sysid}']}"]
+        else:
+            vehicles = ["--drone", f"udpout:{h}:{self.ports['drone']}",
+                        "--rover", f"udpout:{h}:{self.ports['rover']}"]
+        cmd = towerlink_cmd("bridge", "--tower", f"udpin:{h}:{self.ports['tower']}", *vehicles,
                             "--out", f"udpout:{h}:{self.ports['bridge']}",
                             "--speedup", f"{self.speedup:g}")
         if self.scenario:
@@ -318,6 +396,7 @@ class Launch:
                 self.goal_state.update(n=n, total=total, last=what)
                 if what == "reached":
                     self.goal_state["reached"] = n
+                    self.goal_state["count"] = self.goal_state.get("count", 0) + 1
             g = re.search(r"goal \d+/\d+ sent: \w+ \[([^\]]+)\] at t=([-\d.]+) s", line)
             if g and self.view is not None:
                 try:
@@ -339,6 +418,9 @@ class Launch:
             self.monitor.listeners["bridge"] = self.view.on_message
         self.monitor.start()
         self._start("sitl", self.sitl_cmd())
+        if self.family and self.sc.van is not None:
+            self.van_driver = threading.Thread(target=self.drive_van, daemon=True, name="van-driver")
+            self.van_driver.start()
         self.start_bridge()
         if self.tower_loss > 0:
             from tools.loss_proxy import LossProxy
@@ -405,6 +487,9 @@ class Launch:
         snap = self.monitor.snapshot() if self.monitor else {"sim": 0, "drone": None, "follow_err": None}
         gs = self.goal_state
         goal = f"goal {gs['n']}/{gs['total']} {gs['last']}" if gs["total"] else "goal -/- (preparing)"
+        if self.family:
+            total = sum(len(d.goals) for d in self.sc.drones)
+            goal = f"goals {gs.get('count', 0)}/{total} reached"
         d = snap["drone"]
         dtxt = f"drone [{d[0]:7.2f}, {d[1]:7.2f}, {d[2]:6.2f}]" if d else "drone [waiting]"
         e = snap["follow_err"]
@@ -436,6 +521,9 @@ class Launch:
                 except subprocess.TimeoutExpired:
                     _signal_group(p, signal.SIGKILL)
                     p.wait(5)
+        self._van_stop.set()
+        if self.van_driver is not None:
+            self.van_driver.join(3.0)
         if self.proxy is not None:
             self.proxy.stop()
         if self.monitor is not None:
@@ -466,7 +554,12 @@ class Launch:
         if self.sim0 is not None and self.monitor is not None:
             snap = self.monitor.snapshot()
             meta["achieved_speedup"] = (snap["sim"] - self.sim0[0]) / max(1e-6, time.monotonic() - self.sim0[1])
-        s = summarize(self.dir, tower=tower, scenario_path=self.scenario, meta=meta)
+        if self.family:
+            from tools.family_summary import format_family_summary, summarize_family
+            s = summarize_family(self.dir, tower=tower, scenario_path=self.scenario, meta=meta)
+            format_summary = format_family_summary  # noqa: F811 - the family's own text
+        else:
+            s = summarize(self.dir, tower=tower, scenario_path=self.scenario, meta=meta)
         s["ok"] = bool(s["ok"]) and tower_rc == 0
         (self.dir / "summary.json").write_text(json.dumps(s, indent=2, default=_json_default))
         text = format_summary(s)
@@ -526,7 +619,8 @@ def _json_default(o):
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenario", nargs="?", default=None,
-                        help="scenario TOML (default: the built-in lab scenario)")
+                        help="scenario TOML, or a shipped one by name: default, family (3 drones, "
+                             "3 rovers), van (the tower on a moving van); default: the lab scenario")
     parser.add_argument("--speedup", type=float, default=5.0,
                         help="sim seconds per wall second (default 5; the machine may deliver less)")
     parser.add_argument("--follow-frame", choices=("drone", "drone_yaw"), default=None,
