@@ -202,11 +202,12 @@ class Mission:
         self.log(f"drone: heartbeat, mode {st.mode_name}, {'armed' if st.armed else 'disarmed'}")
         c.set_mode("GUIDED", s, timeout=self.arm_timeout)
         self.log("mode GUIDED")
+        if self.before_takeoff is not None:
+            # wait here, disarmed: an armed copter left on the ground disarms itself (DISARM_DELAY)
+            self.before_takeoff()
         c.arm(s, timeout=self.arm_timeout)
         r.start_sim = c.sim_time(s)
         self.log(f"armed at t={r.start_sim:.2f} s (sim)")
-        if self.before_takeoff is not None:
-            self.before_takeoff()
         try:
             p = c.takeoff(self.altitude, s, timeout=self.goal_timeout,
                           tolerance=max(self.radius, 0.3))
@@ -556,7 +557,9 @@ def run_family(args: argparse.Namespace, sc, *, radius: float, finish: str, fram
                 goal_timeout=args.goal_timeout, resend=args.resend, sysid=d.sysid,
                 connect_timeout=args.connect_timeout, arm_timeout=args.connect_timeout,
                 log=logger(d.name), frames=frames,
-                before_takeoff=(lambda e=above: e.wait(args.goal_timeout)) if above is not None else None,
+                before_takeoff=(lambda e=above, n=d.name: (logger(n)("waiting for the layer above to be held"),
+                                                            e.wait(args.goal_timeout)))
+                if above is not None else None,
                 after_takeoff=gates[d.sysid].set))
     except ClientError as exc:
         log(str(exc))

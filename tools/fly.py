@@ -306,7 +306,7 @@ class Launch:
         cmd = towerlink_cmd("sitl", "--drones", str(len(sc.drones)), "--rovers", str(len(sc.rovers)),
                             "--speedup", f"{self.speedup:g}", "--seed", str(self.seed), "--no-save",
                             "--tcp-base", "0", "--udp-base", "0",
-                            "--home", ",".join(f"{v:.7g}" for v in SITL_HOME),
+                            "--home=" + ",".join(f"{v:.10g}" for v in SITL_HOME),   # "=": it starts with "-"
                             "--out", f"udpout:{h}:{self.ports['vehicles']}")
         for _name, sysid, _kind in sc.vehicles:
             cmd += ["--endpoint", f"{sysid - 1}=udpin:{h}:{self.ports[f'vehicle{sysid}']}"]
