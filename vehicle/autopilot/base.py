@@ -23,6 +23,8 @@ from vehicle.autopilot.fence import Fence
 from vehicle.autopilot.guided import GuidedTarget, TargetError, decode_global, decode_local
 from vehicle.autopilot.mission_store import MissionStore
 from vehicle.autopilot.params import ParamStore
+from vehicle.autopilot.reposition import RepositionDenied
+from vehicle.autopilot.reposition import decode as decode_reposition
 from vehicle.fleet import Setpoint
 
 ACCEPTED = mav.MAV_RESULT_ACCEPTED
@@ -102,6 +104,7 @@ class Autopilot:
         # missions, fence and rally points; the link fills the store, the runner flies it
         self.missions = missions if missions is not None else MissionStore()
         self.item_reached: Callable[[int], None] = lambda seq: None   # -> MISSION_ITEM_REACHED
+        self.origin_set = False                      # EKF origin known (first good estimate)
         self.auto = AutoMode(self)
         self.fence = Fence(self)
         self.refresh()
@@ -119,6 +122,11 @@ class Autopilot:
 
     def lla(self, ned=None) -> tuple[float, float, float]:
         return geo.ned_to_lla(self.origin, self.pos if ned is None else ned)
+
+    def ekf_origin(self) -> tuple[float, float, float] | None:
+        """(lat deg, lon deg, alt m AMSL) of the local NED frame's origin once the estimator
+        has set it (GPS_GLOBAL_ORIGIN), else None."""
+        return tuple(self.origin) if self.origin_set else None
 
     def home_lla(self) -> tuple[float, float, float]:
         return geo.ned_to_lla(self.origin, self.home if self.home is not None else self.start_ned)
@@ -162,6 +170,8 @@ class Autopilot:
         dt = t - self.t
         self.t = t
         self.refresh()
+        if self.est_ok:
+            self.origin_set = True
         if self.home is None and self.est_ok:
             self.home = self.pos.copy()
             self.home[2] = max(self.home[2], 0.0) if self.kind == "copter" else self.home[2]
@@ -210,11 +220,22 @@ class Autopilot:
             if not self.auto.init():
                 self.mode_init_failed(number)
                 return False
+        if not self.mode_init(number):
+            self.mode_init_failed(number)
+            return False
         if self.mode == self.auto_mode:
             self.auto.exit()
+        self.exit_mode(self.mode)
         self.mode = number
         self.enter_mode(number)
         return True
+
+    def mode_init(self, number: int) -> bool:
+        """False when mode `number` cannot start now (its init fails, as ArduPilot's Mode::init)."""
+        return True
+
+    def exit_mode(self, number: int) -> None:
+        """Mode `number` is being left (its clean-up, as ArduPilot's Mode::exit)."""
 
     def mode_init_failed(self, number: int) -> None:
         self.text(SEV_WARNING, f"Mode change to {self.mode_names[number]} failed: init failed")
@@ -379,6 +400,16 @@ class Autopilot:
                 return FAILED
             self.fence.set_enabled(p[0] == 1)
             return ACCEPTED
+        if cmd == mav.MAV_CMD_DO_REPOSITION:
+            return self.cmd_reposition(p, frame, x, y)
+        if cmd == mav.MAV_CMD_DO_FLIGHTTERMINATION:
+            # ArduPilot without AFS: param1 > 0.5 disarms at once (a copter falls), else FAILED
+            if not finite(p, 0):
+                return DENIED
+            if p[0] > 0.5:
+                self.disarm(force=True, reason="flight termination")
+                return ACCEPTED
+            return FAILED
         if cmd == mav.MAV_CMD_PREFLIGHT_CALIBRATION:
             if not finite(p, 0, 1, 2, 3, 4, 5, 6):
                 return DENIED
@@ -391,6 +422,24 @@ class Autopilot:
         return self.vehicle_command(cmd, p, frame, x, y)
 
     rtl_mode = -1
+
+    def cmd_reposition(self, p, frame, x, y) -> int:
+        """MAV_CMD_DO_REPOSITION (reposition.py): the target first, then GUIDED if asked and
+        needed, then the target again, as ArduCopter (a target it refuses -> FAILED)."""
+        try:
+            rp = decode_reposition(p, frame, x, y, self.home_lla()[2], self.in_guided())
+        except RepositionDenied:
+            return DENIED
+        ned = np.asarray(geo.lla_to_ned(self.origin, rp.lat, rp.lon, rp.alt_amsl), float)
+        tgt = GuidedTarget("pos", ned, None, None, None, None)
+        if not self.in_guided():
+            if not self.set_mode(self.guided_mode, "GCS"):
+                return FAILED
+        self.reposition_speed(rp.speed)
+        return ACCEPTED if self.accept_target(tgt) else FAILED
+
+    def reposition_speed(self, speed: float | None) -> None:
+        """DO_REPOSITION's param1 (m/s or None): ArduCopter ignores it (Rover overrides)."""
 
     def vehicle_command(self, cmd, p, frame, x, y) -> int:
         return UNSUPPORTED
@@ -467,11 +516,22 @@ class Autopilot:
         return ACCEPTED
 
     def cmd_pause_continue(self, p) -> int:
-        """MAV_CMD_DO_PAUSE_CONTINUE: param1 0 pause, 1 continue (AUTO waypoints only)."""
-        if self.mode != self.auto_mode or p[0] not in (0, 1):
-            return FAILED
-        ok = self.auto.pause() if p[0] == 0 else self.auto.resume()
+        """MAV_CMD_DO_PAUSE_CONTINUE: param1 0 pause, 1 continue (AUTO waypoints, and GUIDED
+        where the vehicle has guided_pause); other param1 DENIED; a mode that cannot pause:
+        FAILED with ArduCopter's "Failed to pause" / "Failed to resume"."""
+        if p[0] not in (0, 1):
+            return DENIED
+        if self.mode == self.auto_mode:
+            ok = self.auto.pause() if p[0] == 0 else self.auto.resume()
+        else:
+            ok = self.guided_pause(p[0] == 0)
+        if not ok:
+            self.text(SEV_INFO, "Failed to pause" if p[0] == 0 else "Failed to resume")
         return ACCEPTED if ok else FAILED
+
+    def guided_pause(self, pause: bool) -> bool:
+        """Pause (stop and hold) or resume GUIDED's target; False where not supported."""
+        return False
 
     def auto_fly(self, auto, dt: float) -> None:
         """Setpoints for AUTO's current sub-mode (vehicle specific)."""

@@ -89,6 +89,7 @@ class Telemetry:
             mav.MAVLINK_MSG_ID_SIM_STATE: self.sim_state,
             mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION: self.autopilot_version,
             mav.MAVLINK_MSG_ID_MISSION_CURRENT: lambda: self.link.missions.mission_current(),
+            mav.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN: self.gps_global_origin,
         }
 
     # time
@@ -187,6 +188,16 @@ class Telemetry:
         return mav.MAVLink_home_position_message(
             _i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1), _i(alt * 1000, -2**31, 2**31 - 1),
             float(h[0]), float(h[1]), float(h[2]), [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0, self.usec())
+
+    def gps_global_origin(self):
+        """Where the vehicle's local NED (0, 0, 0) is; None until the EKF origin is set."""
+        o = self.link.ap.ekf_origin()
+        if o is None:
+            return None
+        lat, lon, alt = o
+        return mav.MAVLink_gps_global_origin_message(
+            _i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1),
+            _i(alt * 1000, -2**31, 2**31 - 1), self.usec())
 
     def extended_sys_state(self):
         return mav.MAVLink_extended_sys_state_message(mav.MAV_VTOL_STATE_UNDEFINED, self.link.ap.landed_state())
