@@ -312,25 +312,17 @@ class TowerFrames:
 
     def __init__(self, fixed: str = "world", cache_time: float = 30.0) -> None:
         from gcs.frames import Buffer
+        from gcs.tf2_ros.stream import TransformStream
         self.fixed = fixed
         self.buffer = Buffer(cache_time=cache_time)
+        self.stream = TransformStream(self.buffer)     # tf2_ros's listener core: stream -> buffer
         self.lock = threading.Lock()
 
     def on_message(self, msg) -> None:
-        if msg.get_type() != "TOWERLINK_TRANSFORM":
-            return
-        from gcs.frames import Transform, TransformException, TransformStamped
-        from gcs.mavstr import mav_str
-        try:
-            ts = TransformStamped(mav_str(msg.frame_id), mav_str(msg.child_frame_id), msg.time_usec / 1e6,
-                                  Transform(translation=tuple(msg.translation), rotation=tuple(msg.rotation)))
-            with self.lock:
-                if msg.flags & 1:      # TOWERLINK_TRANSFORM_FLAGS_STATIC
-                    self.buffer.set_transform_static(ts, "bridge")
-                else:
-                    self.buffer.set_transform(ts, "bridge")
-        except (TransformException, ValueError, TypeError):
-            pass                      # a bad or out-of-order sample: the next one will do
+        """Client listener: every received message (only TOWERLINK_TRANSFORM is kept)."""
+        if msg.get_type() == "TOWERLINK_TRANSFORM":
+            with self.lock:             # several connections feed one buffer
+                self.stream.feed(msg)
 
     def moving(self, frame: str) -> bool:
         """Does `frame` hang on a dynamic edge below the fixed frame?"""

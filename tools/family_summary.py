@@ -97,7 +97,7 @@ def summarize_family(run_dir: str | os.PathLike, *, tower: dict | None = None,
         tr = tracks.get(sysid)
         row: dict[str, Any] = {"name": name, "sysid": sysid, "kind": kind,
                                "path_m": _path_len(tr) if tr is not None else None,
-                               "max_height_m": float(-(tr.xyz[:, 2] - tr.xyz[0, 2]).min())
+                               "max_height_m": max(0.0, float(-(tr.xyz[:, 2] - tr.xyz[0, 2]).min()))
                                if tr is not None and len(tr) else None}
         if kind == "copter":
             mine = [g for g in goals if g["drone"] == name]
