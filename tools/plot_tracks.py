@@ -61,9 +61,10 @@ LAB_VEHICLES = ((DRONE, "drone", "copter"), (ROVER, "rover", "rover"))
 
 
 def plot(data: RunData, out: str | Path, *, goals=(), tower=None, buf=None, title: str = "",
-         vehicles=LAB_VEHICLES, pairs=((DRONE, ROVER),), van: int | None = None) -> Path:
+         vehicles=LAB_VEHICLES, pairs=((DRONE, ROVER),), van: int | None = None, spoke=()) -> Path:
     """vehicles: (sysid, name, kind) to draw; pairs: (drone, rover) sysids whose follow error
-    is plotted; van: the sysid drawn dotted."""
+    is plotted; van: the sysid drawn dotted; spoke: (van xy, goal xy) world pairs, where the
+    tower on the van was when it sent each goal, drawn as a triangle and a thin line."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -100,6 +101,10 @@ def plot(data: RunData, out: str | Path, *, goals=(), tower=None, buf=None, titl
                 label="goals" if k == 0 else None)
         ax.annotate(label, (g[1], g[0]), textcoords="offset points", xytext=(7, 7), fontsize=10 if lab else 8)
         pts.append(np.array([g[:2]]))
+    for k, (pv, pg) in enumerate(spoke):
+        ax.plot(pv[1], pv[0], "^", color="purple", ms=9, label="tower (on the van) when it sent the goal" if k == 0 else None)
+        ax.plot([pv[1], pg[1]], [pv[0], pg[0]], color="purple", lw=0.8, ls="-", alpha=0.6)
+        pts.append(np.array([pv[:2]]))
     ax.plot(0, 0, "k+", ms=10, label="world origin (home)")
     pts.append(np.zeros((1, 2)))
     allp = np.vstack(pts)
@@ -196,8 +201,14 @@ def plot_run(path: str | Path, out: str | Path | None = None, scenario: str | No
     if not sc.is_family:
         return plot(data, out, goals=goals, tower=tower, buf=buf, title=title)
     vehicles = [(s, n, k) for n, s, k in sc.vehicles]
+    spoke = []
+    vt = (data.truth or data.estimate).get(sc.van.sysid) if sc.van else None
+    if vt is not None and len(vt) and run_dir is not None and (run_dir / "tower.json").exists():
+        for d in json.loads((run_dir / "tower.json").read_text()).get("drones", []):
+            spoke += [(vt.at(g["sent_sim"]), g["world"]) for g in d.get("goals", [])
+                      if g.get("sent_sim") is not None and g.get("world") is not None]
     return plot(data, out, goals=goals, tower=tower, buf=buf, title=title, vehicles=vehicles,
-                pairs=sc.pairs, van=sc.van.sysid if sc.van else None)
+                pairs=sc.pairs, van=sc.van.sysid if sc.van else None, spoke=spoke)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
