@@ -1,5 +1,6 @@
 """What Copter and Rover autopilots share: state read-back, arming and pre-arm checks,
-home, GUIDED targets and their timeout, commands, GCS failsafe, battery model.
+home, GUIDED targets and their timeout, commands, GCS failsafe, the battery (battery.py) and
+its failsafe.
 
 An Autopilot drives one vehicle of a batched fleet (vehicle/fleet.py) through Setpoints.
 It never touches sockets: the link layer (vehicle/link/) calls `command()`,
@@ -19,6 +20,7 @@ from gcs import geo
 from gcs.frames import euler_from_quaternion
 from vehicle.autopilot import modes
 from vehicle.autopilot.auto import AutoMode
+from vehicle.autopilot.battery import CRITICAL, Battery, action_priority
 from vehicle.autopilot.fence import Fence
 from vehicle.autopilot.guided import GuidedTarget, TargetError, decode_global, decode_local
 from vehicle.autopilot.mission_store import MissionStore
@@ -98,8 +100,8 @@ class Autopilot:
         self.last_gcs: float | None = None
         self.gcs_failsafe = False
         self.speed_override: float | None = None     # DO_CHANGE_SPEED (m/s)
-        self.consumed_mah = 0.0
-        self.current_a = 0.0
+        self.battery = Battery()                     # the pack and AP_BattMonitor (battery.py)
+        self.batt_fs_priority: int | None = None     # priority of the battery action taken
         self.arm_time = 0.0
         # missions, fence and rally points; the link fills the store, the runner flies it
         self.missions = missions if missions is not None else MissionStore()
@@ -142,6 +144,8 @@ class Autopilot:
         vehicle stays where it is; the stored missions (the vehicle's eeprom) are kept; the
         hooks the link and world set (text, push_params, item_reached) are kept."""
         hooks = {k: self.__dict__[k] for k in ("text", "push_params", "item_reached") if k in self.__dict__}
+        battery = self.battery          # the pack is hardware: a reboot does not recharge it
+        battery.reboot()
         args = (self.fleet, self.i, self.params, self.origin, self.start_ned)
         missions = self.missions
         if self.armed:
@@ -150,6 +154,7 @@ class Autopilot:
         self.__dict__.clear()
         type(self).__init__(self, *args, missions=missions)
         self.__dict__.update(hooks)
+        self.battery = battery
         self.setpoint()
         self.push_params(dict(self.params.values))
 
@@ -176,24 +181,53 @@ class Autopilot:
             self.home = self.pos.copy()
             self.home[2] = max(self.home[2], 0.0) if self.kind == "copter" else self.home[2]
             self.text(SEV_INFO, "Home set")   # ArduPilot: EKF origin/home from GPS
-        self._battery(dt)
+        self._battery(t, dt)
         self._gcs_failsafe_check()
         self.fence.check(t)
         self.run_mode(dt)
 
-    def _battery(self, dt: float) -> None:
-        self.current_a = self.armed_current() if self.armed else 0.3
-        self.consumed_mah += self.current_a * dt / 3.6
+    # ----- battery (battery.py) --------------------------------------------------------
+    failsafe_priorities: tuple[int, ...] = ()      # BATT_FS_*_ACT values, highest priority first
+
+    def _battery(self, t: float, dt: float) -> None:
+        """Drain the pack by what the vehicle draws; on a new failsafe level say so in
+        AP_BattMonitor's words and act as the vehicle's handle_battery_failsafe, if the
+        action ranks at or above the one already taken (ArduPilot's priority list)."""
+        b = self.battery
+        level = b.update(t, dt, self.electrical_load() if self.armed else 0.0, self.armed, self.params.values)
+        if not level:
+            return
+        self.text(SEV_WARNING, b.failsafe_text())
+        action = int(self.params.get("BATT_FS_CRT_ACT" if level == CRITICAL else "BATT_FS_LOW_ACT", 0))
+        prio = action_priority(action, self.failsafe_priorities)
+        if self.batt_fs_priority is None or prio <= self.batt_fs_priority:
+            self.batt_fs_priority = prio
+            self.battery_failsafe_action(action)
+
+    def electrical_load(self) -> float:
+        """Electrical power (W) the armed vehicle's motors draw now (vehicle specific)."""
+        return 0.0
+
+    def battery_failsafe_action(self, action: int) -> None:
+        """BATT_FS_LOW_ACT / BATT_FS_CRT_ACT (vehicle specific)."""
+
+    @property
+    def current_a(self) -> float:
+        """Battery current (A) now."""
+        return self.battery.current
+
+    @property
+    def consumed_mah(self) -> float:
+        return self.battery.consumed_mah
 
     def battery_remaining(self) -> int:
-        cap = max(1.0, float(self.params.get("BATT_CAPACITY", 3300)))
-        return int(max(0.0, min(100.0, 100.0 * (1.0 - self.consumed_mah / cap))))
+        """Remaining % as the monitor reports it; -1 when it cannot tell (MAVLink's unknown)."""
+        r = self.battery.remaining_pct(self.params.values)
+        return -1 if r is None else r
 
     def battery_voltage(self) -> float:
-        return 12.6 - 2.1 * (1.0 - self.battery_remaining() / 100.0) - 0.02 * self.current_a
-
-    def armed_current(self) -> float:
-        return 2.0
+        """Terminal voltage (V), under load."""
+        return self.battery.voltage
 
     # ----- modes --------------------------------------------------------------------
     initial_mode = 0

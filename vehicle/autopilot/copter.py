@@ -27,6 +27,7 @@ from gcs.frames.batch import wrap_pi
 from vehicle.autopilot import modes
 from vehicle.autopilot.base import (ACCEPTED, DENIED, FAILED, SEV_INFO, SEV_WARNING, Autopilot,
                                     UNSUPPORTED)
+from vehicle.autopilot.battery import MOTOR_EFFICIENCY
 from vehicle.autopilot.copter_auto import CopterAutoFlight
 from vehicle.autopilot.copter_modes import CopterModes
 from vehicle.autopilot.guided import GuidedTarget
@@ -56,8 +57,35 @@ class CopterAutopilot(CopterModes, CopterAutoFlight, Autopilot):
         self.landed_since: float | None = None
         super().__init__(*a, **kw)
 
-    def armed_current(self) -> float:
-        return 15.0 if not self.on_ground else 3.0
+    # ArduCopter's FailsafeAction priorities, highest first: TERMINATE, LAND, RTL,
+    # SMARTRTL_LAND, SMARTRTL, NONE
+    failsafe_priorities = (5, 1, 2, 4, 3, 0)
+
+    def electrical_load(self) -> float:
+        """The rotors' shaft power over the motor and ESC efficiency (W): drains with thrust."""
+        return self.fleet.rotor_power(self.i) / MOTOR_EFFICIENCY
+
+    def battery_failsafe_action(self, action: int) -> None:
+        """Copter::handle_battery_failsafe: landed, disarm ("Battery Failsafe - Disarming");
+        else "Battery Failsafe" and BATT_FS_*_ACT: 1 Land, 2 RTL or Land, 3 SmartRTL or RTL
+        (or Land), 4 SmartRTL or Land, 5 Terminate (disarm), 6 DO_LAND_START or RTL (no
+        landing sequence here: RTL or Land), 7 Brake or Land."""
+        if self.on_ground and self.takeoff_alt is None:
+            self.disarm(force=True)
+            self.text(SEV_WARNING, "Battery Failsafe - Disarming")
+            return
+        self.text(SEV_WARNING, "Battery Failsafe")
+        why = "battery failsafe"
+        if action == 5:
+            self.disarm(force=True)
+            return
+        chain = {1: (modes.LAND,), 2: (modes.RTL, modes.LAND),
+                 3: (mav.COPTER_MODE_SMART_RTL, modes.RTL, modes.LAND),
+                 4: (mav.COPTER_MODE_SMART_RTL, modes.LAND), 6: (modes.RTL, modes.LAND),
+                 7: (mav.COPTER_MODE_BRAKE, modes.LAND)}.get(action, ())
+        for m in chain:
+            if self.mode == m or self.set_mode(m, why):
+                return
 
     def enter_mode(self, number: int) -> None:
         super().enter_mode(number)

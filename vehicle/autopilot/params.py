@@ -79,7 +79,36 @@ _FENCE_ALT = [
     _d("FENCE_ALT_MIN", -10, -100, 100, False, "minimum altitude above home (m)"),
 ]
 
-COPTER_TABLE = _STREAMS + _COMMON + [
+# battery and wind (issue 10): ArduPilot's AP_BattMonitor and SITL parameters, one block
+# (vehicle/autopilot/battery.py and vehicle/physics/wind.py do what they say)
+def _battery_wind(kind: str) -> list[ParamDef]:
+    acts = ("0 none, 1 Land, 2 RTL, 3 SmartRTL or RTL, 4 SmartRTL or Land, 5 Terminate, "
+            "6 Auto DO_LAND_START or RTL, 7 Brake or Land") if kind == "copter" else \
+        "0 none, 1 RTL, 2 Hold, 3 SmartRTL or RTL, 4 SmartRTL or Hold, 5 Terminate"
+    top = 7 if kind == "copter" else 5
+    return [
+        _d("BATT_MONITOR", 4, 0, 33, True, "battery monitor: 0 none, 3 analog voltage only, 4 analog voltage and current (simulated)"),
+        _d("BATT_LOW_VOLT", 10.5, 0, 100, False, "low battery voltage (V), 0 = off; must last BATT_LOW_TIMER"),
+        _d("BATT_CRT_VOLT", 0, 0, 100, False, "critical battery voltage (V), 0 = off; must last BATT_LOW_TIMER"),
+        _d("BATT_LOW_MAH", 0, 0, 100000, True, "low battery: remaining capacity below this (mAh), 0 = off"),
+        _d("BATT_CRT_MAH", 0, 0, 100000, True, "critical battery: remaining capacity below this (mAh), 0 = off"),
+        _d("BATT_LOW_TIMER", 10, 0, 120, True, "seconds a low/critical voltage must last before the failsafe, 0 = no voltage failsafe"),
+        _d("BATT_FS_VOLTSRC", 0, 0, 1, True, "failsafe voltage: 0 raw (under load), 1 sag-compensated (resting estimate)"),
+        _d("BATT_FS_LOW_ACT", 0, 0, top, True, f"low battery failsafe action: {acts}"),
+        _d("BATT_FS_CRT_ACT", 0, 0, top, True, f"critical battery failsafe action: {acts}"),
+        _d("SIM_BATT_VOLTAGE", 12.6, 0, 100, False, "simulated battery: full-charge voltage (V); cells = round(V / 4.2)"),
+        _d("SIM_BATT_CAP_AH", 0, 0, 1000, False, "simulated battery: true capacity (Ah), 0 = BATT_CAPACITY"),
+        _d("SIM_WIND_SPD", 0, 0, 40, False, "simulated wind speed (m/s); one air mass per world"),
+        _d("SIM_WIND_DIR", 180, 0, 360, False, "direction the simulated wind comes from (deg, 0 north, 90 east)"),
+        _d("SIM_WIND_TURB", 0, 0, 10, False, "simulated turbulence, standard deviation (m/s)"),
+        _d("SIM_WIND_DIR_Z", 0, -90, 90, False, "vertical wind angle (deg, positive = rising air)"),
+        _d("SIM_WIND_T", 0, 0, 2, True, "wind profile with height: 0 square law below SIM_WIND_T_ALT, 1 none, 2 linear"),
+        _d("SIM_WIND_T_ALT", 60, 0, 1000, False, "height of full wind strength (m)"),
+        _d("SIM_WIND_T_COEF", 0.01, -1, 1, False, "linear profile: (m/s) per m above SIM_WIND_T_ALT"),
+    ]
+
+
+COPTER_TABLE = _STREAMS + _COMMON + _battery_wind("copter") + [
     _d("FS_GCS_ENABLE", 0, 0, 6, True,
        "GCS failsafe: 0 off, 1 RTL, 2 RTL, 3 SmartRTL->RTL, 4 SmartRTL->LAND, 5 LAND, 6 RTL"),
     _d("RTL_ALT", 1500, 30, 300000, True, "RTL return altitude (cm above home)"),
@@ -104,7 +133,7 @@ COPTER_TABLE = _STREAMS + _COMMON + [
     _d("PHLD_BRAKE_ANGLE", 3000, 2000, 4500, True, "POSHOLD braking angle max (cdeg)"),
 ] + _FENCE_ALT + _SRTL
 
-ROVER_TABLE = _STREAMS + _COMMON + [
+ROVER_TABLE = _STREAMS + _COMMON + _battery_wind("rover") + [
     _d("FS_GCS_ENABLE", 0, 0, 2, True, "GCS failsafe: 0 off, 1 on (action FS_ACTION), 2 on, continue in AUTO"),
     _d("FS_ACTION", 2, 0, 4, True, "failsafe action: 0 none, 1 RTL, 2 Hold, 3 SmartRTL->RTL, 4 SmartRTL->Hold"),
     _d("WP_RADIUS", 2, 0.1, 100, False, "waypoint radius (m): RTL done inside it"),

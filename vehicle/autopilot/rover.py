@@ -43,8 +43,26 @@ class RoverAutopilot(RoverModes, Autopilot):
         self.rtl_dest = np.zeros(3)
         super().__init__(*a, **kw)
 
-    def armed_current(self) -> float:
-        return 1.0 + 2.0 * float(np.linalg.norm(self.vel[:2]))
+    # ArduRover's FailsafeAction priorities, highest first: Terminate, Hold, RTL,
+    # SmartRTL_Hold, SmartRTL, None
+    failsafe_priorities = (5, 2, 1, 4, 3, 0)
+
+    def electrical_load(self) -> float:
+        """The drive's electrical power (W): about 1 A standing plus 2 A per m/s at 11.1 V."""
+        return 11.1 * (1.0 + 2.0 * float(np.linalg.norm(self.vel[:2])))
+
+    def battery_failsafe_action(self, action: int) -> None:
+        """Rover::handle_battery_failsafe: 1 RTL or Hold, 2 Hold, 3 SmartRTL or RTL or Hold,
+        4 SmartRTL or Hold, 5 Terminate (disarm)."""
+        if action == 5:
+            self.disarm(force=True)
+            return
+        chain = {1: (modes.ROVER_RTL, modes.ROVER_HOLD), 2: (modes.ROVER_HOLD,),
+                 3: (mav.ROVER_MODE_SMART_RTL, modes.ROVER_RTL, modes.ROVER_HOLD),
+                 4: (mav.ROVER_MODE_SMART_RTL, modes.ROVER_HOLD)}.get(action, ())
+        for m in chain:
+            if self.mode == m or self.set_mode(m, "battery failsafe"):
+                return
 
     def enter_mode(self, number: int) -> None:
         super().enter_mode(number)
