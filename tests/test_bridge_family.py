@@ -8,7 +8,6 @@ from __future__ import annotations
 import contextlib
 import math
 
-import numpy as np
 import pytest
 
 from gcs.dialect import towerlink as tl

@@ -12,7 +12,7 @@ from hypothesis import given, settings, strategies as st
 from gcs.dialect import towerlink as tl
 from gcs.frames import Transform
 from gcs.scenario import ScenarioError, load_scenario
-from gcs.tower import SeparationWatch, TowerFrames
+from gcs.tower_family import SeparationWatch, TowerFrames
 from tools.family_summary import closest_approach
 from tools.run_summary import Track
 

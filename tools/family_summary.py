@@ -15,7 +15,6 @@ gcs.tower.run_family writes it). All positions are world NED, m, from truth
 """
 from __future__ import annotations
 
-import math
 import os
 from pathlib import Path
 from typing import Any

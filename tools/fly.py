@@ -613,12 +613,11 @@ class Launch:
         if self.family:
             from tools.family_summary import format_family_summary, summarize_family
             s = summarize_family(self.dir, tower=tower, scenario_path=self.scenario, meta=meta)
-            format_summary = format_family_summary  # noqa: F811 - the family's own text
         else:
             s = summarize(self.dir, tower=tower, scenario_path=self.scenario, meta=meta)
         s["ok"] = bool(s["ok"]) and tower_rc == 0
         (self.dir / "summary.json").write_text(json.dumps(s, indent=2, default=_json_default))
-        text = format_summary(s)
+        text = format_family_summary(s) if self.family else format_summary(s)
         extras = []
         try:
             from tools.plot_tracks import plot_run
