@@ -39,6 +39,7 @@ Examples:
   towerlink tower                                   # default scenario, bridge at udpout:127.0.0.1:14600
   towerlink tower --goals="-131.04,73.52;-105.06,88.52" --radius 0.5 --finish rtl
   towerlink tower --connect udpout:127.0.0.1:15600 --result out/tower.json --tlog out/tower.tlog
+  towerlink tower --scenario family                 # every drone of the family at once (gcs.tower_family)
 """
 from __future__ import annotations
 
