@@ -139,3 +139,36 @@ def test_closest_approach_of_two_crossing_drones(h, dz, k):
     assert got["t"] == pytest.approx(tc, abs=1e-9)
     # on the ground (below 1 m) nothing is judged
     assert closest_approach({"a": Track(t, a.xyz * [1, 1, 0]), "b": b})["closest_m"] is None
+
+
+def test_fly_family_command_lines_give_every_vehicle_its_port_and_the_bridge_each_one(tmp_path):
+    from tools.fly import Launch
+    launch = Launch(tmp_path, scenario="family")
+    sitl, bridge = launch.sitl_cmd(), launch.bridge_cmd()
+    assert sitl[sitl.index("--drones") + 1] == "3" and sitl[sitl.index("--rovers") + 1] == "3"
+    eps = [sitl[i + 1] for i, a in enumerate(sitl) if a == "--endpoint"]
+    vehicles = [bridge[i + 1] for i, a in enumerate(bridge) if a == "--vehicle"]
+    for sysid in range(1, 7):
+        port = launch.ports[f"vehicle{sysid}"]
+        assert f"{sysid - 1}=udpin:127.0.0.1:{port}" in eps      # world vehicle index = sysid - 1
+        assert f"{sysid}=udpout:127.0.0.1:{port}" in vehicles
+    assert "--drone" not in bridge and "--rover" not in bridge
+    with pytest.raises(ValueError, match="lockstep for a family is not done yet"):
+        Launch(tmp_path / "l", scenario="family", lockstep=True)
+
+
+def test_fly_van_route_is_a_looped_mission_on_the_van(tmp_path):
+    from gcs.geo import lla_to_ned
+    from gcs.wpl import read
+    from tools.fly import SITL_HOME, Launch
+    launch = Launch(tmp_path, scenario="van")
+    sitl = launch.sitl_cmd()
+    missions = [sitl[i + 1] for i, a in enumerate(sitl) if a == "--mission"]
+    assert missions == [f"2={tmp_path / 'van.waypoints'}"]          # the van is vehicle 2 (sysid 3)
+    assert f"2=udpin:127.0.0.1:{launch.ports['van_driver']}" in sitl
+    items = read(str(tmp_path / "van.waypoints"))
+    assert [i.command for i in items] == [16, 178, 16, 16, 16, 16, 177]
+    assert items[1].param2 == 3.0                                  # DO_CHANGE_SPEED 3 m/s
+    assert (items[-1].param1, items[-1].param2) == (2, -1)         # DO_JUMP to the first waypoint, forever
+    route = [lla_to_ned(SITL_HOME, i.x, i.y, SITL_HOME[2])[:2] for i in items[2:6]]
+    assert route == [pytest.approx(p, abs=0.01) for p in load_scenario("van").van.route]
