@@ -97,7 +97,7 @@ class Bridge:
         # what decides behaviour (goal retries, follow checks and retries, stream re-requests)
         # runs on this clock: the world's lockstep barrier (sim s) with --lockstep, else wall
         self.lockstep = LockstepDesk(self.vehicles, self.codec.pack_own, self.tower.send,
-                                     self.on_sim_tick, self.log) if cfg.lockstep else None
+                                     self.on_sim_tick, self.log, clock) if cfg.lockstep else None
         self.behaviour_clock = (lambda: self.lockstep.sim_now) if self.lockstep else clock
         self.clocks = ClockDesk(self.timeline, self.command, lambda v, m: v.link.send(self.codec.pack_own(m)),
                                 self.log, self.warn_once, clock)

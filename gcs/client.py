@@ -248,6 +248,7 @@ class Client:
         self.tick_usec: int | None = None         # newest TICK handled (sim us)
         self._ack_due: int | None = None          # TICK handled, ACK not yet sent
         self._last_join = -1e9
+        self._last_tick_wall = -1e9
         self.mav = master.mav
         self.systems: dict[int, SystemState] = {}
         self.log = log or (lambda s: None)
@@ -370,7 +371,10 @@ class Client:
         n = 0
         while True:
             self._maybe_heartbeat()
-            if self.tick_usec is None and time.monotonic() - self._last_join >= 0.5:
+            # JOIN until the first TICK, and again after a second without one (a restarted
+            # bridge does not know us; the world may have dropped us)
+            if time.monotonic() - self._last_join >= (0.5 if self.tick_usec is None else 1.0) and \
+                    time.monotonic() - self._last_tick_wall >= 1.0:
                 self._join()
             try:
                 msg = self.master.recv_match(blocking=True, timeout=0.1)
@@ -381,6 +385,7 @@ class Client:
                 n += 1
                 self._handle(msg)
                 if self._ack_due is not None:
+                    self._last_tick_wall = time.monotonic()
                     return n
                 continue
             if time.monotonic() >= end:

@@ -111,6 +111,20 @@ def test_gate_drops_a_silent_participant_and_a_leaving_one():
     assert g.participants == {} and g.passed(10**12)
 
 
+def test_a_participant_joining_a_running_world_is_waited_for_from_the_next_tick():
+    g = LockstepGate(vehicles=1, expect=1)
+    g.on_message(msg(L.JOIN), 0, "a", 0.0)
+    assert g.started(0.0)
+    g.on_message(msg(L.ACK, 400000), 0, "a", 1.0)
+    # the tower comes back after being dropped; TICK(400 ms) went out before it joined
+    g.on_message(msg(L.JOIN, sysid=255, compid=190, who=L.TOWER), 0, "a", 1.1, now_usec=400000)
+    assert g.passed(400000) and not g.passed(440000)
+    g.on_message(msg(L.ACK, 440000), 0, "a", 1.2)
+    assert not g.passed(440000)                 # the tower owes ACK(440 ms) now
+    g.on_message(msg(L.ACK, 440000, sysid=255, compid=190, who=L.TOWER), 0, "a", 1.3)
+    assert g.passed(440000)
+
+
 def test_gate_holds_a_participants_packets_to_the_next_boundary_once_it_acked():
     g = LockstepGate(vehicles=1, expect=1)
     g.on_message(msg(L.JOIN), 0, "a", 0.0)

@@ -202,7 +202,9 @@ class World:
                     return True
                 return inner(data, channel)
             if m.target_system in (0, v.sysid):
-                line = self.gate.on_message(m, v.index, channel, time.monotonic())
+                now = self._ticked_steps * self.dt * 1e6 if self.gate.is_started and self._ticked_steps >= 0 else None
+                line = self.gate.on_message(m, v.index, channel, time.monotonic(),
+                                            None if now is None else int(round(now)))
                 if line:
                     self.log(line)
                 if self._gate_event is not None:
