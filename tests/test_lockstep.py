@@ -206,14 +206,14 @@ def test_world_never_steps_past_an_unacknowledged_tick(held_world):
     assert w.t == 0.0
     p.send(L.JOIN)
     assert p.next_tick() == 0
-    wait_until(lambda: w.lockstep_waits >= 1, 5.0, "the world waiting for ACK(0)")
+    wait_until(lambda: w.lockstep.waits >= 1, 5.0, "the world waiting for ACK(0)")
     assert w.steps == 0                        # --speedup max, yet held at t = 0
     for k in range(5):
         p.send(L.ACK, k * 40000)
         assert p.next_tick() == (k + 1) * 40000
-        wait_until(lambda: w.lockstep_waits >= k + 2, 5.0, f"the world waiting for ACK({k + 1})")
-        assert w.steps == (k + 1) * w.frame_steps     # exactly at the TICK, not one step further
-    assert w.frame_steps * w.dt == pytest.approx(0.04)
+        wait_until(lambda: w.lockstep.waits >= k + 2, 5.0, f"the world waiting for ACK({k + 1})")
+        assert w.steps == (k + 1) * w.lockstep.frame_steps     # exactly at the TICK, not one step further
+    assert w.lockstep.frame_steps * w.dt == pytest.approx(0.04)
 
 
 def test_a_silent_participant_is_dropped_and_the_world_goes_on(held_world, capsys):
@@ -221,7 +221,7 @@ def test_a_silent_participant_is_dropped_and_the_world_goes_on(held_world, capsy
     p.send(L.JOIN)
     assert p.next_tick() == 0
     wait_until(lambda: w.t > 1.0, 10.0, "the world going on without the silent participant")
-    assert w.gate.dropped == 1
+    assert w.lockstep.gate.dropped == 1
     assert "lockstep: bridge (sysid 250, compid 191) silent for 1 s (wall): dropped, the world goes on" \
         in capsys.readouterr().out
 
