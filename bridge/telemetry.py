@@ -100,6 +100,8 @@ class TelemetryDesk:
             self.frame_on_timeline(v, s, shift)
 
     def frame_on_timeline(self, v: VehicleRecord, s, shift: float) -> None:
+        if self.cfg.route_only:
+            return          # --route-only: the vehicles' frames are the nodes' to publish
         if shift:
             t = s.stamp + shift
             s = replace(s, stamp=t, full=replace(s.full, stamp=t), yaw=replace(s.yaw, stamp=t))
