@@ -364,6 +364,7 @@ class Client:
         self._lockstep_send(LS_JOIN, 0)
 
     def _poll_tick(self) -> int:
+        self._maybe_heartbeat()                 # before the ACK: it belongs to this TICK
         if self._ack_due is not None:
             self._lockstep_send(LS_ACK, self._ack_due)
             self._ack_due = None
@@ -438,12 +439,13 @@ class Client:
             fn(msg)
 
     def _maybe_heartbeat(self) -> None:
-        now = time.monotonic()
+        # with lockstep a sim-time second: the vehicle's GCS failsafe (FS_GCS_*) counts sim time
+        now = self._now() if self.lockstep else time.monotonic()
         if now - self._last_hb_sent >= self.heartbeat_interval:
             self._send_heartbeat()
 
     def _send_heartbeat(self) -> None:
-        self._last_hb_sent = time.monotonic()
+        self._last_hb_sent = self._now() if self.lockstep else time.monotonic()
         try:
             self.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0,
                                     mavlink.MAV_STATE_ACTIVE)

@@ -281,3 +281,64 @@ def test_a_third_party_client_sees_an_ordinary_vehicle_beside_a_participant(held
         assert all(m.get_msgId() != L.MSG_ID for m in seen)
     finally:
         gcs.close()
+
+
+# ----------------------------------------------------------------------------- the tower's client
+
+
+def test_lockstep_client_acts_only_at_ticks_and_acks_after_its_reactions():
+    """gcs.client.Client(lockstep=True) as the tower uses it, against a fake bridge on UDP."""
+    import threading
+
+    from gcs.client import Client
+    port = free_port()
+    bridge = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    bridge.bind(("127.0.0.1", port))
+    bridge.settimeout(5.0)
+    parser = tl.MAVLink(None)
+    enc = tl.MAVLink(None, srcSystem=250, srcComponent=191)
+    vehicle = tl.MAVLink(None, srcSystem=1, srcComponent=1)
+
+    def received(until):
+        """Messages from the client up to and including the first one `until` accepts."""
+        out = []
+        while True:
+            data, addr = bridge.recvfrom(65535)
+            for m in parser.parse_buffer(data) or []:
+                out.append(m)
+                if until(m):
+                    return out, addr
+
+    def lockstep(kind):
+        return lambda m: m.get_type() == "TOWERLINK_LOCKSTEP" and m.kind == kind
+
+    def tick(t_usec):
+        return tl.MAVLink_towerlink_lockstep_message(t_usec, 0, L.TICK, L.WORLD, 40000).pack(enc)
+
+    c = Client.connect(f"udpout:127.0.0.1:{port}", lockstep=True)
+    try:
+        joins, addr = received(lockstep(L.JOIN))
+        assert joins[-1].participant == L.TOWER and joins[-1].target_system == 0
+        bridge.sendto(tick(0), addr)
+        c.poll(0.0)
+        assert c.tick_usec == 0
+        c.goto(1.0, 2.0, -3.0)                 # the program's reaction to TICK(0)
+        done = []
+        th = threading.Thread(target=lambda: done.append(c.poll(0.0)), daemon=True)
+        th.start()
+        msgs, _ = received(lockstep(L.ACK))
+        types = [m.get_type() for m in msgs]
+        assert "SET_POSITION_TARGET_LOCAL_NED" in types
+        assert types.index("SET_POSITION_TARGET_LOCAL_NED") < len(types) - 1 and msgs[-1].time_usec == 0
+        bridge.sendto(tl.MAVLink_heartbeat_message(2, 3, 0, 0, 4, 3).pack(vehicle), addr)
+        wait_until(lambda: c.system(1).heartbeat_wall is not None, 5.0, "the vehicle heartbeat handled")
+        assert th.is_alive() and not done         # a poll returns at a TICK, not at any message
+        bridge.sendto(tick(40000), addr)
+        th.join(5.0)
+        assert done and c.tick_usec == 40000 and c.sim_time(1) == 0.0
+        assert c.system(1).heartbeat_wall == pytest.approx(1e-6)   # noted just after TICK(0)
+    finally:
+        c.close()
+    leave, _ = received(lockstep(L.LEAVE))
+    assert leave[-1].time_usec == 40000
+    bridge.close()
