@@ -342,3 +342,51 @@ def test_lockstep_client_acts_only_at_ticks_and_acks_after_its_reactions():
     leave, _ = received(lockstep(L.LEAVE))
     assert leave[-1].time_usec == 40000
     bridge.close()
+
+
+# ----------------------------------------------------------------------------- the bridge's desk
+
+
+def test_bridge_desk_barrier_needs_a_tick_on_every_vehicle_link_then_upkeep_ack_and_relay():
+    from types import SimpleNamespace
+
+    from bridge.lockstep_desk import LockstepDesk
+    sent = []
+
+    class FakeLink:
+        def __init__(self, name):
+            self.name = name
+
+        def send(self, data):
+            sent.append((self.name, data))
+
+    vehicles = {1: SimpleNamespace(name="drone", sysid=1, link=FakeLink("drone")),
+                2: SimpleNamespace(name="rover", sysid=2, link=FakeLink("rover"))}
+    wall = [0.0]
+    desk = LockstepDesk(vehicles, lambda m: m, lambda m: sent.append(("tower", m)),
+                        lambda t: sent.append(("upkeep", t)), lambda line: None, lambda: wall[0])
+
+    def tick(t):
+        return tl.MAVLink_towerlink_lockstep_message(t, 0, L.TICK, L.WORLD, 40000)
+
+    desk.upkeep(0.0)
+    assert [(d, m.kind, m.target_system) for d, m in sent] == [("drone", L.JOIN, 1), ("rover", L.JOIN, 2)]
+    sent.clear()
+    desk.on_tower(tl.MAVLink_towerlink_lockstep_message(0, 0, L.JOIN, L.TOWER, 0))
+    desk.on_vehicle(vehicles[1], tick(0))
+    assert sent == []                          # the rover link's data up to 0 may still be coming
+    desk.on_vehicle(vehicles[2], tick(0))
+    assert [(d, m if d == "upkeep" else (m.kind, m.time_usec)) for d, m in sent] == \
+        [("upkeep", 0.0), ("drone", (L.ACK, 0)), ("rover", (L.ACK, 0)), ("tower", (L.TICK, 0))]
+    assert desk.sim_now == 0.0
+    sent.clear()
+    desk.on_vehicle(vehicles[2], tick(40000))
+    desk.on_vehicle(vehicles[1], tick(40000))
+    assert sent[0] == ("upkeep", 0.04) and desk.sim_now == 0.04
+    sent.clear()
+    wall[0] = 0.9
+    desk.upkeep(0.9)                            # ticking: no JOIN
+    assert sent == []
+    wall[0] = 2.5
+    desk.upkeep(2.5)                            # no TICK for over a second: JOIN again
+    assert [(d, m.kind) for d, m in sent] == [("drone", L.JOIN), ("rover", L.JOIN)]
