@@ -50,8 +50,8 @@ from bridge.frame_tree import FrameTree
 from bridge.goals import GoalDesk, PendingGoal
 from bridge.telemetry import MSG_LOCAL_POSITION_NED, MSG_POSITION_TARGET_LOCAL_NED, TELEMETRY_IN, TelemetryDesk
 from bridge.links import Link, Packet
-from bridge.lockstep_desk import LockstepDesk
 from bridge.node_desk import NodeDesk
+from bridge.lockstep_desk import LockstepDesk
 from bridge.pairing import VehicleFrames
 from bridge.timeline import Timeline
 from bridge.trust import StaticTrust

@@ -298,8 +298,7 @@ class Launch:
                              "--endpoint", f"0=udpin:{h}:{self.ports['drone']}",
                              "--endpoint", f"1=udpin:{h}:{self.ports['rover']}",
                              "--out", f"udpout:{h}:{self.ports['vehicles']}", *self._scenario_wind(),
-                             *lock,
-                             *self.sitl_args)
+                             *lock, *self.sitl_args)
 
     def _scenario_wind(self) -> list[str]:
         """The scenario's wind table as `sitl --wind` (none when it has no wind)."""
@@ -426,7 +425,7 @@ class Launch:
             if now - last_params > 2.0 and self.monitor is not None:
                 last_params = now
                 self.monitor.request_params()
-            sp = self.achieved_speedup()     # also anchors sim0 for the summary when quiet
+            self.achieved_speedup()          # also anchors sim0 for the summary when quiet
             if progress and now - last_print >= progress:
                 last_print = now
                 print(self.progress_line(), file=out, flush=True)

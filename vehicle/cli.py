@@ -201,10 +201,10 @@ def config_from_args(a: argparse.Namespace) -> WorldConfig:
                        tcp_base=a.tcp_base or None, udp_base=a.udp_base or None, host=a.host,
                        outs=list(a.out), endpoints=endpoints, sysid_base=a.sysid_base,
                        signing_key=signing_key(a.signing_key), missions=dict(a.mission),
-                       lockstep=a.lockstep, lockstep_period=a.lockstep_period,
-                       lockstep_timeout=a.lockstep_timeout,
                        sysids=dict(a.sysid), group_size=a.group_size,
-                       wind=getattr(a, "wind", None))
+                       wind=getattr(a, "wind", None),
+                       lockstep=a.lockstep, lockstep_period=a.lockstep_period,
+                       lockstep_timeout=a.lockstep_timeout)
 
 
 def run(args: argparse.Namespace) -> int:

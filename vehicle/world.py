@@ -27,8 +27,8 @@ Python API (tests, tools):
 from __future__ import annotations
 
 import asyncio
-import math
 import json
+import math
 import os
 import threading
 import time
@@ -72,10 +72,6 @@ class WorldConfig:
     sysid_base: int = 1
     signing_key: bytes | None = None
     missions: dict[int, list[MissionItem]] = field(default_factory=dict)  # vehicle index -> MISSION at start
-    # whole-system lockstep (issue 11): 0 = off; N = wait at t = 0 for N participants
-    lockstep: int = 0
-    lockstep_period: float = 0.04     # sim s between TICKs (a multiple of the 50 Hz autopilot tick)
-    lockstep_timeout: float = 10.0    # wall s a participant may stay silent before it is dropped
     sysids: dict[int, int] = field(default_factory=dict)       # vehicle index -> explicit sysid
     group_size: int | None = None                               # vehicles per MAVLink network (default 254)
     share: tuple[int, int] | None = None      # vehicle indices [lo, hi) this process runs (--workers)
@@ -87,6 +83,10 @@ class WorldConfig:
         return plan_world(self.drones, self.rovers, tcp_base=self.tcp_base, udp_base=self.udp_base,
                           host=self.host, outs=self.outs, endpoints=self.endpoints,
                           sysid_base=self.sysid_base, sysids=self.sysids, group_size=self.group_size)
+    # whole-system lockstep (issue 11): 0 = off; N = wait at t = 0 for N participants
+    lockstep: int = 0
+    lockstep_period: float = 0.04     # sim s between TICKs (a multiple of the 50 Hz autopilot tick)
+    lockstep_timeout: float = 10.0    # wall s a participant may stay silent before it is dropped
 
     def vehicle_endpoints(self, i: int) -> list[str]:
         return list(self.network_plan().vehicles[i].endpoints)
