@@ -97,6 +97,8 @@ import argparse
 import signal
 import sys
 
+from gcs.lockstep import speedup_type
+
 
 def _offset(text: str) -> tuple[float, float]:
     try:
@@ -183,7 +185,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="sim s without drone telemetry before the rover holds (default %(default)s)")
     w.add_argument("--no-follow-ff", dest="follow_ff", action="store_false",
                    help="no velocity feed-forward in rover targets")
-    w.add_argument("--speedup", type=_speedup, default=1.0, metavar="N|max",
+    w.add_argument("--speedup", type=speedup_type, default=1.0, metavar="N|max",
                    help="world speedup, only for the wall-clock fallback of the follow timeout")
     p.add_argument("--lockstep", action="store_true",
                    help="whole-system lockstep (issue 11): join the world's TOWERLINK_LOCKSTEP handshake "
@@ -196,15 +198,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "(needs towerlink[view])")
     p.add_argument("-q", "--quiet", action="store_true", help="no log lines on stderr")
     p.add_argument("--duration", type=float, default=None, help="stop after this many wall seconds")
-
-
-def _speedup(text: str) -> float:
-    import argparse
-    from gcs.lockstep import speedup_arg
-    try:
-        return speedup_arg(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc))
 
 
 def config_from_args(args):

@@ -12,17 +12,21 @@ packet up to t (the loop handles packets in arrival order). Then, at that barrie
    bridge to the world like any broadcast, on the same socket as its goals, so a goal sent
    before the tower's ACK reaches the vehicle before it).
 
-Until the first TICK arrives on a link the bridge sends JOIN there every JOIN_PERIOD wall s.
+Until the first TICK arrives on a link the bridge sends JOIN there every JOIN_PERIOD wall s,
+and again when no TICK came for REJOIN_AFTER wall s (the world dropped it, or restarted).
 """
 from __future__ import annotations
 
 from gcs.dialect import towerlink as tl
 
 JOIN_PERIOD = 0.5               # wall s between JOINs on a link that has had no TICK yet
+REJOIN_AFTER = 1.0              # wall s without a TICK on a link: JOIN again (the world dropped us or restarted)
 
 
 class LockstepDesk:
-    def __init__(self, vehicles: dict, pack_own, send_tower, on_barrier, log) -> None:
+    def __init__(self, vehicles: dict, pack_own, send_tower, on_barrier, log, wall) -> None:
+        self.wall = wall                    # () -> wall s (only for JOIN resends)
+        self.tick_wall: dict[str, float] = {}
         self.vehicles = vehicles            # sysid -> VehicleRecord
         self.pack_own = pack_own            # message -> bytes (the bridge's own packet)
         self.send_tower = send_tower        # bytes -> None
@@ -45,7 +49,7 @@ class LockstepDesk:
             return
         self._next_join = wall + JOIN_PERIOD
         for v in self.vehicles.values():
-            if v.name not in self.ticks:
+            if v.name not in self.ticks or wall - self.tick_wall.get(v.name, wall) > REJOIN_AFTER:
                 v.link.send(self.pack_own(self._message(tl.TOWERLINK_LOCKSTEP_KIND_JOIN, 0, v.sysid)))
 
     def on_vehicle(self, v, msg) -> None:
@@ -55,6 +59,7 @@ class LockstepDesk:
         if v.name not in self.ticks:
             self.log(f"lockstep: {v.name} link ticks (every {msg.period_usec / 1e3:g} ms sim)")
         self.ticks[v.name] = max(self.ticks.get(v.name, -1), msg.time_usec)
+        self.tick_wall[v.name] = self.wall()
         self.period_usec = msg.period_usec
         if len(self.ticks) < len(self.vehicles):
             return

@@ -33,6 +33,7 @@ Lockstep (--lockstep, bridge.lockstep_desk)
 """
 from __future__ import annotations
 
+import math
 import selectors
 import sys
 import time
@@ -103,11 +104,13 @@ class Bridge:
             for link in (self.tower, *self.node_links):
                 check = SignatureCheck(cfg.signing_key)
                 link.verify = lambda p, check=check: check.check(p.raw, p.sysid, p.compid)
-        self.timeline = Timeline(speedup=cfg.speedup, grace=cfg.time_grace)
+        # the speedup only extrapolates a clock for log lines; `max` (inf) has no such rate
+        self.timeline = Timeline(speedup=cfg.speedup if math.isfinite(cfg.speedup) else 1.0,
+                                 grace=cfg.time_grace)
         # what decides behaviour (goal retries, follow checks and retries, stream re-requests)
         # runs on this clock: the world's lockstep barrier (sim s) with --lockstep, else wall
         self.lockstep = LockstepDesk(self.vehicles, self.codec.pack_own, self.tower.send,
-                                     self.on_sim_tick, self.log) if cfg.lockstep else None
+                                     self.on_sim_tick, self.log, clock) if cfg.lockstep else None
         self.behaviour_clock = (lambda: self.lockstep.sim_now) if self.lockstep else clock
         self.clocks = ClockDesk(self.timeline, self.command, lambda v, m: v.link.send(self.codec.pack_own(m)),
                                 self.log, self.warn_once, clock)

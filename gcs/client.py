@@ -248,6 +248,7 @@ class Client:
         self.tick_usec: int | None = None         # newest TICK handled (sim us)
         self._ack_due: int | None = None          # TICK handled, ACK not yet sent
         self._last_join = -1e9
+        self._last_tick_wall = -1e9
         self.mav = master.mav
         self.systems: dict[int, SystemState] = {}
         self.log = log or (lambda s: None)
@@ -363,6 +364,7 @@ class Client:
         self._lockstep_send(LS_JOIN, 0)
 
     def _poll_tick(self) -> int:
+        self._maybe_heartbeat()                 # before the ACK: it belongs to this TICK
         if self._ack_due is not None:
             self._lockstep_send(LS_ACK, self._ack_due)
             self._ack_due = None
@@ -370,7 +372,10 @@ class Client:
         n = 0
         while True:
             self._maybe_heartbeat()
-            if self.tick_usec is None and time.monotonic() - self._last_join >= 0.5:
+            # JOIN until the first TICK, and again after a second without one (a restarted
+            # bridge does not know us; the world may have dropped us)
+            if time.monotonic() - self._last_join >= (0.5 if self.tick_usec is None else 1.0) and \
+                    time.monotonic() - self._last_tick_wall >= 1.0:
                 self._join()
             try:
                 msg = self.master.recv_match(blocking=True, timeout=0.1)
@@ -381,6 +386,7 @@ class Client:
                 n += 1
                 self._handle(msg)
                 if self._ack_due is not None:
+                    self._last_tick_wall = time.monotonic()
                     return n
                 continue
             if time.monotonic() >= end:
@@ -433,12 +439,13 @@ class Client:
             fn(msg)
 
     def _maybe_heartbeat(self) -> None:
-        now = time.monotonic()
+        # with lockstep a sim-time second: the vehicle's GCS failsafe (FS_GCS_*) counts sim time
+        now = self._now() if self.lockstep else time.monotonic()
         if now - self._last_hb_sent >= self.heartbeat_interval:
             self._send_heartbeat()
 
     def _send_heartbeat(self) -> None:
-        self._last_hb_sent = time.monotonic()
+        self._last_hb_sent = self._now() if self.lockstep else time.monotonic()
         try:
             self.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0,
                                     mavlink.MAV_STATE_ACTIVE)

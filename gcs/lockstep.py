@@ -112,6 +112,15 @@ def speedup_arg(text: str) -> float:
     return v
 
 
+def speedup_type(text: str) -> float:
+    """speedup_arg for argparse (`type=speedup_type`): a bad value is an ArgumentTypeError."""
+    import argparse
+    try:
+        return speedup_arg(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def speedup_text(v: float) -> str:
     """The inverse of speedup_arg, for command lines and banners."""
     return "max" if v == float("inf") else f"{v:g}"

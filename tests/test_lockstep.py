@@ -111,6 +111,20 @@ def test_gate_drops_a_silent_participant_and_a_leaving_one():
     assert g.participants == {} and g.passed(10**12)
 
 
+def test_a_participant_joining_a_running_world_is_waited_for_from_the_next_tick():
+    g = LockstepGate(vehicles=1, expect=1)
+    g.on_message(msg(L.JOIN), 0, "a", 0.0)
+    assert g.started(0.0)
+    g.on_message(msg(L.ACK, 400000), 0, "a", 1.0)
+    # the tower comes back after being dropped; TICK(400 ms) went out before it joined
+    g.on_message(msg(L.JOIN, sysid=255, compid=190, who=L.TOWER), 0, "a", 1.1, now_usec=400000)
+    assert g.passed(400000) and not g.passed(440000)
+    g.on_message(msg(L.ACK, 440000), 0, "a", 1.2)
+    assert not g.passed(440000)                 # the tower owes ACK(440 ms) now
+    g.on_message(msg(L.ACK, 440000, sysid=255, compid=190, who=L.TOWER), 0, "a", 1.3)
+    assert g.passed(440000)
+
+
 def test_gate_holds_a_participants_packets_to_the_next_boundary_once_it_acked():
     g = LockstepGate(vehicles=1, expect=1)
     g.on_message(msg(L.JOIN), 0, "a", 0.0)
@@ -192,14 +206,14 @@ def test_world_never_steps_past_an_unacknowledged_tick(held_world):
     assert w.t == 0.0
     p.send(L.JOIN)
     assert p.next_tick() == 0
-    wait_until(lambda: w.lockstep_waits >= 1, 5.0, "the world waiting for ACK(0)")
+    wait_until(lambda: w.lockstep.waits >= 1, 5.0, "the world waiting for ACK(0)")
     assert w.steps == 0                        # --speedup max, yet held at t = 0
     for k in range(5):
         p.send(L.ACK, k * 40000)
         assert p.next_tick() == (k + 1) * 40000
-        wait_until(lambda: w.lockstep_waits >= k + 2, 5.0, f"the world waiting for ACK({k + 1})")
-        assert w.steps == (k + 1) * w.frame_steps     # exactly at the TICK, not one step further
-    assert w.frame_steps * w.dt == pytest.approx(0.04)
+        wait_until(lambda: w.lockstep.waits >= k + 2, 5.0, f"the world waiting for ACK({k + 1})")
+        assert w.steps == (k + 1) * w.lockstep.frame_steps     # exactly at the TICK, not one step further
+    assert w.lockstep.frame_steps * w.dt == pytest.approx(0.04)
 
 
 def test_a_silent_participant_is_dropped_and_the_world_goes_on(held_world, capsys):
@@ -207,7 +221,7 @@ def test_a_silent_participant_is_dropped_and_the_world_goes_on(held_world, capsy
     p.send(L.JOIN)
     assert p.next_tick() == 0
     wait_until(lambda: w.t > 1.0, 10.0, "the world going on without the silent participant")
-    assert w.gate.dropped == 1
+    assert w.lockstep.gate.dropped == 1
     assert "lockstep: bridge (sysid 250, compid 191) silent for 1 s (wall): dropped, the world goes on" \
         in capsys.readouterr().out
 
@@ -267,3 +281,112 @@ def test_a_third_party_client_sees_an_ordinary_vehicle_beside_a_participant(held
         assert all(m.get_msgId() != L.MSG_ID for m in seen)
     finally:
         gcs.close()
+
+
+# ----------------------------------------------------------------------------- the tower's client
+
+
+def test_lockstep_client_acts_only_at_ticks_and_acks_after_its_reactions():
+    """gcs.client.Client(lockstep=True) as the tower uses it, against a fake bridge on UDP."""
+    import threading
+
+    from gcs.client import Client
+    port = free_port()
+    bridge = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    bridge.bind(("127.0.0.1", port))
+    bridge.settimeout(5.0)
+    parser = tl.MAVLink(None)
+    enc = tl.MAVLink(None, srcSystem=250, srcComponent=191)
+    vehicle = tl.MAVLink(None, srcSystem=1, srcComponent=1)
+
+    def received(until):
+        """Messages from the client up to and including the first one `until` accepts."""
+        out = []
+        while True:
+            data, addr = bridge.recvfrom(65535)
+            for m in parser.parse_buffer(data) or []:
+                out.append(m)
+                if until(m):
+                    return out, addr
+
+    def lockstep(kind):
+        return lambda m: m.get_type() == "TOWERLINK_LOCKSTEP" and m.kind == kind
+
+    def tick(t_usec):
+        return tl.MAVLink_towerlink_lockstep_message(t_usec, 0, L.TICK, L.WORLD, 40000).pack(enc)
+
+    c = Client.connect(f"udpout:127.0.0.1:{port}", lockstep=True)
+    try:
+        joins, addr = received(lockstep(L.JOIN))
+        assert joins[-1].participant == L.TOWER and joins[-1].target_system == 0
+        bridge.sendto(tick(0), addr)
+        c.poll(0.0)
+        assert c.tick_usec == 0
+        c.goto(1.0, 2.0, -3.0)                 # the program's reaction to TICK(0)
+        done = []
+        th = threading.Thread(target=lambda: done.append(c.poll(0.0)), daemon=True)
+        th.start()
+        msgs, _ = received(lockstep(L.ACK))
+        types = [m.get_type() for m in msgs]
+        assert "SET_POSITION_TARGET_LOCAL_NED" in types
+        assert types.index("SET_POSITION_TARGET_LOCAL_NED") < len(types) - 1 and msgs[-1].time_usec == 0
+        bridge.sendto(tl.MAVLink_heartbeat_message(2, 3, 0, 0, 4, 3).pack(vehicle), addr)
+        wait_until(lambda: c.system(1).heartbeat_wall is not None, 5.0, "the vehicle heartbeat handled")
+        assert th.is_alive() and not done         # a poll returns at a TICK, not at any message
+        bridge.sendto(tick(40000), addr)
+        th.join(5.0)
+        assert done and c.tick_usec == 40000 and c.sim_time(1) == 0.0
+        assert c.system(1).heartbeat_wall == pytest.approx(1e-6)   # noted just after TICK(0)
+    finally:
+        c.close()
+    leave, _ = received(lockstep(L.LEAVE))
+    assert leave[-1].time_usec == 40000
+    bridge.close()
+
+
+# ----------------------------------------------------------------------------- the bridge's desk
+
+
+def test_bridge_desk_barrier_needs_a_tick_on_every_vehicle_link_then_upkeep_ack_and_relay():
+    from types import SimpleNamespace
+
+    from bridge.lockstep_desk import LockstepDesk
+    sent = []
+
+    class FakeLink:
+        def __init__(self, name):
+            self.name = name
+
+        def send(self, data):
+            sent.append((self.name, data))
+
+    vehicles = {1: SimpleNamespace(name="drone", sysid=1, link=FakeLink("drone")),
+                2: SimpleNamespace(name="rover", sysid=2, link=FakeLink("rover"))}
+    wall = [0.0]
+    desk = LockstepDesk(vehicles, lambda m: m, lambda m: sent.append(("tower", m)),
+                        lambda t: sent.append(("upkeep", t)), lambda line: None, lambda: wall[0])
+
+    def tick(t):
+        return tl.MAVLink_towerlink_lockstep_message(t, 0, L.TICK, L.WORLD, 40000)
+
+    desk.upkeep(0.0)
+    assert [(d, m.kind, m.target_system) for d, m in sent] == [("drone", L.JOIN, 1), ("rover", L.JOIN, 2)]
+    sent.clear()
+    desk.on_tower(tl.MAVLink_towerlink_lockstep_message(0, 0, L.JOIN, L.TOWER, 0))
+    desk.on_vehicle(vehicles[1], tick(0))
+    assert sent == []                          # the rover link's data up to 0 may still be coming
+    desk.on_vehicle(vehicles[2], tick(0))
+    assert [(d, m if d == "upkeep" else (m.kind, m.time_usec)) for d, m in sent] == \
+        [("upkeep", 0.0), ("drone", (L.ACK, 0)), ("rover", (L.ACK, 0)), ("tower", (L.TICK, 0))]
+    assert desk.sim_now == 0.0
+    sent.clear()
+    desk.on_vehicle(vehicles[2], tick(40000))
+    desk.on_vehicle(vehicles[1], tick(40000))
+    assert sent[0] == ("upkeep", 0.04) and desk.sim_now == 0.04
+    sent.clear()
+    wall[0] = 0.9
+    desk.upkeep(0.9)                            # ticking: no JOIN
+    assert sent == []
+    wall[0] = 2.5
+    desk.upkeep(2.5)                            # no TICK for over a second: JOIN again
+    assert [(d, m.kind) for d, m in sent] == [("drone", L.JOIN), ("rover", L.JOIN)]

@@ -75,7 +75,7 @@ import time
 from pathlib import Path
 
 from gcs.geo import lla_to_ned
-from gcs.lockstep import speedup_arg, speedup_text
+from gcs.lockstep import speedup_text, speedup_type
 from gcs.mavstr import mav_str
 
 os.environ.setdefault("MAVLINK20", "1")
@@ -672,18 +672,11 @@ def _json_default(o):
 # ----------------------------------------------------------------------------- CLI
 
 
-def _speedup(text: str) -> float:
-    try:
-        return speedup_arg(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc))
-
-
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenario", nargs="?", default=None,
                         help="scenario TOML, or a shipped one by name: default, family (3 drones, "
                              "3 rovers), van (the tower on a moving van); default: the lab scenario")
-    parser.add_argument("--speedup", type=_speedup, default=5.0, metavar="N|max",
+    parser.add_argument("--speedup", type=speedup_type, default=5.0, metavar="N|max",
                         help="at most N sim seconds per wall second (default 5; the machine may deliver less); "
                              "'max': as fast as the machine allows (use with --lockstep)")
     parser.add_argument("--lockstep", action="store_true",

@@ -65,16 +65,9 @@ import os
 import signal
 import sys
 
+from gcs.lockstep import speedup_type
 from gcs.signing import key_from_text as signing_key
 from vehicle.world import DEFAULT_HOME, DEFAULT_STATE_DIR, PLAN_FILE, World, WorldConfig
-
-
-def _speedup(s: str) -> float:
-    from gcs.lockstep import speedup_arg
-    try:
-        return speedup_arg(s)
-    except ValueError as e:
-        raise argparse.ArgumentTypeError(str(e))
 
 
 def _home(s: str) -> tuple[float, float, float]:
@@ -150,7 +143,7 @@ def _wind(s: str):
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--drones", type=int, default=1, metavar="N", help="number of drones (default 1)")
     p.add_argument("--rovers", type=int, default=1, metavar="M", help="number of rovers (default 1)")
-    p.add_argument("--speedup", type=_speedup, default=1.0, metavar="N|max",
+    p.add_argument("--speedup", type=speedup_type, default=1.0, metavar="N|max",
                    help="at most N sim seconds per wall second (default 1); 'max': as fast as the CPU "
                         "and the --lockstep participants allow")
     p.add_argument("--lockstep", type=int, default=0, metavar="N",

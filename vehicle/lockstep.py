@@ -51,8 +51,13 @@ class LockstepGate:
         self.is_started = False
         self.dropped = 0
 
-    def on_message(self, m: Lockstep, vehicle: int, channel, wall: float) -> str | None:
-        """Take one TOWERLINK_LOCKSTEP received on `vehicle`'s endpoint; a log line or None."""
+    def on_message(self, m: Lockstep, vehicle: int, channel, wall: float,
+                   now_usec: int | None = None) -> str | None:
+        """Take one TOWERLINK_LOCKSTEP received on `vehicle`'s endpoint; a log line or None.
+
+        `now_usec`: the newest TICK already sent, once running: a participant joining then
+        (a restarted bridge, a tower back after being dropped) is waited for from the next
+        TICK on, since it never got that one."""
         key = (m.sysid, m.compid)
         p = self.participants.get(key)
         if m.kind == LEAVE:
@@ -71,7 +76,7 @@ class LockstepGate:
         p.heard = wall
         if vehicle not in p.channels:
             p.channels[vehicle] = channel
-            p.acked.setdefault(vehicle, -1)
+            p.acked.setdefault(vehicle, -1 if now_usec is None else now_usec)
         if m.kind == ACK:
             p.acked[vehicle] = max(p.acked.get(vehicle, -1), m.time_usec)
         return line

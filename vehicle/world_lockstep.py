@@ -1,0 +1,136 @@
+"""The world's side of the lockstep handshake (issue 11): the I/O around the pure gate.
+
+`WorldLockstep` reads TOWERLINK_LOCKSTEP (gcs.lockstep) off every UDP endpoint before the
+vehicle's link sees it (the link speaks ardupilotmega; this one message is the world's),
+feeds the gate (vehicle.lockstep), sends the TICKs and waits for the ACKs. The world's
+stepping loop asks :meth:`WorldLockstep.boundary` before every step.
+
+A participant's packets take effect at a TICK boundary: the one the world stands at if the
+participant has not ACKed that TICK yet, else the next (held until then). So each takes
+effect at a sim time fixed by the data it reacts to, never by when the machine delivered
+it. Anyone else's packets are handled on arrival: third-party clients see an ordinary
+vehicle, and never a TOWERLINK_LOCKSTEP (TICKs go only to the addresses participants
+joined from).
+"""
+from __future__ import annotations
+
+import asyncio
+import time
+
+from gcs import lockstep as wire
+from vehicle.lockstep import LockstepGate
+
+
+class WorldLockstep:
+    def __init__(self, world, expect: int, period: float, timeout: float) -> None:
+        self.world = world
+        ap_dt = world.dt * world.ap_every
+        # TICKs fall on autopilot ticks, so a TICK always follows that tick's telemetry
+        self.frame_steps = world.ap_every * max(1, int(round(period / ap_dt)))
+        self.gate = LockstepGate(len(world.vehicles), expect, timeout)
+        self.expect = expect
+        self.ticked_steps = -1
+        self.event: asyncio.Event | None = None
+        self.held: list[tuple] = []
+        self.at_boundary = True
+        self.waits = 0
+        self.wait_wall = 0.0
+        for v in world.vehicles:
+            for ep in v.link.endpoints:
+                if ep.spec.startswith(("udpin:", "udpout:")):
+                    ep.on_data = self._filter(v, ep.on_data)
+
+    def t_usec(self) -> int:
+        """The world's sim time in whole microseconds (the TICKs' and ACKs' unit)."""
+        w = self.world
+        return int(round(w.steps * w.dt * 1e6))
+
+    def _filter(self, v, inner):
+        def on_data(data: bytes, channel) -> bool:
+            m, rest = wire.unpack(data)
+            if m is None:
+                sender = wire.sender(data)
+                boundary = self.t_usec() if self.at_boundary else None
+                if sender is not None and self.gate.holds(*sender, v.index, boundary):
+                    self.held.append((inner, data, channel))
+                    return True
+                return inner(data, channel)
+            if m.target_system in (0, v.sysid):
+                now = None
+                if self.gate.is_started and self.ticked_steps >= 0:
+                    now = int(round(self.ticked_steps * self.world.dt * 1e6))
+                line = self.gate.on_message(m, v.index, channel, time.monotonic(), now)
+                if line:
+                    self.world.log(line)
+                if self.event is not None:
+                    self.event.set()
+            return (inner(rest, channel) if rest else False) or True
+        return on_data
+
+    def boundary(self) -> bool:
+        """Before each step: True when the world stands at a TICK it may not pass yet."""
+        w = self.world
+        if w.steps % self.frame_steps:
+            return False
+        self.at_boundary = True
+        if self.ticked_steps != w.steps:
+            self.ticked_steps = w.steps
+            held, self.held = self.held, []
+            for inner, data, channel in held:       # what came between TICKs, in arrival order
+                inner(data, channel)
+            self._send_ticks()
+        if not self.gate.passed(self.t_usec()):
+            return True
+        self.at_boundary = False
+        return False
+
+    def _send_ticks(self) -> None:
+        """TICK(t) after everything the vehicles sent up to t, to each joined channel."""
+        period = int(round(self.frame_steps * self.world.dt * 1e6))
+        t = self.t_usec()
+        for v in self.world.vehicles:
+            for ch in self.gate.channels(v.index):
+                ch.send(wire.pack(wire.TICK, t, participant=wire.WORLD, target_system=0,
+                                  period_usec=period, sysid=v.sysid, compid=1))
+
+    async def _until(self, done, stop: asyncio.Event, every=None) -> None:
+        while not done() and not stop.is_set():
+            self.event.clear()
+            try:
+                await asyncio.wait_for(self.event.wait(), 0.5)
+            except asyncio.TimeoutError:
+                pass
+            if every is not None:
+                every()
+
+    async def wait(self, stop: asyncio.Event) -> None:
+        """Until every participant ACKed the TICK the world stands at (or the silent were dropped)."""
+        gate, t = self.gate, self.t_usec()
+        w0 = time.monotonic()
+        self.waits += 1
+
+        def drop() -> None:
+            for p in gate.drop_silent(time.monotonic(), t):
+                self.world.log(f"lockstep: {p.name} silent for {gate.timeout:g} s (wall): dropped, "
+                               f"the world goes on")
+        await self._until(lambda: gate.passed(t), stop, drop)
+        self.wait_wall += time.monotonic() - w0
+
+    async def start(self, stop: asyncio.Event) -> None:
+        """Hold at t = 0 until the expected participants joined (gate.started)."""
+        self.event = asyncio.Event()
+        gate, log = self.gate, self.world.log
+        last = [time.monotonic()]
+        log(f"lockstep: waiting at t=0 for {self.expect} participant(s) on every vehicle")
+
+        def remind() -> None:
+            if time.monotonic() - last[0] > 10.0:
+                last[0] = time.monotonic()
+                log(f"lockstep: still waiting at t=0: {len(gate.participants)} of {self.expect} joined")
+        await self._until(lambda: gate.started(time.monotonic()), stop, remind)
+        log(f"lockstep: starting with {len(gate.participants)} participant(s), a TICK every "
+            f"{self.frame_steps * self.world.dt * 1e3:g} ms sim, silent ones dropped after {gate.timeout:g} s wall")
+
+    def stats_line(self) -> str:
+        return (f"lockstep: {self.waits} waits for ACKs, {self.wait_wall:.2f} s wall waiting; "
+                f"{self.gate.dropped} participant(s) dropped for silence")
