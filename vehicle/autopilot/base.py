@@ -9,6 +9,7 @@ the world calls `update(t)` at a fixed sim rate. Text for the GCS goes out throu
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 
@@ -19,6 +20,7 @@ from gcs import geo
 from gcs.frames import euler_from_quaternion
 from vehicle.autopilot import modes
 from vehicle.autopilot.auto import AutoMode
+from vehicle.autopilot.ekf_origin import EkfOrigin
 from vehicle.autopilot.fence import Fence
 from vehicle.autopilot.guided import GuidedTarget, TargetError, decode_global, decode_local
 from vehicle.autopilot.mission_store import MissionStore
@@ -81,6 +83,8 @@ class Autopilot:
         self.boot_sysid = int(params["SYSID_THISMAV"])
         self.origin = origin
         self.start_ned = np.asarray(start_ned, float)
+        # local NED (LOCAL_POSITION_NED, local targets) is centred here, set at the first fix
+        self.ekf_origin = EkfOrigin(origin)
         self.text = text or (lambda sev, msg: None)
         # parameter changes (PARAM_SET, DO_CHANGE_SPEED) reach this vehicle's index only
         self.push_params = push_params or (lambda p: fleet.set_params(p, i=index))
@@ -162,6 +166,8 @@ class Autopilot:
         dt = t - self.t
         self.t = t
         self.refresh()
+        if not self.ekf_origin.is_set and self.est_ok:
+            self.ekf_origin.set(*self.lla())    # ArduPilot: EKF origin at the first GPS fix
         if self.home is None and self.est_ok:
             self.home = self.pos.copy()
             self.home[2] = max(self.home[2], 0.0) if self.kind == "copter" else self.home[2]
@@ -307,10 +313,14 @@ class Autopilot:
         if not self.in_guided():
             return False
         self.refresh()
+        # the wire's local frame is centred on this vehicle's EKF origin, the fleet's on the world
         try:
-            tgt = decode_local(frame, type_mask, p, v, a, yaw, yaw_rate, self.pos, self.yaw)
+            tgt = decode_local(frame, type_mask, p, v, a, yaw, yaw_rate, self.ekf_origin.to_local(self.pos),
+                               self.yaw)
         except TargetError as e:
             return self._refuse(str(e))
+        if tgt.pos is not None:
+            tgt = dataclasses.replace(tgt, pos=self.ekf_origin.to_world(tgt.pos))
         return self.accept_target(tgt)
 
     def position_target_global(self, frame, type_mask, lat_int, lon_int, alt, v, a, yaw, yaw_rate) -> bool:

@@ -89,6 +89,7 @@ class Telemetry:
             mav.MAVLINK_MSG_ID_SIM_STATE: self.sim_state,
             mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION: self.autopilot_version,
             mav.MAVLINK_MSG_ID_MISSION_CURRENT: lambda: self.link.missions.mission_current(),
+            mav.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN: self.gps_global_origin,
         }
 
     # time
@@ -153,8 +154,12 @@ class Telemetry:
             _i(ap.vel[2] * 100, -32768, 32767), _i(hdg * 100, 0, 35999))
 
     def local_position_ned(self):
+        # NED from this vehicle's EKF origin; none before it is set (ArduPilot has no local
+        # position then either)
         ap = self.link.ap
-        p, v = ap.pos, ap.vel
+        if not ap.ekf_origin.is_set:
+            return None
+        p, v = ap.ekf_origin.to_local(ap.pos), ap.vel
         return mav.MAVLink_local_position_ned_message(self.boot_ms(), float(p[0]), float(p[1]), float(p[2]),
                                                       float(v[0]), float(v[1]), float(v[2]))
 
@@ -183,7 +188,7 @@ class Telemetry:
         if ap.home is None:
             return None
         lat, lon, alt = ap.home_lla()
-        h = ap.home
+        h = ap.ekf_origin.to_local(ap.home)       # x, y, z: home in the local (EKF origin) frame
         return mav.MAVLink_home_position_message(
             _i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1), _i(alt * 1000, -2**31, 2**31 - 1),
             float(h[0]), float(h[1]), float(h[2]), [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0, self.usec())
@@ -212,13 +217,23 @@ class Telemetry:
         t = ap.echo
         if t is None:
             return None
-        p = t.pos if t.pos is not None else (0.0, 0.0, 0.0)
+        p = ap.ekf_origin.to_local(t.pos) if t.pos is not None else (0.0, 0.0, 0.0)
         v = t.vel if t.vel is not None else (0.0, 0.0, 0.0)
         a = t.acc if t.acc is not None else (0.0, 0.0, 0.0)
         return mav.MAVLink_position_target_local_ned_message(
             self.boot_ms(), mav.MAV_FRAME_LOCAL_NED, t.type_mask, float(p[0]), float(p[1]), float(p[2]),
             float(v[0]), float(v[1]), float(v[2]), float(a[0]), float(a[1]), float(a[2]),
             float(t.yaw or 0.0), float(t.yaw_rate or 0.0))
+
+    def gps_global_origin(self):
+        """Where this vehicle's local NED is centred (its EKF origin); None until set."""
+        o = self.link.ap.ekf_origin
+        if not o.is_set:
+            return None
+        lat, lon, alt = o.lla
+        return mav.MAVLink_gps_global_origin_message(_i(lat * 1e7, -2**31, 2**31 - 1),
+                                                     _i(lon * 1e7, -2**31, 2**31 - 1),
+                                                     _i(alt * 1000, -2**31, 2**31 - 1), self.usec())
 
     def sim_state(self):
         ap = self.link.ap

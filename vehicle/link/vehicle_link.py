@@ -185,6 +185,11 @@ class VehicleLink:
             buf = b"".join(batch)
             for ep in self.endpoints:
                 ep.send(buf)
+        if self.ap.ekf_origin.version != self._origin_sent:     # set at first fix or by a GCS:
+            self._origin_sent = self.ap.ekf_origin.version      # tell everyone, as ArduPilot does
+            msg = self.telemetry.gps_global_origin()
+            if msg is not None:
+                self.send(msg)
         self.missions.update(t)
         if self.outboxes:
             self._drain_outboxes(t)
@@ -197,6 +202,7 @@ class VehicleLink:
                                                                   int(self.stats[k])))
 
     next_stats = 0.0
+    _origin_sent = 0
 
     # ----- paced replies ------------------------------------------------------------------
     def paced(self, ch: Channel) -> PacedQueue:
@@ -446,6 +452,15 @@ class VehicleLink:
     def on_SET_POSITION_TARGET_GLOBAL_INT(self, m, ch) -> None:
         self.ap.position_target_global(m.coordinate_frame, m.type_mask, m.lat_int, m.lon_int, m.alt,
                                        (m.vx, m.vy, m.vz), (m.afx, m.afy, m.afz), m.yaw, m.yaw_rate)
+
+    def on_SET_GPS_GLOBAL_ORIGIN(self, m, ch) -> None:
+        """As ArduPilot's handle_set_gps_global_origin: a bad latitude/longitude is dropped
+        silently; the origin is set only if it is not set yet (then GPS_GLOBAL_ORIGIN goes out
+        from update()); a second one is ignored, also silently. Altitude is mm AMSL."""
+        lat, lon, alt = m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3
+        if abs(lat) > 90 or abs(lon) > 180:
+            return
+        self.ap.ekf_origin.set(lat, lon, alt)
 
     def on_TIMESYNC(self, m, ch) -> None:
         # a request (tc1 0): answer tc1 = our sim clock in ns (never 0, which would read as a
