@@ -37,7 +37,7 @@ class PendingGoal:
 
 class GoalDesk:
     def __init__(self, tree: FrameTree, codec, send, stats, world_clock, clock, log, statustext,
-                 world_frame: str = "world") -> None:
+                 world_frame: str = "world", frame_of=None) -> None:
         self.tree = tree
         self.codec = codec
         self._send = send                   # (target_system, bytes) -> bool (reached a vehicle)
@@ -47,6 +47,8 @@ class GoalDesk:
         self.log = log
         self.statustext = statustext
         self.world_frame = world_frame
+        # target_system -> the frame its local NED is in (<vehicle>_origin; world if unknown)
+        self.frame_of = frame_of or (lambda target: world_frame)
         self.pending: dict[int, PendingGoal] = {}
 
     def submit(self, g: PendingGoal) -> None:
@@ -58,17 +60,19 @@ class GoalDesk:
             self.try_goal(g)
 
     def try_goal(self, g: PendingGoal) -> bool:
-        """Translate `g` into world and send it, or leave it pending; True if sent."""
+        """Translate `g` into the target's local frame (its <name>_origin) and send it, or
+        leave it pending; True if sent."""
         g.attempts += 1
+        dst = self.frame_of(g.target)
         try:
-            T = self.tree.fresh_lookup(self.world_frame, g.frame, self.world_clock()).transform
+            T = self.tree.fresh_lookup(dst, g.frame, self.world_clock()).transform
         except (TransformException, StaleTransform) as exc:
             self.stats.deferred += 1
             now = self.clock()
             if now - g.last_warn >= 1.0:
                 g.last_warn = now
                 self.log(f"goal for sysid {g.target} in {g.frame!r} waits: {exc}")
-                self.statustext(f"goal waits: no {g.frame}->{self.world_frame} tf")
+                self.statustext(f"goal waits: no {g.frame}->{dst} tf")
             return False
         out = translate.set_position_target(g.msg, T) if g.kind == "spt" else translate.named_target(g.msg, T)
         if self._send(g.target, self.codec.pack_as(out, g.src)):

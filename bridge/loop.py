@@ -42,6 +42,7 @@ from bridge.frame_tree import FrameTree
 from bridge.goals import GoalDesk, PendingGoal
 from bridge.telemetry import MSG_LOCAL_POSITION_NED, MSG_POSITION_TARGET_LOCAL_NED, TELEMETRY_IN, TelemetryDesk
 from bridge.links import Link, Packet
+from bridge.origins import OriginDesk, origin_frame
 from bridge.pairing import VehicleFrames
 from bridge.timeline import Timeline
 from bridge.trust import StaticTrust
@@ -74,12 +75,13 @@ class Bridge:
         self.outs = [Link(f"out{i}", url, clock) for i, url in enumerate(cfg.outs)]
         self.gcs_links = [self.tower, *self.outs]
         self.vehicles: dict[int, VehicleRecord] = {}
+        self.origins = OriginDesk(cfg.world_frame, cfg.world_origin, "drone" if cfg.drone else None)
         for name, url, sysid in (("drone", cfg.drone, cfg.drone_sysid),
                                  ("rover", cfg.rover, cfg.rover_sysid)):
             if url:
                 link = Link(name, url, clock)
                 link.sysids.add(sysid)
-                self.vehicles[sysid] = VehicleRecord(name, sysid, link, VehicleFrames(name, cfg.world_frame))
+                self.vehicles[sysid] = VehicleRecord(name, sysid, link, VehicleFrames(name, origin_frame(name)))
                 self.tree.add_vehicle(name)
         self.links = [*self.gcs_links, *(v.link for v in self.vehicles.values())]
         self.codec = Codec(cfg.sysid, cfg.compid, cfg.signing_key)
@@ -91,7 +93,8 @@ class Bridge:
         self.clocks = ClockDesk(self.timeline, self.command, lambda v, m: v.link.send(self.codec.pack_own(m)),
                                 self.log, self.warn_once, clock)
         self.goals = GoalDesk(self.tree, self.codec, self.to_vehicle, self.tower.stats,
-                              self.timeline.world_clock, clock, self.log, self.statustext, cfg.world_frame)
+                              self.timeline.world_clock, clock, self.log, self.statustext, cfg.world_frame,
+                              self.vehicle_frame)
         self.follower = Follower(cfg, self.buffer, clock, self.log, self.warn_once)
         self.telemetry = TelemetryDesk(self)
         self.tower_drops = 0
@@ -114,6 +117,11 @@ class Bridge:
             self.log(text)
             return True
         return False
+
+    def vehicle_frame(self, sysid: int) -> str:
+        """The frame vehicle `sysid`'s local NED is in: <name>_origin (world for others)."""
+        v = self.vehicles.get(sysid)
+        return origin_frame(v.name) if v is not None else self.cfg.world_frame
 
     # ------------------------------------------------------------------ sending
     def send_own_to_gcs(self, msg) -> None:
@@ -230,20 +238,21 @@ class Bridge:
                 return
             if pkt.msgid in TO_TOWER and (pkt.msgid == MSG_LOCAL_POSITION_NED or
                                           msg.coordinate_frame in translate.TRANSLATED_FRAMES):
-                to_tower = self.translate_to_tower(msg, pkt, TO_TOWER[pkt.msgid])
+                to_tower = self.translate_to_tower(msg, pkt, TO_TOWER[pkt.msgid], origin_frame(v.name))
             if not self.telemetry.on_message(v, pkt.msgid, pkt.compid, msg):
                 return              # the answer to our own probe: not forwarded
         self.route_from_vehicle(v, pkt, to_tower)
 
-    def translate_to_tower(self, msg, pkt: Packet, fn) -> bytes | None:
-        """`msg` mapped world -> tower and packed as its sender, or None (dropped, counted)."""
+    def translate_to_tower(self, msg, pkt: Packet, fn, source: str) -> bytes | None:
+        """`msg` (in the vehicle's `source` = <name>_origin frame) mapped to tower and packed
+        as its sender, or None (dropped, counted)."""
         if not self.tower.connected:
             return None
         try:
-            T = self.tree.lookup(self.cfg.tower_frame, self.cfg.world_frame)
+            T = self.tree.lookup(self.cfg.tower_frame, source)
         except TransformException as exc:
             self.tower_drops += 1
-            self.warn_once("to-tower", f"telemetry to the tower dropped: no {self.cfg.world_frame} -> "
+            self.warn_once("to-tower", f"telemetry to the tower dropped: no {source} -> "
                                        f"{self.cfg.tower_frame} transform ({exc})")
             return None
         self.tower.stats.translated += 1
@@ -284,6 +293,7 @@ class Bridge:
         for link in self.links:
             link.poll()
         self.telemetry.release_held()
+        self.telemetry.ask_origins(now)
         self.goals.retry()
         rover = self.vehicles.get(self.cfg.rover_sysid)
         if self.cfg.follow and rover is not None:

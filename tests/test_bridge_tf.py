@@ -105,7 +105,10 @@ def test_transform_stream_reaches_tower(world):
     T = Transform.from_euler(yaw=0.7, pitch=0.2, roll=0.1, translation=(3, 4, -9))
     drone.pose(2000, T.xyz, q_wxyz(T))
     m = tower.wait("TOWERLINK_TRANSFORM", lambda m: m.child_frame_id == "drone")
-    assert m.time_usec == 2_000_000 and m.frame_id == "world" and not m.flags & 1
+    # the drone's pose is in its own local frame, centred on its EKF origin (GPS_GLOBAL_ORIGIN)
+    assert m.time_usec == 2_000_000 and m.frame_id == "drone_origin" and not m.flags & 1
+    o = tower.wait("TOWERLINK_TRANSFORM", lambda m: m.child_frame_id == "drone_origin")
+    assert o.frame_id == "world" and o.flags & 1
     np.testing.assert_allclose(m.translation, T.xyz, atol=1e-5)
     np.testing.assert_allclose(np.abs(np.dot(m.rotation, T.xyzw)), 1.0, atol=1e-6)
     tower.wait("TOWERLINK_TRANSFORM", lambda m: m.child_frame_id == "drone_yaw")

@@ -33,8 +33,11 @@ def test_origin_is_set_once_and_converts_both_ways():
     assert o.set(lat, lon, alt)
     v = o.version
     assert not o.set(*home) and o.version == v            # a second origin is ignored
-    assert np.allclose(o.offset, (-3.0, 4.0, 0.0), atol=1e-6)
-    assert np.allclose(o.to_local((-3.0, 4.0, -2.0)), (0.0, 0.0, -2.0), atol=1e-6)
+    # held to 1e-7 deg and 1 cm, as ArduPilot's Location: within 1.1 cm of the asked place
+    assert np.allclose(o.offset, (-3.0, 4.0, 0.0), atol=0.012)
+    assert np.allclose(o.offset, geo.lla_to_ned(home, *o.lla), atol=1e-9)
+    assert o.lla[0] * 1e7 == pytest.approx(round(o.lla[0] * 1e7), abs=1e-6)
+    assert np.allclose(o.to_local(o.offset + (0, 0, -2.0)), (0.0, 0.0, -2.0), atol=1e-9)
     assert np.allclose(o.to_world(o.to_local((7.0, -1.0, 3.0))), (7.0, -1.0, 3.0))
 
 

@@ -51,7 +51,7 @@ import threading
 import time
 from pathlib import Path
 
-from gcs.geo import lla_to_ned
+from gcs.geo import lla_to_ned, ned_to_lla
 from gcs.mavstr import mav_str
 
 os.environ.setdefault("MAVLINK20", "1")
@@ -161,18 +161,21 @@ class Monitor(threading.Thread):
         with self.lock:
             if isinstance(ms, int) and src in (DRONE, ROVER) and t != "SET_POSITION_TARGET_LOCAL_NED":
                 self.sim_ms = max(self.sim_ms, ms)
-            if t == "HOME_POSITION":
-                self.origin[src] = (m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3, m.x, m.y, m.z)
+            # each vehicle's local NED is centred on its own EKF origin (GPS_GLOBAL_ORIGIN, or
+            # HOME_POSITION's lla less its local x, y, z); world is the drone's, as the bridge's
+            if t == "HOME_POSITION" and src not in self.origin:
+                self.origin[src] = ned_to_lla((m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3),
+                                              (-m.x, -m.y, -m.z))
             elif t == "GPS_GLOBAL_ORIGIN":
-                self.origin[src] = (m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3, 0.0, 0.0, 0.0)
-            elif t == "SIM_STATE" and src in self.origin:
-                lat0, lon0, alt0, ox, oy, oz = self.origin[src]
+                self.origin[src] = (m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3)
+            elif t == "SIM_STATE" and DRONE in self.origin:
                 lat = m.lat_int * 1e-7 if getattr(m, "lat_int", 0) else m.lat
                 lon = m.lon_int * 1e-7 if getattr(m, "lon_int", 0) else m.lon
-                n, e, d = lla_to_ned((lat0, lon0, alt0), lat, lon, m.alt)
-                self.truth[src] = (n + ox, e + oy, d + oz)
+                self.truth[src] = lla_to_ned(self.origin[DRONE], lat, lon, m.alt)
             elif t == "LOCAL_POSITION_NED":
-                self.estimate[src] = (m.x, m.y, m.z)
+                off = (lla_to_ned(self.origin[DRONE], *self.origin[src])
+                       if DRONE in self.origin and src in self.origin else (0.0, 0.0, 0.0))
+                self.estimate[src] = (m.x + off[0], m.y + off[1], m.z + off[2])
             elif t == "PARAM_VALUE" and src == DRONE:
                 self.params[mav_str(m.param_id)] = float(m.param_value)
             elif t == "TOWERLINK_FOLLOW_STATUS":

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from gcs.frames.batch import ground_point
-from gcs.geo import lla_to_ned
+from gcs.geo import lla_to_ned, ned_to_lla
 from gcs.mavstr import mav_str
 
 os.environ.setdefault("MAVLINK20", "1")
@@ -188,16 +188,23 @@ def load_messages(msgs: Iterable[Any], data: RunData | None = None) -> RunData:
             data.bridge_status[mav_str(m.link)] = {k: int(getattr(m, k)) for k in
                                               ("rx_packets", "tx_packets", "malformed", "unroutable",
                                                "translated", "deferred")}
+    # each vehicle's local NED is centred on its own EKF origin; world is the first vehicle's
+    # (the drone's), as the bridge's world is by default
+    local0 = {src: _local_origin(origin.get(src), home.get(src)) for src in set(origin) | set(home)}
+    local0 = {k: v for k, v in local0.items() if v is not None}
+    ref = local0[min(local0)] if local0 else None
     for src, rows in truth_lla.items():
-        conv = _lla_converter(origin.get(src), home.get(src))
-        if conv is None:
+        if ref is None or src not in local0:
             continue
         out = []
         for (tt, lat, lon, alt, r, p, y, vn, ve, vd) in rows:
-            n, e, d = conv(lat, lon, alt)
+            n, e, d = lla_to_ned(ref, lat, lon, alt)
             out.append((tt, n, e, d, r, p, y, vn, ve, vd))
         data.truth[src] = _track(out, ("roll", "pitch", "yaw", "vn", "ve", "vd"))
     for src, rows in est_rows.items():
+        if ref is not None and src in local0:
+            off = lla_to_ned(ref, *local0[src])
+            rows = [(tt, x + off[0], y + off[1], z + off[2], *v) for (tt, x, y, z, *v) in rows]
         data.estimate[src] = _track(rows, ("vx", "vy", "vz"))
     if follow_rows:
         a = np.array(follow_rows, dtype=float)
@@ -207,20 +214,15 @@ def load_messages(msgs: Iterable[Any], data: RunData | None = None) -> RunData:
     return data
 
 
-def _lla_converter(origin, home):
-    """lat/lon/alt -> world NED, from GPS_GLOBAL_ORIGIN, else HOME_POSITION (lla + local xyz)."""
+def _local_origin(origin, home):
+    """Where a vehicle's local NED is centred (lat, lon, alt): its GPS_GLOBAL_ORIGIN, else
+    HOME_POSITION's lla less its local x, y, z; None if neither was logged."""
     if origin is not None:
-        lat0, lon0, alt0 = origin
-        off = (0.0, 0.0, 0.0)
-    elif home is not None:
-        (lat0, lon0, alt0), off = home
-    else:
-        return None
-
-    def conv(lat, lon, alt):
-        n, e, d = lla_to_ned((lat0, lon0, alt0), lat, lon, alt)
-        return n + off[0], e + off[1], d + off[2]
-    return conv
+        return origin
+    if home is not None:
+        lla, xyz = home
+        return ned_to_lla(lla, (-xyz[0], -xyz[1], -xyz[2]))
+    return None
 
 
 def load_run(run_dir: str | os.PathLike) -> RunData:

@@ -41,7 +41,9 @@ class EkfOrigin:
             return False
         if not all(math.isfinite(v) for v in (lat, lon, alt)) or abs(lat) > 90 or abs(lon) > 180:
             return False
-        self.lla = (float(lat), float(lon), float(alt))
+        # held as ArduPilot's Location holds it (1e-7 deg, cm), so GPS_GLOBAL_ORIGIN is exact
+        self.lla = (round(lat * 1e7) / 1e7, round(lon * 1e7) / 1e7, round(alt * 100) / 100)
+        lat, lon, alt = self.lla
         self.offset = np.asarray(geo.lla_to_ned(self.world_origin, lat, lon, alt), float)
         self.version = next(_SETS)
         return True
