@@ -253,6 +253,19 @@ def horizontal_error(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.hypot(a[..., 0] - b[..., 0], a[..., 1] - b[..., 1])
 
 
+def world_transforms(data: RunData, child: str, vehicle: str = "drone") -> list[tuple[float, tuple]]:
+    """The recorded transforms world -> `child`: the bridge's <vehicle>_origin -> child moved by
+    the static world -> <vehicle>_origin (a translation, from GPS_GLOBAL_ORIGIN); tlogs from
+    before the origin frames have world -> child itself."""
+    origin = vehicle + "_origin"
+    rows = data.transforms.get((origin, child))
+    off = data.statics.get(("world", origin))
+    if not rows or off is None:
+        return data.transforms.get(("world", child), [])
+    ox, oy, oz = off[:3]
+    return [(t, (v[0] + ox, v[1] + oy, v[2] + oz, *v[3:])) for t, v in rows]
+
+
 def ground_point_errors(transforms: list[tuple[float, tuple]]) -> tuple[np.ndarray, np.ndarray]:
     """Attitude-caused ground-point error of each recorded world -> drone-frame transform.
 
@@ -362,7 +375,7 @@ def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
                 if data.follow_frame in (0, 1) else str(data.follow_frame)
     tfw: dict[str, Any] = {}
     for child in ("drone", "drone_yaw"):
-        ts, e = ground_point_errors(data.transforms.get(("world", child), []))
+        ts, e = ground_point_errors(world_transforms(data, child))
         if ts.size:
             tfw[child] = _stat(e[_in(ts, t0, t1)])
     if tfw:
