@@ -22,6 +22,7 @@ from vehicle.autopilot import modes
 from vehicle.autopilot.auto import AutoMode
 from vehicle.autopilot.ekf_origin import EkfOrigin
 from vehicle.autopilot.fence import Fence
+from vehicle.autopilot.follow_mode import Follow
 from vehicle.autopilot.guided import GuidedTarget, TargetError, decode_global, decode_local
 from vehicle.autopilot.mission_store import MissionStore
 from vehicle.autopilot.params import ParamStore
@@ -108,6 +109,7 @@ class Autopilot:
         self.item_reached: Callable[[int], None] = lambda seq: None   # -> MISSION_ITEM_REACHED
         self.auto = AutoMode(self)
         self.fence = Fence(self)
+        self.follow = Follow(params, lambda: self.sysid, origin)     # FOLLOW mode's lead
         self.refresh()
 
     # ----- state read-back ------------------------------------------------------------
@@ -211,6 +213,9 @@ class Autopilot:
         if number in self.needs_position and not self.est_ok:
             self.text(SEV_WARNING, f"Mode change to {self.mode_names[number]} failed: requires position")
             return False
+        if number == self.follow_mode and not self.follow.enabled():
+            self.follow_refused(number)
+            return False
         if number == self.auto_mode:
             self.refresh()
             if not self.auto.init():
@@ -221,6 +226,12 @@ class Autopilot:
         self.mode = number
         self.enter_mode(number)
         return True
+
+    follow_mode = -1
+
+    def follow_refused(self, number: int) -> None:
+        self.text(SEV_WARNING, "Set FOLL_ENABLE = 1")           # ArduCopter's ModeFollow::init
+        self.mode_init_failed(number)
 
     def mode_init_failed(self, number: int) -> None:
         self.text(SEV_WARNING, f"Mode change to {self.mode_names[number]} failed: init failed")

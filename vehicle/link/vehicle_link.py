@@ -453,6 +453,10 @@ class VehicleLink:
         self.ap.position_target_global(m.coordinate_frame, m.type_mask, m.lat_int, m.lon_int, m.alt,
                                        (m.vx, m.vy, m.vz), (m.afx, m.afy, m.afz), m.yaw, m.yaw_rate)
 
+    def on_GLOBAL_POSITION_INT(self, m, ch) -> None:
+        """Another vehicle's position: FOLLOW's lead, when FOLL_ENABLE is set (AP_Follow)."""
+        self.ap.follow.on_global_position(m.get_srcSystem(), m, self.ap.t, self.ap.home_lla()[2])
+
     def on_SET_GPS_GLOBAL_ORIGIN(self, m, ch) -> None:
         """As ArduPilot's handle_set_gps_global_origin: a bad latitude/longitude is dropped
         silently; the origin is set only if it is not set yet (then GPS_GLOBAL_ORIGIN goes out
