@@ -70,6 +70,18 @@ peer silent for 30 s (wall) is dropped, at most 64 are kept (the most recent), a
 peer is added only by a datagram holding a valid MAVLink packet that, with
 --signing-key, passed the signature check.
 
+Nodes. --nodes URL opens a world-frame link for tf2_ros-style nodes (gcs.tf2_ros; the lab's
+three nodes in examples/lab). A node's TOWERLINK_TRANSFORM (dynamic, or static with the
+flag) is judged like a static frame over the wire (trust, signing, the bridge's and the
+scenario's frames), then by authority: the first trusted publisher (sysid/compid) of a
+child frame owns it, and a second one is refused, STATUSTEXT "tf refused: 'camera'
+belongs to node:255/40", and counted. Accepted frames go into the buffer and out on the
+stream, so tf-echo, view-frames and the tlogs show them with their rates. With
+--route-only the bridge stops doing the nodes' work: no world->drone/rover frames of its
+own, no follow, and the tower's SET_POSITION_TARGET_LOCAL_NED (tower frame) goes, as
+received, to the node link, where the lab's tower_to_map turns it into a world goal.
+Telemetry to the tower is still mapped world -> tower (the tower's link is in its frame).
+
 Give negative offsets with '=': --follow-offset=-2,0 (2 m behind).
 """
 from __future__ import annotations
@@ -134,6 +146,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     f.add_argument("--time-grace", type=float, default=1.5,
                    help="wall s to hold a vehicle's samples waiting for its SYSTEM_TIME before "
                         "taking it to share the first vehicle's clock (default %(default)s)")
+    n = p.add_argument_group("nodes (tf2_ros over MAVLink: gcs.tf2_ros, examples/lab)")
+    n.add_argument("--nodes", type=_url_or_none, default=None, metavar="URL",
+                   help="world-frame link for nodes, e.g. udpin:127.0.0.1:14620: they get what an --out "
+                        "gets, and the TOWERLINK_TRANSFORMs they send (from trusted sysids) are stored and "
+                        "republished; the first node to publish a frame owns it")
+    n.add_argument("--route-only", action="store_true",
+                   help="the nodes do the lab's work: the bridge publishes no vehicle frames, does not "
+                        "follow, and routes the tower's goals (tower frame, untranslated) to the nodes")
     w = p.add_argument_group("rover follow")
     w.add_argument("--no-follow", dest="follow", action="store_false", help="do not drive the rover")
     w.add_argument("--follow-frame", choices=("drone", "drone_yaw"), default=None,
@@ -175,7 +195,8 @@ def config_from_args(args):
         telemetry_rate=args.telemetry_rate, tf_rate=args.tf_rate, cache_time=args.cache_time,
         max_transform_age=args.max_transform_age, time_grace=args.time_grace, quiet=args.quiet,
         trust_sysids=tuple(args.trust_sysid) if args.trust_sysid else (TOWER_SYSID,),
-        allow_redefine=args.allow_redefine, signing_key=key_from_text(args.signing_key))
+        allow_redefine=args.allow_redefine, signing_key=key_from_text(args.signing_key),
+        nodes=args.nodes, route_only=args.route_only)
 
 
 def _lla(text: str) -> tuple[float, float, float]:
@@ -188,7 +209,7 @@ def _lla(text: str) -> tuple[float, float, float]:
     return (lat, lon, alt)
 
 
-def start_viewer(port: int) -> tuple[str, "subprocess.Popen"]:
+def start_viewer(port: int) -> tuple[str, object]:
     """A `towerlink view` child process on a free loopback UDP port; returns (out url, process).
     A separate process keeps the viewer's work (and its imports) out of the bridge's loop."""
     import socket

@@ -15,43 +15,10 @@ from __future__ import annotations
 
 from gcs.dialect import encoder
 from gcs.dialect import towerlink as tl
-from gcs.frames import Transform, TransformStamped
-from gcs.mavstr import mav_str
-
-STATIC_FLAG = tl.TOWERLINK_TRANSFORM_FLAGS_STATIC
-FRAME_ID_LEN = 16
-
-
-def frame_bytes(name: str) -> bytes:
-    b = name.encode()
-    if len(b) > FRAME_ID_LEN:
-        raise ValueError(f"frame id {name!r} is longer than {FRAME_ID_LEN} bytes")
-    return b
-
-
-def transform_message(ts: TransformStamped, static: bool = False):
-    """TOWERLINK_TRANSFORM message object for one stamped transform."""
-    tr = ts.transform
-    return tl.MAVLink_towerlink_transform_message(
-        int(round(ts.stamp * 1e6)), frame_bytes(ts.frame_id), frame_bytes(ts.child_frame_id),
-        [float(v) for v in tr.translation], [float(v) for v in tr.rotation],
-        STATIC_FLAG if static else 0)
-
-
-def transform_from_message(msg) -> tuple[TransformStamped, bool]:
-    """(TransformStamped, is_static) from a decoded TOWERLINK_TRANSFORM or TOWERLINK_STATIC_TRANSFORM."""
-    stamp = getattr(msg, "time_usec", 0) / 1e6
-    tr = Transform(translation=tuple(msg.translation), rotation=tuple(msg.rotation))
-    static = msg.get_type() == "TOWERLINK_STATIC_TRANSFORM" or bool(msg.flags & STATIC_FLAG)
-    return TransformStamped(mav_str(msg.frame_id), mav_str(msg.child_frame_id), float(stamp), tr), static
-
-
-def static_transform_message(ts: TransformStamped, target_system: int = 0):
-    """TOWERLINK_STATIC_TRANSFORM asking a bridge to add `ts` to its buffer."""
-    tr = ts.transform
-    return tl.MAVLink_towerlink_static_transform_message(
-        target_system, 0, frame_bytes(ts.frame_id), frame_bytes(ts.child_frame_id),
-        [float(v) for v in tr.translation], [float(v) for v in tr.rotation])
+from gcs.mavstr import mav_str  # noqa: F401 - re-exported for the loop
+# the wire encoding of transforms has one home, shared with the nodes (gcs.tf2_ros)
+from gcs.tf2_ros.wire import (FRAME_ID_LEN, STATIC_FLAG, frame_bytes,  # noqa: F401
+                              static_transform_message, transform_from_message, transform_message)
 
 
 class Codec:

@@ -17,6 +17,7 @@
 from __future__ import annotations
 
 from gcs.frames import LATEST, Buffer, TransformStamped
+from gcs.tf2_ros.stream import reset_edge  # noqa: F401 - one home, shared with every listener
 
 SCENARIO = "scenario"
 ORIGIN = "origin"               # world -> <vehicle>_origin, from the vehicle's GPS_GLOBAL_ORIGIN
@@ -24,17 +25,6 @@ ORIGIN = "origin"               # world -> <vehicle>_origin, from the vehicle's 
 
 class StaleTransform(Exception):
     """A dynamic transform chain whose latest common time is too old to use."""
-
-
-def reset_edge(buffer: Buffer, ts: TransformStamped, authority: str = "reset") -> None:
-    """Drop the history of the dynamic edge ts.frame_id -> ts.child_frame_id.
-
-    The Buffer replaces an edge when it switches between static and dynamic
-    (documented in gcs.frames.buffer), so writing it once as static and then
-    dynamic again empties it without touching any other edge.
-    """
-    buffer.set_transform_static(ts, authority)
-    buffer.set_transform(ts, authority)
 
 
 class FrameTree:

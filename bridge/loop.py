@@ -6,6 +6,9 @@ Links
     ``rover``    vehicle sysid 2 (world frame)
     ``outN``     extra GCS-side endpoints (``--out``): world frame, untranslated; they
                  get everything the tower gets (telemetry, transform stream, status)
+    ``nodes``    (``--nodes``) the link of tf2_ros-style nodes (gcs.tf2_ros): an out that
+                 also takes their transforms (bridge.node_frames) and, with --route-only,
+                 the tower's goals (tower frame, raw) for a node to transform
 
 Routing (mavlink-router / ArduPilot semantics)
     Every valid packet from a vehicle goes to the GCS-side links (tower, outs), and to
@@ -42,6 +45,7 @@ from bridge.frame_tree import FrameTree
 from bridge.goals import GoalDesk, PendingGoal
 from bridge.telemetry import MSG_LOCAL_POSITION_NED, MSG_POSITION_TARGET_LOCAL_NED, TELEMETRY_IN, TelemetryDesk
 from bridge.links import Link, Packet
+from bridge.node_desk import NodeDesk
 from bridge.origins import OriginDesk, origin_frame
 from bridge.pairing import VehicleFrames
 from bridge.timeline import Timeline
@@ -72,7 +76,11 @@ class Bridge:
                               cfg.max_transform_age)
         self.buffer = self.tree.buffer
         self.tower = Link("tower", cfg.tower, clock)
+        if cfg.route_only and cfg.follow:
+            cfg.follow = False          # the nodes follow; the bridge only routes
         self.outs = [Link(f"out{i}", url, clock) for i, url in enumerate(cfg.outs)]
+        self.node_links = [Link("nodes", cfg.nodes, clock)] if cfg.nodes else []
+        self.outs += self.node_links
         self.gcs_links = [self.tower, *self.outs]
         self.vehicles: dict[int, VehicleRecord] = {}
         self.origins = OriginDesk(cfg.world_frame, cfg.world_origin, "drone" if cfg.drone else None)
@@ -82,13 +90,15 @@ class Bridge:
                 link = Link(name, url, clock)
                 link.sysids.add(sysid)
                 self.vehicles[sysid] = VehicleRecord(name, sysid, link, VehicleFrames(name, origin_frame(name)))
-                self.tree.add_vehicle(name)
+                if not cfg.route_only:
+                    self.tree.add_vehicle(name)
         self.links = [*self.gcs_links, *(v.link for v in self.vehicles.values())]
         self.codec = Codec(cfg.sysid, cfg.compid, cfg.signing_key)
         self.trust = StaticTrust(frozenset(cfg.trust_sysids), cfg.allow_redefine)
         if cfg.signing_key:
-            check = SignatureCheck(cfg.signing_key)
-            self.tower.verify = lambda p: check.check(p.raw, p.sysid, p.compid)
+            for link in (self.tower, *self.node_links):
+                check = SignatureCheck(cfg.signing_key)
+                link.verify = lambda p, check=check: check.check(p.raw, p.sysid, p.compid)
         self.timeline = Timeline(speedup=cfg.speedup, grace=cfg.time_grace)
         self.clocks = ClockDesk(self.timeline, self.command, lambda v, m: v.link.send(self.codec.pack_own(m)),
                                 self.log, self.warn_once, clock)
@@ -97,6 +107,7 @@ class Bridge:
                               self.vehicle_frame)
         self.follower = Follower(cfg, self.buffer, clock, self.log, self.warn_once)
         self.telemetry = TelemetryDesk(self)
+        self.node_desk = NodeDesk(self)
         self.tower_drops = 0
         self._next = {"hb": 0.0, "timesync": 0.0, "static": 0.0, "status": 0.0}
         self._warned: dict[str, float] = {}
@@ -204,12 +215,17 @@ class Bridge:
         if pkt.refused is not None:             # signing on, and this one did not pass
             if pkt.msgid == MSG_TL_STATIC:
                 self.add_static(link, pkt, self._decode(link, pkt))
+            elif pkt.msgid == MSG_TL_TRANSFORM:
+                self.node_desk.on_transform(link, pkt, self._decode(link, pkt))
             return
         link.sysids.add(pkt.sysid)
         mid = pkt.msgid
         if mid == MSG_SET_POSITION_TARGET_LOCAL_NED and link is self.tower:
             msg = self._decode(link, pkt)
             if msg is None:
+                return
+            if msg.coordinate_frame in translate.TRANSLATED_FRAMES and self.cfg.route_only:
+                self.node_desk.tower_goal(link, pkt)
                 return
             if msg.coordinate_frame in translate.TRANSLATED_FRAMES:
                 self.goals.submit(PendingGoal("spt", msg, (pkt.sysid, pkt.compid, pkt.seq, pkt.v2),
@@ -227,7 +243,9 @@ class Bridge:
                 self.add_static(link, pkt, msg)
             return
         elif mid == MSG_TL_TRANSFORM:
-            return   # transform streams are ours to publish; do not echo them to vehicles
+            # a node's frame: judged, stored and republished on our stream; never echoed to vehicles
+            self.node_desk.on_transform(link, pkt, self._decode(link, pkt))
+            return
         self.route_from_gcs(link, pkt)
 
     def on_vehicle_packet(self, v: VehicleRecord, pkt: Packet) -> None:
@@ -265,6 +283,8 @@ class Bridge:
             ts = transform_from_message(msg)[0] if msg is not None else None
             why = self.trust.verdict(pkt.sysid, ts.child_frame_id if ts else "", self.tree.owned,
                                      self.tree.authority(ts.child_frame_id) if ts else None, pkt.refused)
+            if why is None and ts is not None:
+                why = self.node_desk.frames.claimed(ts.child_frame_id)     # a node's frame stays the node's
             if why is None:
                 ts = self.tree.add_static(ts, f"static-transform:{pkt.sysid}")
         except (TransformException, ValueError) as exc:
@@ -392,6 +412,10 @@ def summary(b: Bridge) -> str:
         rtt = "-" if p.rtt is None else f"{p.rtt * 1e3:.2f} ms (min {p.rtt_min * 1e3:.2f} ms)"
         parts.append(f"{v.name}: timeline {b.timeline.basis(v.name)}; TIMESYNC round trip {rtt}; "
                      f"samples held back {b.timeline.held(v.name)}")
+    nf = b.node_desk.frames
+    if nf.owners or nf.refused:
+        parts.append(f"node frames: {', '.join(f'{c} by {o}' for c, o in sorted(nf.owners.items())) or '-'}; "
+                     f"refused {sum(nf.refused.values())}")
     parts.append(f"follow ticks {b.follower.ticks}; decode errors {b.codec.decode_errors}; "
                  f"tower telemetry dropped (no transform) {b.tower_drops}")
     return "\n".join(parts)

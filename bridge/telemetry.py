@@ -83,8 +83,9 @@ class TelemetryDesk:
                 self.warn_once(f"origin-{ts.child_frame_id}", f"{ts.child_frame_id}: refused: {exc}")
                 continue
             t = ts.transform.translation
+            o = self.origins.origins[ts.child_frame_id[:-len("_origin")]]
             self.log(f"{ts.frame_id} -> {ts.child_frame_id}: {t[0]:.2f} {t[1]:.2f} {t[2]:.2f} m NED "
-                     f"(GPS_GLOBAL_ORIGIN {lla[0]:.7f},{lla[1]:.7f},{lla[2]:.2f})")
+                     f"(GPS_GLOBAL_ORIGIN {o[0]:.7f},{o[1]:.7f},{o[2]:.2f})")
             self.send_own_to_gcs(transform_message(ts, static=True))
 
     def ask_origins(self, now: float) -> None:
@@ -135,6 +136,8 @@ class TelemetryDesk:
             self.frame_on_timeline(v, s, shift)
 
     def frame_on_timeline(self, v: VehicleRecord, s, shift: float) -> None:
+        if self.cfg.route_only:
+            return          # --route-only: the vehicles' frames are the nodes' to publish
         if shift:
             t = s.stamp + shift
             s = replace(s, stamp=t, full=replace(s.full, stamp=t), yaw=replace(s.yaw, stamp=t))

@@ -45,13 +45,10 @@ from __future__ import annotations
 from collections import OrderedDict, deque
 from dataclasses import dataclass, field
 
-REBOOT_JUMP = 1.0       # s: a clock that goes back by more than this started over
+# "the clock went back" and its threshold: one home, shared with every transform listener
+from gcs.tf2_ros.stream import REBOOT_JUMP, clock_went_back  # noqa: F401
+
 HOLD_MAX = 256          # items held per vehicle while its timeline is unknown
-
-
-def clock_went_back(newest: float | None, t: float, jump: float = REBOOT_JUMP) -> bool:
-    """Did a clock whose newest reading is `newest` start over, reading `t` now (s)?"""
-    return newest is not None and t < newest - jump
 
 
 @dataclass

@@ -71,6 +71,11 @@ class Scenario:
     follow_frame: str                                # drone | drone_yaw
     follow_offset: tuple[float, float]               # m, in the yaw-only drone frame
     follow_rate_hz: float
+    wind: tuple[float, float, float] | None = None   # speed m/s, from-direction deg, turbulence m/s
+
+    def wind_arg(self) -> str | None:
+        """The wind as `towerlink sitl --wind` takes it (SPD,DIR,TURB), or None when calm/unset."""
+        return None if self.wind is None else ",".join(f"{v:g}" for v in self.wind)
 
     def buffer(self, cache_time: float = 10.0) -> Buffer:
         """A frame Buffer holding this scenario's static frames."""
@@ -153,8 +158,25 @@ def _build(data: dict[str, Any], path: Path) -> Scenario:
     if not 1.0 <= rate <= 100.0:
         raise fail(f"follow.rate_hz {rate} is outside 1..100 Hz")
 
+    wind = None
+    if "wind" in data:
+        w = data["wind"]
+        if not isinstance(w, dict) or set(w) - {"speed", "direction", "turbulence"} or "speed" not in w:
+            raise fail("wind must be a table like {speed = 8, direction = 270, turbulence = 1} "
+                       f"(speed m/s, direction it comes from in degrees, turbulence m/s), got {w!r}")
+        speed = _number(w["speed"], "wind.speed", fail)
+        direction = _number(w.get("direction", 180.0), "wind.direction", fail)
+        turb = _number(w.get("turbulence", 0.0), "wind.turbulence", fail)
+        if not 0.0 <= speed <= 40.0:
+            raise fail(f"wind.speed {speed:g} m/s is outside 0..40 (SIM_WIND_SPD)")
+        if not 0.0 <= direction <= 360.0:
+            raise fail(f"wind.direction {direction:g} deg is outside 0..360 (where the wind comes from)")
+        if not 0.0 <= turb <= 10.0:
+            raise fail(f"wind.turbulence {turb:g} m/s is outside 0..10 (SIM_WIND_TURB)")
+        wind = (speed, direction, turb)
+
     return Scenario(
-        name=str(data.get("name", path.stem)), path=path,
+        name=str(data.get("name", path.stem)), path=path, wind=wind,
         static_transforms=tuple(statics), goals=tuple(goals), goal_frame=goal_frame,
         altitude=altitude, radius=radius, finish=finish, follow_frame=follow_frame,
         follow_offset=(_number(offset[0], "follow.offset", fail), _number(offset[1], "follow.offset", fail)),

@@ -170,7 +170,10 @@ def test_pause_and_continue_a_leg():
     f = Flight("copter")
     f.upload([f.at(0, 0, 10, C.MAV_CMD_NAV_TAKEOFF), f.at(60, 0, 10)])
     armed_in_guided(f)
-    assert f.ap.command(C.MAV_CMD_DO_PAUSE_CONTINUE, [0] + [0] * 6) == C.MAV_RESULT_FAILED   # not in AUTO
+    # GUIDED pauses and resumes too, as ArduCopter's ModeGuided::pause()/resume() (issue 10)
+    assert f.ap.command(C.MAV_CMD_DO_PAUSE_CONTINUE, [0] + [0] * 6) == C.MAV_RESULT_ACCEPTED
+    assert f.ap.command(C.MAV_CMD_DO_PAUSE_CONTINUE, [1] + [0] * 6) == C.MAV_RESULT_ACCEPTED
+    assert f.ap.command(C.MAV_CMD_DO_PAUSE_CONTINUE, [2] + [0] * 6) == C.MAV_RESULT_DENIED
     f.ap.command(C.MAV_CMD_MISSION_START, [0] * 7)
     f.until(lambda: f.ap.mission_current()[0] == 2 and np.linalg.norm(f.ap.vel) > 3, 60, "cruising")
     assert f.ap.command(C.MAV_CMD_DO_PAUSE_CONTINUE, [0] + [0] * 6) == C.MAV_RESULT_ACCEPTED
@@ -332,3 +335,24 @@ def test_rover_loiter_time_and_unlimited():
     f.step(5.0)
     assert f.ap.mission_current() == (2, ACTIVE) and 2 not in f.reached_seqs()
     assert np.linalg.norm(f.ap.vel[:2]) < 0.1
+
+
+@pytest.mark.parametrize("disarm_in_auto, resumes_at", [(True, 2), (False, 1)])
+def test_rover_disarm_resets_the_mission_only_outside_auto(disarm_in_auto, resumes_at):
+    f = Flight("rover", params={"WP_SPEED": 3.0})
+    f.upload([f.at(8, 0, 0), f.at(30, 0, 0), f.at(30, 20, 0)])
+    f.settle()
+    assert f.ap.arm() == C.MAV_RESULT_ACCEPTED and f.ap.set_mode(modes.ROVER_AUTO)
+    f.until(lambda: f.ap.mission_current()[0] == 2, 60, "on the leg to item 2")
+    if not disarm_in_auto:
+        assert f.ap.set_mode(modes.ROVER_HOLD)
+    f.step(3.0)
+    assert f.ap.disarm(force=True) == C.MAV_RESULT_ACCEPTED
+    if not disarm_in_auto:
+        assert f.ap.set_mode(modes.ROVER_AUTO)
+    assert f.ap.arm() == C.MAV_RESULT_ACCEPTED
+    n = len(f.texts)
+    if disarm_in_auto:
+        assert f.ap.set_mode(modes.ROVER_HOLD) and f.ap.set_mode(modes.ROVER_AUTO)
+    f.step(0.5)
+    assert f"Mission: {resumes_at} WP" in f.said()[n:]

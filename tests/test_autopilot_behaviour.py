@@ -5,7 +5,6 @@ return, auto-disarm after DISARM_DELAY, FS_GCS_ENABLE actions, FS_GCS_ENABLE=0; 
 jerk bound of the shaped position target."""
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pytest
@@ -89,8 +88,8 @@ def test_rover_guided_velocity_target_times_out(rover):
 @pytest.mark.parametrize("action, mode, text", [(0, modes.ROVER_GUIDED, "GCS Failsafe"),
                                                 (1, modes.ROVER_RTL, "GCS Failsafe On: RTL"),
                                                 (2, modes.ROVER_HOLD, "GCS Failsafe On: Hold"),
-                                                (3, modes.ROVER_RTL, "GCS Failsafe On: RTL"),
-                                                (4, modes.ROVER_HOLD, "GCS Failsafe On: Hold")])
+                                                (3, modes.ROVER_SMART_RTL, "GCS Failsafe On: SmartRTL"),
+                                                (4, modes.ROVER_SMART_RTL, "GCS Failsafe On: SmartRTL")])
 def test_rover_gcs_failsafe_actions(rover, action, mode, text):
     w, ap, texts = rover
     for name, v in (("FS_GCS_ENABLE", 1), ("FS_ACTION", action), ("FS_GCS_TIMEOUT", 2)):
@@ -168,8 +167,8 @@ def test_copter_disarm_delay_zero_never_disarms():
     assert ap.armed
 
 
-@pytest.mark.parametrize("enable, mode", [(1, modes.RTL), (2, modes.RTL), (3, modes.RTL),
-                                          (4, modes.LAND), (5, modes.LAND), (6, modes.RTL)])
+@pytest.mark.parametrize("enable, mode", [(1, modes.RTL), (2, modes.RTL), (3, modes.SMART_RTL),
+                                          (4, modes.SMART_RTL), (5, modes.LAND), (6, modes.RTL)])
 def test_copter_fs_gcs_enable_actions(enable, mode):
     w = _world()
     ap = _fly(w, alt=5.0)
@@ -181,7 +180,25 @@ def test_copter_fs_gcs_enable_actions(enable, mode):
     took = _until(w, lambda: ap.gcs_failsafe, 5)
     assert 2.0 <= took <= 2.1
     assert ap.mode == mode and ap.armed
-    assert texts[0] == ("GCS Failsafe On: LAND" if mode == modes.LAND else "GCS Failsafe On: RTL")
+    assert texts[0] == {modes.LAND: "GCS Failsafe On: LAND", modes.RTL: "GCS Failsafe On: RTL",
+                        modes.SMART_RTL: "GCS Failsafe On: SmartRTL"}[mode]
+
+
+@pytest.mark.parametrize("enable, fallback, why", [(3, modes.RTL, "SmartRTL Unavailable, Trying RTL Mode"),
+                                                   (4, modes.LAND, "SmartRTL Unavailable, Using Land Mode")])
+def test_copter_fs_gcs_smartrtl_falls_back_without_a_path(enable, fallback, why):
+    w = _world()
+    ap = _fly(w, alt=5.0)
+    texts = []
+    ap.text = lambda sev, t: texts.append(t)
+    ap.srtl.deactivate("bad position")               # the path is unusable
+    for name, v in (("FS_GCS_ENABLE", enable), ("FS_GCS_TIMEOUT", 2)):
+        assert ap.params.set(name, v, save=False) is None
+    ap.gcs_heartbeat()
+    _until(w, lambda: ap.gcs_failsafe, 5)
+    assert ap.mode == fallback and ap.armed
+    assert texts[:4] == ["SmartRTL deactivated: bad position", "GCS Failsafe On: SmartRTL",
+                         "Mode change to SMART_RTL failed: init failed", why]
 
 
 def test_copter_fs_gcs_on_the_ground_disarms():

@@ -53,10 +53,12 @@ def test_rover_booted_3m_away_lands_in_world_and_gets_targets_in_its_own_frame()
                 wait_until(lambda: bridge.tower.peers, 5, "tower peer")
                 wait_origins(bridge, drone, rover)
                 for k in range(21):                # the rover at its own local (0, 0), the drone hovering
-                    t = 1000 + 50 * k
-                    drone.pose(t, (4.0, 2.0, -9.0))
-                    rover.pose(t, (0.0, 0.0, 0.0))
-                wait_until(lambda: bridge.buffer.can_transform("world", "rover"), 5, "world -> rover")
+                    rover.pose(1000 + 50 * k, (0.0, 0.0, 0.0))
+                wait_until(lambda: bridge.vehicles[2].position is not None, 5, "rover position")
+                for k in range(21):
+                    drone.pose(1000 + 50 * k, (4.0, 2.0, -9.0))
+                wait_until(lambda: bridge.buffer.can_transform("world", "rover") and bridge.buffer.can_transform("world", "drone"),
+                           5, "world -> rover, drone")
                 T = bridge.buffer.lookup_transform("world", "rover")
                 assert T.transform.xyz == pytest.approx((south, 0.0, 0.0), abs=1e-6)
                 assert bridge.buffer.lookup_transform("world", "drone").transform.xyz == \

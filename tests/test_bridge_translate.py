@@ -91,6 +91,7 @@ def test_named_frame_goal_waits_for_transform_then_goes(world):
     st = tower.wait("STATUSTEXT", lambda m: "goal waits" in m.text)
     assert st.get_srcSystem() == 250
     wait_until(lambda: bridge.tower.stats.deferred >= 3, 5, "goal retried on ticks")
+    sync(tower, drone)
     assert not drone.of_type("SET_POSITION_TARGET_LOCAL_NED")
     # telemetry arrives: yawed 90 deg, pitched 10 deg, at (1, 2, -9)
     T = Transform.from_euler(yaw=math.pi / 2, pitch=math.radians(10), roll=0, translation=(1, 2, -9))
@@ -113,6 +114,7 @@ def test_stale_dynamic_transform_never_used(world):
     tower.mav.towerlink_position_target_send(1, 1, 1, b"drone", 0b1111_1111_1000, 1, 0, 0, 0, 0, 0, 0, 0)
     tower.wait("STATUSTEXT", lambda m: "goal waits" in m.text)
     wait_until(lambda: bridge.tower.stats.deferred >= 3, 5, "retried")
+    sync(tower, drone)
     assert not drone.of_type("SET_POSITION_TARGET_LOCAL_NED"), "a stale transform was used"
     # fresh telemetry: the goal is sent with the fresh pose, not the old one
     drone.pose(3000, (10, 0, -5))

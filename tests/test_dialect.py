@@ -83,3 +83,24 @@ def test_pymavlink_tools_decode_the_dialect_after_install(tmp_path):
     assert out.returncode == 0, out.stderr
     assert "TOWERLINK_TRANSFORM" in out.stdout and "child_frame_id : drone" in out.stdout
     assert "UNKNOWN" not in out.stdout
+
+
+def test_compiled_module_is_cached_and_a_damaged_cache_is_replaced(tmp_path):
+    """Every towerlink process loads the 2 MB module: its code is compiled once and kept
+    beside it (even with PYTHONDONTWRITEBYTECODE); a damaged cache is compiled again."""
+    import marshal
+
+    from gcs import dialect
+    src = tmp_path / "towerlink_x.py"
+    src.write_text("ANSWER = 42\n")
+    code = dialect._code(src)
+    cached = tmp_path / "towerlink_x.py.code"
+    head, _, body = cached.read_bytes().partition(b"\n")
+    assert marshal.loads(body).co_consts == code.co_consts and head.endswith(str(src.stat().st_size).encode() + b":" + str(src.stat().st_mtime_ns).encode())
+    ns: dict = {}
+    exec(dialect._code(src), ns)           # from the cache
+    assert ns["ANSWER"] == 42
+    cached.write_bytes(head + b"\n" + b"\x00garbage")
+    ns = {}
+    exec(dialect._code(src), ns)           # damaged: compiled again, cache rewritten
+    assert ns["ANSWER"] == 42 and marshal.loads(cached.read_bytes().partition(b"\n")[2]) is not None

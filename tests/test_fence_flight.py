@@ -167,3 +167,13 @@ def test_min_alt_fence_arms_itself_above_the_floor_and_a_descent_below_it_breach
     assert "Min Alt fence breached" in f.said()
     assert f.ap.home[2] - f.ap.pos[2] < 5.0 + 0.2
     assert f.ap.mode == modes.GUIDED                 # FENCE_ACTION 0: report only
+
+
+def test_landing_goes_through_the_min_alt_fence_without_a_breach():
+    f = Flight("copter", params={"FENCE_ENABLE": 1, "FENCE_TYPE": 8, "FENCE_ALT_MIN": 5})
+    airborne(f, alt=10.0)
+    assert f.ap.fence.floor_enabled
+    assert f.ap.set_mode(modes.LAND)
+    f.until(lambda: not f.ap.armed, 60, "landed")
+    assert not any("breached" in m for m in f.said())
+    assert f.ap.mode == modes.LAND

@@ -1,4 +1,7 @@
-"""Timeouts wake on inserts; one writer and many readers see consistent transforms."""
+"""Timeouts wake on inserts; one writer and many readers see consistent transforms.
+
+The timeout tests run on an injected clock (the buffer's `_monotonic`), moved by the
+test: they check the deadline exactly and never wait out wall time."""
 from __future__ import annotations
 
 import importlib

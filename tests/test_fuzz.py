@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 import random
 import socket
-import struct
 import time
 
 import pytest

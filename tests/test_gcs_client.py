@@ -47,8 +47,6 @@ class FakeCopter(threading.Thread):
         self.stop = threading.Event()
         self.commands = []
         self.command_sims = []          # sim time each COMMAND_LONG arrived (dropped ones too)
-        self.command_stamps = []        # and the newest position stamp sent before it (s)
-        self.pos_stamp = 0.0
         self.drop_commands = drop_commands
         self.streaming = True           # LOCAL_POSITION_NED on (a test may pause it)
         self.next_reset = False
@@ -92,7 +90,6 @@ class FakeCopter(threading.Thread):
                 self.send(apm.MAVLink_extended_sys_state_message(0, landed))
             if self.sim >= next_pos and self.streaming:
                 next_pos = self.sim + 0.05
-                self.pos_stamp = int(self.sim * 1000) / 1000.0
                 self.pos_sent += self.peer is not None and self.loss == 0
                 self.send(apm.MAVLink_local_position_ned_message(int(self.sim * 1000), *self.pos, 0, 0, 0))
 
@@ -108,7 +105,6 @@ class FakeCopter(threading.Thread):
         t = m.get_type()
         if t == "COMMAND_LONG":
             self.command_sims.append(self.sim)
-            self.command_stamps.append(self.pos_stamp)
             if self.drop_commands > 0:      # this one is "lost on the way"
                 self.drop_commands -= 1
                 return
@@ -295,12 +291,19 @@ def test_command_retry_is_paced_on_the_vehicle_clock(copter):
     come after 30 wall s and the call would fail with CommandTimeout; no wall time is
     measured."""
     fc, url = copter
+    sent_at = []                        # the vehicle time the client knew at each send (ms)
     with Client.connect(url) as c:
         c.wait_heartbeat(1, timeout=5)
         c.wait_position(1, timeout=5)
+        send = c.mav.command_long_send  # a spy on the wire, not on the client's logic
+
+        def spy(*a, **k):
+            sent_at.append(c.system(1).time_boot_ms)
+            return send(*a, **k)
+        c.mav.command_long_send = spy
         c.command_long(1, apm.MAV_CMD_COMPONENT_ARM_DISARM, [1], ack_timeout=30.0, timeout=10)
-    assert fc.armed and len(fc.command_sims) == 2
-    # not before 30 s of vehicle time: the client can only know the vehicle's time from the
-    # stamps it has received, the newest of which (when it sent) is at most the vehicle's
-    # last one before the first try arrived
-    assert fc.command_sims[1] >= fc.command_stamps[0] + 30.0, (fc.command_stamps, fc.command_sims)
+    assert fc.armed and len(fc.command_sims) == 2 and len(sent_at) == 2
+    # re-sent once the vehicle's clock, as the client knows it, had run 30 s on ...
+    assert sent_at[1] - sent_at[0] >= 30_000, sent_at
+    # ... which the vehicle's own clock confirms: it cannot have been read ahead of it
+    assert fc.command_sims[1] >= sent_at[0] / 1000 + 30.0, (sent_at, fc.command_sims)

@@ -7,7 +7,7 @@ import pytest
 
 from gcs.dialect import towerlink as tl
 from tools.run_mcap import buffer_from_mcap, read_records, write_mcap
-from tools.scene_feed import TOPICS, SceneFeed, records_of
+from tools.scene_feed import TOPICS, records_of
 
 BRIDGE, DRONE, TOWER = 250, 1, 255
 

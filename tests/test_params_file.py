@@ -7,7 +7,7 @@ import os
 
 import pytest
 
-from test_sitl_support import Sitl, connect, mav, recv
+from test_sitl_support import Sitl, connect, recv
 from vehicle.autopilot.params import COPTER_TABLE, ParamFileError, ParamStore, read_parm_file
 
 GARBAGE = bytes(range(256)) * 8 + b"\xff\xfe\x00\x01" * 100

@@ -1,12 +1,12 @@
 """AUTO over the wire against a real `towerlink sitl`: pymavlink as ArduPilot users write it
 (mavwp upload, GUIDED, arm, MAV_CMD_MISSION_START; MISSION_CURRENT and MISSION_ITEM_REACHED
 in order, DO_JUMP repeats, each waypoint passed within WPNAV_RADIUS, the mission's end as
-ArduCopter's), and MAVSDK 4.x mission_raw start_mission with its progress to the end (the
-MAVSDK client in its own process, as in test_sitl_mavsdk_mission.py)."""
+ArduCopter's), a rover's mission in AUTO ("Reached waypoint #N", "Mission Complete", holds in
+AUTO), and MAVSDK 4.x mission_raw start_mission with its progress to the end (the MAVSDK
+client in its own process, as in test_sitl_mavsdk_mission.py)."""
 from __future__ import annotations
 
 import sys
-import threading
 import time
 
 import numpy as np
@@ -107,6 +107,36 @@ def test_pymavlink_flies_a_mission_with_do_jump_in_auto(processes, tmp_path):
     assert np.hypot(n, e) < 1.0 and p.relative_alt < 300
 
 
+@pytest.mark.timeout(120)
+def test_pymavlink_rover_runs_a_mission_in_auto(processes, tmp_path):
+    sitl = Sitl(processes, tmp_path, drones=0, rovers=1, speedup=10)
+    m = connect(sitl.udp[0])
+    assert m.messages["HEARTBEAT"].type == mav.MAV_TYPE_GROUND_ROVER
+    wait_armable(m)
+    g = recv(m, "GLOBAL_POSITION_INT", 5)
+    home = (g.lat * 1e-7, g.lon * 1e-7, g.alt * 1e-3)
+    loader = mavwp.MAVWPLoader()
+    for it in [item(m, 0, mav.MAV_CMD_NAV_WAYPOINT, home=home, frame=mav.MAV_FRAME_GLOBAL_INT, alt=home[2]),
+               item(m, 1, mav.MAV_CMD_NAV_WAYPOINT, 15.0, 0.0, home=home),
+               item(m, 2, mav.MAV_CMD_NAV_WAYPOINT, 15.0, 15.0, home=home)]:
+        loader.add(it)
+    assert mavwp_upload(m, loader) == mav.MAV_MISSION_ACCEPTED
+    m.arducopter_arm()
+    m.motors_armed_wait()
+    assert set_mode(m, "AUTO") == mav.MAV_RESULT_ACCEPTED
+    reached, texts = [], []
+    while "Mission Complete" not in texts:
+        msg = recv(m, ["MISSION_ITEM_REACHED", "STATUSTEXT"], 30)
+        if msg.get_type() == "MISSION_ITEM_REACHED":
+            reached.append(msg.seq)
+        else:
+            texts.append(msg.text)
+    assert reached == [1, 2], (reached, texts)
+    assert [t for t in texts if t.startswith("Reached waypoint")] == ["Reached waypoint #1", "Reached waypoint #2"]
+    assert recv(m, "MISSION_CURRENT", 5).mission_state == mav.MISSION_STATE_COMPLETE
+    assert recv(m, "HEARTBEAT", 5).custom_mode == 10                  # still AUTO, holding
+
+
 # ----- MAVSDK ---------------------------------------------------------------------------
 def client(port: int) -> int:
     from mavsdk import ComponentType, Configuration, Mavsdk
@@ -167,15 +197,8 @@ def client(port: int) -> int:
 
 @pytest.mark.timeout(150)
 def test_mavsdk_mission_raw_start_mission_progress_to_the_end(processes, tmp_path):
-    from support import free_ports, wait_until
-    (port,) = free_ports(1)
-    proc = processes.start([sys.executable, __file__, str(port)])
-    lines: list[str] = []
-    threading.Thread(target=lambda: [lines.append(line) for line in proc.stdout], daemon=True).start()
-    Sitl(processes, tmp_path, drones=1, rovers=0, speedup=3, extra=["--out", f"udpout:127.0.0.1:{port}"])
-    wait_until(lambda: proc.poll() is not None, 140, "MAVSDK client to finish")
-    out = "".join(lines)
-    assert proc.returncode == 0 and "MAVSDK AUTO OK" in out, out[-3000:]
+    from test_sitl_support import run_client_script
+    run_client_script(processes, tmp_path, __file__, "MAVSDK AUTO OK", speedup=3)
 
 
 if __name__ == "__main__":

@@ -2,41 +2,23 @@
 fetches every parameter (count matches the vehicle's), switches to GUIDED, arms."""
 from __future__ import annotations
 
-import os
-import shutil
-import subprocess
-import sys
-import threading
 
 import pytest
 
 from support import wait_until
-from test_sitl_support import Sitl, connect, recv
+from test_sitl_support import MavProxy, Sitl, connect, recv
 
-MAVPROXY = shutil.which("mavproxy.py") or os.path.join(os.path.dirname(sys.executable), "mavproxy.py")
 
 
 @pytest.mark.timeout(120)
 def test_mavproxy_params_mode_arm(processes, tmp_path):
-    # MAVProxy is a declared test dependency: missing, this fails rather than skips
-    assert os.path.exists(MAVPROXY), f"mavproxy.py not found next to {sys.executable}"
     sitl = Sitl(processes, tmp_path, drones=1, rovers=0, speedup=2)
     m = connect(sitl.udp[0])
     m.mav.param_request_read_send(1, 1, b"SYSID_THISMAV", -1)
     count = recv(m, "PARAM_VALUE", 5, cond=lambda p: p.param_id == "SYSID_THISMAV").param_count
     m.close()
-    proxy = processes.start([sys.executable, MAVPROXY, f"--master=tcp:127.0.0.1:{sitl.tcp[0]}",
-                             "--state-basedir", str(tmp_path)],
-                            stdin=subprocess.PIPE, cwd=str(tmp_path))
-    lines: list[str] = []
-    threading.Thread(target=lambda: [lines.append(l) for l in proxy.stdout], daemon=True).start()
-
-    def saw(text):
-        return any(text in l for l in lines)
-
-    def send(cmd):
-        proxy.stdin.write(cmd + "\n")
-        proxy.stdin.flush()
+    mp = MavProxy(processes, tmp_path, sitl.tcp[0])
+    proxy, lines, saw, send = mp.proc, mp.lines, mp.saw, mp.send
 
     try:
         wait_until(lambda: saw("Detected vehicle 1:1"), 30, "MAVProxy to see the vehicle")

@@ -3,20 +3,14 @@ GUIDED, `arm throttle`, `takeoff 10`, `mode AUTO`; the vehicle's STATUSTEXT (sho
 "AP: ...") walks the mission in order and it lands and disarms at home after the RTL item."""
 from __future__ import annotations
 
-import os
 import re
-import shutil
-import subprocess
-import sys
-import threading
 
 import pytest
 
 from gcs import geo
 from support import wait_until
-from test_sitl_support import Sitl, connect, wait_armable
+from test_sitl_support import MavProxy, Sitl, connect, wait_armable
 
-MAVPROXY = shutil.which("mavproxy.py") or os.path.join(os.path.dirname(sys.executable), "mavproxy.py")
 HOME = (-35.363261, 149.165230, 584.0)      # towerlink's default home (ArduPilot's SITL CMAC)
 
 
@@ -37,24 +31,14 @@ def wpl(path, home) -> int:
 
 @pytest.mark.timeout(150)
 def test_mavproxy_wp_load_and_mode_auto_fly_the_mission(processes, tmp_path):
-    assert os.path.exists(MAVPROXY), f"mavproxy.py not found next to {sys.executable}"
     sitl = Sitl(processes, tmp_path, drones=1, rovers=0, speedup=5)
     path = tmp_path / "square.txt"
     n = wpl(path, HOME)
     m = connect(sitl.udp[0])
     wait_armable(m)                  # pre-arm checks pass before MAVProxy is asked to arm
     m.close()
-    proxy = processes.start([sys.executable, MAVPROXY, f"--master=tcp:127.0.0.1:{sitl.tcp[0]}",
-                             "--state-basedir", str(tmp_path)], stdin=subprocess.PIPE, cwd=str(tmp_path))
-    lines: list[str] = []
-    threading.Thread(target=lambda: [lines.append(line) for line in proxy.stdout], daemon=True).start()
-
-    def saw(text):
-        return any(text in line for line in lines)
-
-    def send(cmd):
-        proxy.stdin.write(cmd + "\n")
-        proxy.stdin.flush()
+    mp = MavProxy(processes, tmp_path, sitl.tcp[0])
+    proxy, lines, saw, send = mp.proc, mp.lines, mp.saw, mp.send
 
     def tail():
         return "".join(lines[-15:])

@@ -3,24 +3,18 @@ QGC WPL file, `wp list` shows it back (and saves it: the saved file equals the l
 `fence list` and `rally list` show the fence and rally points a script uploaded."""
 from __future__ import annotations
 
-import subprocess
-import sys
-import threading
 
-import os
 
 import pytest
 
 from gcs import wpl
 from support import wait_until
-from test_sitl_mavproxy import MAVPROXY
 from test_sitl_mission_protocol import HOME, WPL, fence_item, item_int, upload
-from test_sitl_support import Sitl, connect, mav
+from test_sitl_support import MavProxy, Sitl, connect, mav
 
 
 @pytest.mark.timeout(120)
 def test_mavproxy_wp_load_list_fence_rally(processes, tmp_path):
-    assert os.path.exists(MAVPROXY), f"mavproxy.py not found next to {sys.executable}"
     sitl = Sitl(processes, tmp_path, drones=1, rovers=0, speedup=1)
     # a script uploads a fence (square + exclusion circle) and two rally points first
     m = connect(sitl.udp[0])
@@ -37,18 +31,8 @@ def test_mavproxy_wp_load_list_fence_rally(processes, tmp_path):
 
     path = tmp_path / "mission.waypoints"
     path.write_text(WPL)
-    proxy = processes.start([sys.executable, MAVPROXY, f"--master=tcp:127.0.0.1:{sitl.tcp[0]}",
-                             "--state-basedir", str(tmp_path)],
-                            stdin=subprocess.PIPE, cwd=str(tmp_path))
-    lines: list[str] = []
-    threading.Thread(target=lambda: [lines.append(line) for line in proxy.stdout], daemon=True).start()
-
-    def saw(text):
-        return any(text in line for line in lines)
-
-    def send(cmd):
-        proxy.stdin.write(cmd + "\n")
-        proxy.stdin.flush()
+    mp = MavProxy(processes, tmp_path, sitl.tcp[0])
+    proxy, lines, saw, send = mp.proc, mp.lines, mp.saw, mp.send
 
     try:
         wait_until(lambda: saw("online system 1"), 30, "MAVProxy to see the vehicle")

@@ -8,7 +8,6 @@ The vehicle pushes to it with --out udpout:127.0.0.1:PORT; MAVSDK listens on udp
 from __future__ import annotations
 
 import sys
-import threading
 import time
 
 import pytest
@@ -74,16 +73,8 @@ def client(port: int) -> int:
 
 @pytest.mark.timeout(150)
 def test_mavsdk_flight(processes, tmp_path):
-    from support import free_ports, wait_until
-    from test_sitl_support import Sitl
-    (port,) = free_ports(1)
-    mav = processes.start([sys.executable, __file__, str(port)])
-    lines: list[str] = []
-    threading.Thread(target=lambda: [lines.append(l) for l in mav.stdout], daemon=True).start()
-    Sitl(processes, tmp_path, drones=1, rovers=0, speedup=5, extra=["--out", f"udpout:127.0.0.1:{port}"])
-    wait_until(lambda: mav.poll() is not None, 140, "MAVSDK client to finish")
-    out = "".join(lines)
-    assert mav.returncode == 0 and "MAVSDK OK" in out, out[-3000:]
+    from test_sitl_support import run_client_script
+    run_client_script(processes, tmp_path, __file__, "MAVSDK OK", speedup=5)
 
 
 if __name__ == "__main__":

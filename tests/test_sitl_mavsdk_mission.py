@@ -9,7 +9,6 @@ mismatch, with what it got.
 from __future__ import annotations
 
 import sys
-import threading
 
 import pytest
 
@@ -88,16 +87,8 @@ def client(port: int) -> int:
 
 @pytest.mark.timeout(150)
 def test_mavsdk_mission_raw_geofence_rally(processes, tmp_path):
-    from support import free_ports, wait_until
-    from test_sitl_support import Sitl
-    (port,) = free_ports(1)
-    proc = processes.start([sys.executable, __file__, str(port)])
-    lines: list[str] = []
-    threading.Thread(target=lambda: [lines.append(line) for line in proc.stdout], daemon=True).start()
-    Sitl(processes, tmp_path, drones=1, rovers=0, speedup=1, extra=["--out", f"udpout:127.0.0.1:{port}"])
-    wait_until(lambda: proc.poll() is not None, 140, "MAVSDK client to finish")
-    out = "".join(lines)
-    assert proc.returncode == 0 and "MAVSDK MISSION OK" in out, out[-3000:]
+    from test_sitl_support import run_client_script
+    run_client_script(processes, tmp_path, __file__, "MAVSDK MISSION OK", speedup=1)
 
 
 if __name__ == "__main__":

@@ -119,3 +119,49 @@ def collect(m, types, done, timeout=5.0):
     while not done(got):
         got.append(recv(m, types, timeout))
     return got
+
+
+def run_client_script(processes, tmp_path, script: str, ok_marker: str, *, speedup: float,
+                      drones: int = 1, rovers: int = 0, timeout: float = 140.0) -> str:
+    """Run a client program (a test file run as `python FILE PORT`, as MAVSDK users write
+    theirs: its own process, its own asyncio loop) against a fresh sitl pushing to PORT;
+    assert it exits 0 having printed `ok_marker`; return its output."""
+    import sys
+    import threading
+
+    from support import free_ports, wait_until
+    (port,) = free_ports(1)
+    proc = processes.start([sys.executable, script, str(port)])
+    lines: list[str] = []
+    threading.Thread(target=lambda: [lines.append(line) for line in proc.stdout], daemon=True).start()
+    Sitl(processes, tmp_path, drones=drones, rovers=rovers, speedup=speedup,
+         extra=["--out", f"udpout:127.0.0.1:{port}"])
+    wait_until(lambda: proc.poll() is not None, timeout, f"{script} to finish")
+    out = "".join(lines)
+    assert proc.returncode == 0 and ok_marker in out, out[-3000:]
+    return out
+
+
+class MavProxy:
+    """MAVProxy as a user runs it (`mavproxy.py --master=tcp:...`), typed into on stdin;
+    its output lines collected on a thread."""
+
+    def __init__(self, processes, tmp_path, tcp_port: int) -> None:
+        import os
+        import subprocess
+        import sys
+        import threading
+        exe = os.path.join(os.path.dirname(sys.executable), "mavproxy.py")
+        # MAVProxy is a declared test dependency: missing, this fails rather than skips
+        assert os.path.exists(exe), f"mavproxy.py not found next to {sys.executable}"
+        self.proc = processes.start([sys.executable, exe, f"--master=tcp:127.0.0.1:{tcp_port}",
+                                     "--state-basedir", str(tmp_path)], stdin=subprocess.PIPE, cwd=str(tmp_path))
+        self.lines: list[str] = []
+        threading.Thread(target=lambda: [self.lines.append(line) for line in self.proc.stdout], daemon=True).start()
+
+    def saw(self, text: str) -> bool:
+        return any(text in line for line in self.lines)
+
+    def send(self, cmd: str) -> None:
+        self.proc.stdin.write(cmd + "\n")
+        self.proc.stdin.flush()

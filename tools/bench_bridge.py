@@ -29,7 +29,6 @@ import argparse
 import os
 import shutil
 import socket
-import statistics
 import subprocess
 import sys
 import tempfile
@@ -38,7 +37,7 @@ import time
 from contextlib import contextmanager
 
 from gcs.dialect import towerlink as tl
-from tools.benchtable import machine, table
+from tools.benchtable import machine, table, stop_process
 
 ADDED_P99_TARGET_MS = 1.0
 RATE_TARGET = 20_000.0
@@ -96,12 +95,7 @@ def _pinned_process(args: list[str], cpu: int, cwd: str | None = None):
     try:
         yield proc
     finally:
-        proc.terminate()
-        try:
-            proc.wait(10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+        stop_process(proc)
         err.close()
 
 

@@ -17,7 +17,7 @@ import subprocess
 import sys
 import time
 
-from tools.benchtable import machine, table
+from tools.benchtable import machine, table, stop_process
 
 HOME = (-35.363261, 149.165230, 584.0)
 REL = 6   # MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
@@ -131,12 +131,7 @@ def main(argv: list[str] | None = None) -> int:
         pu, pd = _pymavlink(udp, a.items, a.repeat)
         mu, md = _mavsdk(out, a.items, a.repeat)
     finally:
-        proc.terminate()
-        try:
-            proc.wait(10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+        stop_process(proc)
     med = statistics.median
     print(machine())
     rows = [[f"upload {a.items} items", f"{med(pu) * 1e3:.1f}", f"{med(mu) * 1e3:.1f}", f"{med(mu) / med(pu):.2f}"],

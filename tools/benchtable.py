@@ -1,4 +1,4 @@
-"""Benchmark output: the machine line and side-by-side tables with ratios.
+"""Benchmark helpers: the machine line, side-by-side tables with ratios, stopping a child.
 
 Every benchmark prints through here so `make bench` reads as one report.
 """
@@ -7,6 +7,7 @@ from __future__ import annotations
 import os
 import platform
 import statistics
+import subprocess
 import time
 from collections.abc import Callable, Sequence
 
@@ -49,3 +50,13 @@ def table(title: str, header: Sequence[str], rows: Sequence[Sequence[object]]) -
         if k == 0:
             out.append(line)
     return "\n".join(out)
+
+
+def stop_process(proc: subprocess.Popen, timeout: float = 10.0) -> None:
+    """Terminate a benchmark's child (a sitl or bridge), killing it if it will not stop."""
+    proc.terminate()
+    try:
+        proc.wait(timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()

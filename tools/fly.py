@@ -5,6 +5,7 @@ The lab's fly.launch as one command (and the README's `make demo`):
   towerlink fly                                  # default scenario, speedup 5, rover follows drone_yaw
   towerlink fly my.toml --follow-frame drone     # the wobbling checkpoint-2 frame
   towerlink fly --goals="-131.04,73.52;-105.06,88.52;-120.06,114.50" --seed 3
+  towerlink fly --nodes examples/lab             # the lab's three nodes do the transforms and the follow
 
 Three processes on loopback with free ports (so several runs can share a machine):
 
@@ -13,6 +14,12 @@ Three processes on loopback with free ports (so several runs can share a machine
   towerlink bridge  tower link <-> vehicles, tower <-> world translation, rover follow,
                     transform stream pushed to this launcher (bridge.tlog)
   towerlink tower   the mission in tower coordinates (tower.tlog, tower.json)
+
+With --nodes DIR every DIR/*.py is started as a node (gcs.tf2_ros), `python FILE
+--connect udpout:127.0.0.1:PORT --follow-frame FRAME` (node-<name>.log), and the bridge
+gets --nodes udpin:127.0.0.1:PORT --route-only: the nodes publish the drone's frames,
+turn the tower's goals into world goals and drive the rover; the bridge only routes (and
+keeps the frames' authority).
 
 While they run it prints one progress line a second (goal n/N, drone position,
 rover follow error from truth, sim time and the speedup achieved). At the end, on
@@ -228,7 +235,7 @@ class Launch:
                  finish: str | None = None, goal_timeout: float = 120.0, tower_loss: float = 0.0,
                  loss_seed: int = 1, sitl_args: tuple[str, ...] = (), bridge_args: tuple[str, ...] = (),
                  tower_args: tuple[str, ...] = (), echo: bool = False, host: str = "127.0.0.1",
-                 view_port: int | None = None) -> None:
+                 view_port: int | None = None, nodes: str | os.PathLike | None = None) -> None:
         self.dir = Path(run_dir)
         self.dir.mkdir(parents=True, exist_ok=True)
         self.scenario = str(Path(scenario).resolve()) if scenario else None
@@ -242,7 +249,10 @@ class Launch:
         self.sitl_args, self.bridge_args, self.tower_args = sitl_args, bridge_args, tower_args
         self.echo = echo
         self.host = host
-        names = ("drone", "rover", "tower", "vehicles", "bridge", "proxy")
+        self.nodes = sorted(Path(nodes).glob("*.py")) if nodes else []
+        if nodes and not self.nodes:
+            raise ValueError(f"no nodes (*.py) in {nodes}")
+        names = ("drone", "rover", "tower", "vehicles", "bridge", "proxy", "nodes")
         self.ports = dict(zip(names, free_udp_ports(len(names), host)))
         self.procs: dict[str, subprocess.Popen] = {}
         self.logs: dict[str, object] = {}
@@ -279,7 +289,16 @@ class Launch:
                              "--no-save", "--tcp-base", "0", "--udp-base", "0",
                              "--endpoint", f"0=udpin:{h}:{self.ports['drone']}",
                              "--endpoint", f"1=udpin:{h}:{self.ports['rover']}",
-                             "--out", f"udpout:{h}:{self.ports['vehicles']}", *self.sitl_args)
+                             "--out", f"udpout:{h}:{self.ports['vehicles']}", *self._scenario_wind(),
+                             *self.sitl_args)
+
+    def _scenario_wind(self) -> list[str]:
+        """The scenario's wind table as `sitl --wind` (none when it has no wind)."""
+        if not self.scenario:
+            return []
+        from gcs.scenario import load_scenario
+        w = load_scenario(self.scenario).wind_arg()
+        return ["--wind", w] if w else []
 
     def bridge_cmd(self) -> list[str]:
         h = self.host
@@ -292,7 +311,14 @@ class Launch:
             cmd += ["--scenario", self.scenario]
         if self.follow_frame:
             cmd += ["--follow-frame", self.follow_frame]
+        if self.nodes:
+            cmd += ["--nodes", f"udpin:{h}:{self.ports['nodes']}", "--route-only"]
         return cmd + list(self.bridge_args)
+
+    def node_cmd(self, path: Path) -> list[str]:
+        frame = self.follow_frame or _scenario_follow(self.scenario)
+        return [sys.executable, str(path), "--connect", f"udpout:{self.host}:{self.ports['nodes']}",
+                "--follow-frame", frame]
 
     def tower_url(self) -> str:
         port = self.ports["proxy"] if self.tower_loss > 0 else self.ports["tower"]
@@ -343,6 +369,8 @@ class Launch:
         self.monitor.start()
         self._start("sitl", self.sitl_cmd())
         self.start_bridge()
+        for path in self.nodes:
+            self._start(f"node-{path.stem}", self.node_cmd(path))
         if self.tower_loss > 0:
             from tools.loss_proxy import LossProxy
             self.proxy = LossProxy(self.ports["proxy"], (self.host, self.ports["tower"]),
@@ -378,7 +406,7 @@ class Launch:
             if rc is not None:
                 return rc
             now = time.monotonic()
-            for name in ("sitl",):
+            for name in ("sitl", *(f"node-{p.stem}" for p in self.nodes)):
                 p = self.procs.get(name)
                 if p is not None and p.poll() is not None:
                     raise RuntimeError(f"{name} exited with status {p.returncode}; see {self.dir / (name + '.log')}")
@@ -422,12 +450,14 @@ class Launch:
                 "follow_frame": self.follow_frame, "goals": self.goals, "tower_loss": self.tower_loss,
                 "ports": self.ports,
                 "commands": {k: shlex.join(v) for k, v in
-                             (("sitl", self.sitl_cmd()), ("bridge", self.bridge_cmd()), ("tower", self.tower_cmd()))}}
+                             (("sitl", self.sitl_cmd()), ("bridge", self.bridge_cmd()), ("tower", self.tower_cmd()),
+                              *((f"node-{p.stem}", self.node_cmd(p)) for p in self.nodes))}}
         (self.dir / "meta.json").write_text(json.dumps(meta, indent=2))
 
     def stop(self) -> None:
         """Stop everything this launch started (tower first, world last); idempotent."""
-        order = [("tower", signal.SIGINT), ("bridge", signal.SIGTERM), ("sitl", signal.SIGTERM)]
+        order = [("tower", signal.SIGINT), *((f"node-{p.stem}", signal.SIGTERM) for p in self.nodes),
+                 ("bridge", signal.SIGTERM), ("sitl", signal.SIGTERM)]
         for name, sig in order:
             p = self.procs.get(name)
             if p is None:
@@ -464,6 +494,8 @@ class Launch:
                 "follow_frame": self.follow_frame or _scenario_follow(self.scenario),
                 "run_dir": str(self.dir), "bridge_restarts": self.bridge_restarts,
                 "tower_loss": self.tower_loss}
+        if self.nodes:
+            meta["nodes"] = [p.stem for p in self.nodes]
         if self.proxy is not None:
             meta["proxy"] = {"passed": self.proxy.passed, "dropped": self.proxy.dropped}
         if self.sim0 is not None and self.monitor is not None:
@@ -548,6 +580,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--view", nargs="?", type=int, const=8765, default=None, metavar="PORT",
                         help="serve the run live to Foxglove on ws://127.0.0.1:PORT (default port 8765; "
                              "0 picks a free one; needs towerlink[view]). Every run also writes run.mcap")
+    parser.add_argument("--nodes", metavar="DIR", default=None,
+                        help="run every DIR/*.py as a tf2_ros node (e.g. examples/lab: the lab's tower_to_map, "
+                             "world_to_drone, ground_robot_controller); the bridge only routes (--route-only)")
     parser.add_argument("-v", "--verbose", action="store_true", help="echo the tower's log lines")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
 
@@ -560,10 +595,14 @@ def run(args: argparse.Namespace) -> int:
     except ScenarioError as exc:
         print(f"towerlink fly: {exc}", file=sys.stderr)
         return 2
-    launch = Launch(out, scenario=args.scenario, speedup=args.speedup, seed=args.seed,
-                    follow_frame=args.follow_frame, goals=args.goals, alt=args.alt, radius=args.radius,
-                    finish=args.finish, goal_timeout=args.goal_timeout, tower_loss=args.tower_loss,
-                    echo=args.verbose, view_port=args.view)
+    try:
+        launch = Launch(out, scenario=args.scenario, speedup=args.speedup, seed=args.seed,
+                        follow_frame=args.follow_frame, goals=args.goals, alt=args.alt, radius=args.radius,
+                        finish=args.finish, goal_timeout=args.goal_timeout, tower_loss=args.tower_loss,
+                        echo=args.verbose, view_port=args.view, nodes=args.nodes)
+    except ValueError as exc:
+        print(f"towerlink fly: {exc}", file=sys.stderr)
+        return 2
     print(f"towerlink fly: world + bridge + tower on 127.0.0.1 (ports {launch.ports}); run folder {out}",
           flush=True)
 

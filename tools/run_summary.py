@@ -395,11 +395,15 @@ def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
             flight = {"max_speed": float(sp.max()), "mean_height": float(-dt.xyz[:, 2].mean()),
                       "max_tilt_deg": float(tilt.max())}
 
+    from tools.hover_stats import hover_figures
+    hover = hover_figures(data, DRONE)
+    hover["wind"] = list(sc.wind) if sc.wind else None
+
     reached = sum(g["reached"] for g in goals_out)
     out = {
         "ok": bool(tower.get("ok")) and reached == len(goals_out) and reached > 0,
         "scenario": sc.name, "goals_reached": reached, "goals_total": len(goals_out),
-        "goals": goals_out, "follow_error": follow, "wobble": wobble, "flight": flight,
+        "goals": goals_out, "follow_error": follow, "wobble": wobble, "flight": flight, "hover": hover,
         "limits": {"WPNAV_SPEED": v, "WPNAV_ACCEL": a, "PSC_JERK_XY": j},
         "mission_window_sim": [t0, t1],
         "bridge_status": data.bridge_status, "tower_error": tower.get("error"),
@@ -509,6 +513,11 @@ def format_summary(s: dict) -> str:
         lines.append(f"  yaw-only       (drone_yaw)  RMS {y['rms']:.3f} m, max {y['max']:.3f} m{rtxt}")
     else:
         lines.append("wobble: not measured (no follow ticks or drone transforms recorded)")
+    if s.get("hover") is not None:
+        from tools.hover_stats import format_hover
+        h = dict(s["hover"])
+        wind = h.pop("wind", None)
+        lines.extend(format_hover(h, wind))
     if s.get("tower_error"):
         lines.append(f"tower: {s['tower_error']}")
     return "\n".join(lines)

@@ -12,6 +12,22 @@ Endpoints (pymavlink connection strings), for vehicle i (drones first, then rove
   --out udpout:HOST:PORT          push every vehicle's stream (e.g. 14550 GCS, 14540 MAVSDK)
 so: mavproxy.py --master tcp:127.0.0.1:5760, or mavutil.mavlink_connection('udpout:127.0.0.1:14560').
 
+Networks and the port rule (any number of vehicles, every one reachable):
+  A MAVLink network holds 254 vehicles (255 is the GCS's), so vehicle i is in network
+  g = i // 254 (--group-size) with sysid 1 + i % 254 (--sysid-base): 1..N for N <= 254.
+  Each network has its own --out: --out udpout:HOST:P pushes network g to HOST:P+g, so no
+  link carries two vehicles with one sysid (network 0 on 14550, network 1 on 14551, ...).
+  Ports step by 10 (ArduPilot's 5760+10*i, 14560+10*i) while the TCP and UDP blocks fit
+  apart below 65536 (up to 880 vehicles with the default bases); above, they step by 1
+  (5760+i, 14560+i: up to 8800 vehicles); beyond that move a base or set it to 0.
+  Refused at start, with the reason: one sysid twice in a network or on one udpout target
+  (--sysid, a saved SYSID_THISMAV), a port used twice, port blocks that overlap (TCP, UDP,
+  the networks' --out ports on this host), ports above 65535.
+  The plan is printed at start and written as JSON to STATE_DIR/network_plan.json (and
+  --plan-out FILE): per vehicle its index, kind, network, sysid, tcp, udp and endpoints.
+  A process runs on one core: --workers K runs the same world (plan, ports, one sim t = 0)
+  in K processes, e.g. towerlink sitl --drones 500 --rovers 500 --workers 2.
+
 Parameters: ArduPilot names. --params FILE gives defaults ("NAME VALUE" lines, as SITL's
 --defaults); every PARAM_SET is saved to STATE_DIR/drone<j>.parm or rover<j>.parm and loaded
 on the next start (as SITL's eeprom.bin). FS_GCS_ENABLE defaults to 0 (off), as ArduPilot.
@@ -22,6 +38,13 @@ Examples:
   towerlink sitl --endpoint 0=udpin:127.0.0.1:20000 --out udpout:127.0.0.1:14550
   towerlink sitl --mission 0=survey.waypoints       # vehicle 0 starts with this mission
 
+Wind (as ArduPilot SITL's SIM_WIND_*): --wind SPD,DIR[,TURB] sets one air mass for the world:
+speed m/s, the direction it comes FROM in degrees (270 = from the west), turbulence m/s (standard
+deviation). Every vehicle's SIM_WIND_* parameters show it, and a PARAM_SET of SIM_WIND_* on any
+vehicle changes it. With ArduPilot's default profile (SIM_WIND_T 0) the wind grows as the square
+root of height up to SIM_WIND_T_ALT (60 m); SIM_WIND_T 1 blows at full speed at every height.
+  towerlink sitl --wind 8,270,1                     # 8 m/s westerly, 1 m/s turbulence
+
 Missions, fences and rally points uploaded by a GCS are saved beside the parameters
 (STATE_DIR/drone<j>.missions.json) and loaded on the next start. --mission I=FILE loads a
 QGC WPL 110 file (as written by QGroundControl, Mission Planner, MAVProxy 'wp save') into
@@ -31,11 +54,12 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import os
 import signal
 import sys
 
 from gcs.signing import key_from_text as signing_key
-from vehicle.world import DEFAULT_HOME, DEFAULT_STATE_DIR, World, WorldConfig
+from vehicle.world import DEFAULT_HOME, DEFAULT_STATE_DIR, PLAN_FILE, World, WorldConfig
 
 
 def _home(s: str) -> tuple[float, float, float]:
@@ -67,6 +91,16 @@ def _out(s: str) -> str:
     return s
 
 
+def _sysid(s: str) -> tuple[int, int]:
+    i, sep, sid = s.partition("=")
+    try:
+        if not sep:
+            raise ValueError
+        return int(i), int(sid)
+    except ValueError:
+        raise argparse.ArgumentTypeError("expected INDEX=SYSID, e.g. 3=42")
+
+
 def _mission(s: str):
     """I=FILE -> (I, [MissionItem]); a file that cannot be read or an item that an upload
     would refuse is an argparse error naming it."""
@@ -90,6 +124,14 @@ def _mission(s: str):
     return int(i), items
 
 
+def _wind(s: str):
+    from vehicle.physics.wind import parse_wind
+    try:
+        return parse_wind(s)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e))
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--drones", type=int, default=1, metavar="N", help="number of drones (default 1)")
     p.add_argument("--rovers", type=int, default=1, metavar="M", help="number of rovers (default 1)")
@@ -104,17 +146,30 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help=f"where saved parameters, missions, fences and rally points live (default {DEFAULT_STATE_DIR})")
     p.add_argument("--no-save", action="store_true", help="do not load or save parameters or missions in the state dir")
     p.add_argument("--out", action="append", default=[], type=_out, metavar="udpout:HOST:PORT",
-                   help="extra endpoint for every vehicle (repeatable)")
+                   help="push every vehicle's stream here; network g (see below) to PORT+g (repeatable)")
     p.add_argument("--endpoint", action="append", default=[], type=_endpoint, metavar="I=SPEC",
                    help="endpoint for vehicle I; replaces its defaults (repeatable)")
     p.add_argument("--mission", action="append", default=[], type=_mission, metavar="I=FILE",
                    help="QGC WPL 110 file loaded into vehicle I's mission at start (repeatable)")
+    p.add_argument("--wind", type=_wind, default=None, metavar="SPD,DIR[,TURB]",
+                   help="wind: speed m/s, direction it comes from (deg), turbulence m/s "
+                        "(default: the SIM_WIND_* parameters, calm)")
     p.add_argument("--host", default="127.0.0.1", help="address of the default endpoints (default 127.0.0.1)")
     p.add_argument("--base-port", "--tcp-base", dest="tcp_base", type=int, default=5760,
-                   help="TCP port of vehicle 0, +10 per vehicle (default 5760; 0: none)")
+                   help="TCP port of vehicle 0, +10 per vehicle, +1 when +10 does not fit (default 5760; 0: none)")
     p.add_argument("--udp-base", type=int, default=14560,
-                   help="UDP port of vehicle 0, +10 per vehicle (default 14560; 0: none)")
-    p.add_argument("--sysid-base", type=int, default=1, help="sysid of vehicle 0 (default 1)")
+                   help="UDP port of vehicle 0, +10 per vehicle, +1 when +10 does not fit (default 14560; 0: none)")
+    p.add_argument("--sysid-base", type=int, default=1, help="sysid of vehicle 0 of each network (default 1)")
+    p.add_argument("--sysid", action="append", default=[], type=_sysid, metavar="I=SYSID",
+                   help="explicit sysid of vehicle I (repeatable); one sysid twice in a network is refused")
+    p.add_argument("--group-size", type=int, default=None, metavar="N",
+                   help="vehicles per MAVLink network (default 254, i.e. sysids SYSID_BASE..254)")
+    p.add_argument("--plan-out", metavar="FILE",
+                   help="also write the network plan (JSON) here; it always goes to STATE_DIR/network_plan.json "
+                        "unless --no-save")
+    p.add_argument("--workers", type=int, default=1, metavar="K",
+                   help="run the world in K processes (one core each; default 1): worker w runs vehicles "
+                        "w*N/K..(w+1)*N/K-1 on the same plan and ports, all starting at one instant")
     p.add_argument("--signing-key", metavar="PASSPHRASE|HEX64",
                    help="MAVLink 2 signing: 64 hex digits, or a passphrase hashed with SHA-256 "
                         "(as MAVProxy's 'signing setup'); unsigned packets are then dropped")
@@ -128,7 +183,9 @@ def config_from_args(a: argparse.Namespace) -> WorldConfig:
                        seed=a.seed, params_file=a.params, state_dir=None if a.no_save else a.state_dir,
                        tcp_base=a.tcp_base or None, udp_base=a.udp_base or None, host=a.host,
                        outs=list(a.out), endpoints=endpoints, sysid_base=a.sysid_base,
-                       signing_key=signing_key(a.signing_key), missions=dict(a.mission))
+                       signing_key=signing_key(a.signing_key), missions=dict(a.mission),
+                       sysids=dict(a.sysid), group_size=a.group_size,
+                       wind=getattr(a, "wind", None))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -143,11 +200,27 @@ def run(args: argparse.Namespace) -> int:
     if bad:
         print(f"towerlink sitl: --mission {bad[0]}=...: there are only {n} vehicles (0..{n - 1})", file=sys.stderr)
         return 2
+    if args.workers < 1:
+        print("towerlink sitl: --workers must be >= 1", file=sys.stderr)
+        return 2
     from vehicle.autopilot.params import ParamFileError
+    from vehicle.network_plan import PlanError
+    if args.workers > 1:
+        return _run_workers(args)
     try:
         world = World(config_from_args(args))
+    except PlanError as e:                      # sysids / ports that cannot work: nothing started
+        print(f"towerlink sitl: refused: {e}", file=sys.stderr)
+        return 2
     except (OSError, ParamFileError) as e:      # an unreadable --params FILE
         print(f"towerlink sitl: {e}", file=sys.stderr)
+        return 1
+    try:
+        for path in ([os.path.join(args.state_dir, PLAN_FILE)] if not args.no_save else []) + \
+                ([args.plan_out] if args.plan_out else []):
+            world.write_plan(path)
+    except OSError as e:
+        print(f"towerlink sitl: cannot write the network plan: {e}", file=sys.stderr)
         return 1
 
     async def main() -> None:
@@ -163,3 +236,33 @@ def run(args: argparse.Namespace) -> int:
         return 1
     print(world.stats_line(), flush=True)
     return 0
+
+
+def _run_workers(args: argparse.Namespace) -> int:
+    """--workers K: the plan is checked here, then vehicle/workers.py runs the shares."""
+    from vehicle import workers
+    from vehicle.autopilot.params import ParamFileError
+    from vehicle.network_plan import PlanError
+    cfg = config_from_args(args)
+    try:
+        cfg.network_plan()
+    except PlanError as e:
+        print(f"towerlink sitl: refused: {e}", file=sys.stderr)
+        return 2
+    paths = ([os.path.join(args.state_dir, PLAN_FILE)] if not args.no_save else []) + \
+        ([args.plan_out] if args.plan_out else [])
+
+    def out(text: str) -> None:
+        if text.startswith("towerlink sitl:") and out.world is not None:   # the banner: plan is final
+            for path in paths:                                             # (written before it shows)
+                out.world.write_plan(path)
+        print(text, flush=True)
+    out.world = None
+    try:
+        return workers.run(cfg, args.workers, out=out, on_world=lambda w: setattr(out, "world", w))
+    except PlanError as e:
+        print(f"towerlink sitl: refused: {e}", file=sys.stderr)
+        return 2
+    except (OSError, ParamFileError, RuntimeError) as e:
+        print(f"towerlink sitl: {e}", file=sys.stderr)
+        return 1

@@ -190,6 +190,21 @@ class _FleetBase:
         self._dqs = None
         self._est_view = None
         self.setpoints: list[Setpoint] = [Setpoint() for _ in range(self.n)]
+        self.air: np.ndarray | None = None    # (n,3) air velocity, world NED m/s (wind); None = still
+        self._air_rows: list | None = None
+
+    def set_air(self, air: np.ndarray | None) -> None:
+        """The air velocity each vehicle flies in from now on ((n,3) world NED m/s, the wind
+        of vehicle.physics.wind), or None for still air."""
+        self.air = None if air is None else np.asarray(air, float).reshape(self.n, 3)
+        self._air_rows = None if air is None else self.air.tolist()
+
+    def _air_vec(self):
+        a = self.air
+        return None if a is None else (a[:, 0], a[:, 1], a[:, 2])
+
+    def _air_of(self, i: int):
+        return None if self.air is None else self._air_rows[i]
 
     # ---- true state --------------------------------------------------------------
     @property
@@ -374,7 +389,7 @@ class _FleetBase:
                 output_step_scalar(self._ests[i], self._ps[i], self._dqs[i], ge[i], dt)
 
 
-def _copter_core(ph, c, est, sp, armed, landed, ground_z, g, af, dt, xp):
+def _copter_core(ph, c, est, sp, armed, landed, ground_z, g, af, dt, xp, air=None):
     """Controller + physics for one step (backend-generic). Returns the 'running' mask."""
     climb = xp.where(sp.use_pos_z, sp.pz < ground_z - 0.25, sp.vz < -0.05)
     idle = landed & xp.lnot(climb)
@@ -389,7 +404,7 @@ def _copter_core(ph, c, est, sp, armed, landed, ground_z, g, af, dt, xp):
     else:
         idle_w = xp.where(armed, om * g.spin_arm, 0.0)
         cmd = [xp.where(run, fi * om, idle_w) for fi in f]
-    mc.step(ph, cmd, af, dt, ground_z, xp)
+    mc.step(ph, cmd, af, dt, ground_z, xp, air)
     return run
 
 
@@ -504,6 +519,13 @@ class CopterFleet(_FleetBase):
     def landed_mask(self) -> np.ndarray:
         return np.array(self._landed, dtype=bool)
 
+    def rotor_power(self, i: int) -> float:
+        """Shaft power (W) vehicle i's rotors absorb now (physics.multicopter.rotor_power):
+        what its battery pays for thrust."""
+        s = self._ps[i] if self.scalar else self._phys
+        p = mc.rotor_power(s, self.airframe)
+        return float(p if self.scalar else p[i])
+
     @property
     def thrust_demand(self) -> np.ndarray:
         """Collective thrust fraction the controller asked for (0..1; 0 when idle)."""
@@ -520,7 +542,7 @@ class CopterFleet(_FleetBase):
         g, xp = self.gains, NumpyOps
         est = self._est_view if self._est_view is not None else self._phys
         run = _copter_core(self._phys, self._ctrl, est, self.sp, self.armed, self._landed,
-                           self.ground_z, g, self.airframe, dt, xp)
+                           self.ground_z, g, self.airframe, dt, xp, self._air_vec())
         self.sim_time += dt
         self._est_view = self._sense_and_estimate_vec(dt)
         e = self._est_view if self._est_view is not None else self._phys
@@ -534,7 +556,7 @@ class CopterFleet(_FleetBase):
         ps, cs, ss, ests = self._ps, self._cs, self._ss, self._ests
         for i in range(self.n):
             runs[i] = _copter_core(ps[i], cs[i], ests[i] or ps[i], ss[i], armed[i], landed[i],
-                                   self._gz[i], gs[i], af, dt, xp)
+                                   self._gz[i], gs[i], af, dt, xp, self._air_of(i))
         self.sim_time += dt
         self._sense_and_estimate_scalar(dt)
         for i in range(self.n):
@@ -598,7 +620,7 @@ class RoverFleet(_FleetBase):
                 if not armed[i]:
                     v = r = 0.0
                     ss[i].v_cmd = 0.0
-                rphys.step(ps[i], v, r, m, gs[i], dt, xp)
+                rphys.step(ps[i], v, r, m, gs[i], dt, xp, self._air_of(i))
             self.sim_time += dt
             self._sense_and_estimate_scalar(dt)
             return
@@ -607,6 +629,6 @@ class RoverFleet(_FleetBase):
         v_cmd = np.where(self.armed, v_cmd, 0.0)
         r_cmd = np.where(self.armed, r_cmd, 0.0)
         self.sp.v_cmd = np.where(self.armed, self.sp.v_cmd, 0.0)
-        rphys.step(self._phys, v_cmd, r_cmd, self.model, self.gains, dt)
+        rphys.step(self._phys, v_cmd, r_cmd, self.model, self.gains, dt, air=self._air_vec())
         self.sim_time += dt
         self._est_view = self._sense_and_estimate_vec(dt)

@@ -47,13 +47,14 @@ class SensorSpec:
 def vehicle_rngs(seed: int | Sequence[int], n: int) -> list[np.random.Generator]:
     """One Generator per vehicle: seed int -> entropy [seed, i]; a sequence gives each
     vehicle its own seed (entropy [seed_i, 0]), so vehicle i of a fleet built with
-    seeds [.., s, ..] matches a single vehicle built with seeds [s]."""
+    seeds [.., s, ..] matches a single vehicle built with seeds [s]; a (seed, i) pair in
+    the sequence is entropy [seed, i], vehicle i of a fleet seeded `seed`."""
     if isinstance(seed, (int, np.integer)):
         return [np.random.default_rng([int(seed), i]) for i in range(n)]
     seeds = list(seed)
     if len(seeds) != n:
         raise ValueError(f"need {n} seeds, got {len(seeds)}")
-    return [np.random.default_rng([int(s), 0]) for s in seeds]
+    return [np.random.default_rng([int(x) for x in s] if isinstance(s, tuple) else [int(s), 0]) for s in seeds]
 
 
 class NoiseSource:

@@ -1,6 +1,12 @@
 """The SITL world: one sim clock, batched fleets, per-vehicle autopilots and MAVLink links,
 all stepped in lockstep on one asyncio event loop.
 
+Wind: one air mass per world (vehicle/physics/wind.py, ArduPilot's SIM_WIND_*), from
+WorldConfig.wind (`towerlink sitl --wind`, a scenario's wind table) or else vehicle 0's
+SIM_WIND_* parameters; every vehicle's SIM_WIND_* show it and a PARAM_SET of one on any
+vehicle changes it. Turbulence is seeded by the world's seed. The fleets get their air
+velocity at the autopilot rate.
+
 Time: physics advances in fixed steps of 1/rate sim seconds; autopilots and telemetry run
 every `ap_every` steps (50 Hz). With `speedup` N the world tracks N sim seconds per wall
 second; when the CPU cannot keep up it runs slower (re-anchoring its wall reference), never
@@ -14,6 +20,7 @@ Python API (tests, tools):
 from __future__ import annotations
 
 import asyncio
+import json
 import os
 import threading
 import time
@@ -24,10 +31,15 @@ import numpy as np
 from vehicle.autopilot import CopterAutopilot, ParamStore, RoverAutopilot
 from vehicle.autopilot.mission_persist import PersistentMissionStore, missions_path
 from vehicle.autopilot.mission_store import MISSION, MissionItem, MissionStore
-from vehicle.autopilot.params import COPTER_TABLE, ROVER_TABLE, core_table, read_parm_file
+from vehicle.autopilot.params import (COPTER_TABLE, ROVER_TABLE, _warn, core_table, file_warnings,
+                                      read_parm_file)
 from vehicle.link import VehicleLink
+from vehicle.network_plan import NetworkPlan
+from vehicle.network_plan import plan as plan_world
+from vehicle.physics.wind import WindField, WindParams
 
 DEFAULT_HOME = (-35.363261, 149.165230, 584.0)      # ArduPilot SITL's default (CMAC)
+PLAN_FILE = "network_plan.json"      # in the state dir: the network plan of the running world
 DEFAULT_STATE_DIR = os.path.join(os.environ.get("XDG_STATE_HOME", os.path.expanduser("~/.local/state")),
                                  "towerlink", "sitl")
 AP_RATE = 50.0
@@ -52,17 +64,20 @@ class WorldConfig:
     sysid_base: int = 1
     signing_key: bytes | None = None
     missions: dict[int, list[MissionItem]] = field(default_factory=dict)  # vehicle index -> MISSION at start
+    sysids: dict[int, int] = field(default_factory=dict)       # vehicle index -> explicit sysid
+    group_size: int | None = None                               # vehicles per MAVLink network (default 254)
+    share: tuple[int, int] | None = None      # vehicle indices [lo, hi) this process runs (--workers)
+    start_at: float | None = None             # unix time of sim t = 0 (default: now)
+    wind: WindParams | None = None            # None: from the vehicles' SIM_WIND_* parameters
+
+    def network_plan(self) -> NetworkPlan:
+        """Sysids, networks and ports of every vehicle (vehicle/network_plan.py); PlanError."""
+        return plan_world(self.drones, self.rovers, tcp_base=self.tcp_base, udp_base=self.udp_base,
+                          host=self.host, outs=self.outs, endpoints=self.endpoints,
+                          sysid_base=self.sysid_base, sysids=self.sysids, group_size=self.group_size)
 
     def vehicle_endpoints(self, i: int) -> list[str]:
-        if i in self.endpoints:
-            eps = list(self.endpoints[i])
-        else:
-            eps = []
-            if self.tcp_base:
-                eps.append(f"tcpin:{self.host}:{self.tcp_base + 10 * i}")
-            if self.udp_base:
-                eps.append(f"udpin:{self.host}:{self.udp_base + 10 * i}")
-        return eps + list(self.outs)
+        return list(self.network_plan().vehicles[i].endpoints)
 
 
 @dataclass
@@ -89,48 +104,70 @@ class World:
         self.share_every = self.ap_every * max(1, int(round(AP_RATE / SHARE_RATE)))
         self.steps = 0
         self.t = 0.0
-        self.unix_start_us = int(time.time() * 1e6)
+        # sim t = 0 is this wall time (--workers: one instant shared by every process)
+        self.start_at = cfg.start_at if cfg.start_at is not None else time.time()
+        self.unix_start_us = int(self.start_at * 1e6)
         self.vehicles: list[Vehicle] = []
         self.fleets: list[tuple[str, object]] = []
+        self.plan = cfg.network_plan()        # PlanError before anything is built
+        # one air mass for the world (SIM_WIND_*), turbulence seeded by the world's seed
+        self.wind = WindField(cfg.wind, cfg.seed)
         file_params = read_parm_file(cfg.params_file) if cfg.params_file else {}
         file_params.pop("SYSID_THISMAV", None)
-        index = 0
+        lo, hi = cfg.share if cfg.share is not None else (0, cfg.drones + cfg.rovers)
+        first = 0                                  # world index of the kind's vehicle 0
         for kind, n, table, fleet_cls, ap_cls in (
                 ("copter", cfg.drones, COPTER_TABLE, CopterFleet, CopterAutopilot),
                 ("rover", cfg.rovers, ROVER_TABLE, RoverFleet, RoverAutopilot)):
-            if n <= 0:
+            js = [j for j in range(n) if lo <= first + j < hi]     # this process's share
+            if not js:
+                first += n
                 continue
             core = core_table(kind)
             core_names = {d.name for d in core}
             stores, saves = [], []
-            for j in range(n):
+            for j in js:
                 defaults = dict(file_params)
-                defaults["SYSID_THISMAV"] = cfg.sysid_base + index + j
+                defaults["SYSID_THISMAV"] = self.plan.vehicles[first + j].sysid
                 save = (os.path.join(cfg.state_dir, f"{'drone' if kind == 'copter' else 'rover'}{j}.parm")
                         if cfg.state_dir else None)
                 stores.append(ParamStore(core + table, defaults, save))
                 saves.append(save)
-            starts = np.array([self.start_position(kind, j) for j in range(n)], float)
+            if cfg.params_file:          # once per kind: unknown names / bad values, not fatal
+                for msg in file_warnings(file_params, stores[0].defs, kind, cfg.params_file):
+                    _warn(msg)
+            starts = np.array([self.start_position(kind, j) for j in js], float)
             fleet_params = {name: stores[0][name] for name in core_names} if core_names else \
                 {name: stores[0][name] for name in stores[0].names}
-            fleet = fleet_cls(n, fleet_params, cfg.seed + (0 if kind == "copter" else 7919), starts)
-            for j in range(1, n):          # each vehicle starts from its own (saved) parameters
-                own = {name: stores[j][name] for name in fleet_params if name in stores[j]}
-                if any(own[k] != fleet_params[k] for k in own):
-                    fleet.set_params(own, i=j)
+            base_seed = cfg.seed + (0 if kind == "copter" else 7919)
+            # vehicle j's noise is seeded [seed, j] whichever process runs it
+            seed = base_seed if len(js) == n else [(base_seed, j) for j in js]
+            fleet = fleet_cls(len(js), fleet_params, seed, starts)
+            for k in range(1, len(js)):    # each vehicle starts from its own (saved) parameters
+                own = {name: stores[k][name] for name in fleet_params if name in stores[k]}
+                if any(own[x] != fleet_params[x] for x in own):
+                    fleet.set_params(own, i=k)
             self.fleets.append((kind, fleet))
-            for j in range(n):
-                push = self._pusher(fleet, core_names, j)
+            for k, j in enumerate(js):     # k: index in the fleet, j: the kind's index
+                index = first + j
+                push = self._pusher(fleet, core_names, k, stores[k])
                 # missions, fence and rally points persist beside the parameters
-                missions = PersistentMissionStore(missions_path(saves[j])) if saves[j] else MissionStore()
-                ap = ap_cls(fleet, j, stores[j], cfg.home, starts[j], push_params=push, missions=missions)
-                link = VehicleLink(ap, self.clock, self.unix_start_us, cfg.vehicle_endpoints(index),
+                missions = PersistentMissionStore(missions_path(saves[k])) if saves[k] else MissionStore()
+                ap = ap_cls(fleet, k, stores[k], cfg.home, starts[k], push_params=push, missions=missions)
+                link = VehicleLink(ap, self.clock, self.unix_start_us, list(self.plan.vehicles[index].endpoints),
                                    signing_key=cfg.signing_key, params_changed=push)
                 self.vehicles.append(Vehicle(index, kind, j, ap, link))
                 if index in cfg.missions:        # --mission I=FILE: as if uploaded at start
                     ap.missions.replace_all(MISSION, cfg.missions[index])
                     ap.mission_uploaded(MISSION)
-                index += 1
+            first += n
+        # a saved SYSID_THISMAV (a PARAM_SET before a restart) wins over the plan's: refuse a
+        # clash (with --workers, among this process's vehicles and the others' planned sysids)
+        booted = [v.sysid for v in self.plan.vehicles]
+        for v in self.vehicles:
+            booted[v.index] = v.sysid
+        self.plan = self.plan.with_sysids(booted)
+        self._init_wind()
         self._stop: asyncio.Event | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._thread: threading.Thread | None = None
@@ -143,14 +180,48 @@ class World:
         every 2 m, rovers 3 m south of them."""
         return (0.0, 2.0 * j, 0.0) if kind == "copter" else (-3.0, 2.0 * j, 0.0)
 
-    @staticmethod
-    def _pusher(fleet, core_names, j):
-        """Parameter changes of vehicle j (PARAM_SET, DO_CHANGE_SPEED) reach vehicle j only."""
+    def _pusher(self, fleet, core_names, j, store):
+        """Parameter changes of vehicle j (PARAM_SET, DO_CHANGE_SPEED) reach vehicle j only;
+        SIM_WIND_* change the world's air (there is one) and every vehicle's copy of them."""
         def push(values: dict) -> None:
             sel = {k: float(v) for k, v in values.items() if not core_names or k in core_names}
             if sel:
                 fleet.set_params(sel, i=j)
+            if any(k in WindParams.NAMES for k in values) and self.vehicles:
+                self.set_wind(WindParams.from_params(store.values))
         return push
+
+    # ----- wind ---------------------------------------------------------------------------
+    def _init_wind(self) -> None:
+        if self.cfg.wind is not None:
+            self.set_wind(self.cfg.wind)
+        elif self.vehicles:
+            self.set_wind(WindParams.from_params(self.vehicles[0].ap.params.values))
+
+    def set_wind(self, params: WindParams) -> None:
+        """The world's wind from now on (the air follows within wind.SMOOTH_TAU); every
+        vehicle's SIM_WIND_* show it (not saved: the world's option, not the vehicle's)."""
+        self.wind.set(params)
+        for v in self.vehicles:
+            store = v.ap.params
+            for name, value in params.as_params().items():
+                if name in store and store.get(name) != value:
+                    store.set(name, value, save=False)
+
+    def _update_air(self) -> None:
+        """Each fleet's air velocity for the next autopilot period (50 Hz is plenty for a
+        wind whose turbulence has a 0.5 s correlation time)."""
+        w = self.wind
+        if not w.active:
+            for _, fleet in self.fleets:
+                if fleet.air is not None:
+                    fleet.set_air(None)
+            return
+        dt = self.dt * self.ap_every
+        w.advance(dt)
+        for kind, fleet in self.fleets:
+            h = fleet.home[:, 2] - fleet.pos[:, 2]        # height above its home ground, m
+            fleet.set_air(w.air_velocity(kind, h, h > 0.05, dt))
 
     def clock(self) -> float:
         return self.t
@@ -174,6 +245,8 @@ class World:
     # ----- stepping ---------------------------------------------------------------------
     def step(self) -> None:
         dt = self.dt
+        if self.steps % self.ap_every == 0:
+            self._update_air()
         for _, fleet in self.fleets:
             fleet.step(dt)
         self.steps += 1
@@ -218,6 +291,10 @@ class World:
         min_sleep = 0.004              # fewer, larger sleeps: steps bunch up, sim time does not care
         max_lag = max(0.1 * speedup, 4 * dt)
         wall0, sim0 = time.monotonic(), self.t
+        if self.cfg.start_at is not None and self.steps == 0:
+            # a shared start: every worker's sim t = 0 is the same wall instant
+            wall0 += self.cfg.start_at - time.time()
+            await asyncio.sleep(max(0.0, wall0 - time.monotonic()))
         while not self._stop.is_set():
             now = time.monotonic()
             target = sim0 + speedup * (now - wall0)
@@ -242,7 +319,10 @@ class World:
 
     def request_stop(self) -> None:
         if self._loop is not None and self._stop is not None:
-            self._loop.call_soon_threadsafe(self._stop.set)
+            try:
+                self._loop.call_soon_threadsafe(self._stop.set)
+            except RuntimeError:        # the loop has already ended: nothing left to stop
+                pass
 
     # ----- background thread (tests) ------------------------------------------------------
     def start_thread(self, timeout: float = 10.0) -> "World":
@@ -258,19 +338,45 @@ class World:
         if self._thread is not None:
             self._thread.join(timeout)
 
-    def banner(self) -> str:
-        lines = [f"towerlink sitl: {len(self.vehicles)} vehicle(s), home {self.cfg.home[0]:.6f},"
+    def write_plan(self, path: str) -> None:
+        """The network plan as JSON (vehicle index, kind, network, sysid, tcp, udp, endpoints),
+        written atomically (tmp file, then os.replace) so a reader never sees half of it."""
+        os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+        tmp = f"{path}.tmp{os.getpid()}"
+        with open(tmp, "w") as f:
+            json.dump(self.plan.as_dict(), f, indent=1)
+        os.replace(tmp, path)
+
+    def banner(self, workers: int = 1) -> str:
+        """What `towerlink sitl` prints at start: the world, its networks, every vehicle
+        (from the plan, so a process running a share of the world prints all of them)."""
+        p = self.plan
+        lines = [f"towerlink sitl: {len(p.vehicles)} vehicle(s), home {self.cfg.home[0]:.6f},"
                  f"{self.cfg.home[1]:.6f},{self.cfg.home[2]:.1f}, rate {self.cfg.rate:g} Hz, "
-                 f"speedup {self.cfg.speedup:g}, seed {self.cfg.seed}"]
-        for v in self.vehicles:
+                 f"speedup {self.cfg.speedup:g}, seed {self.cfg.seed}"
+                 + (f", {workers} worker processes" if workers > 1 else "")]
+        if len(p.groups) > 1 or p.stride != 10:
+            lines.append(f"{len(p.groups)} MAVLink network(s) of up to {p.group_size} vehicles, "
+                         f"ports every {p.stride}:")
+            lines += p.summary()
+        for v in p.vehicles:
             name = "drone" if v.kind == "copter" else "rover"
-            lines.append(f"  vehicle {v.index}: {name} sysid {v.sysid} ({'QUADROTOR' if v.kind == 'copter' else 'GROUND_ROVER'})"
-                         f"  {'  '.join(v.link.specs)}")
+            net = f" network {v.group}" if len(p.groups) > 1 else ""
+            lines.append(f"  vehicle {v.index}: {name}{net} sysid {v.sysid} ({'QUADROTOR' if v.kind == 'copter' else 'GROUND_ROVER'})"
+                         f"  {'  '.join(v.endpoints)}")
         return "\n".join(lines)
+
+    def set_start(self, start_at: float) -> None:
+        """Sim t = 0 at this unix time (--workers: the instant the parent hands out)."""
+        self.cfg.start_at = self.start_at = start_at
+        self.unix_start_us = int(start_at * 1e6)
+        for v in self.vehicles:
+            v.link.unix_start_us = self.unix_start_us
 
     def stats_line(self) -> str:
         parts = []
         for v in self.vehicles:
             s = v.link.stats
-            parts.append(f"sysid {v.sysid}: " + " ".join(f"{k}={s[k]}" for k in sorted(s)))
+            who = f"vehicle {v.index} sysid {v.sysid}" if len(self.plan.groups) > 1 else f"sysid {v.sysid}"
+            parts.append(f"{who}: " + " ".join(f"{k}={s[k]}" for k in sorted(s)))
         return "stats: " + "; ".join(parts)

@@ -111,11 +111,40 @@ def load():
     mod = importlib.util.module_from_spec(spec)
     sys.modules[MODULE_NAME] = mod
     try:
-        spec.loader.exec_module(mod)
+        exec(_code(path), mod.__dict__)
     except BaseException:
         del sys.modules[MODULE_NAME]
         raise
     return mod
+
+
+def _code(path: Path):
+    """The module's code object, compiled once and kept beside it in the cache.
+
+    Compiling the 2 MB generated module takes about a second, and every towerlink process
+    loads it; Python's own bytecode cache is often off (PYTHONDONTWRITEBYTECODE), so the
+    cache keeps its own, keyed by the source's size and mtime and the interpreter's tag.
+    A damaged or stale one is simply compiled again and replaced (atomically)."""
+    import marshal
+
+    st = path.stat()
+    key = f"{sys.implementation.cache_tag}:{st.st_size}:{st.st_mtime_ns}".encode()
+    cached = path.with_name(path.name + ".code")
+    try:
+        head, _, body = cached.read_bytes().partition(b"\n")
+        if head == key:
+            return marshal.loads(body)
+    except (OSError, ValueError, EOFError, TypeError):
+        pass
+    code = compile(path.read_bytes(), str(path), "exec", dont_inherit=True)
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".code.tmp")
+        with os.fdopen(fd, "wb") as f:
+            f.write(key + b"\n" + marshal.dumps(code))
+        os.replace(tmp, cached)
+    except OSError:
+        pass        # a read-only cache still works, just slower
+    return code
 
 
 def __getattr__(name: str):

@@ -12,7 +12,8 @@ and ArduRover's ModeAuto (learned from their source, re-expressed here):
   "Mission Complete" and holds (MIS_DONE_BEHAVE 0).
 - Upload while running a waypoint: the current command restarts, "Auto mission changed,
   restarted command" (CRITICAL).
-- ArduCopter resets the mission (first item, fresh jump counts) on every disarm.
+- ArduCopter resets the mission (first item, fresh jump counts) on every disarm, ArduRover
+  only on a disarm outside AUTO.
 - MAV_CMD_DO_PAUSE_CONTINUE pauses a waypoint leg (not once it is reached): the vehicle holds
   (MISSION_CURRENT still says ACTIVE, as ArduPilot's), param1 1 continues.
 """
@@ -130,8 +131,9 @@ class AutoMode(AutoCommands):
             self.sub = "stop"
 
     def on_disarmed(self) -> None:
-        """ArduCopter resets the mission (back to its first item) on every disarm."""
-        if self.copter:
+        """ArduCopter resets the mission (back to its first item) on every disarm; ArduRover
+        only when disarmed outside AUTO (in AUTO the mission may be paused and resumed)."""
+        if self.copter or self.ap.mode != self.ap.auto_mode:
             self.runner.reset()
         self.auto_armed = False
 

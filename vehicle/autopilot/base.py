@@ -1,5 +1,6 @@
 """What Copter and Rover autopilots share: state read-back, arming and pre-arm checks,
-home, GUIDED targets and their timeout, commands, GCS failsafe, battery model.
+home, GUIDED targets and their timeout, commands, GCS failsafe, the battery (battery.py) and
+its failsafe.
 
 An Autopilot drives one vehicle of a batched fleet (vehicle/fleet.py) through Setpoints.
 It never touches sockets: the link layer (vehicle/link/) calls `command()`,
@@ -21,11 +22,14 @@ from gcs.frames import euler_from_quaternion
 from vehicle.autopilot import modes
 from vehicle.autopilot.auto import AutoMode
 from vehicle.autopilot.ekf_origin import EkfOrigin
+from vehicle.autopilot.battery import CRITICAL, Battery, action_priority
 from vehicle.autopilot.fence import Fence
 from vehicle.autopilot.follow_mode import Follow
 from vehicle.autopilot.guided import GuidedTarget, TargetError, decode_global, decode_local
 from vehicle.autopilot.mission_store import MissionStore
 from vehicle.autopilot.params import ParamStore
+from vehicle.autopilot.reposition import RepositionDenied
+from vehicle.autopilot.reposition import decode as decode_reposition
 from vehicle.fleet import Setpoint
 
 ACCEPTED = mav.MAV_RESULT_ACCEPTED
@@ -85,7 +89,7 @@ class Autopilot:
         self.origin = origin
         self.start_ned = np.asarray(start_ned, float)
         # local NED (LOCAL_POSITION_NED, local targets) is centred here, set at the first fix
-        self.ekf_origin = EkfOrigin(origin)
+        self.local_origin = EkfOrigin(origin)
         self.text = text or (lambda sev, msg: None)
         # parameter changes (PARAM_SET, DO_CHANGE_SPEED) reach this vehicle's index only
         self.push_params = push_params or (lambda p: fleet.set_params(p, i=index))
@@ -101,8 +105,8 @@ class Autopilot:
         self.last_gcs: float | None = None
         self.gcs_failsafe = False
         self.speed_override: float | None = None     # DO_CHANGE_SPEED (m/s)
-        self.consumed_mah = 0.0
-        self.current_a = 0.0
+        self.battery = Battery()                     # the pack and AP_BattMonitor (battery.py)
+        self.batt_fs_priority: int | None = None     # priority of the battery action taken
         self.arm_time = 0.0
         # missions, fence and rally points; the link fills the store, the runner flies it
         self.missions = missions if missions is not None else MissionStore()
@@ -126,6 +130,11 @@ class Autopilot:
     def lla(self, ned=None) -> tuple[float, float, float]:
         return geo.ned_to_lla(self.origin, self.pos if ned is None else ned)
 
+    def ekf_origin(self) -> tuple[float, float, float] | None:
+        """(lat deg, lon deg, alt m AMSL) of the local NED frame's origin once the estimator
+        has set it (GPS_GLOBAL_ORIGIN), else None."""
+        return self.local_origin.lla
+
     def home_lla(self) -> tuple[float, float, float]:
         return geo.ned_to_lla(self.origin, self.home if self.home is not None else self.start_ned)
 
@@ -140,6 +149,8 @@ class Autopilot:
         vehicle stays where it is; the stored missions (the vehicle's eeprom) are kept; the
         hooks the link and world set (text, push_params, item_reached) are kept."""
         hooks = {k: self.__dict__[k] for k in ("text", "push_params", "item_reached") if k in self.__dict__}
+        battery = self.battery          # the pack is hardware: a reboot does not recharge it
+        battery.reboot()
         args = (self.fleet, self.i, self.params, self.origin, self.start_ned)
         missions = self.missions
         if self.armed:
@@ -148,6 +159,7 @@ class Autopilot:
         self.__dict__.clear()
         type(self).__init__(self, *args, missions=missions)
         self.__dict__.update(hooks)
+        self.battery = battery
         self.setpoint()
         self.push_params(dict(self.params.values))
 
@@ -168,30 +180,59 @@ class Autopilot:
         dt = t - self.t
         self.t = t
         self.refresh()
-        if not self.ekf_origin.is_set and self.est_ok:
-            self.ekf_origin.set(*self.lla())    # ArduPilot: EKF origin at the first GPS fix
+        if not self.local_origin.is_set and self.est_ok:
+            self.local_origin.set(*self.lla())    # ArduPilot: EKF origin at the first GPS fix
         if self.home is None and self.est_ok:
             self.home = self.pos.copy()
             self.home[2] = max(self.home[2], 0.0) if self.kind == "copter" else self.home[2]
             self.text(SEV_INFO, "Home set")   # ArduPilot: EKF origin/home from GPS
-        self._battery(dt)
+        self._battery(t, dt)
         self._gcs_failsafe_check()
         self.fence.check(t)
         self.run_mode(dt)
 
-    def _battery(self, dt: float) -> None:
-        self.current_a = self.armed_current() if self.armed else 0.3
-        self.consumed_mah += self.current_a * dt / 3.6
+    # ----- battery (battery.py) --------------------------------------------------------
+    failsafe_priorities: tuple[int, ...] = ()      # BATT_FS_*_ACT values, highest priority first
+
+    def _battery(self, t: float, dt: float) -> None:
+        """Drain the pack by what the vehicle draws; on a new failsafe level say so in
+        AP_BattMonitor's words and act as the vehicle's handle_battery_failsafe, if the
+        action ranks at or above the one already taken (ArduPilot's priority list)."""
+        b = self.battery
+        level = b.update(t, dt, self.electrical_load() if self.armed else 0.0, self.armed, self.params.values)
+        if not level:
+            return
+        self.text(SEV_WARNING, b.failsafe_text())
+        action = int(self.params.get("BATT_FS_CRT_ACT" if level == CRITICAL else "BATT_FS_LOW_ACT", 0))
+        prio = action_priority(action, self.failsafe_priorities)
+        if self.batt_fs_priority is None or prio <= self.batt_fs_priority:
+            self.batt_fs_priority = prio
+            self.battery_failsafe_action(action)
+
+    def electrical_load(self) -> float:
+        """Electrical power (W) the armed vehicle's motors draw now (vehicle specific)."""
+        return 0.0
+
+    def battery_failsafe_action(self, action: int) -> None:
+        """BATT_FS_LOW_ACT / BATT_FS_CRT_ACT (vehicle specific)."""
+
+    @property
+    def current_a(self) -> float:
+        """Battery current (A) now."""
+        return self.battery.current
+
+    @property
+    def consumed_mah(self) -> float:
+        return self.battery.consumed_mah
 
     def battery_remaining(self) -> int:
-        cap = max(1.0, float(self.params.get("BATT_CAPACITY", 3300)))
-        return int(max(0.0, min(100.0, 100.0 * (1.0 - self.consumed_mah / cap))))
+        """Remaining % as the monitor reports it; -1 when it cannot tell (MAVLink's unknown)."""
+        r = self.battery.remaining_pct(self.params.values)
+        return -1 if r is None else r
 
     def battery_voltage(self) -> float:
-        return 12.6 - 2.1 * (1.0 - self.battery_remaining() / 100.0) - 0.02 * self.current_a
-
-    def armed_current(self) -> float:
-        return 2.0
+        """Terminal voltage (V), under load."""
+        return self.battery.voltage
 
     # ----- modes --------------------------------------------------------------------
     initial_mode = 0
@@ -221,8 +262,12 @@ class Autopilot:
             if not self.auto.init():
                 self.mode_init_failed(number)
                 return False
+        if not self.mode_init(number):
+            self.mode_init_failed(number)
+            return False
         if self.mode == self.auto_mode:
             self.auto.exit()
+        self.exit_mode(self.mode)
         self.mode = number
         self.enter_mode(number)
         return True
@@ -232,6 +277,12 @@ class Autopilot:
     def follow_refused(self, number: int) -> None:
         self.text(SEV_WARNING, "Set FOLL_ENABLE = 1")           # ArduCopter's ModeFollow::init
         self.mode_init_failed(number)
+    def mode_init(self, number: int) -> bool:
+        """False when mode `number` cannot start now (its init fails, as ArduPilot's Mode::init)."""
+        return True
+
+    def exit_mode(self, number: int) -> None:
+        """Mode `number` is being left (its clean-up, as ArduPilot's Mode::exit)."""
 
     def mode_init_failed(self, number: int) -> None:
         self.text(SEV_WARNING, f"Mode change to {self.mode_names[number]} failed: init failed")
@@ -326,12 +377,12 @@ class Autopilot:
         self.refresh()
         # the wire's local frame is centred on this vehicle's EKF origin, the fleet's on the world
         try:
-            tgt = decode_local(frame, type_mask, p, v, a, yaw, yaw_rate, self.ekf_origin.to_local(self.pos),
+            tgt = decode_local(frame, type_mask, p, v, a, yaw, yaw_rate, self.local_origin.to_local(self.pos),
                                self.yaw)
         except TargetError as e:
             return self._refuse(str(e))
         if tgt.pos is not None:
-            tgt = dataclasses.replace(tgt, pos=self.ekf_origin.to_world(tgt.pos))
+            tgt = dataclasses.replace(tgt, pos=self.local_origin.to_world(tgt.pos))
         return self.accept_target(tgt)
 
     def position_target_global(self, frame, type_mask, lat_int, lon_int, alt, v, a, yaw, yaw_rate) -> bool:
@@ -400,6 +451,16 @@ class Autopilot:
                 return FAILED
             self.fence.set_enabled(p[0] == 1)
             return ACCEPTED
+        if cmd == mav.MAV_CMD_DO_REPOSITION:
+            return self.cmd_reposition(p, frame, x, y)
+        if cmd == mav.MAV_CMD_DO_FLIGHTTERMINATION:
+            # ArduPilot without AFS: param1 > 0.5 disarms at once (a copter falls), else FAILED
+            if not finite(p, 0):
+                return DENIED
+            if p[0] > 0.5:
+                self.disarm(force=True, reason="flight termination")
+                return ACCEPTED
+            return FAILED
         if cmd == mav.MAV_CMD_PREFLIGHT_CALIBRATION:
             if not finite(p, 0, 1, 2, 3, 4, 5, 6):
                 return DENIED
@@ -412,6 +473,24 @@ class Autopilot:
         return self.vehicle_command(cmd, p, frame, x, y)
 
     rtl_mode = -1
+
+    def cmd_reposition(self, p, frame, x, y) -> int:
+        """MAV_CMD_DO_REPOSITION (reposition.py): the target first, then GUIDED if asked and
+        needed, then the target again, as ArduCopter (a target it refuses -> FAILED)."""
+        try:
+            rp = decode_reposition(p, frame, x, y, self.home_lla()[2], self.in_guided())
+        except RepositionDenied:
+            return DENIED
+        ned = np.asarray(geo.lla_to_ned(self.origin, rp.lat, rp.lon, rp.alt_amsl), float)
+        tgt = GuidedTarget("pos", ned, None, None, None, None)
+        if not self.in_guided():
+            if not self.set_mode(self.guided_mode, "GCS"):
+                return FAILED
+        self.reposition_speed(rp.speed)
+        return ACCEPTED if self.accept_target(tgt) else FAILED
+
+    def reposition_speed(self, speed: float | None) -> None:
+        """DO_REPOSITION's param1 (m/s or None): ArduCopter ignores it (Rover overrides)."""
 
     def vehicle_command(self, cmd, p, frame, x, y) -> int:
         return UNSUPPORTED
@@ -488,11 +567,22 @@ class Autopilot:
         return ACCEPTED
 
     def cmd_pause_continue(self, p) -> int:
-        """MAV_CMD_DO_PAUSE_CONTINUE: param1 0 pause, 1 continue (AUTO waypoints only)."""
-        if self.mode != self.auto_mode or p[0] not in (0, 1):
-            return FAILED
-        ok = self.auto.pause() if p[0] == 0 else self.auto.resume()
+        """MAV_CMD_DO_PAUSE_CONTINUE: param1 0 pause, 1 continue (AUTO waypoints, and GUIDED
+        where the vehicle has guided_pause); other param1 DENIED; a mode that cannot pause:
+        FAILED with ArduCopter's "Failed to pause" / "Failed to resume"."""
+        if p[0] not in (0, 1):
+            return DENIED
+        if self.mode == self.auto_mode:
+            ok = self.auto.pause() if p[0] == 0 else self.auto.resume()
+        else:
+            ok = self.guided_pause(p[0] == 0)
+        if not ok:
+            self.text(SEV_INFO, "Failed to pause" if p[0] == 0 else "Failed to resume")
         return ACCEPTED if ok else FAILED
+
+    def guided_pause(self, pause: bool) -> bool:
+        """Pause (stop and hold) or resume GUIDED's target; False where not supported."""
+        return False
 
     def auto_fly(self, auto, dt: float) -> None:
         """Setpoints for AUTO's current sub-mode (vehicle specific)."""

@@ -1,4 +1,4 @@
-"""ArduCopter-like autopilot: STABILIZE, GUIDED (takeoff, targets), LOITER, RTL, LAND.
+"""ArduCopter-like autopilot: STABILIZE, AUTO, GUIDED (takeoff, targets), LOITER, RTL, LAND.
 
 Setpoints per mode (world NED, sent to the CopterFleet every autopilot tick):
   GUIDED   on the ground: nothing (motors idle) until NAV_TAKEOFF; in the air: the last
@@ -6,7 +6,10 @@ Setpoints per mode (world NED, sent to the CopterFleet every autopilot tick):
            rate), holding position when there is none; velocity and acceleration targets
            expire after GUID_TIMEOUT (3 s) and the copter stops and holds.
   LOITER   holds the position where it was entered.
-  RTL      climbs to RTL_ALT (or stays higher), flies home, descends and lands, disarms.
+  AUTO     the stored mission (auto.py, auto_commands.py; the copter's side in copter_auto.py).
+  RTL      climbs to RTL_ALT (or stays higher), flies home or to the nearest rally point
+           (rally.py), waits RTL_LOIT_TIME above it, then lands and disarms (or, with
+           RTL_ALT_FINAL > 0, descends to that height and hovers).
   LAND     descends at LAND_SPEED (WPNAV_SPEED_DN / LAND_SPEED_HIGH above 10 m) over the point
            where it was entered, disarms once landed.
   STABILIZE with no RC: level attitude (zero horizontal acceleration) at constant altitude.
@@ -24,13 +27,15 @@ from gcs.frames.batch import wrap_pi
 from vehicle.autopilot import modes
 from vehicle.autopilot.base import (ACCEPTED, DENIED, FAILED, SEV_INFO, SEV_WARNING, Autopilot,
                                     UNSUPPORTED)
+from vehicle.autopilot.battery import MOTOR_EFFICIENCY
 from vehicle.autopilot.copter_auto import CopterAutoFlight
+from vehicle.autopilot.copter_modes import CopterModes
 from vehicle.autopilot.guided import GuidedTarget
 
 LAND_ALT_LOW = 10.0     # m: below it LAND descends at LAND_SPEED
 
 
-class CopterAutopilot(CopterAutoFlight, Autopilot):
+class CopterAutopilot(CopterModes, CopterAutoFlight, Autopilot):
     kind = "copter"
     mav_type = mav.MAV_TYPE_QUADROTOR
     mode_names = modes.COPTER_MODES
@@ -49,11 +54,39 @@ class CopterAutopilot(CopterAutoFlight, Autopilot):
         self.rtl_stage = ""
         self.rtl_dest = np.zeros(3)
         self.rtl_z = 0.0
+        self.rtl_loiter_t0 = 0.0
         self.landed_since: float | None = None
         super().__init__(*a, **kw)
 
-    def armed_current(self) -> float:
-        return 15.0 if not self.on_ground else 3.0
+    # ArduCopter's FailsafeAction priorities, highest first: TERMINATE, LAND, RTL,
+    # SMARTRTL_LAND, SMARTRTL, NONE
+    failsafe_priorities = (5, 1, 2, 4, 3, 0)
+
+    def electrical_load(self) -> float:
+        """The rotors' shaft power over the motor and ESC efficiency (W): drains with thrust."""
+        return self.fleet.rotor_power(self.i) / MOTOR_EFFICIENCY
+
+    def battery_failsafe_action(self, action: int) -> None:
+        """Copter::handle_battery_failsafe: landed, disarm ("Battery Failsafe - Disarming");
+        else "Battery Failsafe" and BATT_FS_*_ACT: 1 Land, 2 RTL or Land, 3 SmartRTL or RTL
+        (or Land), 4 SmartRTL or Land, 5 Terminate (disarm), 6 DO_LAND_START or RTL (no
+        landing sequence here: RTL or Land), 7 Brake or Land."""
+        if self.on_ground and self.takeoff_alt is None:
+            self.disarm(force=True)
+            self.text(SEV_WARNING, "Battery Failsafe - Disarming")
+            return
+        self.text(SEV_WARNING, "Battery Failsafe")
+        why = "battery failsafe"
+        if action == 5:
+            self.disarm(force=True)
+            return
+        chain = {1: (modes.LAND,), 2: (modes.RTL, modes.LAND),
+                 3: (mav.COPTER_MODE_SMART_RTL, modes.RTL, modes.LAND),
+                 4: (mav.COPTER_MODE_SMART_RTL, modes.LAND), 6: (modes.RTL, modes.LAND),
+                 7: (mav.COPTER_MODE_BRAKE, modes.LAND)}.get(action, ())
+        for m in chain:
+            if self.mode == m or self.set_mode(m, why):
+                return
 
     def enter_mode(self, number: int) -> None:
         super().enter_mode(number)
@@ -62,6 +95,7 @@ class CopterAutopilot(CopterAutoFlight, Autopilot):
             self.rtl_start()
         if number == modes.LAND:
             self.text(SEV_INFO, "Landing")
+        self.enter_extra_mode(number)
 
     def may_disarm(self) -> bool:
         return self.on_ground
@@ -132,7 +166,7 @@ class CopterAutopilot(CopterAutoFlight, Autopilot):
             return mav.MAV_LANDED_STATE_TAKEOFF
         if self.on_ground:
             return mav.MAV_LANDED_STATE_ON_GROUND
-        if (self.mode == modes.LAND or auto_sub == "land"
+        if (self.mode == modes.LAND or auto_sub == "land" or self.srtl_stage == "land"
                 or ((self.mode == modes.RTL or auto_sub == "rtl") and self.rtl_stage == "land")):
             return mav.MAV_LANDED_STATE_LANDING
         return mav.MAV_LANDED_STATE_IN_AIR
@@ -149,9 +183,16 @@ class CopterAutopilot(CopterAutoFlight, Autopilot):
             self.text(SEV_WARNING, "GCS Failsafe")
             self.disarm(force=True, reason="GCS failsafe")
             return
-        if enable in (4, 5):
+        if enable == 5:
             self.text(SEV_WARNING, "GCS Failsafe On: LAND")
             self.set_mode(modes.LAND, "GCS failsafe")
+        elif enable == 3:
+            self.text(SEV_WARNING, "GCS Failsafe On: SmartRTL")
+            if not self.smart_rtl_or_rtl("GCS failsafe"):
+                self.set_mode(modes.LAND, "GCS failsafe")
+        elif enable == 4:
+            self.text(SEV_WARNING, "GCS Failsafe On: SmartRTL")
+            self.smart_rtl_or_land("GCS failsafe")
         else:
             self.text(SEV_WARNING, "GCS Failsafe On: RTL")
             if not self.set_mode(modes.RTL, "GCS failsafe"):
@@ -166,13 +207,15 @@ class CopterAutopilot(CopterAutoFlight, Autopilot):
             self.setpoint()
             return
         if self.on_ground and self.takeoff_alt is None:
-            if self.mode in (modes.LAND, modes.RTL) and self.t - self.arm_time > 1.0:
+            if self.mode in (modes.LAND, modes.RTL, modes.SMART_RTL) and self.t - self.arm_time > 1.0:
                 self.disarm(force=True, reason="landed")
                 return
             self.ground_idle()         # idle on the ground until a takeoff
             return
         self.landed_since = None
         m = self.mode
+        if self.run_extra_mode(m, dt):         # BRAKE, ALT_HOLD, POSHOLD, SMART_RTL (copter_modes.py)
+            return
         if m == modes.GUIDED:
             self._guided()
         elif m == modes.LOITER:
@@ -226,7 +269,7 @@ class CopterAutopilot(CopterAutoFlight, Autopilot):
     def _descent_speed(self) -> float:
         home_z = self.home[2] if self.home is not None else 0.0
         alt = home_z - self.pos[2]
-        if alt > LAND_ALT_LOW:
+        if alt > float(self.params.get("LAND_ALT_LOW", 100 * LAND_ALT_LOW)) / 100.0:
             hi = float(self.params.get("LAND_SPEED_HIGH", 0)) or float(self.params.get("WPNAV_SPEED_DN", 150))
             return hi / 100.0
         return float(self.params.get("LAND_SPEED", 50)) / 100.0
@@ -247,8 +290,17 @@ class CopterAutopilot(CopterAutoFlight, Autopilot):
         if self.rtl_stage == "return":
             tgt = np.array([home[0], home[1], self.rtl_z])
             if np.linalg.norm(self.pos[:2] - home[:2]) < 0.5 and np.linalg.norm(self.vel) < 0.3:
-                self.rtl_stage = "land"
+                self.rtl_stage = "loiter"          # RTL_LOIT_TIME above home, then down
+                self.rtl_loiter_t0 = self.t
                 self.hold_pos = np.array([home[0], home[1], self.pos[2]])
+        if self.rtl_stage == "loiter":
+            tgt = self.hold_pos.copy()
+            if self.t - self.rtl_loiter_t0 >= float(self.params.get("RTL_LOIT_TIME", 5000)) / 1000.0:
+                final = float(self.params.get("RTL_ALT_FINAL", 0)) / 100.0
+                self.rtl_stage = "final" if final > 0 else "land"
+        if self.rtl_stage == "final":              # RTL_ALT_FINAL > 0: hover there, stay in RTL
+            home_z = self.home[2] if self.home is not None else home[2]
+            tgt = np.array([home[0], home[1], home_z - float(self.params.get("RTL_ALT_FINAL", 0)) / 100.0])
         if self.rtl_stage == "land":
             self._land(dt)
             return

@@ -5,7 +5,8 @@ ArduPilot's AC_Fence and the vehicles' fence_check (learned from their source):
   2 circle around home (FENCE_RADIUS, default 300 m), 4 inclusion/exclusion polygons and
   circles from the FENCE list, 8 min altitude (copter; rover has only 2 and 4). FENCE_ALT_MAX
   100 m, FENCE_ALT_MIN -10 m (above home; this floor arms itself once the vehicle is
-  FENCE_MARGIN above it, "Min Alt fence enabled (auto enable)", and disarms on the ground),
+  FENCE_MARGIN above it, "Min Alt fence enabled (auto enable)", and is off while landing
+  and on the ground),
   FENCE_MARGIN 2 m (pre-arm checks and the floor; ArduPilot also uses it for avoidance, which
   towerlink does not model).
 - A breach is new when a fence type goes from clear to breached; a "backup" fence 20 m
@@ -191,8 +192,8 @@ class Fence:
         """AC_Fence: the Min Alt fence is enabled once the vehicle is FENCE_MARGIN above it, and
         disabled again on the ground (landing)."""
         ap = self.ap
-        if ap.on_ground or not ap.armed:
-            self.floor_enabled = False
+        if ap.on_ground or not ap.armed or ap.landed_state() == mav.MAV_LANDED_STATE_LANDING:
+            self.floor_enabled = False          # landing (LAND, RTL's or AUTO's descent) goes through it
             return
         if self.floor_enabled or not (self.enabled() and self.types() & ALT_MIN):
             return

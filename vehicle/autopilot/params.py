@@ -27,14 +27,19 @@ class ParamDef:
     hi: float
     integer: bool = False
     doc: str = ""
+    units: str = ""                 # ArduPilot's @Units
+    ptype: int | None = None        # ArduPilot's MAV_PARAM_TYPE (AP_Int8/16/32, AP_Float)
 
     @property
     def mav_type(self) -> int:
+        if self.ptype is not None:
+            return self.ptype
         return mav.MAV_PARAM_TYPE_INT32 if self.integer else mav.MAV_PARAM_TYPE_REAL32
 
 
 def _d(name, default, lo, hi, integer=False, doc=""):
-    return ParamDef(name, float(default), float(lo), float(hi), integer, doc)
+    from vehicle.autopilot.params_ardupilot import TYPES, UNITS
+    return ParamDef(name, float(default), float(lo), float(hi), integer, doc, UNITS.get(name, ""), TYPES.get(name))
 
 
 _STREAMS = [
@@ -64,12 +69,46 @@ _COMMON = [
     _d("FENCE_MARGIN", 2, 1, 10, False, "distance to keep from the fence (m; pre-arm check only)"),
 ]
 
+_SRTL = [
+    _d("SRTL_ACCURACY", 2, 0, 10, False, "SmartRTL: minimum distance between path points (m)"),
+    _d("SRTL_POINTS", 300, 0, 500, True, "SmartRTL: maximum points on the path, 0 disables (reboot)"),
+]
+
 _FENCE_ALT = [
     _d("FENCE_ALT_MAX", 100, 10, 1000, False, "maximum altitude above home (m)"),
     _d("FENCE_ALT_MIN", -10, -100, 100, False, "minimum altitude above home (m)"),
 ]
 
-COPTER_TABLE = _STREAMS + _COMMON + [
+# battery and wind (issue 10): ArduPilot's AP_BattMonitor and SITL parameters, one block
+# (vehicle/autopilot/battery.py and vehicle/physics/wind.py do what they say)
+def _battery_wind(kind: str) -> list[ParamDef]:
+    acts = ("0 none, 1 Land, 2 RTL, 3 SmartRTL or RTL, 4 SmartRTL or Land, 5 Terminate, "
+            "6 Auto DO_LAND_START or RTL, 7 Brake or Land") if kind == "copter" else \
+        "0 none, 1 RTL, 2 Hold, 3 SmartRTL or RTL, 4 SmartRTL or Hold, 5 Terminate"
+    top = 7 if kind == "copter" else 5
+    return [
+        _d("BATT_MONITOR", 4, 0, 33, True, "battery monitor: 0 none, 3 analog voltage only, 4 analog voltage and current (simulated)"),
+        _d("BATT_LOW_VOLT", 10.5, 0, 100, False, "low battery voltage (V), 0 = off; must last BATT_LOW_TIMER"),
+        _d("BATT_CRT_VOLT", 0, 0, 100, False, "critical battery voltage (V), 0 = off; must last BATT_LOW_TIMER"),
+        _d("BATT_LOW_MAH", 0, 0, 100000, True, "low battery: remaining capacity below this (mAh), 0 = off"),
+        _d("BATT_CRT_MAH", 0, 0, 100000, True, "critical battery: remaining capacity below this (mAh), 0 = off"),
+        _d("BATT_LOW_TIMER", 10, 0, 120, True, "seconds a low/critical voltage must last before the failsafe, 0 = no voltage failsafe"),
+        _d("BATT_FS_VOLTSRC", 0, 0, 1, True, "failsafe voltage: 0 raw (under load), 1 sag-compensated (resting estimate)"),
+        _d("BATT_FS_LOW_ACT", 0, 0, top, True, f"low battery failsafe action: {acts}"),
+        _d("BATT_FS_CRT_ACT", 0, 0, top, True, f"critical battery failsafe action: {acts}"),
+        _d("SIM_BATT_VOLTAGE", 12.6, 0, 100, False, "simulated battery: full-charge voltage (V); cells = round(V / 4.2)"),
+        _d("SIM_BATT_CAP_AH", 0, 0, 1000, False, "simulated battery: true capacity (Ah), 0 = BATT_CAPACITY"),
+        _d("SIM_WIND_SPD", 0, 0, 40, False, "simulated wind speed (m/s); one air mass per world"),
+        _d("SIM_WIND_DIR", 180, 0, 360, False, "direction the simulated wind comes from (deg, 0 north, 90 east)"),
+        _d("SIM_WIND_TURB", 0, 0, 10, False, "simulated turbulence, standard deviation (m/s)"),
+        _d("SIM_WIND_DIR_Z", 0, -90, 90, False, "vertical wind angle (deg, positive = rising air)"),
+        _d("SIM_WIND_T", 0, 0, 2, True, "wind profile with height: 0 square law below SIM_WIND_T_ALT, 1 none, 2 linear"),
+        _d("SIM_WIND_T_ALT", 60, 0, 1000, False, "height of full wind strength (m)"),
+        _d("SIM_WIND_T_COEF", 0.01, -1, 1, False, "linear profile: (m/s) per m above SIM_WIND_T_ALT"),
+    ]
+
+
+COPTER_TABLE = _STREAMS + _COMMON + _battery_wind("copter") + [
     _d("FS_GCS_ENABLE", 0, 0, 6, True,
        "GCS failsafe: 0 off, 1 RTL, 2 RTL, 3 SmartRTL->RTL, 4 SmartRTL->LAND, 5 LAND, 6 RTL"),
     _d("RTL_ALT", 1500, 30, 300000, True, "RTL return altitude (cm above home)"),
@@ -90,9 +129,11 @@ COPTER_TABLE = _STREAMS + _COMMON + [
        "breach: 0 report only, 1 RTL or Land, 2 always Land, 3 SmartRTL or RTL or Land, 4 Brake or Land, 5 SmartRTL or Land"),
     _d("RALLY_LIMIT_KM", 0.3, 0, 100, False, "rally points further than this from home are ignored (km), 0 = no limit"),
     _d("RALLY_INCL_HOME", 1, 0, 1, True, "1: RTL also considers home and goes there when it is nearer"),
-] + _FENCE_ALT
+    _d("PHLD_BRAKE_RATE", 8, 4, 12, True, "POSHOLD braking rate: lean angle change (deg/s)"),
+    _d("PHLD_BRAKE_ANGLE", 3000, 2000, 4500, True, "POSHOLD braking angle max (cdeg)"),
+] + _FENCE_ALT + _SRTL
 
-ROVER_TABLE = _STREAMS + _COMMON + [
+ROVER_TABLE = _STREAMS + _COMMON + _battery_wind("rover") + [
     _d("FS_GCS_ENABLE", 0, 0, 2, True, "GCS failsafe: 0 off, 1 on (action FS_ACTION), 2 on, continue in AUTO"),
     _d("FS_ACTION", 2, 0, 4, True, "failsafe action: 0 none, 1 RTL, 2 Hold, 3 SmartRTL->RTL, 4 SmartRTL->Hold"),
     _d("WP_RADIUS", 2, 0.1, 100, False, "waypoint radius (m): RTL done inside it"),
@@ -104,7 +145,14 @@ ROVER_TABLE = _STREAMS + _COMMON + [
        "breach: 0 report only, 1 RTL or Hold, 2 Hold, 3 SmartRTL or RTL or Hold, 4 SmartRTL or Hold"),
     _d("RALLY_LIMIT_KM", 0.5, 0, 100, False, "rally points further than this from home are ignored (km), 0 = no limit"),
     _d("RALLY_INCL_HOME", 1, 0, 1, True, "1: RTL also considers home and goes there when it is nearer"),
-]
+    _d("LOIT_RADIUS", 2, 0.5, 100, False, "LOITER: distance from the loiter point before driving back (m)"),
+] + _SRTL
+
+# what ground stations read by default (params_ardupilot.py); the definitions above win
+from vehicle.autopilot.params_ardupilot import COPTER_EXTRA, ROVER_EXTRA, TYPES  # noqa: E402
+
+COPTER_TABLE = COPTER_TABLE + COPTER_EXTRA
+ROVER_TABLE = ROVER_TABLE + ROVER_EXTRA
 
 
 # FOLLOW mode (vehicle/autopilot/follow_mode.py), AP_Follow's names, defaults and ranges
@@ -159,7 +207,10 @@ def _core_defs(params_core, kind: str) -> Iterable[ParamDef]:
             lo, hi = getattr(p, "min", getattr(p, "lo", -math.inf)), getattr(p, "max", getattr(p, "hi", math.inf))
             integer = bool(getattr(p, "integer", False))
             doc = getattr(p, "doc", getattr(p, "description", ""))
-        yield ParamDef(str(name), float(default), float(lo), float(hi), integer, str(doc))
+        units = str(getattr(p, "units", "") or "")
+        ptype = TYPES.get(str(name))
+        integer = integer or (ptype is not None and ptype != mav.MAV_PARAM_TYPE_REAL32)
+        yield ParamDef(str(name), float(default), float(lo), float(hi), integer, str(doc), units, ptype)
 
 
 class ParamFileError(ValueError):
@@ -202,6 +253,24 @@ def read_parm_file(path: str, warn: Callable[[str], None] = _warn) -> dict[str, 
             warn(f"{path}:{n}: skipped a bad line ({why})")
     if bad and not out:
         raise ParamFileError(f"{path}: no readable parameter line ({bad} bad)")
+    return out
+
+
+def file_warnings(values: Mapping[str, float], defs: Mapping[str, ParamDef], kind: str, path: str) -> list[str]:
+    """What `towerlink sitl --params FILE` says about a file for one vehicle kind: names this
+    vehicle does not have (a real ArduPilot .parm holds hundreds; they are skipped, not fatal)
+    and values outside a parameter's range (the default is kept)."""
+    out = []
+    unknown = sorted(n for n in values if n not in defs)
+    if unknown:
+        shown = ", ".join(unknown[:8]) + (", ..." if len(unknown) > 8 else "")
+        out.append(f"{path}: {len(unknown)} parameter(s) unknown to the {kind}, skipped: {shown}")
+    for n in sorted(values):
+        d = defs.get(n)
+        if d is not None:
+            v = values[n]
+            if not math.isfinite(v) or not d.lo <= (round(v) if d.integer else v) <= d.hi:
+                out.append(f"{path}: {n} {v:g} out of range {d.lo:g}..{d.hi:g} for the {kind}, default kept")
     return out
 
 

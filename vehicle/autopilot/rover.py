@@ -21,11 +21,12 @@ from vehicle.autopilot.base import SEV_INFO, SEV_WARNING, Autopilot, UNSUPPORTED
 from vehicle.autopilot.guided import GuidedTarget
 from vehicle.autopilot.mission_store import RALLY
 from vehicle.autopilot.rally import best_return, rally_points
+from vehicle.autopilot.rover_modes import RoverModes
 
 ZERO = np.zeros(3)
 
 
-class RoverAutopilot(Autopilot):
+class RoverAutopilot(RoverModes, Autopilot):
     kind = "rover"
     mav_type = mav.MAV_TYPE_GROUND_ROVER
     mode_names = modes.ROVER_MODES
@@ -42,13 +43,32 @@ class RoverAutopilot(Autopilot):
         self.rtl_dest = np.zeros(3)
         super().__init__(*a, **kw)
 
-    def armed_current(self) -> float:
-        return 1.0 + 2.0 * float(np.linalg.norm(self.vel[:2]))
+    # ArduRover's FailsafeAction priorities, highest first: Terminate, Hold, RTL,
+    # SmartRTL_Hold, SmartRTL, None
+    failsafe_priorities = (5, 2, 1, 4, 3, 0)
+
+    def electrical_load(self) -> float:
+        """The drive's electrical power (W): about 1 A standing plus 2 A per m/s at 11.1 V."""
+        return 11.1 * (1.0 + 2.0 * float(np.linalg.norm(self.vel[:2])))
+
+    def battery_failsafe_action(self, action: int) -> None:
+        """Rover::handle_battery_failsafe: 1 RTL or Hold, 2 Hold, 3 SmartRTL or RTL or Hold,
+        4 SmartRTL or Hold, 5 Terminate (disarm)."""
+        if action == 5:
+            self.disarm(force=True)
+            return
+        chain = {1: (modes.ROVER_RTL, modes.ROVER_HOLD), 2: (modes.ROVER_HOLD,),
+                 3: (mav.ROVER_MODE_SMART_RTL, modes.ROVER_RTL, modes.ROVER_HOLD),
+                 4: (mav.ROVER_MODE_SMART_RTL, modes.ROVER_HOLD)}.get(action, ())
+        for m in chain:
+            if self.mode == m or self.set_mode(m, "battery failsafe"):
+                return
 
     def enter_mode(self, number: int) -> None:
         super().enter_mode(number)
         if number == modes.ROVER_RTL:
             self.rtl_start()
+        self.enter_extra_mode(number)
 
     follow_mode = modes.ROVER_FOLLOW
 
@@ -96,16 +116,31 @@ class RoverAutopilot(Autopilot):
         self.setpoint(pos=tgt)
 
     def fence_action_rover(self, action: int) -> None:
-        """FENCE_ACTION 1/3: RTL (HOLD if RTL cannot start); 2/4: HOLD."""
-        if action in (1, 3) and self.set_mode(modes.ROVER_RTL, "fence breach"):
-            return
-        self.set_mode(modes.ROVER_HOLD, "fence breach")
+        """FENCE_ACTION 1: RTL (HOLD if RTL cannot start); 2: HOLD; 3: SmartRTL, else RTL, else
+        HOLD; 4: SmartRTL, else HOLD (ArduRover's fence actions)."""
+        self._failsafe_mode(action, "fence breach")
+
+    def _failsafe_mode(self, action: int, reason: str) -> int:
+        """FS_ACTION / FENCE_ACTION 1 RTL, 2 Hold, 3 SmartRTL->RTL->Hold, 4 SmartRTL->Hold:
+        the mode it got into."""
+        tries = {1: [modes.ROVER_RTL], 3: [modes.ROVER_SMART_RTL, modes.ROVER_RTL],
+                 4: [modes.ROVER_SMART_RTL]}.get(action, [])
+        for m in tries + [modes.ROVER_HOLD]:
+            if self.set_mode(m, reason):
+                return m
+        return self.mode
 
     def landed_state(self) -> int:
         return mav.MAV_LANDED_STATE_ON_GROUND
 
     def vehicle_command(self, cmd, p, frame, x, y) -> int:
         return UNSUPPORTED
+
+    def reposition_speed(self, speed: float | None) -> None:
+        """ArduRover: a positive DO_REPOSITION param1 is the GUIDED speed (m/s)."""
+        if speed is not None:
+            self.speed_override = min(float(speed), 100.0)
+            self.apply_speed()
 
     def apply_speed(self) -> None:
         # WP_SPEED 0 means CRUISE_SPEED to the rover core, so the parameter itself is the default
@@ -114,13 +149,12 @@ class RoverAutopilot(Autopilot):
 
     def gcs_failsafe_action(self, enable: int) -> None:
         action = int(self.params.get("FS_ACTION", 2))
-        if action in (1, 3) and self.set_mode(modes.ROVER_RTL, "GCS failsafe"):
-            self.text(SEV_WARNING, "GCS Failsafe On: RTL")
-        elif action != 0:
-            self.set_mode(modes.ROVER_HOLD, "GCS failsafe")
-            self.text(SEV_WARNING, "GCS Failsafe On: Hold")
-        else:
+        if action == 0:
             self.text(SEV_WARNING, "GCS Failsafe")
+            return
+        got = self._failsafe_mode(action, "GCS failsafe")
+        name = {modes.ROVER_RTL: "RTL", modes.ROVER_SMART_RTL: "SmartRTL"}.get(got, "Hold")
+        self.text(SEV_WARNING, f"GCS Failsafe On: {name}")
 
     def _stop(self) -> None:
         self.setpoint(vel=ZERO.copy(), yaw_rate=0.0)
@@ -138,6 +172,8 @@ class RoverAutopilot(Autopilot):
             return
         if self.mode == modes.ROVER_FOLLOW:
             self._follow()
+            return
+        if self.run_extra_mode(self.mode):      # ACRO, STEERING, LOITER, SMART_RTL (rover_modes.py)
             return
         # GUIDED
         tgt = self.target

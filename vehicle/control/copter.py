@@ -21,7 +21,7 @@ import numpy as np
 from gcs.frames.batch import wrap_pi, yaw_of
 from vehicle.control import shaping
 from vehicle.physics import NumpyOps
-from vehicle.physics.multicopter import GRAVITY, QuadAirframe
+from vehicle.physics.multicopter import GRAVITY
 
 D2R = math.pi / 180.0
 
@@ -85,11 +85,25 @@ class CopterCtrlState:
     FIELDS = ("px", "py", "pz", "vx", "vy", "vz", "ax", "ay", "az", "yaw",
               "ivx", "ivy", "ivz", "evx", "evy", "dvx", "dvy",
               "irx", "iry", "irz", "erx", "ery", "erz", "drx", "dry", "drz", "coll")
-    __slots__ = FIELDS
+    __slots__ = FIELDS + ("yaw_seen", "yaw_half")
 
     def __init__(self, n: int | None):
         for f in self.FIELDS:
             setattr(self, f, 0.0 if n is None else np.zeros(n))
+        self.yaw_seen = None          # the yaw that yaw_half = (cos, sin) of yaw/2 belong to
+        self.yaw_half = None
+
+
+def _half_yaw(c: CopterCtrlState, xp):
+    """(cos, sin) of c.yaw / 2, kept while the yaw reference does not change: a held
+    heading is the common case, and a sin/cos pair is the dearest thing in the step."""
+    yaw = c.yaw
+    seen = c.yaw_seen
+    if seen is None or not xp.all(yaw == seen):
+        hy = 0.5 * yaw
+        c.yaw_half = (xp.cos(hy), xp.sin(hy))
+        c.yaw_seen = yaw + 0.0          # a copy: an in-place write to c.yaw must not hide
+    return c.yaw_half
 
 
 def relax(c: CopterCtrlState, est, mask, xp=NumpyOps) -> None:
@@ -170,13 +184,20 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
 
     # ---- thrust vector + yaw -> attitude target -----------------------------------
     qx, qy, qz, qw = est.qx, est.qy, est.qz, est.qw
-    cy, sy = xp.cos(c.yaw), xp.sin(c.yaw)   # lean angles in the target-yaw frame
-    a_f = atx * cy + aty * sy
+    # target attitude from yaw and the lean angles pitch = atan(-a_f / g_eff),
+    # roll = atan(a_r cos(pitch) / g_eff), as half-angle cosines/sines. One sin/cos pair
+    # (of yaw/2) and square roots instead of nine trig calls and two atans: the same
+    # numbers to rounding, and trig is ~50x dearer than a multiply on numpy arrays.
+    cyy, syy = _half_yaw(c, xp)
+    cy, sy = cyy * cyy - syy * syy, 2.0 * cyy * syy   # cos, sin of the target yaw
+    a_f = atx * cy + aty * sy                 # lean angles in the target-yaw frame
     a_r = -atx * sy + aty * cy
-    pitch = xp.atan(-a_f / g_eff)
-    roll = xp.atan(a_r * xp.cos(pitch) / g_eff)
-    hr, hp, hy = 0.5 * roll, 0.5 * pitch, 0.5 * c.yaw
-    cr, sr, cp, spp, cyy, syy = xp.cos(hr), xp.sin(hr), xp.cos(hp), xp.sin(hp), xp.cos(hy), xp.sin(hy)
+    tp = -a_f / g_eff                         # tan(pitch); g_eff >= 0.2 g, |pitch| < pi/2
+    cpf = 1.0 / xp.sqrt(1.0 + tp * tp)        # cos(pitch)
+    cp, spp = _half_angle(cpf, tp * cpf, xp)
+    tr = a_r * cpf / g_eff                    # tan(roll)
+    crf = 1.0 / xp.sqrt(1.0 + tr * tr)
+    cr, sr = _half_angle(crf, tr * crf, xp)
     dw = cr * cp * cyy + sr * spp * syy
     dx = sr * cp * cyy - cr * spp * syy
     dyq = cr * spp * cyy + sr * cp * syy
@@ -218,21 +239,27 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     return mix(coll, u_r, u_p, u_y, g.spin_min, xp)
 
 
+def _half_angle(c, s, xp=NumpyOps):
+    """(cos, sin) of theta/2 from (cos, sin) of theta, for |theta| < pi/2 (c > 0, so
+    cos(theta/2) >= 0.707 and neither formula cancels)."""
+    ch = xp.sqrt(0.5 * (1.0 + c))
+    return ch, s / (2.0 * ch)
+
+
 def mix(coll, u_r, u_p, u_y, spin_min, xp=NumpyOps):
     """Quad-X mixer with saturation handling; returns 4 rotor-speed fractions."""
-    rp0 = -0.5 * u_r + 0.5 * u_p     # front-right
-    rp1 = 0.5 * u_r - 0.5 * u_p      # back-left
-    rp2 = 0.5 * u_r + 0.5 * u_p      # front-left
-    rp3 = -0.5 * u_r - 0.5 * u_p     # back-right
+    hr, hp = 0.5 * u_r, 0.5 * u_p
+    rp0 = hp - hr                    # front-right; back-left is -rp0 (exactly, in floats)
+    rp2 = hr + hp                    # front-left; back-right is -rp2
     mx = 0.5 * (xp.abs(u_r) + xp.abs(u_p))     # largest motor offset; the smallest is -mx
     fmin = spin_min * spin_min
     span_max = 1.0 - fmin
     sc = xp.minimum(1.0, span_max / xp.maximum(2.0 * mx, 1e-9))
-    rp0, rp1, rp2, rp3, mx = rp0 * sc, rp1 * sc, rp2 * sc, rp3 * sc, mx * sc
+    rp0, rp2, mx = rp0 * sc, rp2 * sc, mx * sc
     thr = xp.clip(coll, fmin + mx, 1.0 - mx)
     # yaw: motors 0,1 get +y/2, motors 2,3 get -y/2; use only remaining headroom
     # (rp1 = -rp0 and rp3 = -rp2, so each pair's extreme is thr +- |rp|)
-    a0, a1, a2, a3 = thr + rp0, thr + rp1, thr + rp2, thr + rp3
+    a0, a1, a2, a3 = thr + rp0, thr - rp0, thr + rp2, thr - rp2
     m01 = xp.abs(rp0)
     m23 = xp.abs(rp2)
     hi = 2.0 * xp.minimum(1.0 - thr - m01, thr - m23 - fmin)

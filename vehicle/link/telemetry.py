@@ -125,9 +125,19 @@ class Telemetry:
         enabled = SENSORS_PRESENT | (S.MAV_SYS_STATUS_GEOFENCE if f_enabled else 0)
         if not ap.armed:
             enabled &= ~S.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
+        # battery as ArduPilot: no monitor -> not present, voltage 0, current and remaining -1;
+        # a battery failsafe clears its health bit
+        b = ap.battery.reading(ap.params.values)
+        if b.voltage is None:
+            present &= ~S.MAV_SYS_STATUS_SENSOR_BATTERY
+            enabled &= ~S.MAV_SYS_STATUS_SENSOR_BATTERY
+            health &= ~S.MAV_SYS_STATUS_SENSOR_BATTERY
+        elif b.failsafe:
+            health &= ~S.MAV_SYS_STATUS_SENSOR_BATTERY
         return mav.MAVLink_sys_status_message(
-            present, enabled, health, 100, _i(ap.battery_voltage() * 1000, 0, 65535),
-            _i(ap.current_a * 100, -1, 32767), ap.battery_remaining(), 0, 0, 0, 0, 0, 0, 0, 0, 0)
+            present, enabled, health, 100, 0 if b.voltage is None else _i(b.voltage * 1000, 0, 65535),
+            -1 if b.current is None else _i(b.current * 100, -1, 32767),
+            -1 if b.remaining_pct is None else b.remaining_pct, 0, 0, 0, 0, 0, 0, 0, 0, 0)
 
     def gps_raw_int(self):
         ap = self.link.ap
@@ -157,9 +167,9 @@ class Telemetry:
         # NED from this vehicle's EKF origin; none before it is set (ArduPilot has no local
         # position then either)
         ap = self.link.ap
-        if not ap.ekf_origin.is_set:
+        if not ap.local_origin.is_set:
             return None
-        p, v = ap.ekf_origin.to_local(ap.pos), ap.vel
+        p, v = ap.local_origin.to_local(ap.pos), ap.vel
         return mav.MAVLink_local_position_ned_message(self.boot_ms(), float(p[0]), float(p[1]), float(p[2]),
                                                       float(v[0]), float(v[1]), float(v[2]))
 
@@ -188,10 +198,20 @@ class Telemetry:
         if ap.home is None:
             return None
         lat, lon, alt = ap.home_lla()
-        h = ap.ekf_origin.to_local(ap.home)       # x, y, z: home in the local (EKF origin) frame
+        h = ap.local_origin.to_local(ap.home)       # x, y, z: home in the local (EKF origin) frame
         return mav.MAVLink_home_position_message(
             _i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1), _i(alt * 1000, -2**31, 2**31 - 1),
             float(h[0]), float(h[1]), float(h[2]), [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0, self.usec())
+
+    def gps_global_origin(self):
+        """Where the vehicle's local NED (0, 0, 0) is; None until the EKF origin is set."""
+        o = self.link.ap.ekf_origin()
+        if o is None:
+            return None
+        lat, lon, alt = o
+        return mav.MAVLink_gps_global_origin_message(
+            _i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1),
+            _i(alt * 1000, -2**31, 2**31 - 1), self.usec())
 
     def extended_sys_state(self):
         return mav.MAVLink_extended_sys_state_message(mav.MAV_VTOL_STATE_UNDEFINED, self.link.ap.landed_state())
@@ -205,35 +225,37 @@ class Telemetry:
                                                int(t * 1000.0) & 0xFFFFFFFF)
 
     def battery_status(self):
+        """As ArduPilot's send_battery_status: no cell voltages, so voltages[0] is the pack
+        (mV), the rest UINT16_MAX; energy in hJ; -1 where the monitor cannot measure;
+        charge_state from the battery failsafe. None with BATT_MONITOR 0 (no battery)."""
         ap = self.link.ap
-        mv = _i(ap.battery_voltage() * 1000, 0, 65534)
+        r = ap.battery.reading(ap.params.values)
+        if r.voltage is None:
+            return None
+        state = {0: mav.MAV_BATTERY_CHARGE_STATE_OK, 1: mav.MAV_BATTERY_CHARGE_STATE_LOW,
+                 2: mav.MAV_BATTERY_CHARGE_STATE_CRITICAL}[r.failsafe]
         return mav.MAVLink_battery_status_message(
-            0, mav.MAV_BATTERY_FUNCTION_ALL, mav.MAV_BATTERY_TYPE_LIPO, 32767, [mv] + [65535] * 9,
-            _i(ap.current_a * 100, -1, 32767), _i(ap.consumed_mah, -1, 2**31 - 1), -1, ap.battery_remaining(),
-            0, mav.MAV_BATTERY_CHARGE_STATE_OK, [0, 0, 0, 0], 0, 0)
+            0, mav.MAV_BATTERY_FUNCTION_ALL, mav.MAV_BATTERY_TYPE_LIPO, 32767,
+            [_i(r.voltage * 1000, 0, 65534)] + [65535] * 9,
+            -1 if r.current is None else _i(r.current * 100, -1, 32767),
+            -1 if r.consumed_mah is None else _i(r.consumed_mah, -1, 2**31 - 1),
+            -1 if r.consumed_wh is None else _i(r.consumed_wh * 36, -1, 2**31 - 1),
+            -1 if r.remaining_pct is None else r.remaining_pct,
+            0 if r.time_remaining is None else _i(r.time_remaining, 0, 2**31 - 1),
+            state, [0, 0, 0, 0], 0, 0)
 
     def position_target_local_ned(self):
         ap = self.link.ap
         t = ap.echo
         if t is None:
             return None
-        p = ap.ekf_origin.to_local(t.pos) if t.pos is not None else (0.0, 0.0, 0.0)
+        p = ap.local_origin.to_local(t.pos) if t.pos is not None else (0.0, 0.0, 0.0)
         v = t.vel if t.vel is not None else (0.0, 0.0, 0.0)
         a = t.acc if t.acc is not None else (0.0, 0.0, 0.0)
         return mav.MAVLink_position_target_local_ned_message(
             self.boot_ms(), mav.MAV_FRAME_LOCAL_NED, t.type_mask, float(p[0]), float(p[1]), float(p[2]),
             float(v[0]), float(v[1]), float(v[2]), float(a[0]), float(a[1]), float(a[2]),
             float(t.yaw or 0.0), float(t.yaw_rate or 0.0))
-
-    def gps_global_origin(self):
-        """Where this vehicle's local NED is centred (its EKF origin); None until set."""
-        o = self.link.ap.ekf_origin
-        if not o.is_set:
-            return None
-        lat, lon, alt = o.lla
-        return mav.MAVLink_gps_global_origin_message(_i(lat * 1e7, -2**31, 2**31 - 1),
-                                                     _i(lon * 1e7, -2**31, 2**31 - 1),
-                                                     _i(alt * 1000, -2**31, 2**31 - 1), self.usec())
 
     def sim_state(self):
         ap = self.link.ap

@@ -34,6 +34,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from gcs.mavstr import mav_str
 from gcs.signing import SIGNING_EPOCH, UNSIGNED, SignatureCheck
+from vehicle.link import ftp
 from vehicle.link.endpoints import Channel, Endpoint, make_endpoint
 from vehicle.link.mission_link import MISSION_MESSAGES, MissionLink
 from vehicle.link.paced_queue import PacedQueue
@@ -164,6 +165,7 @@ class VehicleLink:
                 del self.next_due[i]
         for i in sched:
             self.next_due.setdefault(i, now)
+        self.next_any = -math.inf          # recompute the earliest due time on the next update
 
     def update(self, t: float) -> None:
         """Send whatever is due at sim time t (called at the autopilot rate). The messages of
@@ -171,26 +173,32 @@ class VehicleLink:
         datagram; ArduPilot's UDP output does the same), one TCP write."""
         due = self.next_due
         batch = []
-        for msgid, interval in self.schedule.items():
-            nd = due[msgid]
-            if t + 1e-9 >= nd:
-                msg = self.telemetry.build(msgid)
-                if msg is not None:
-                    batch.append(msg.pack(self.mav))
-                    self.mav.seq = (self.mav.seq + 1) % 256
-                nd += interval
-                due[msgid] = nd if nd > t else t + interval
+        if t + 1e-9 >= self.next_any:      # most ticks nothing is due: skip the scan (1,000 vehicles)
+            first = math.inf
+            for msgid, interval in self.schedule.items():
+                nd = due[msgid]
+                if t + 1e-9 >= nd:
+                    msg = self.telemetry.build(msgid)
+                    if msg is not None:
+                        batch.append(msg.pack(self.mav))
+                        self.mav.seq = (self.mav.seq + 1) % 256
+                    nd += interval
+                    nd = due[msgid] = nd if nd > t else t + interval
+                if nd < first:
+                    first = nd
+            self.next_any = first
         if batch:
             self.stats["tx"] += len(batch)
             buf = b"".join(batch)
             for ep in self.endpoints:
                 ep.send(buf)
-        if self.ap.ekf_origin.version != self._origin_sent:     # set at first fix or by a GCS:
-            self._origin_sent = self.ap.ekf_origin.version      # tell everyone, as ArduPilot does
+        self.missions.update(t)
+        origin = self.ap.ekf_origin()
+        if origin != self._origin_sent:          # set (first good estimate) or moved
+            self._origin_sent = origin
             msg = self.telemetry.gps_global_origin()
             if msg is not None:
                 self.send(msg)
-        self.missions.update(t)
         if self.outboxes:
             self._drain_outboxes(t)
         self.ap.params.flush()         # PARAM_SETs of this tick reach the saved file together
@@ -202,7 +210,8 @@ class VehicleLink:
                                                                   int(self.stats[k])))
 
     next_stats = 0.0
-    _origin_sent = 0
+    next_any = -math.inf                   # earliest next_due (a lower bound; -inf: scan)
+    _origin_sent: tuple | None = None
 
     # ----- paced replies ------------------------------------------------------------------
     def paced(self, ch: Channel) -> PacedQueue:
@@ -381,12 +390,14 @@ class VehicleLink:
             return mav.MAV_RESULT_DENIED
         msgid = int(p[0])
         if cmd == mav.MAV_CMD_REQUEST_MESSAGE:
+            # ArduPilot: an id it has no ap_message for -> FAILED; a known one -> ACCEPTED, and
+            # the message follows when there is one to send (HOME_POSITION / GPS_GLOBAL_ORIGIN
+            # before home / the origin are set: ACCEPTED, nothing sent)
             if msgid not in self.telemetry.builders:
                 return mav.MAV_RESULT_FAILED
             msg = self.telemetry.build(msgid)
-            if msg is None:
-                return mav.MAV_RESULT_FAILED
-            self._after_ack.append(msg)
+            if msg is not None:
+                self._after_ack.append(msg)
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_GET_MESSAGE_INTERVAL:
             if msgid not in self.telemetry.builders:
@@ -432,6 +443,8 @@ class VehicleLink:
         self.ap.text = self.statustext
         self.mav.srcSystem = self.ap.sysid
         self.intervals.clear()
+        self._origin_sent = None               # a new boot says its EKF origin again
+        self._ftp = None                       # and has no MAVFTP session open
         for q in self.outboxes.values():
             q.clear()
         self.outboxes.clear()
@@ -464,7 +477,22 @@ class VehicleLink:
         lat, lon, alt = m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3
         if abs(lat) > 90 or abs(lon) > 180:
             return
-        self.ap.ekf_origin.set(lat, lon, alt)
+        self.ap.local_origin.set(lat, lon, alt)
+    _ftp: ftp.FtpServer | None = None
+
+    def on_FILE_TRANSFER_PROTOCOL(self, m, ch) -> None:
+        """MAVFTP (vehicle/link/ftp.py): @PARAM/param.pck served, everything else answered at
+        once, so clients never wait on a timeout."""
+        if self._ftp is None:
+            self._ftp = ftp.FtpServer({"@PARAM/param.pck": self._param_pck})
+        for reply in self._ftp.handle(m.payload):
+            self.send(mav.MAVLink_file_transfer_protocol_message(0, m.get_srcSystem(), m.get_srcComponent(),
+                                                                 list(reply)), ch)
+
+    def _param_pck(self, with_defaults: bool) -> bytes:
+        ps = self.ap.params
+        return ftp.param_pck([(n, ps[n], ps.defs[n].mav_type, ps.defs[n].default) for n in ps.names],
+                             with_defaults)
 
     def on_TIMESYNC(self, m, ch) -> None:
         # a request (tc1 0): answer tc1 = our sim clock in ns (never 0, which would read as a

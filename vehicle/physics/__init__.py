@@ -12,6 +12,14 @@ import math
 
 import numpy as np
 
+try:        # the clip ufunc itself: np.clip's Python wrapper costs ~1 us a call, the ufunc
+    from numpy._core.umath import clip as _clip      # beats minimum(maximum()) at any n
+except ImportError:             # numpy < 2
+    try:
+        from numpy.core.umath import clip as _clip
+    except ImportError:
+        _clip = np.clip
+
 
 class NumpyOps:
     sqrt = staticmethod(np.sqrt)
@@ -21,23 +29,42 @@ class NumpyOps:
     atan2 = staticmethod(np.arctan2)
     exp = staticmethod(np.exp)
     abs = staticmethod(np.abs)
-    minimum = staticmethod(np.minimum)
-    maximum = staticmethod(np.maximum)
+    @staticmethod
+    def minimum(a, b):
+        """np.minimum; against a float bound it is the clip ufunc, which numpy runs ~2.5x
+        faster than the broadcast ufunc (same values, NaN propagates)."""
+        if isinstance(b, float):
+            return _clip(a, -math.inf, b)
+        if isinstance(a, float):
+            return _clip(b, -math.inf, a)
+        return np.minimum(a, b)
+
+    @staticmethod
+    def maximum(a, b):
+        """np.maximum (see minimum)."""
+        if isinstance(b, float):
+            return _clip(a, b, math.inf)
+        if isinstance(a, float):
+            return _clip(b, a, math.inf)
+        return np.maximum(a, b)
+
     where = staticmethod(np.where)
     lnot = staticmethod(np.logical_not)
     any = staticmethod(np.any)
     all = staticmethod(np.all)
 
-    @staticmethod
-    def clip(x, lo, hi):
-        return np.minimum(np.maximum(x, lo), hi)
+    # the clip ufunc is minimum(maximum(x, lo), hi) in one pass (NaN propagates, lo > hi
+    # gives hi): 5x faster than the two ufuncs on 10,000 elements, 2x on 500
+    clip = staticmethod(_clip)
 
     @staticmethod
     def sqrt_controller(err, k, lim, dt):
         """ArduPilot's sqrt controller on a non-negative error magnitude (see
-        vehicle.control.shaping); the scalar version below computes the same numbers."""
+        vehicle.control.shaping); the scalar version below computes the same numbers.
+        (abs: where err > lin the argument is positive anyway; elsewhere it keeps the
+        unused branch's sqrt real)."""
         lin = lim / (k * k)
-        out = np.where(err > lin, np.sqrt(2.0 * lim * np.maximum(err - 0.5 * lin, 0.0)), k * err)
+        out = np.where(err > lin, np.sqrt(2.0 * lim * np.abs(err - 0.5 * lin)), k * err)
         return np.minimum(out, err / dt)
 
     @staticmethod

@@ -9,7 +9,11 @@ Model
   torque +-kQ/kT * T about body z (CCW rotors push the body's yaw positive).
 - Rotor speed follows its command with a first-order lag (time constant motor_tau),
   discretised exactly: w += (w_cmd - w) (1 - exp(-dt/tau)).
-- Drag: F = -(c_lin + c_quad |v|) v (world frame, isotropic); angular damping.
+- Drag: F = -(c_lin + c_quad |v_a|) v_a on the air-relative velocity v_a = v - air (world
+  frame, isotropic); air is the wind's air velocity (vehicle.physics.wind), zero on the
+  ground, where ground contact holds the vehicle. A hovering quad in wind therefore needs a
+  steady horizontal force: its position controller's integrator leans it into the wind.
+  Angular damping.
 - Gravity +g along NED z.
 - Ground: z >= ground_z is the ground (NED z = 0 at home ground). When the net force
   presses the vehicle into the ground it sits on it: z clamped, no downward speed,
@@ -101,8 +105,10 @@ class QuadState:
             self.qz, self.qw = np.sin(yaw / 2), np.cos(yaw / 2)
 
 
-def step(s: QuadState, cmd, af: QuadAirframe, dt: float, ground_z, xp=NumpyOps) -> None:
-    """Advance the state by dt. cmd = 4 rotor-speed commands (rad/s), each (n,) or float."""
+def step(s: QuadState, cmd, af: QuadAirframe, dt: float, ground_z, xp=NumpyOps, air=None) -> None:
+    """Advance the state by dt. cmd = 4 rotor-speed commands (rad/s), each (n,) or float.
+    air: None (still air) or the air velocity (north, east, down) m/s, world NED, each
+    component (n,) or float; ignored where the vehicle was on the ground."""
     k = 1.0 - math.exp(-dt / af.motor_tau)
     m0 = s.m0 + (cmd[0] - s.m0) * k
     m1 = s.m1 + (cmd[1] - s.m1) * k
@@ -123,12 +129,19 @@ def step(s: QuadState, cmd, af: QuadAirframe, dt: float, ground_z, xp=NumpyOps) 
     r23 = 2.0 * (qy * qz - qw * qx)
     r33 = 1.0 - 2.0 * (qx * qx + qy * qy)
     vx, vy, vz = s.vx, s.vy, s.vz
-    speed = xp.sqrt(vx * vx + vy * vy + vz * vz)
+    if air is None:
+        rx, ry, rz = vx, vy, vz
+    else:
+        fly = xp.lnot(s.ground)          # on the ground its contact holds it (friction)
+        rx = vx - xp.where(fly, air[0], 0.0)
+        ry = vy - xp.where(fly, air[1], 0.0)
+        rz = vz - xp.where(fly, air[2], 0.0)
+    speed = xp.sqrt(rx * rx + ry * ry + rz * rz)
     cd = af.drag_lin + af.drag_quad * speed
     inv_m = 1.0 / af.mass
-    ax = (-thrust * r13 - cd * vx) * inv_m
-    ay = (-thrust * r23 - cd * vy) * inv_m
-    az = (-thrust * r33 - cd * vz) * inv_m + GRAVITY
+    ax = (-thrust * r13 - cd * rx) * inv_m
+    ay = (-thrust * r23 - cd * ry) * inv_m
+    az = (-thrust * r33 - cd * rz) * inv_m + GRAVITY
 
     # rotational dynamics: I w' = tau - w x (I w) - c w
     wx, wy, wz = s.wx, s.wy, s.wz
@@ -185,6 +198,17 @@ def step(s: QuadState, cmd, af: QuadAirframe, dt: float, ground_z, xp=NumpyOps) 
     s.qx, s.qy, s.qz, s.qw = nx, ny, nz, nw
     s.wx, s.wy, s.wz = wx_n, wy_n, wz_n
     s.ground = g
+
+
+def rotor_power(s: QuadState, af: QuadAirframe, rho: float = 1.225, disk_area: float = 0.05,
+                figure_of_merit: float = 0.6):
+    """Shaft power (W) the four rotors absorb, from momentum theory: each rotor's ideal
+    induced power T^1.5 / sqrt(2 rho A) divided by a figure of merit (profile losses).
+    disk_area m^2 per rotor (0.05: 10-inch propellers). Float or (n,) like the state."""
+    kt = af._kt
+    t = [kt * m * m for m in (s.m0, s.m1, s.m2, s.m3)]
+    k = 1.0 / (math.sqrt(2.0 * rho * disk_area) * figure_of_merit)
+    return k * sum(np.abs(ti) ** 1.5 for ti in t)
 
 
 def hover_omega(af: QuadAirframe) -> float:

@@ -8,6 +8,13 @@ rover can stop on a goal and face any heading without orbiting it. Unicycle kine
   yaw'    = rate;   x' = speed cos(yaw);   y' = speed sin(yaw);   z = home z
 
 Both lags are discretised exactly (1 - exp(-dt/tau)). No lateral slip.
+
+Wind (vehicle.physics.wind): the tyres take the side force (no lateral slip), so only the
+air-relative speed along the heading matters: a drag F = -drag_quad u|u| (u = speed minus
+the air velocity along the heading) accelerates the rover by F / mass while its drive is
+engaged (speed command not zero); its speed loop holds the command with a small error. A
+stopped rover (speed command zero) is braked and does not move. So a rover is pushed far
+less than a multicopter, whose whole body floats in the air.
 """
 from __future__ import annotations
 
@@ -25,6 +32,8 @@ class RoverModel:
     speed_tau: float = 0.25     # s
     turn_tau: float = 0.1       # s
     max_accel: float = 5.0      # m/s^2 physical limit (the controller uses ATC_ACCEL_MAX)
+    mass: float = 5.0           # kg (wind push only)
+    drag_quad: float = 0.06     # N/(m/s)^2: 0.5 rho Cd A with Cd A about 0.1 m^2
 
 
 class RoverState:
@@ -55,12 +64,16 @@ class RoverState:
         self.ground = np.ones(n, dtype=bool)
 
 
-def step(s: RoverState, speed_cmd, rate_cmd, m: RoverModel, gains, dt: float, xp=NumpyOps) -> None:
-    """gains supplies max_speed (m/s) and max_rate (rad/s)."""
+def step(s: RoverState, speed_cmd, rate_cmd, m: RoverModel, gains, dt: float, xp=NumpyOps, air=None) -> None:
+    """gains supplies max_speed (m/s) and max_rate (rad/s). air: None (still air) or the air
+    velocity (north, east, down) m/s, world NED, each component (n,) or float."""
     ks = 1.0 - math.exp(-dt / m.speed_tau)
     kr = 1.0 - math.exp(-dt / m.turn_tau)
     cmd = xp.clip(speed_cmd, -gains.max_speed, gains.max_speed)
     dv = xp.clip((cmd - s.speed) * ks, -m.max_accel * dt, m.max_accel * dt)
+    if air is not None:
+        u = s.speed - (air[0] * xp.cos(s.yaw) + air[1] * xp.sin(s.yaw))
+        dv = dv + xp.where(xp.abs(cmd) > 1e-3, -m.drag_quad * u * xp.abs(u) / m.mass * dt, 0.0)
     s.speed = s.speed + dv
     s.rate = s.rate + (xp.clip(rate_cmd, -gains.max_rate, gains.max_rate) - s.rate) * kr
     s.yaw = wrap_pi(s.yaw + s.rate * dt)

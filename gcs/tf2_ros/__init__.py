@@ -1,0 +1,34 @@
+"""tf2_ros for towerlink: nodes that broadcast and listen to transforms over MAVLink.
+
+The names and behaviour of tf2_ros, usable from any Python process::
+
+    from gcs.frames import Buffer, PointStamped, Transform, TransformStamped
+    from gcs.tf2_ros import (Node, TransformBroadcaster, StaticTransformBroadcaster,
+                             TransformListener, MessageFilter)
+
+    node = Node("camera_node", "udpout:127.0.0.1:14620")   # a bridge's node link (--nodes)
+    br = TransformBroadcaster(node)
+    br.send_transform(TransformStamped("drone", "camera", stamp, Transform(...)))
+
+    buf = Buffer()
+    listener = TransformListener(buf, node)                # fills buf in the node's thread
+    buf.lookup_transform("world", "camera", LATEST)
+
+    mf = MessageFilter(listener, "world", queue_size=10, timeout=1.0)
+    mf.register_callback(lambda p: print(buf.transform_point(p, "world")))
+    mf.add(PointStamped("camera", stamp, (1, 0, 0)))
+
+On the wire a node sends TOWERLINK_TRANSFORM (static flag for statics) to the bridge;
+the bridge keeps each frame's authority (the first trusted node that publishes a child
+frame owns it), stores it and republishes it on its transform stream, which every
+listener (and tf-echo, view-frames, the tlogs) reads.
+"""
+from .broadcaster import StaticTransformBroadcaster, TransformBroadcaster
+from .listener import TransformListener
+from .message_filter import FilterFailureReason, FilterQueue, MessageFilter
+from .node import DEFAULT_URL, Node, Rate
+from .stream import TransformStream
+
+__all__ = ["Node", "Rate", "DEFAULT_URL", "TransformBroadcaster", "StaticTransformBroadcaster",
+           "TransformListener", "TransformStream", "MessageFilter", "FilterQueue",
+           "FilterFailureReason"]
