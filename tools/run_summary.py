@@ -253,6 +253,17 @@ def horizontal_error(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.hypot(a[..., 0] - b[..., 0], a[..., 1] - b[..., 1])
 
 
+def _follow_error(drone_truth, rover_truth, t0, t1) -> dict[str, Any]:
+    """Horizontal distance from a rover to the point under the drone, on truth, over the mission."""
+    if drone_truth is None or rover_truth is None or not len(drone_truth) or not len(rover_truth):
+        return {}
+    rt = rover_truth.window(t0, t1)
+    keep = (rt.t >= drone_truth.t[0]) & (rt.t <= drone_truth.t[-1])
+    rt = Track(rt.t[keep], rt.xyz[keep])
+    err = horizontal_error(rt.xyz, drone_truth.at(rt.t))
+    return {"source": "truth (SIM_STATE)", **_stat(err)}
+
+
 def world_transforms(data: RunData, child: str, vehicle: str = "drone") -> list[tuple[float, tuple]]:
     """The recorded transforms world -> `child`: the bridge's <vehicle>_origin -> child moved by
     the static world -> <vehicle>_origin (a translation, from GPS_GLOBAL_ORIGIN); tlogs from
@@ -350,12 +361,17 @@ def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
     t1 = max(done) if done else tower.get("end_sim")
 
     follow: dict[str, Any] = {}
+    # who followed: the bridge's tf follow (rover sysid 2), or ArduPilot's FOLLOW mode on sysid 2
+    # (fly --follow-with ardupilot) or on a second rover, sysid 3 (--follow-with both)
+    ap_sysid = meta.get("ardupilot_follower")
+    follow_ap: dict[str, Any] = {}
+    if ap_sysid not in (None, ROVER):
+        follow_ap = _follow_error(drone_truth, data.truth.get(ap_sysid), t0, t1)
+        if follow_ap:
+            follow_ap["by"] = f"ArduPilot FOLLOW (sysid {ap_sysid})"
     if drone_truth is not None and rover_truth is not None and len(drone_truth) and len(rover_truth):
-        rt = rover_truth.window(t0, t1)
-        rt = Track(rt.t[(rt.t >= drone_truth.t[0]) & (rt.t <= drone_truth.t[-1])],
-                   rt.xyz[(rt.t >= drone_truth.t[0]) & (rt.t <= drone_truth.t[-1])])
-        err = horizontal_error(rt.xyz, drone_truth.at(rt.t))
-        follow = {"source": "truth (SIM_STATE)", **_stat(err)}
+        follow = _follow_error(drone_truth, rover_truth, t0, t1)
+        follow["by"] = "ArduPilot FOLLOW (sysid 2)" if ap_sysid == ROVER else "bridge tf follow (sysid 2)"
     elif data.follow:  # no truth recorded: the bridge's view (telemetry estimates)
         f = data.follow
         m = _in(f["t"], t0, t1) & np.isfinite(f["rover_x"])
@@ -403,7 +419,7 @@ def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
     out = {
         "ok": bool(tower.get("ok")) and reached == len(goals_out) and reached > 0,
         "scenario": sc.name, "goals_reached": reached, "goals_total": len(goals_out),
-        "goals": goals_out, "follow_error": follow, "wobble": wobble, "flight": flight, "hover": hover,
+        "goals": goals_out, "follow_error": follow, "follow_error_ardupilot": follow_ap, "wobble": wobble, "flight": flight, "hover": hover,
         "limits": {"WPNAV_SPEED": v, "WPNAV_ACCEL": a, "PSC_JERK_XY": j},
         "mission_window_sim": [t0, t1],
         "bridge_status": data.bridge_status, "tower_error": tower.get("error"),
@@ -481,9 +497,14 @@ def format_summary(s: dict) -> str:
                      f"{_f(g['rover_error_at_arrival'], '7.2f'):>7}")
     lines.append("")
     fe = s.get("follow_error") or {}
+    fa = s.get("follow_error_ardupilot") or {}
     if fe.get("n"):
-        lines.append(f"rover follow error (rover vs drone ground point, {fe['source']}, over the mission): "
+        by = f" by {fe['by']}" if fe.get("by") else ""
+        lines.append(f"rover follow error{by} (rover vs drone ground point, {fe['source']}, over the mission): "
                      f"RMS {fe['rms']:.2f} m, max {fe['max']:.2f} m")
+        if fa.get("n"):
+            lines.append(f"rover follow error by {fa['by']} (same flight, {fa['source']}): "
+                         f"RMS {fa['rms']:.2f} m, max {fa['max']:.2f} m")
     else:
         lines.append("rover follow error: not measured (no truth in the tlogs)")
     w = s.get("wobble") or {}
