@@ -85,3 +85,22 @@ def test_rover_local_target_is_from_its_own_origin(sitl):
     # 6 m north of the rover's own start (world -3, 0) is world (3, 0), not world (6, 0)
     assert math.hypot(world[0] - 3.0, world[1]) < GPS_TOL, world
     assert math.hypot(*geo.lla_to_ned(r0, s.lat_int * 1e-7, s.lon_int * 1e-7, s.alt)[:2]) > 5.0
+
+
+def test_bridge_world_to_rover_matches_truth_for_a_rover_booted_3m_away(sitl):
+    """The real SITL vehicles and the bridge: world -> rover (through rover_origin, from the
+    rover's GPS_GLOBAL_ORIGIN) puts the rover where its truth (SIM_STATE) is in world."""
+    from bridge_fakes import bridge_config, running_bridge
+    from support import free_port, wait_until
+    cfg = bridge_config(free_port(), sitl.udp[0], sitl.udp[1], follow=False)
+    with running_bridge(cfg) as bridge:
+        wait_until(lambda: bridge.origins.known("drone") and bridge.origins.known("rover")
+                   and bridge.buffer.can_transform("world", "rover"), 30, "world -> rover")
+        T = bridge.buffer.lookup_transform("world", "rover").transform
+        world_lla = bridge.origins.world_origin
+    rover = connect(sitl.tcp[1], tcp=True)
+    s = recv(rover, "SIM_STATE")
+    truth = geo.lla_to_ned(world_lla, s.lat_int * 1e-7, s.lon_int * 1e-7, s.alt)
+    # the rover stands still 3 m south of the drone: the bridge agrees with truth within GPS noise
+    assert math.hypot(truth[0] - -3.0, truth[1]) < GPS_TOL
+    assert math.hypot(T.xyz[0] - truth[0], T.xyz[1] - truth[1]) < GPS_TOL, (T.xyz, truth)
