@@ -165,8 +165,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="sim s without drone telemetry before the rover holds (default %(default)s)")
     w.add_argument("--no-follow-ff", dest="follow_ff", action="store_false",
                    help="no velocity feed-forward in rover targets")
-    w.add_argument("--speedup", type=float, default=1.0,
+    w.add_argument("--speedup", type=_speedup, default=1.0, metavar="N|max",
                    help="world speedup, only for the wall-clock fallback of the follow timeout")
+    p.add_argument("--lockstep", action="store_true",
+                   help="whole-system lockstep (issue 11): join the world's TOWERLINK_LOCKSTEP handshake "
+                        "(with `towerlink sitl --lockstep N`); goal retries and the follower's checks and "
+                        "retries then run on the world's TICKs (sim time), and the tower may join through it")
     p.add_argument("--view", nargs="?", type=int, const=8765, default=None, metavar="PORT",
                    help="serve the bridge's stream live to Foxglove on ws://127.0.0.1:PORT (default port "
                         "8765): the bridge pushes its stream to one more out on loopback and a `towerlink view` "
@@ -174,6 +178,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "(needs towerlink[view])")
     p.add_argument("-q", "--quiet", action="store_true", help="no log lines on stderr")
     p.add_argument("--duration", type=float, default=None, help="stop after this many wall seconds")
+
+
+def _speedup(text: str) -> float:
+    import argparse
+    from gcs.lockstep import speedup_arg
+    try:
+        return speedup_arg(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc))
 
 
 def config_from_args(args):
@@ -196,7 +209,8 @@ def config_from_args(args):
         max_transform_age=args.max_transform_age, time_grace=args.time_grace, quiet=args.quiet,
         trust_sysids=tuple(args.trust_sysid) if args.trust_sysid else (TOWER_SYSID,),
         allow_redefine=args.allow_redefine, signing_key=key_from_text(args.signing_key),
-        nodes=args.nodes, route_only=args.route_only)
+        nodes=args.nodes, route_only=args.route_only,
+        lockstep=args.lockstep)
 
 
 def _lla(text: str) -> tuple[float, float, float]:

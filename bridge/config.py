@@ -44,6 +44,7 @@ class BridgeConfig:
     # nodes (issue 12): a world-frame link for tf2_ros-style nodes, and routing only
     nodes: str | None = None        # e.g. udpin:127.0.0.1:14620 (gcs.tf2_ros.DEFAULT_URL's peer)
     route_only: bool = False        # no vehicle frames, no goal translation, no follow: nodes do them
+    lockstep: bool = False      # issue 11: a participant of the world's lockstep (bridge.lockstep_desk)
 
 
 @dataclass

@@ -26,8 +26,8 @@ from bridge.codec import command_message as _command, statustext_message as _tex
 from bridge.follow import FollowSupervisor, ground_points
 from bridge.origins import origin_frame
 
-MODE_RETRY = 0.5                # wall s between DO_SET_MODE commands
-ARM_RETRY = 1.0                 # wall s between arm commands
+MODE_RETRY = 0.5                # s between DO_SET_MODE commands (wall; sim with --lockstep)
+ARM_RETRY = 1.0                 # s between arm commands (wall; sim with --lockstep)
 
 
 class Follower:
@@ -37,7 +37,9 @@ class Follower:
         self.clock = clock
         self.log = log
         self.warn_once = warn_once
-        self.supervisor = FollowSupervisor(cfg.follow_timeout, cfg.speedup, cfg.follow_rate)
+        # with --lockstep `clock` is the world's sim time: the wall fallback needs no speedup
+        self.supervisor = FollowSupervisor(cfg.follow_timeout, 1.0 if getattr(cfg, "lockstep", False)
+                                           else cfg.speedup, cfg.follow_rate)
         self.state = tl.TOWERLINK_FOLLOW_STATE_WAITING
         self.ticks = 0
         self.last_goal: tuple[float, float] | None = None

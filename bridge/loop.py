@@ -26,6 +26,10 @@ The rooms, and what a packet meets on its way
     and TIMESYNC -> clock_desk. Tower goals -> goals.GoalDesk.try_goal (one hop: lookup,
     translate, send). Telemetry to the tower is mapped world -> tower here (a telemetry
     message without a transform is dropped and counted, never sent in the wrong frame).
+Lockstep (--lockstep, bridge.lockstep_desk)
+    The world's TOWERLINK_LOCKSTEP TICKs (never routed on) make a barrier once they came on
+    every vehicle link; goal retries and the follower's checks then run at barriers on sim
+    time instead of every wall tick, the bridge ACKs, and relays the TICK to the tower.
 """
 from __future__ import annotations
 
@@ -46,6 +50,7 @@ from bridge.goals import GoalDesk, PendingGoal
 from bridge.telemetry import MSG_LOCAL_POSITION_NED, MSG_POSITION_TARGET_LOCAL_NED, TELEMETRY_IN, TelemetryDesk
 from bridge.links import Link, Packet
 from bridge.node_desk import NodeDesk
+from bridge.lockstep_desk import LockstepDesk
 from bridge.origins import OriginDesk, origin_frame
 from bridge.pairing import VehicleFrames
 from bridge.timeline import Timeline
@@ -56,6 +61,7 @@ MSG_SET_POSITION_TARGET_LOCAL_NED = 84
 MSG_TL_TRANSFORM = 43000
 MSG_TL_STATIC = 43001
 MSG_TL_TARGET = 43002
+MSG_TL_LOCKSTEP = 43005
 
 TICK = 0.01                     # wall s between upkeep passes
 STATIC_PERIOD = 1.0             # wall s between republishing static transforms
@@ -100,12 +106,17 @@ class Bridge:
                 check = SignatureCheck(cfg.signing_key)
                 link.verify = lambda p, check=check: check.check(p.raw, p.sysid, p.compid)
         self.timeline = Timeline(speedup=cfg.speedup, grace=cfg.time_grace)
+        # what decides behaviour (goal retries, follow checks and retries, stream re-requests)
+        # runs on this clock: the world's lockstep barrier (sim s) with --lockstep, else wall
+        self.lockstep = LockstepDesk(self.vehicles, self.codec.pack_own, self.tower.send,
+                                     self.on_sim_tick, self.log) if cfg.lockstep else None
+        self.behaviour_clock = (lambda: self.lockstep.sim_now) if self.lockstep else clock
         self.clocks = ClockDesk(self.timeline, self.command, lambda v, m: v.link.send(self.codec.pack_own(m)),
                                 self.log, self.warn_once, clock)
         self.goals = GoalDesk(self.tree, self.codec, self.to_vehicle, self.tower.stats,
-                              self.timeline.world_clock, clock, self.log, self.statustext, cfg.world_frame,
-                              self.vehicle_frame)
-        self.follower = Follower(cfg, self.buffer, clock, self.log, self.warn_once)
+                              self.timeline.world_clock, self.behaviour_clock, self.log, self.statustext,
+                              cfg.world_frame, self.vehicle_frame)
+        self.follower = Follower(cfg, self.buffer, self.behaviour_clock, self.log, self.warn_once)
         self.telemetry = TelemetryDesk(self)
         self.node_desk = NodeDesk(self)
         self.tower_drops = 0
@@ -246,9 +257,18 @@ class Bridge:
             # a node's frame: judged, stored and republished on our stream; never echoed to vehicles
             self.node_desk.on_transform(link, pkt, self._decode(link, pkt))
             return
+        elif mid == MSG_TL_LOCKSTEP and link is self.tower and self.lockstep is not None:
+            msg = self._decode(link, pkt)
+            if msg is not None:
+                self.lockstep.on_tower(msg)     # and on to the world, in order after its goals
         self.route_from_gcs(link, pkt)
 
     def on_vehicle_packet(self, v: VehicleRecord, pkt: Packet) -> None:
+        if pkt.msgid == MSG_TL_LOCKSTEP:        # the world's TICK: ours, never routed raw
+            msg = self._decode(v.link, pkt)
+            if msg is not None and self.lockstep is not None:
+                self.lockstep.on_vehicle(v, msg)
+            return
         to_tower = pkt.raw
         if pkt.msgid in TELEMETRY_IN:
             msg = self.codec.decode(pkt.raw)
@@ -308,22 +328,36 @@ class Bridge:
             return True
         return False
 
+    def sim_checks(self, rover_clock: tuple) -> None:
+        """Goal retries and the follower's checks: every wall tick, or with --lockstep at
+        every barrier (the world's sim time), so they happen at the same sim time every run."""
+        self.goals.retry()
+        rover = self.vehicles.get(self.cfg.rover_sysid)
+        if self.cfg.follow and rover is not None:
+            self.send_out(self.follower.check(rover, *rover_clock(rover)))
+
+    def on_sim_tick(self, t: float) -> None:
+        """The lockstep barrier reached sim time t (s): the sim-time upkeep, before the ACK."""
+        # the rover's clock is live by construction (the world ticked): stale is judged on stamps
+        self.sim_checks(lambda rover: (self.timeline.newest(rover.name)[0], t))
+
     def tick(self) -> None:
         now = self.clock()
         for link in self.links:
             link.poll()
         self.telemetry.release_held()
         self.telemetry.ask_origins(now)
-        self.goals.retry()
-        rover = self.vehicles.get(self.cfg.rover_sysid)
-        if self.cfg.follow and rover is not None:
-            self.send_out(self.follower.check(rover, *self.timeline.newest(rover.name)))
+        if self.lockstep is None:
+            self.sim_checks(lambda rover: self.timeline.newest(rover.name))
+        else:
+            self.lockstep.upkeep(now)
+        bnow = self.behaviour_clock()
         if self._due("hb", now, 1.0):
             data = self.codec.pack_own(tl.MAVLink_heartbeat_message(
                 tl.MAV_TYPE_ONBOARD_CONTROLLER, tl.MAV_AUTOPILOT_INVALID, 0, 0, tl.MAV_STATE_ACTIVE, 3))
             for v in self.vehicles.values():
                 v.link.send(data)
-                if v.last_heartbeat_wall is not None and (now - v.last_att_wall > 2.0 or now - v.last_pos_wall > 2.0):
+                if v.last_heartbeat_wall is not None and (bnow - v.last_att_wall > 2.0 or bnow - v.last_pos_wall > 2.0):
                     self.telemetry.request_streams(v)
         if self._due("timesync", now, TIMESYNC_PERIOD):
             self.clocks.probe(self.vehicles, now)
@@ -418,4 +452,7 @@ def summary(b: Bridge) -> str:
                      f"refused {sum(nf.refused.values())}")
     parts.append(f"follow ticks {b.follower.ticks}; decode errors {b.codec.decode_errors}; "
                  f"tower telemetry dropped (no transform) {b.tower_drops}")
+    if b.lockstep is not None:
+        parts.append(f"lockstep: {b.lockstep.barriers} barriers, last at {b.lockstep.sim_now:.3f} s sim; "
+                     f"tower {'joined' if b.lockstep.tower_joined else 'not joined'}")
     return "\n".join(parts)

@@ -37,7 +37,8 @@ class TelemetryDesk:
     def __init__(self, bridge) -> None:
         b = bridge
         self.cfg = b.cfg
-        self.clock = b.clock
+        self.clock = b.behaviour_clock     # sim time (the lockstep barrier) with --lockstep, else wall
+        self.wall = b.clock                 # the timeline's readings are always wall-stamped
         self.clocks, self.timeline, self.tree, self.follower = b.clocks, b.timeline, b.tree, b.follower
         self.vehicles = b.vehicles
         self.origins = b.origins
@@ -47,23 +48,24 @@ class TelemetryDesk:
     def on_message(self, v: VehicleRecord, mid: int, compid: int, msg) -> bool:
         """Take in a decoded vehicle message; False if it must not be forwarded."""
         now = self.clock()
+        wall = self.wall()
         if mid == MSG_LOCAL_POSITION_NED:
             v.last_pos_wall = now
             v.position = self.world_position(v, (msg.x, msg.y, msg.z))
-            self.clocks.reading(v, msg.time_boot_ms / 1000.0, now)
+            self.clocks.reading(v, msg.time_boot_ms / 1000.0, wall)
             for s in v.frames.on_local_position(msg.time_boot_ms, msg.x, msg.y, msg.z,
                                                  msg.vx, msg.vy, msg.vz):
                 self.on_frame_sample(v, s)
         elif mid == MSG_ATTITUDE_QUATERNION:
             v.last_att_wall = now
-            self.clocks.reading(v, msg.time_boot_ms / 1000.0, now)
+            self.clocks.reading(v, msg.time_boot_ms / 1000.0, wall)
             for s in v.frames.on_attitude_quaternion(msg.time_boot_ms, msg.q1, msg.q2, msg.q3, msg.q4):
                 self.on_frame_sample(v, s)
         elif mid == MSG_SYSTEM_TIME and compid == 1:
-            self.clocks.on_system_time(v, msg, now)
+            self.clocks.on_system_time(v, msg, wall)
             self.release_held()
         elif mid == MSG_TIMESYNC:
-            return not self.clocks.on_timesync(v, msg, now)
+            return not self.clocks.on_timesync(v, msg, wall)
         elif mid == MSG_HEARTBEAT and compid == 1:
             self.on_heartbeat(v, msg, now)
         elif mid == MSG_GPS_GLOBAL_ORIGIN:

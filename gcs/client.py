@@ -48,6 +48,8 @@ RESULT_NAMES = {
 # A vehicle clock (time_boot_ms) that goes back by more than this is a reboot (ms), not
 # a late packet: its clock is followed from there.
 REBOOT_JUMP_MS = 5000
+LOCKSTEP_TIMEOUT = 15.0      # wall s a lockstep client waits for the world's next TICK
+LS_JOIN, LS_ACK, LS_TICK, LS_LEAVE, LS_TOWER = 1, 2, 3, 4, 2   # TOWERLINK_LOCKSTEP kind / participant
 
 # Position-only SET_POSITION_TARGET_LOCAL_NED: ignore velocity, acceleration, yaw, yaw rate.
 MASK_POS_ONLY = 0b0000_1101_1111_1000
@@ -227,12 +229,25 @@ def _default_factory(conn: str, source_system: int, source_component: int):
                                       dialect="ardupilotmega", autoreconnect=True)
 
 
+def _dialect_factory(conn: str, source_system: int, source_component: int):
+    from gcs.dialect import mavlink_connection
+    return mavlink_connection(conn, source_system=source_system, source_component=source_component,
+                              autoreconnect=True)
+
+
 class Client:
     """One MAVLink link with state tracking and blocking, deadline-bounded helpers."""
 
     def __init__(self, master: Any, *, log: Callable[[str], None] | None = None,
-                 heartbeat_interval: float = 1.0, tlog: str | None = None) -> None:
+                 heartbeat_interval: float = 1.0, tlog: str | None = None,
+                 lockstep: bool = False, lockstep_timeout: float = LOCKSTEP_TIMEOUT) -> None:
         self.master = master
+        # whole-system lockstep (issue 11): the world's TICKs are this client's clock
+        self.lockstep = lockstep
+        self.lockstep_timeout = lockstep_timeout   # wall s without a TICK: ClientTimeout
+        self.tick_usec: int | None = None         # newest TICK handled (sim us)
+        self._ack_due: int | None = None          # TICK handled, ACK not yet sent
+        self._last_join = -1e9
         self.mav = master.mav
         self.systems: dict[int, SystemState] = {}
         self.log = log or (lambda s: None)
@@ -248,21 +263,44 @@ class Client:
         self.bad_packets = 0
         self.received = 0
         self._send_heartbeat()
+        if lockstep:
+            self._join()
+
+    def _now(self) -> float:
+        """The clock every deadline, retry and resend of this client runs on: wall seconds,
+        or with lockstep the sim time of the newest TICK (then a poll returns only at a TICK,
+        so what this client decides depends on sim time alone, never on the machine's speed)."""
+        if self.lockstep:
+            return (self.tick_usec or 0) / 1e6
+        return time.monotonic()
+
+    def _stamp(self) -> float:
+        """When a received message is noted: with lockstep, just after the newest TICK (it
+        arrived after the program acted on that TICK), so `stamp > t0` means "after the call"."""
+        return self._now() + (1e-6 if self.lockstep else 0.0)
 
     # -- construction
 
     @classmethod
     def connect(cls, conn: str = "udpout:127.0.0.1:14600", *, source_system: int = 255,
                 source_component: int = 190, log: Callable[[str], None] | None = None,
-                tlog: str | None = None, factory: Callable[..., Any] | None = None) -> "Client":
-        """Open `conn` (pymavlink spelling: udpout:H:P, udpin:H:P, tcp:H:P) as a GCS."""
+                tlog: str | None = None, factory: Callable[..., Any] | None = None,
+                lockstep: bool = False) -> "Client":
+        """Open `conn` (pymavlink spelling: udpout:H:P, udpin:H:P, tcp:H:P) as a GCS.
+
+        lockstep: join the world's lockstep through the bridge (TOWERLINK_LOCKSTEP, so the
+        connection speaks the towerlink dialect)."""
+        if factory is None and lockstep:
+            factory = _dialect_factory
         try:
             master = (factory or _default_factory)(conn, source_system, source_component)
         except OSError as exc:
             raise ClientError(f"cannot open {conn}: {exc}") from exc
-        return cls(master, log=log, tlog=tlog)
+        return cls(master, log=log, tlog=tlog, lockstep=lockstep)
 
     def close(self) -> None:
+        if self.lockstep:
+            self._lockstep_send(LS_LEAVE, self.tick_usec or 0)
         try:
             self.master.close()
         finally:
@@ -288,7 +326,13 @@ class Client:
         return self.systems[sysid]
 
     def poll(self, timeout: float = 0.0) -> int:
-        """Receive and process messages for up to `timeout` wall seconds; returns how many."""
+        """Receive and process messages for up to `timeout` wall seconds; returns how many.
+
+        With lockstep: first ACK the TICK handled last (everything the program did since has
+        been sent), then receive until the next TICK, whatever `timeout` says; raises
+        ClientTimeout when no TICK comes for `lockstep_timeout` wall seconds."""
+        if self.lockstep:
+            return self._poll_tick()
         end = time.monotonic() + max(0.0, timeout)
         n = 0
         while True:
@@ -306,6 +350,41 @@ class Client:
                 continue
             if time.monotonic() >= end:
                 return n
+
+    # -- lockstep (issue 11)
+
+    def _lockstep_send(self, kind: int, t_usec: int) -> None:
+        send = getattr(self.mav, "towerlink_lockstep_send", None)
+        if send is not None:
+            self._send(lambda: send(t_usec, 0, kind, LS_TOWER, 0))
+
+    def _join(self) -> None:
+        self._last_join = time.monotonic()
+        self._lockstep_send(LS_JOIN, 0)
+
+    def _poll_tick(self) -> int:
+        if self._ack_due is not None:
+            self._lockstep_send(LS_ACK, self._ack_due)
+            self._ack_due = None
+        end = time.monotonic() + self.lockstep_timeout
+        n = 0
+        while True:
+            self._maybe_heartbeat()
+            if self.tick_usec is None and time.monotonic() - self._last_join >= 0.5:
+                self._join()
+            try:
+                msg = self.master.recv_match(blocking=True, timeout=0.1)
+            except (OSError, ValueError):
+                msg = None
+                time.sleep(0.01)
+            if msg is not None:
+                n += 1
+                self._handle(msg)
+                if self._ack_due is not None:
+                    return n
+                continue
+            if time.monotonic() >= end:
+                raise ClientTimeout(f"lockstep: no TICK from the world in {self.lockstep_timeout:g} s")
 
     def _handle(self, msg: Any) -> None:
         mtype = msg.get_type()
@@ -331,7 +410,7 @@ class Client:
                 st.mav_type, st.autopilot = msg.type, msg.autopilot
                 st.base_mode, st.custom_mode = msg.base_mode, msg.custom_mode
                 st.system_status = msg.system_status
-                st.heartbeat_wall = time.monotonic()
+                st.heartbeat_wall = self._stamp()
         elif mtype == "LOCAL_POSITION_NED":
             p = Position(msg.x, msg.y, msg.z, msg.vx, msg.vy, msg.vz, msg.time_boot_ms)
             if st.position is None or p.time_boot_ms >= st.position.time_boot_ms \
@@ -342,6 +421,10 @@ class Client:
         elif mtype == "COMMAND_ACK":
             self._ack_serial += 1
             self._acks[(src, msg.command)] = (self._ack_serial, msg.result)
+        elif mtype == "TOWERLINK_LOCKSTEP" and self.lockstep and msg.kind == LS_TICK:
+            if self.tick_usec is None or msg.time_usec > self.tick_usec:
+                self.tick_usec = msg.time_usec
+                self._ack_due = msg.time_usec
         elif mtype == "STATUSTEXT":
             text = mav_str(msg.text)
             self._text_serial += 1
@@ -373,12 +456,12 @@ class Client:
 
     def _wait(self, cond: Callable[[], Any], timeout: float) -> Any:
         """Poll until cond() is truthy (returned) or the wall deadline passes (None)."""
-        end = time.monotonic() + timeout
+        end = self._now() + timeout
         while True:
             v = cond()
             if v:
                 return v
-            left = end - time.monotonic()
+            left = end - self._now()
             if left <= 0:
                 return None
             self.poll(min(left, 0.05))
@@ -410,7 +493,7 @@ class Client:
 
     def wait_heartbeat(self, sysid: int = 1, timeout: float = 30.0) -> SystemState:
         """Wait for a vehicle heartbeat from `sysid` (newer than this call)."""
-        t0 = time.monotonic()
+        t0 = self._now()
         st = self._wait(lambda: (self.system(sysid).heartbeat_wall or 0) >= t0 and self.system(sysid),
                         timeout)
         if st is None:
@@ -439,10 +522,10 @@ class Client:
         """
         p = list(params) + [0.0] * (7 - len(params))
         accept = set(accept)
-        end = time.monotonic() + timeout
+        end = self._now() + timeout
         confirmation = 0
         st = self.system(sysid)
-        while time.monotonic() < end:
+        while self._now() < end:
             before = self._acks.get((sysid, command), (0, 0))[0]
             sent_ms = st.time_boot_ms
             self._send(lambda: self.mav.command_long_send(sysid, component, command, confirmation, *p))
@@ -453,7 +536,7 @@ class Client:
                     return self._acks[(sysid, command)]
                 return (sent_ms and st.time_boot_ms - sent_ms >= ack_timeout * 1000.0) and "retry"
 
-            ack = self._wait(acked_or_due, min(ack_timeout, max(0.0, end - time.monotonic())))
+            ack = self._wait(acked_or_due, min(ack_timeout, max(0.0, end - self._now())))
             if ack == "retry":
                 continue
             if ack:
@@ -472,25 +555,25 @@ class Client:
         if st.mav_type is None:
             self.wait_heartbeat(sysid, timeout)
         number = mode_number(mode, st.mav_type)
-        end = time.monotonic() + timeout
+        end = self._now() + timeout
         rejected: CommandRejected | None = None
-        while time.monotonic() < end:
+        while self._now() < end:
             if st.custom_mode == number and (st.heartbeat_wall or 0) > 0:
                 return
             try:
                 self.command_long(sysid, mavlink.MAV_CMD_DO_SET_MODE,
                                   [mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, number],
-                                  timeout=min(2.0, max(0.1, end - time.monotonic())))
+                                  timeout=min(2.0, max(0.1, end - self._now())))
             except CommandTimeout:
                 continue
             except CommandRejected as exc:  # e.g. GUIDED before the position estimate is good
                 rejected = exc
-                self.poll(min(0.5, max(0.0, end - time.monotonic())))
+                self.poll(min(0.5, max(0.0, end - self._now())))
                 continue
             # accepted: the next heartbeats show it
-            t0 = time.monotonic()
+            t0 = self._now()
             self._wait(lambda: st.custom_mode == number and (st.heartbeat_wall or 0) > t0,
-                       min(2.5, max(0.0, end - time.monotonic())))
+                       min(2.5, max(0.0, end - self._now())))
         if st.custom_mode == number:
             return
         raise ModeChangeError(f"system {sysid} did not enter mode {mode} in {timeout:g} s "
@@ -504,7 +587,7 @@ class Client:
         Raises ArmError (with the PreArm texts seen) at the deadline.
         """
         st = self.system(sysid)
-        end = time.monotonic() + timeout
+        end = self._now() + timeout
         serial = self._text_serial
         prearm: list[str] = []
         last_result: int | None = None
@@ -517,23 +600,23 @@ class Client:
                     prearm.append(text)
                     self.log(f"system {sysid}: {text}")
 
-        while time.monotonic() < end:
+        while self._now() < end:
             collect()
             if st.armed:
                 return
             try:
                 last_result = self.command_long(
                     sysid, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, [1, 21196 if force else 0],
-                    timeout=min(2.0, max(0.1, end - time.monotonic())))
+                    timeout=min(2.0, max(0.1, end - self._now())))
             except CommandRejected as exc:
                 last_result = exc.result
-                self.poll(min(retry_interval, max(0.0, end - time.monotonic())))
+                self.poll(min(retry_interval, max(0.0, end - self._now())))
                 continue
             except CommandTimeout:
                 continue
-            t0 = time.monotonic()
+            t0 = self._now()
             if self._wait(lambda: st.armed and (st.heartbeat_wall or 0) > t0,
-                          min(2.5, max(0.0, end - time.monotonic()))):
+                          min(2.5, max(0.0, end - self._now()))):
                 collect()
                 return
         collect()
@@ -545,8 +628,8 @@ class Client:
 
     def disarm(self, sysid: int = 1, timeout: float = 10.0, force: bool = False) -> None:
         st = self.system(sysid)
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
+        end = self._now() + timeout
+        while self._now() < end:
             if not st.armed and st.heartbeat_wall is not None:
                 return
             try:
@@ -554,7 +637,7 @@ class Client:
                                   [0, 21196 if force else 0], timeout=2.0)
             except (CommandTimeout, CommandRejected):
                 pass
-            t0 = time.monotonic()
+            t0 = self._now()
             self._wait(lambda: not st.armed and (st.heartbeat_wall or 0) > t0, 2.0)
         raise ClientTimeout(f"system {sysid} still armed after {timeout:g} s")
 
@@ -567,14 +650,14 @@ class Client:
         stood, along the link frame's z (down).
         """
         st = self.system(sysid)
-        end = time.monotonic() + timeout
+        end = self._now() + timeout
         p0 = st.position or self.wait_position(sysid, min(10.0, timeout))
         z0 = p0.z
         climbing = lambda: st.position is not None and z0 - st.position.z > min(0.5, alt / 2)  # noqa: E731
-        while time.monotonic() < end and not climbing():
+        while self._now() < end and not climbing():
             try:
                 self.command_long(sysid, mavlink.MAV_CMD_NAV_TAKEOFF, [0, 0, 0, 0, 0, 0, alt],
-                                  timeout=min(2.0, max(0.1, end - time.monotonic())))
+                                  timeout=min(2.0, max(0.1, end - self._now())))
                 break
             except CommandTimeout:
                 continue
@@ -587,7 +670,7 @@ class Client:
         if not wait:
             return st.position or p0
         p = self._wait(lambda: st.position is not None and z0 - st.position.z >= alt - tolerance
-                       and st.position, max(0.0, end - time.monotonic()))
+                       and st.position, max(0.0, end - self._now()))
         if p is None:
             h = (z0 - st.position.z) if st.position else float("nan")
             raise TakeoffError(f"system {sysid} at {h:.2f} m, not {alt:g} m, after {timeout:g} s")
@@ -637,8 +720,8 @@ class Client:
         st = self.system(sysid)
         after = st.time_boot_ms if after_ms is None else after_ms
         reboots, stale = st.reboots, st.position
-        end = time.monotonic() + timeout
-        last_resend = time.monotonic()
+        end = self._now() + timeout
+        last_resend = self._now()
         last_seen: Position | None = None
         dist: float | None = None
         while True:
@@ -651,7 +734,7 @@ class Client:
                     on_sample(p, dist)
                 if dist <= radius:
                     return Reached(p, dist)
-            now = time.monotonic()
+            now = self._now()
             if now >= end:
                 raise GoalTimeout(goal, radius, dist, timeout)
             if resend is not None and now - last_resend >= resend_interval:
@@ -673,7 +756,7 @@ class Client:
 
     def _wait_landed(self, sysid: int, timeout: float) -> None:
         st = self.system(sysid)
-        t0 = time.monotonic()
+        t0 = self._now()
         ok = self._wait(lambda: (st.heartbeat_wall or 0) > t0 and (
             not st.armed or st.landed_state == mavlink.MAV_LANDED_STATE_ON_GROUND), timeout)
         if not ok:
@@ -698,10 +781,10 @@ class Client:
 
         self._listeners.append(listen)
         try:
-            end = time.monotonic() + timeout
-            while time.monotonic() < end:
+            end = self._now() + timeout
+            while self._now() < end:
                 self._send(lambda: self.mav.param_request_read_send(sysid, 1, name.encode(), -1))
-                if self._wait(lambda: name in got, min(1.0, max(0.0, end - time.monotonic()))):
+                if self._wait(lambda: name in got, min(1.0, max(0.0, end - self._now()))):
                     return got[name]
             raise ClientTimeout(f"no PARAM_VALUE {name} from system {sysid} in {timeout:g} s")
         finally:

@@ -14,7 +14,8 @@ position targets tower -> world on the way in), and flies the lab mission:
 
 Each goal is logged with its tower coordinates and its time to reach in sim
 seconds, from the drone's own time_boot_ms (the wall clock is used only for the
-per-goal deadline). Exit status 0 iff every goal was reached.
+per-goal deadline and the re-send period; with --lockstep those count sim seconds too,
+taken from the world's TICKs). Exit status 0 iff every goal was reached.
 
 Examples:
   towerlink tower                                   # default scenario, bridge at udpout:127.0.0.1:14600
@@ -258,6 +259,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--sysid", type=int, default=DRONE_SYSID, help="the drone's system id")
     parser.add_argument("--result", default=None, help="write the mission result as JSON here")
     parser.add_argument("--tlog", default=None, help="record this link (both ways) as a tlog")
+    parser.add_argument("--lockstep", action="store_true",
+                        help="whole-system lockstep (issue 11): join the world's TOWERLINK_LOCKSTEP handshake "
+                             "through the bridge (`towerlink bridge --lockstep`, `towerlink sitl --lockstep N`); "
+                             "every timeout, retry and --resend then counts sim seconds of the world's TICKs")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -293,7 +298,7 @@ def run(args: argparse.Namespace) -> int:
     log(f"scenario {sc.name}: {len(goals)} goals in frame {frame!r}, altitude {altitude:g} m, "
         f"radius {radius:g} m, finish {finish}; link {args.connect}")
     try:
-        client = Client.connect(args.connect, log=log, tlog=args.tlog)
+        client = Client.connect(args.connect, log=log, tlog=args.tlog, lockstep=args.lockstep)
     except ClientError as exc:
         log(str(exc))
         return 2

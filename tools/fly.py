@@ -40,6 +40,12 @@ drone's ground point, from truth); and the wobble figure for both follow frames
 (the bridge computes the ground point through the full-attitude and the yaw-only
 frame on every follow tick, whichever one it steers by).
 
+With --lockstep (issue 11) the world waits for the bridge and the tower (TOWERLINK_LOCKSTEP),
+so a seed gives the same summary figures at any --speedup (max: as fast as the machine allows)
+and under any CPU load:
+
+  towerlink fly --lockstep --speedup max
+
 Exit status 0 iff the tower reached every goal.
 """
 from __future__ import annotations
@@ -59,6 +65,7 @@ import time
 from pathlib import Path
 
 from gcs.geo import lla_to_ned, ned_to_lla
+from gcs.lockstep import speedup_arg, speedup_text
 from gcs.mavstr import mav_str
 
 os.environ.setdefault("MAVLINK20", "1")
@@ -251,11 +258,12 @@ class Launch:
                  loss_seed: int = 1, sitl_args: tuple[str, ...] = (), bridge_args: tuple[str, ...] = (),
                  tower_args: tuple[str, ...] = (), echo: bool = False, host: str = "127.0.0.1",
                  view_port: int | None = None, nodes: str | os.PathLike | None = None,
-                 follow_with: str = "bridge", foll_pos_p: float | None = None) -> None:
+                 lockstep: bool = False, follow_with: str = "bridge", foll_pos_p: float | None = None) -> None:
         self.dir = Path(run_dir)
         self.dir.mkdir(parents=True, exist_ok=True)
         self.scenario = str(Path(scenario).resolve()) if scenario else None
-        self.speedup = speedup
+        self.speedup = speedup          # float('inf'): --speedup max
+        self.lockstep = lockstep        # issue 11: world, bridge and tower in lockstep
         self.seed = seed
         self.follow_frame = follow_frame
         self.goals, self.alt, self.radius, self.finish = goals, alt, radius, finish
@@ -309,12 +317,14 @@ class Launch:
 
     def sitl_cmd(self) -> list[str]:
         h = self.host
-        return towerlink_cmd("sitl", "--speedup", f"{self.speedup:g}", "--seed", str(self.seed),
+        # the bridge and the tower are the lockstep participants: the world waits for both at t=0
+        lock = ("--lockstep", "2") if self.lockstep else ()
+        return towerlink_cmd("sitl", "--speedup", speedup_text(self.speedup), "--seed", str(self.seed),
                              "--no-save", "--tcp-base", "0", "--udp-base", "0",
                              "--endpoint", f"0=udpin:{h}:{self.ports['drone']}",
                              "--endpoint", f"1=udpin:{h}:{self.ports['rover']}",
                              "--out", f"udpout:{h}:{self.ports['vehicles']}", *self._scenario_wind(),
-                             *(("--rovers", "2") if self.follow_with == "both" else ()), *self.sitl_args)
+                             *lock, *(("--rovers", "2") if self.follow_with == "both" else ()), *self.sitl_args)
 
     def _scenario_wind(self) -> list[str]:
         """The scenario's wind table as `sitl --wind` (none when it has no wind)."""
@@ -330,7 +340,9 @@ class Launch:
                             "--drone", f"udpout:{h}:{self.ports['drone']}",
                             "--rover", f"udpout:{h}:{self.ports['rover']}",
                             "--out", f"udpout:{h}:{self.ports['bridge']}",
-                            "--speedup", f"{self.speedup:g}")
+                            "--speedup", speedup_text(self.speedup))
+        if self.lockstep:
+            cmd.append("--lockstep")
         if self.scenario:
             cmd += ["--scenario", self.scenario]
         if self.follow_frame:
@@ -354,6 +366,8 @@ class Launch:
         cmd = towerlink_cmd("tower", "--connect", self.tower_url(),
                             "--result", str(self.dir / "tower.json"), "--tlog", str(self.dir / "tower.tlog"),
                             "--goal-timeout", f"{self.goal_timeout:g}")
+        if self.lockstep:
+            cmd.append("--lockstep")
         for flag, v in (("--scenario", self.scenario), ("--goals", self.goals), ("--alt", self.alt),
                         ("--radius", self.radius), ("--finish", self.finish)):
             if v is not None:
@@ -447,6 +461,7 @@ class Launch:
                 self.monitor.request_params()
             if self.ap_driver is not None:
                 self.ap_driver.tick()
+            self.achieved_speedup()          # also anchors sim0 for the summary when quiet
             if progress and now - last_print >= progress:
                 last_print = now
                 print(self.progress_line(), file=out, flush=True)
@@ -477,10 +492,11 @@ class Launch:
         sp = self.achieved_speedup()
         sptxt = f"{sp:.1f}x" if sp else "-"
         return (f"[fly] t={snap['sim']:7.2f} s sim  {goal:<20} {dtxt}  {etxt}  "
-                f"speedup {sptxt} (asked {self.speedup:g}x)")
+                f"speedup {sptxt} (asked {speedup_text(self.speedup)}x{', lockstep' if self.lockstep else ''})")
 
     def write_meta(self) -> None:
-        meta = {"scenario": self.scenario, "speedup": self.speedup, "seed": self.seed,
+        meta = {"scenario": self.scenario, "speedup": speedup_text(self.speedup), "lockstep": self.lockstep,
+                "seed": self.seed,
                 "follow_frame": self.follow_frame, "goals": self.goals, "tower_loss": self.tower_loss,
                 "follow_with": self.follow_with, "ardupilot_follower": self.ap_follower,
                 "ports": self.ports,
@@ -525,7 +541,9 @@ class Launch:
         tj = self.dir / "tower.json"
         tower = json.loads(tj.read_text()) if tj.exists() else {"ok": False, "goals": [],
                                                                 "error": "the tower wrote no result"}
-        meta = {"seed": self.seed, "speedup": self.speedup, "tower_exit": tower_rc,
+        meta = {"seed": self.seed, "speedup": self.speedup if math.isfinite(self.speedup) else "max",
+                "lockstep": self.lockstep,
+                "tower_exit": tower_rc,
                 "follow_frame": self.follow_frame or _scenario_follow(self.scenario),
                 "run_dir": str(self.dir), "bridge_restarts": self.bridge_restarts,
                 "tower_loss": self.tower_loss}
@@ -594,11 +612,22 @@ def _json_default(o):
 # ----------------------------------------------------------------------------- CLI
 
 
+def _speedup(text: str) -> float:
+    try:
+        return speedup_arg(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc))
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenario", nargs="?", default=None,
                         help="scenario TOML (default: the built-in lab scenario)")
-    parser.add_argument("--speedup", type=float, default=5.0,
-                        help="sim seconds per wall second (default 5; the machine may deliver less)")
+    parser.add_argument("--speedup", type=_speedup, default=5.0, metavar="N|max",
+                        help="at most N sim seconds per wall second (default 5; the machine may deliver less); "
+                             "'max': as fast as the machine allows (use with --lockstep)")
+    parser.add_argument("--lockstep", action="store_true",
+                        help="whole-system lockstep (issue 11): the world waits for the bridge and the tower "
+                             "(TOWERLINK_LOCKSTEP), so a seed gives the same figures at any speed and load")
     parser.add_argument("--follow-frame", choices=("drone", "drone_yaw"), default=None,
                         help="frame the rover's goal is written in (default: the scenario's)")
     parser.add_argument("--seed", type=int, default=1, help="the world's noise seed (default 1)")
@@ -641,12 +670,15 @@ def run(args: argparse.Namespace) -> int:
                         follow_frame=args.follow_frame, goals=args.goals, alt=args.alt, radius=args.radius,
                         finish=args.finish, goal_timeout=args.goal_timeout, tower_loss=args.tower_loss,
                         echo=args.verbose, view_port=args.view, nodes=args.nodes,
-                        follow_with=args.follow_with, foll_pos_p=args.foll_pos_p)
+                        lockstep=args.lockstep, follow_with=args.follow_with, foll_pos_p=args.foll_pos_p)
     except ValueError as exc:
         print(f"towerlink fly: {exc}", file=sys.stderr)
         return 2
     print(f"towerlink fly: world + bridge + tower on 127.0.0.1 (ports {launch.ports}); run folder {out}",
           flush=True)
+    if math.isinf(args.speedup) and not args.lockstep:
+        print("towerlink fly: --speedup max without --lockstep: the world runs as fast as the CPU and the "
+              "bridge and the tower fall behind it; the figures will depend on the machine", file=sys.stderr)
 
     def on_term(signum, frame):  # SIGTERM: same clean stop as Ctrl-C
         raise KeyboardInterrupt

@@ -469,7 +469,7 @@ def format_summary(s: dict) -> str:
     if s.get("seed") is not None:
         bits.append(f"seed {s['seed']}")
     if s.get("speedup") is not None:
-        sp = f"speedup {s['speedup']:g}x"
+        sp = f"speedup {s['speedup']:g}x" if isinstance(s["speedup"], (int, float)) else f"speedup {s['speedup']}"
         if s.get("achieved_speedup"):
             sp += f" (achieved {s['achieved_speedup']:.1f}x)"
         bits.append(sp)

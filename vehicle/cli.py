@@ -45,6 +45,12 @@ vehicle changes it. With ArduPilot's default profile (SIM_WIND_T 0) the wind gro
 root of height up to SIM_WIND_T_ALT (60 m); SIM_WIND_T 1 blows at full speed at every height.
   towerlink sitl --wind 8,270,1                     # 8 m/s westerly, 1 m/s turbulence
 
+Lockstep (issue 11): with --lockstep N the world waits at t=0 for N participants (towerlink
+bridge --lockstep, towerlink tower --lockstep through it) and never steps past a TOWERLINK_LOCKSTEP
+TICK until each has ACKed it; one silent for --lockstep-timeout wall seconds is dropped. Other
+clients see an ordinary vehicle. --speedup max then runs as fast as the slowest participant allows:
+  towerlink sitl --lockstep 2 --speedup max
+
 Missions, fences and rally points uploaded by a GCS are saved beside the parameters
 (STATE_DIR/drone<j>.missions.json) and loaded on the next start. --mission I=FILE loads a
 QGC WPL 110 file (as written by QGroundControl, Mission Planner, MAVProxy 'wp save') into
@@ -60,6 +66,14 @@ import sys
 
 from gcs.signing import key_from_text as signing_key
 from vehicle.world import DEFAULT_HOME, DEFAULT_STATE_DIR, PLAN_FILE, World, WorldConfig
+
+
+def _speedup(s: str) -> float:
+    from gcs.lockstep import speedup_arg
+    try:
+        return speedup_arg(s)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e))
 
 
 def _home(s: str) -> tuple[float, float, float]:
@@ -135,8 +149,18 @@ def _wind(s: str):
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--drones", type=int, default=1, metavar="N", help="number of drones (default 1)")
     p.add_argument("--rovers", type=int, default=1, metavar="M", help="number of rovers (default 1)")
-    p.add_argument("--speedup", type=float, default=1.0, metavar="N",
-                   help="sim seconds per wall second, lockstep (default 1)")
+    p.add_argument("--speedup", type=_speedup, default=1.0, metavar="N|max",
+                   help="at most N sim seconds per wall second (default 1); 'max': as fast as the CPU "
+                        "and the --lockstep participants allow")
+    p.add_argument("--lockstep", type=int, default=0, metavar="N",
+                   help="whole-system lockstep (issue 11): wait at t=0 until N participants (bridge, "
+                        "tower) sent TOWERLINK_LOCKSTEP JOIN on every vehicle, then never step past a "
+                        "TICK until every participant ACKed it; participants reach the world over its UDP "
+                        "endpoints (default 0: off)")
+    p.add_argument("--lockstep-period", type=float, default=0.04, metavar="S",
+                   help="sim seconds between lockstep TICKs (default 0.04; rounded to the 50 Hz autopilot tick)")
+    p.add_argument("--lockstep-timeout", type=float, default=10.0, metavar="S",
+                   help="wall seconds a participant may stay silent before it is dropped (default 10)")
     p.add_argument("--rate", type=float, default=400.0, metavar="HZ", help="physics rate (default 400)")
     p.add_argument("--home", type=_home, default=DEFAULT_HOME, metavar="LAT,LON,ALT",
                    help="world origin = home (default %s,%s,%s, ArduPilot SITL's)" % DEFAULT_HOME)
@@ -185,7 +209,9 @@ def config_from_args(a: argparse.Namespace) -> WorldConfig:
                        outs=list(a.out), endpoints=endpoints, sysid_base=a.sysid_base,
                        signing_key=signing_key(a.signing_key), missions=dict(a.mission),
                        sysids=dict(a.sysid), group_size=a.group_size,
-                       wind=getattr(a, "wind", None))
+                       wind=getattr(a, "wind", None),
+                       lockstep=a.lockstep, lockstep_period=a.lockstep_period,
+                       lockstep_timeout=a.lockstep_timeout)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -194,6 +220,10 @@ def run(args: argparse.Namespace) -> int:
         return 2
     if args.speedup <= 0 or args.rate < 50:
         print("towerlink sitl: --speedup must be > 0 and --rate >= 50", file=sys.stderr)
+        return 2
+    if args.lockstep < 0 or args.lockstep_period <= 0 or args.lockstep_timeout <= 0:
+        print("towerlink sitl: --lockstep must be >= 0, --lockstep-period and --lockstep-timeout > 0",
+              file=sys.stderr)
         return 2
     n = args.drones + args.rovers
     bad = [i for i, _ in args.mission if i >= n]

@@ -10,7 +10,14 @@ velocity at the autopilot rate.
 Time: physics advances in fixed steps of 1/rate sim seconds; autopilots and telemetry run
 every `ap_every` steps (50 Hz). With `speedup` N the world tracks N sim seconds per wall
 second; when the CPU cannot keep up it runs slower (re-anchoring its wall reference), never
-skipping or stretching a step. All MAVLink time fields are this sim time.
+skipping or stretching a step. All MAVLink time fields are this sim time. `speedup`
+inf (`--speedup max`) does not pace at all.
+
+Lockstep (issue 11, `lockstep` N > 0, off by default): the world waits at t = 0 for N
+participants (TOWERLINK_LOCKSTEP JOIN on every vehicle), then at every lockstep frame sends
+TICK(t) after everything it sent up to t and does not step on until every participant ACKed
+t (vehicle/lockstep.py). Participants' packets arriving between TICKs are held to the next
+TICK boundary, so they take effect at a sim time fixed by the data they react to.
 
 Python API (tests, tools):
     w = World(WorldConfig(drones=1, rovers=1, endpoints={0: ["udpin:127.0.0.1:14560"]}))
@@ -21,6 +28,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import math
 import os
 import threading
 import time
@@ -37,6 +45,8 @@ from vehicle.link import VehicleLink
 from vehicle.network_plan import NetworkPlan
 from vehicle.network_plan import plan as plan_world
 from vehicle.physics.wind import WindField, WindParams
+from vehicle.lockstep import LockstepGate
+from gcs import lockstep as lockstep_wire
 
 DEFAULT_HOME = (-35.363261, 149.165230, 584.0)      # ArduPilot SITL's default (CMAC)
 PLAN_FILE = "network_plan.json"      # in the state dir: the network plan of the running world
@@ -75,6 +85,10 @@ class WorldConfig:
         return plan_world(self.drones, self.rovers, tcp_base=self.tcp_base, udp_base=self.udp_base,
                           host=self.host, outs=self.outs, endpoints=self.endpoints,
                           sysid_base=self.sysid_base, sysids=self.sysids, group_size=self.group_size)
+    # whole-system lockstep (issue 11): 0 = off; N = wait at t = 0 for N participants
+    lockstep: int = 0
+    lockstep_period: float = 0.04     # sim s between TICKs (a multiple of the 50 Hz autopilot tick)
+    lockstep_timeout: float = 10.0    # wall s a participant may stay silent before it is dropped
 
     def vehicle_endpoints(self, i: int) -> list[str]:
         return list(self.network_plan().vehicles[i].endpoints)
@@ -173,6 +187,9 @@ class World:
         self._thread: threading.Thread | None = None
         self.ready = threading.Event()
         self.behind_events = 0
+        self.gate: LockstepGate | None = None
+        if cfg.lockstep > 0:
+            self._setup_lockstep()
 
     @staticmethod
     def start_position(kind: str, j: int) -> tuple[float, float, float]:
@@ -241,6 +258,100 @@ class World:
             for v in listeners:
                 if v is not lead:
                     v.ap.follow.on_global_position(lead.sysid, msg, t, v.ap.home_lla()[2])
+    # ----- lockstep (issue 11) -------------------------------------------------------------
+    def _setup_lockstep(self) -> None:
+        """Read TOWERLINK_LOCKSTEP off every UDP endpoint before the vehicle's link sees it
+        (the link speaks ardupilotmega; the world's gate owns this one message)."""
+        cfg = self.cfg
+        ap_dt = self.dt * self.ap_every
+        self.frame_steps = self.ap_every * max(1, int(round(cfg.lockstep_period / ap_dt)))
+        self.gate = LockstepGate(len(self.vehicles), cfg.lockstep, cfg.lockstep_timeout)
+        self._ticked_steps = -1
+        self._gate_event: asyncio.Event | None = None
+        # a participant's packets take effect at a TICK boundary: the one the world stands at
+        # if it has not ACKed that TICK yet, else the next; so each takes effect at a sim time
+        # fixed by the data it reacts to, never by when the machine delivered it
+        self._held: list[tuple] = []
+        self._at_boundary = True
+        self.lockstep_waits = 0
+        self.lockstep_wait_wall = 0.0
+        for v in self.vehicles:
+            for ep in v.link.endpoints:
+                if ep.spec.startswith(("udpin:", "udpout:")):
+                    ep.on_data = self._lockstep_filter(v, ep.on_data)
+
+    def _lockstep_filter(self, v: Vehicle, inner):
+        def on_data(data: bytes, channel) -> bool:
+            m, rest = lockstep_wire.unpack(data)
+            if m is None:
+                sender = lockstep_wire.sender(data)
+                if sender is not None and self.gate.holds(*sender, v.index, self._boundary_usec()):
+                    self._held.append((inner, data, channel))
+                    return True
+                return inner(data, channel)
+            if m.target_system in (0, v.sysid):
+                line = self.gate.on_message(m, v.index, channel, time.monotonic())
+                if line:
+                    self.log(line)
+                if self._gate_event is not None:
+                    self._gate_event.set()
+            return (inner(rest, channel) if rest else False) or True
+        return on_data
+
+    def log(self, text: str) -> None:
+        print(f"[sitl t={self.t:9.3f}] {text}", flush=True)
+
+    def t_usec(self) -> int:
+        return int(round(self.steps * self.dt * 1e6))
+
+    def _boundary_usec(self) -> int | None:
+        """The TICK time the world stands at, or None while it is between TICKs."""
+        return self.t_usec() if self._at_boundary else None
+
+    def _flush_held(self) -> None:
+        """Deliver the participants' packets that came while the world was between TICKs."""
+        held, self._held = self._held, []
+        for inner, data, channel in held:
+            inner(data, channel)
+
+    def _send_ticks(self) -> None:
+        """TICK(t) after everything the vehicles sent up to t, to each joined channel."""
+        period = int(round(self.frame_steps * self.dt * 1e6))
+        t = self.t_usec()
+        for v in self.vehicles:
+            for ch in self.gate.channels(v.index):
+                ch.send(lockstep_wire.pack(lockstep_wire.TICK, t, participant=lockstep_wire.WORLD,
+                                           target_system=0, period_usec=period, sysid=v.sysid, compid=1))
+
+    async def _wait_gate(self, t_usec: int) -> None:
+        """Until every participant acknowledged t (or the silent ones were dropped)."""
+        gate = self.gate
+        w0 = time.monotonic()
+        self.lockstep_waits += 1
+        while not gate.passed(t_usec) and not self._stop.is_set():
+            self._gate_event.clear()
+            try:
+                await asyncio.wait_for(self._gate_event.wait(), 0.5)
+            except asyncio.TimeoutError:
+                pass
+            for p in gate.drop_silent(time.monotonic(), t_usec):
+                self.log(f"lockstep: {p.name} silent for {gate.timeout:g} s (wall): dropped, the world goes on")
+        self.lockstep_wait_wall += time.monotonic() - w0
+
+    async def _wait_start(self) -> None:
+        gate, last_log = self.gate, time.monotonic()
+        self.log(f"lockstep: waiting at t=0 for {self.cfg.lockstep} participant(s) on every vehicle")
+        while not gate.started(time.monotonic()) and not self._stop.is_set():
+            self._gate_event.clear()
+            try:
+                await asyncio.wait_for(self._gate_event.wait(), 0.5)
+            except asyncio.TimeoutError:
+                pass
+            if time.monotonic() - last_log > 10.0:
+                last_log = time.monotonic()
+                self.log(f"lockstep: still waiting at t=0: {len(gate.participants)} of {self.cfg.lockstep} joined")
+        self.log(f"lockstep: starting with {len(gate.participants)} participant(s), a TICK every "
+                 f"{self.frame_steps * self.dt * 1e3:g} ms sim, silent ones dropped after {gate.timeout:g} s wall")
 
     # ----- stepping ---------------------------------------------------------------------
     def step(self) -> None:
@@ -287,9 +398,14 @@ class World:
 
     async def _lockstep(self) -> None:
         speedup, dt = self.cfg.speedup, self.dt
+        paced = math.isfinite(speedup)     # --speedup max: as fast as the CPU (and the gate) allow
         chunk = 0.02                   # wall seconds of stepping before yielding to I/O
         min_sleep = 0.004              # fewer, larger sleeps: steps bunch up, sim time does not care
-        max_lag = max(0.1 * speedup, 4 * dt)
+        max_lag = max(0.1 * speedup, 4 * dt) if paced else math.inf
+        gate = self.gate
+        if gate is not None:
+            self._gate_event = asyncio.Event()
+            await self._wait_start()
         wall0, sim0 = time.monotonic(), self.t
         if self.cfg.start_at is not None and self.steps == 0:
             # a shared start: every worker's sim t = 0 is the same wall instant
@@ -297,8 +413,8 @@ class World:
             await asyncio.sleep(max(0.0, wall0 - time.monotonic()))
         while not self._stop.is_set():
             now = time.monotonic()
-            target = sim0 + speedup * (now - wall0)
-            if target - self.t > max_lag:
+            target = sim0 + speedup * (now - wall0) if paced else math.inf
+            if paced and target - self.t > max_lag:
                 # the CPU cannot keep up: forget the backlog beyond max_lag, so the world runs
                 # slower than asked, never skipping or stretching a step, and never bursting
                 self.behind_events += 1
@@ -306,12 +422,26 @@ class World:
                 target = self.t + max_lag
             deadline = now + chunk
             n = 0
+            blocked = False
             while self.t + 0.5 * dt <= target:
+                if gate is not None and self.steps % self.frame_steps == 0:
+                    self._at_boundary = True
+                    if self._ticked_steps != self.steps:
+                        self._ticked_steps = self.steps
+                        self._flush_held()
+                        self._send_ticks()
+                    if not gate.passed(self.t_usec()):
+                        blocked = True
+                        break
+                    self._at_boundary = False
                 self.step()
                 n += 1
                 if (n & 3) == 0 and time.monotonic() > deadline:
                     break
-            if self.t + 0.5 * dt <= target:
+            if blocked:
+                await self._wait_gate(self.t_usec())
+                continue
+            if not paced or self.t + 0.5 * dt <= target:
                 await asyncio.sleep(0)          # behind: serve I/O, then keep stepping
                 continue
             next_wall = wall0 + (self.t + dt - sim0) / speedup
@@ -354,7 +484,8 @@ class World:
         lines = [f"towerlink sitl: {len(p.vehicles)} vehicle(s), home {self.cfg.home[0]:.6f},"
                  f"{self.cfg.home[1]:.6f},{self.cfg.home[2]:.1f}, rate {self.cfg.rate:g} Hz, "
                  f"speedup {self.cfg.speedup:g}, seed {self.cfg.seed}"
-                 + (f", {workers} worker processes" if workers > 1 else "")]
+                 + (f", {workers} worker processes" if workers > 1 else "")
+                 + (f", lockstep with {self.cfg.lockstep} participant(s)" if self.cfg.lockstep else "")]
         if len(p.groups) > 1 or p.stride != 10:
             lines.append(f"{len(p.groups)} MAVLink network(s) of up to {p.group_size} vehicles, "
                          f"ports every {p.stride}:")
@@ -379,4 +510,8 @@ class World:
             s = v.link.stats
             who = f"vehicle {v.index} sysid {v.sysid}" if len(self.plan.groups) > 1 else f"sysid {v.sysid}"
             parts.append(f"{who}: " + " ".join(f"{k}={s[k]}" for k in sorted(s)))
-        return "stats: " + "; ".join(parts)
+        line = "stats: " + "; ".join(parts)
+        if self.gate is not None:
+            line += (f"\nlockstep: {self.lockstep_waits} waits for ACKs, {self.lockstep_wait_wall:.2f} s wall "
+                     f"waiting; {self.gate.dropped} participant(s) dropped for silence")
+        return line

@@ -1,0 +1,87 @@
+"""The bridge as a lockstep participant (issue 11, `towerlink bridge --lockstep`).
+
+The world (``towerlink sitl --lockstep N``) sends TOWERLINK_LOCKSTEP TICK(t) on each
+vehicle link after everything it sent up to sim time t. UDP keeps order per socket pair,
+so when TICK(t) has arrived on *every* vehicle link the bridge has handled every vehicle
+packet up to t (the loop handles packets in arrival order). Then, at that barrier:
+
+1. the bridge's sim-time upkeep runs (goal retries, the follower's stale check and its
+   mode/arm retries) on the barrier's clock, never on the wall clock;
+2. ACK(t) goes to every vehicle link, after everything the bridge sent in reaction;
+3. TICK(t) goes to the tower, if the tower joined (its JOIN/ACK/LEAVE pass through the
+   bridge to the world like any broadcast, on the same socket as its goals, so a goal sent
+   before the tower's ACK reaches the vehicle before it).
+
+Until the first TICK arrives on a link the bridge sends JOIN there every JOIN_PERIOD wall s.
+"""
+from __future__ import annotations
+
+from gcs.dialect import towerlink as tl
+
+JOIN_PERIOD = 0.5               # wall s between JOINs on a link that has had no TICK yet
+
+
+class LockstepDesk:
+    def __init__(self, vehicles: dict, pack_own, send_tower, on_barrier, log) -> None:
+        self.vehicles = vehicles            # sysid -> VehicleRecord
+        self.pack_own = pack_own            # message -> bytes (the bridge's own packet)
+        self.send_tower = send_tower        # bytes -> None
+        self.on_barrier = on_barrier        # (t seconds) -> None: the sim-time upkeep
+        self.log = log
+        self.ticks: dict[str, int] = {}     # vehicle link name -> newest TICK, us
+        self.barrier_usec = -1
+        self.period_usec = 0
+        self.tower_joined = False
+        self._next_join = 0.0
+        self.barriers = 0
+
+    @property
+    def sim_now(self) -> float:
+        """The barrier's sim time (s): the bridge's behaviour clock in lockstep."""
+        return max(self.barrier_usec, 0) / 1e6
+
+    def upkeep(self, wall: float) -> None:
+        if wall < self._next_join:
+            return
+        self._next_join = wall + JOIN_PERIOD
+        for v in self.vehicles.values():
+            if v.name not in self.ticks:
+                v.link.send(self.pack_own(self._message(tl.TOWERLINK_LOCKSTEP_KIND_JOIN, 0, v.sysid)))
+
+    def on_vehicle(self, v, msg) -> None:
+        """A TOWERLINK_LOCKSTEP from a vehicle link (the world's TICK)."""
+        if msg.kind != tl.TOWERLINK_LOCKSTEP_KIND_TICK:
+            return
+        if v.name not in self.ticks:
+            self.log(f"lockstep: {v.name} link ticks (every {msg.period_usec / 1e3:g} ms sim)")
+        self.ticks[v.name] = max(self.ticks.get(v.name, -1), msg.time_usec)
+        self.period_usec = msg.period_usec
+        if len(self.ticks) < len(self.vehicles):
+            return
+        barrier = min(self.ticks.values())
+        if barrier <= self.barrier_usec:
+            return
+        self.barrier_usec = barrier
+        self.barriers += 1
+        self.on_barrier(barrier / 1e6)
+        for w in self.vehicles.values():
+            w.link.send(self.pack_own(self._message(tl.TOWERLINK_LOCKSTEP_KIND_ACK, barrier, w.sysid)))
+        if self.tower_joined:
+            self.send_tower(self.pack_own(tl.MAVLink_towerlink_lockstep_message(
+                barrier, 0, tl.TOWERLINK_LOCKSTEP_KIND_TICK, tl.TOWERLINK_LOCKSTEP_PARTICIPANT_WORLD,
+                self.period_usec)))
+
+    def on_tower(self, msg) -> None:
+        """A TOWERLINK_LOCKSTEP from the tower (routed on to the world by the loop)."""
+        if msg.kind in (tl.TOWERLINK_LOCKSTEP_KIND_JOIN, tl.TOWERLINK_LOCKSTEP_KIND_ACK):
+            if not self.tower_joined:
+                self.log("lockstep: the tower joined; its TICKs follow the world's")
+            self.tower_joined = True
+        elif msg.kind == tl.TOWERLINK_LOCKSTEP_KIND_LEAVE:
+            self.tower_joined = False
+            self.log("lockstep: the tower left")
+
+    @staticmethod
+    def _message(kind: int, t_usec: int, target: int):
+        return tl.MAVLink_towerlink_lockstep_message(t_usec, target, kind,
+                                                     tl.TOWERLINK_LOCKSTEP_PARTICIPANT_BRIDGE, 0)

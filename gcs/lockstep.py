@@ -1,0 +1,117 @@
+"""TOWERLINK_LOCKSTEP (43005) on the wire, without the generated dialect (pure: no sockets, no clocks).
+
+The simulated vehicle may not import the generated dialect module (gcs.dialect), so the
+world packs and reads this one message here; tests/test_lockstep.py checks these bytes
+against gcs.dialect.towerlink (the same CRC_EXTRA, field order and lengths).
+
+The handshake (issue 11, docs/ARCHITECTURE.md "Lockstep"):
+
+* a participant (bridge, tower) sends JOIN until the first TICK arrives;
+* the world, at every lockstep frame (sim time t), sends TICK(t) after everything else it
+  sent up to t, to every address a participant joined from, and waits;
+* the participant handles everything before the TICK, sends its reactions, then ACK(t)
+  on the same path, so the world receives the reactions before the ACK;
+* LEAVE (or silence longer than the world's --lockstep-timeout) stops the waiting.
+
+Payload (MAVLink 2 wire order, largest type first): time_usec u64, period_usec u32,
+target_system u8, kind u8, participant u8.
+"""
+from __future__ import annotations
+
+import struct
+from dataclasses import dataclass
+
+from pymavlink.generator.mavcrc import x25crc
+
+MSG_ID = 43005
+CRC_EXTRA = 32                  # mavgen's seed for TOWERLINK_LOCKSTEP (checked against the dialect)
+JOIN, ACK, TICK, LEAVE = 1, 2, 3, 4
+WORLD, BRIDGE, TOWER, OTHER = 0, 1, 2, 3
+KIND_NAMES = {JOIN: "JOIN", ACK: "ACK", TICK: "TICK", LEAVE: "LEAVE"}
+PARTICIPANT_NAMES = {WORLD: "world", BRIDGE: "bridge", TOWER: "tower", OTHER: "other"}
+_PAYLOAD = struct.Struct("<QIBBB")
+_STX2 = 0xFD
+
+
+@dataclass(frozen=True)
+class Lockstep:
+    """One decoded TOWERLINK_LOCKSTEP: sim time in microseconds, the sender's ids."""
+    time_usec: int
+    kind: int
+    participant: int
+    target_system: int
+    period_usec: int
+    sysid: int
+    compid: int
+
+    @property
+    def t(self) -> float:
+        """time_usec in sim seconds."""
+        return self.time_usec / 1e6
+
+
+def pack(kind: int, time_usec: int, *, participant: int = WORLD, target_system: int = 0,
+         period_usec: int = 0, sysid: int = 1, compid: int = 1, seq: int = 0) -> bytes:
+    """One unsigned MAVLink 2 frame of TOWERLINK_LOCKSTEP (trailing zero bytes trimmed)."""
+    payload = _PAYLOAD.pack(int(time_usec) & 0xFFFFFFFFFFFFFFFF, int(period_usec) & 0xFFFFFFFF,
+                            target_system & 0xFF, kind & 0xFF, participant & 0xFF)
+    n = len(payload)
+    while n > 1 and payload[n - 1] == 0:
+        n -= 1
+    payload = payload[:n]
+    header = struct.pack("<BBBBBBBHB", _STX2, n, 0, 0, seq & 0xFF, sysid & 0xFF, compid & 0xFF,
+                         MSG_ID & 0xFFFF, MSG_ID >> 16)
+    crc = x25crc(header[1:] + payload)
+    crc.accumulate(bytes((CRC_EXTRA,)))
+    return header + payload + struct.pack("<H", crc.crc)
+
+
+def is_lockstep(data: bytes) -> bool:
+    """Does this datagram start with a MAVLink 2 TOWERLINK_LOCKSTEP frame? (cheap test)"""
+    return len(data) >= 12 and data[0] == _STX2 and data[7] | (data[8] << 8) | (data[9] << 16) == MSG_ID
+
+
+def sender(data: bytes) -> tuple[int, int] | None:
+    """(sysid, compid) from the header of the MAVLink frame `data` starts with, or None."""
+    if len(data) >= 10 and data[0] == _STX2:
+        return data[5], data[6]
+    if len(data) >= 6 and data[0] == 0xFE:
+        return data[3], data[4]
+    return None
+
+
+def unpack(data: bytes) -> tuple[Lockstep | None, bytes]:
+    """The first frame of `data` if it is a valid TOWERLINK_LOCKSTEP, and the bytes after it.
+
+    Returns (None, data) for anything else (another message, a bad CRC, a short frame):
+    the caller hands those bytes on unchanged. Signed frames are read (the signature is
+    not checked: lockstep is for one machine's or one lab's own processes)."""
+    if not is_lockstep(data):
+        return None, data
+    n, incompat = data[1], data[2]
+    end = 10 + n + 2 + (13 if incompat & 1 else 0)
+    if len(data) < 10 + n + 2:
+        return None, data
+    crc = x25crc(bytes(data[1:10 + n]))
+    crc.accumulate(bytes((CRC_EXTRA,)))
+    if crc.crc != struct.unpack_from("<H", data, 10 + n)[0]:
+        return None, data
+    payload = bytes(data[10:10 + n]) + bytes(_PAYLOAD.size - min(n, _PAYLOAD.size))
+    time_usec, period, target, kind, who = _PAYLOAD.unpack(payload[:_PAYLOAD.size])
+    return Lockstep(time_usec, kind, who, target, period, data[5], data[6]), bytes(data[end:])
+
+
+def speedup_arg(text: str) -> float:
+    """--speedup: a number > 0 (at most N times real time) or ``max`` (as fast as the slowest
+    lockstep participant and the CPU allow): float('inf'). Raises ValueError."""
+    if text.strip().lower() == "max":
+        return float("inf")
+    v = float(text)
+    if not v > 0:
+        raise ValueError(f"speedup must be > 0 or 'max', not {text!r}")
+    return v
+
+
+def speedup_text(v: float) -> str:
+    """The inverse of speedup_arg, for command lines and banners."""
+    return "max" if v == float("inf") else f"{v:g}"

@@ -1,0 +1,269 @@
+"""Whole-system lockstep (issue 11): the TOWERLINK_LOCKSTEP message, the world's gate, and a
+world held by a participant over a real UDP socket (the full-system proof is in
+tests/test_system_lockstep.py)."""
+from __future__ import annotations
+
+import math
+import socket
+
+import pytest
+from hypothesis import given, strategies as st
+
+from gcs import lockstep as L
+from gcs.dialect import towerlink as tl
+from tests.support import free_port, wait_until
+from vehicle.lockstep import LockstepGate
+from vehicle.world import World, WorldConfig
+
+
+# ----------------------------------------------------------------------------- the wire
+
+
+@given(kind=st.sampled_from([L.JOIN, L.ACK, L.TICK, L.LEAVE]), t=st.integers(0, 2**64 - 1),
+       who=st.integers(0, 3), target=st.integers(0, 255), period=st.integers(0, 2**32 - 1),
+       sysid=st.integers(1, 255), compid=st.integers(0, 255), seq=st.integers(0, 255))
+def test_pack_is_the_dialect_bytes_and_unpacks(kind, t, who, target, period, sysid, compid, seq):
+    mav = tl.MAVLink(None, srcSystem=sysid, srcComponent=compid)
+    mav.seq = seq
+    ref = tl.MAVLink_towerlink_lockstep_message(t, target, kind, who, period).pack(mav)
+    mine = L.pack(kind, t, participant=who, target_system=target, period_usec=period,
+                  sysid=sysid, compid=compid, seq=seq)
+    assert mine == ref
+    m, rest = L.unpack(ref + b"tail")
+    assert rest == b"tail"
+    assert (m.kind, m.time_usec, m.participant, m.target_system, m.period_usec, m.sysid, m.compid) == \
+        (kind, t, who, target, period, sysid, compid)
+
+
+def test_crc_extra_and_id_match_the_dialect():
+    assert L.CRC_EXTRA == tl.MAVLink_towerlink_lockstep_message.crc_extra
+    assert L.MSG_ID == tl.MAVLINK_MSG_ID_TOWERLINK_LOCKSTEP
+    assert (L.JOIN, L.ACK, L.TICK, L.LEAVE) == (tl.TOWERLINK_LOCKSTEP_KIND_JOIN, tl.TOWERLINK_LOCKSTEP_KIND_ACK,
+                                                tl.TOWERLINK_LOCKSTEP_KIND_TICK, tl.TOWERLINK_LOCKSTEP_KIND_LEAVE)
+
+
+def test_other_packets_and_damaged_frames_pass_through_untouched():
+    hb = tl.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3).pack(tl.MAVLink(None, 255, 190))
+    assert L.unpack(hb) == (None, hb)
+    good = L.pack(L.ACK, 40000, sysid=250, compid=191)
+    bad = good[:-1] + bytes([good[-1] ^ 0xFF])
+    assert L.unpack(bad) == (None, bad)
+    assert L.unpack(good[:12]) == (None, good[:12])
+
+
+def test_speedup_arg():
+    assert L.speedup_arg("max") == math.inf and L.speedup_arg(" MAX ") == math.inf
+    assert L.speedup_arg("2.5") == 2.5
+    for bad in ("0", "-1", "nan", "fast"):
+        with pytest.raises(ValueError):
+            L.speedup_arg(bad)
+    assert L.speedup_text(math.inf) == "max" and L.speedup_text(8.0) == "8"
+
+
+# ----------------------------------------------------------------------------- the gate (pure)
+
+
+def msg(kind, t_usec=0, sysid=250, compid=191, who=L.BRIDGE):
+    return L.Lockstep(t_usec, kind, who, 0, 0, sysid, compid)
+
+
+def test_gate_starts_when_the_expected_participants_joined_on_every_vehicle():
+    g = LockstepGate(vehicles=2, expect=2, timeout=10.0)
+    assert not g.started(0.0)
+    assert g.on_message(msg(L.JOIN), 0, "a", 0.0) == "lockstep: bridge (sysid 250, compid 191) joined"
+    g.on_message(msg(L.JOIN), 1, "b", 0.1)
+    g.on_message(msg(L.JOIN, sysid=255, compid=190, who=L.TOWER), 0, "a", 0.2)
+    assert not g.started(0.3)                   # the tower is on vehicle 0 only so far
+    g.on_message(msg(L.JOIN, sysid=255, compid=190, who=L.TOWER), 1, "b", 0.4)
+    assert g.started(0.5)
+    assert g.channels(0) == ["a"] and g.channels(1) == ["b"]    # one TICK per channel
+
+
+def test_gate_starts_anyway_after_the_timeout_with_whoever_joined():
+    g = LockstepGate(vehicles=2, expect=2, timeout=5.0)
+    g.on_message(msg(L.JOIN), 0, "a", 100.0)
+    assert not g.started(104.9)
+    assert g.started(105.0)
+
+
+def test_gate_waits_for_an_ack_on_every_link_a_participant_joined_on():
+    g = LockstepGate(vehicles=2, expect=1)
+    g.on_message(msg(L.JOIN), 0, "a", 0.0)
+    g.on_message(msg(L.JOIN), 1, "b", 0.0)
+    assert not g.passed(0)
+    g.on_message(msg(L.ACK, 40000), 0, "a", 0.1)
+    assert not g.passed(40000)                  # vehicle 1's link may still carry a reaction
+    g.on_message(msg(L.ACK, 40000), 1, "b", 0.1)
+    assert g.passed(40000) and not g.passed(80000)
+    g.on_message(msg(L.ACK, 20000), 1, "b", 0.2)  # an old ACK never moves it back
+    assert g.passed(40000)
+
+
+def test_gate_drops_a_silent_participant_and_a_leaving_one():
+    g = LockstepGate(vehicles=1, expect=1, timeout=2.0)
+    g.on_message(msg(L.JOIN), 0, "a", 0.0)
+    g.on_message(msg(L.JOIN, sysid=255, compid=190, who=L.TOWER), 0, "a", 0.0)
+    g.on_message(msg(L.ACK, 40000), 0, "a", 1.0)
+    assert g.drop_silent(1.9, 40000) == []
+    gone = g.drop_silent(2.0, 40000)            # the tower owes ACK(40000) and was silent 2 s
+    assert [p.sysid for p in gone] == [255] and g.dropped == 1 and g.passed(40000)
+    assert g.on_message(msg(L.LEAVE), 0, "a", 3.0) == "lockstep: bridge (sysid 250, compid 191) left"
+    assert g.participants == {} and g.passed(10**12)
+
+
+def test_gate_holds_a_participants_packets_to_the_next_boundary_once_it_acked():
+    g = LockstepGate(vehicles=1, expect=1)
+    g.on_message(msg(L.JOIN), 0, "a", 0.0)
+    assert not g.holds(250, 191, 0, 40000)       # at TICK(40 ms), not yet ACKed: handled now
+    assert g.holds(250, 191, 0, None)            # between TICKs: the next boundary
+    g.on_message(msg(L.ACK, 40000), 0, "a", 0.1)
+    assert g.holds(250, 191, 0, 40000)           # after its ACK(40 ms): belongs to the next frame
+    assert not g.holds(1, 190, 0, None)          # anyone else: an ordinary vehicle, on arrival
+
+
+# ----------------------------------------------------------------------------- a world held over UDP
+
+
+class Participant:
+    """A raw UDP lockstep participant of vehicle 0's udpin endpoint."""
+
+    def __init__(self, port: int, sysid: int = 250, compid: int = 191) -> None:
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.settimeout(5.0)
+        self.addr = ("127.0.0.1", port)
+        self.sysid, self.compid = sysid, compid
+        self.parser = tl.MAVLink(None)
+        self.parser.robust_parsing = True
+
+    def send(self, kind: int, t_usec: int = 0) -> None:
+        self.sock.sendto(L.pack(kind, t_usec, participant=L.BRIDGE, sysid=self.sysid, compid=self.compid),
+                         self.addr)
+
+    def next_tick(self) -> int:
+        """time_usec of the next TICK (other messages are skipped)."""
+        while True:
+            data, _ = self.sock.recvfrom(65535)
+            for m in self.parser.parse_buffer(data) or []:
+                if m.get_type() == "TOWERLINK_LOCKSTEP" and m.kind == L.TICK:
+                    return m.time_usec
+
+    def close(self) -> None:
+        self.sock.close()
+
+
+    def messages_until_tick(self) -> tuple[list, int]:
+        """(messages before the next TICK, that TICK's time_usec)."""
+        out = []
+        while True:
+            data, _ = self.sock.recvfrom(65535)
+            for m in self.parser.parse_buffer(data) or []:
+                if m.get_type() == "TOWERLINK_LOCKSTEP" and m.kind == L.TICK:
+                    return out, m.time_usec
+                out.append(m)
+
+    def request_system_time(self) -> None:
+        mav = tl.MAVLink(None, srcSystem=self.sysid, srcComponent=self.compid)
+        self.sock.sendto(tl.MAVLink_command_long_message(1, 1, tl.MAV_CMD_REQUEST_MESSAGE, 0,
+                                                         tl.MAVLINK_MSG_ID_SYSTEM_TIME, 0, 0, 0, 0, 0, 0).pack(mav),
+                         self.addr)
+
+
+def start_world(speedup: float = math.inf):
+    port = free_port()
+    w = World(WorldConfig(drones=1, rovers=0, state_dir=None, tcp_base=None, udp_base=None, speedup=speedup,
+                          endpoints={0: [f"udpin:127.0.0.1:{port}"]}, lockstep=1, lockstep_period=0.04,
+                          lockstep_timeout=1.0))
+    w.start_thread()
+    return w, Participant(port)
+
+
+@pytest.fixture
+def held_world():
+    w, p = start_world()
+    try:
+        yield w, p
+    finally:
+        p.close()
+        w.stop()
+
+
+def test_world_never_steps_past_an_unacknowledged_tick(held_world):
+    w, p = held_world
+    assert w.t == 0.0
+    p.send(L.JOIN)
+    assert p.next_tick() == 0
+    wait_until(lambda: w.lockstep_waits >= 1, 5.0, "the world waiting for ACK(0)")
+    assert w.steps == 0                        # --speedup max, yet held at t = 0
+    for k in range(5):
+        p.send(L.ACK, k * 40000)
+        assert p.next_tick() == (k + 1) * 40000
+        wait_until(lambda: w.lockstep_waits >= k + 2, 5.0, f"the world waiting for ACK({k + 1})")
+        assert w.steps == (k + 1) * w.frame_steps     # exactly at the TICK, not one step further
+    assert w.frame_steps * w.dt == pytest.approx(0.04)
+
+
+def test_a_silent_participant_is_dropped_and_the_world_goes_on(held_world, capsys):
+    w, p = held_world
+    p.send(L.JOIN)
+    assert p.next_tick() == 0
+    wait_until(lambda: w.t > 1.0, 10.0, "the world going on without the silent participant")
+    assert w.gate.dropped == 1
+    assert "lockstep: bridge (sysid 250, compid 191) silent for 1 s (wall): dropped, the world goes on" \
+        in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("speedup", [math.inf, 20.0])
+def test_a_participants_packets_take_effect_at_a_tick_boundary(speedup):
+    """Sent before its ACK(t): handled at t. Sent after it: at the next TICK, t + 40 ms, never
+    in between, whenever the machine delivered it (paced at 20x the world sleeps mid-frame).
+    (The answer to a packet sent after the ACK may come before or after that next TICK: a
+    participant's reactions go before its ACK, so their answers come before the next TICK.)"""
+    w, p = start_world(speedup)
+    try:
+        p.send(L.JOIN)
+        t = p.next_tick()
+        sent_at, msgs = [], []
+        for _ in range(12):
+            p.request_system_time()
+            p.send(L.ACK, t)
+            p.request_system_time()
+            sent_at += [t // 1000, t // 1000 + 40]
+            before, nxt = p.messages_until_tick()
+            msgs += before
+            assert nxt == t + 40000
+            t = nxt
+        p.send(L.ACK, t)
+        msgs += p.messages_until_tick()[0]
+        replies = [msgs[i + 1].time_boot_ms for i, m in enumerate(msgs[:-1])
+                   if m.get_type() == "COMMAND_ACK" and m.command == tl.MAV_CMD_REQUEST_MESSAGE]
+        assert replies == sent_at
+    finally:
+        p.close()
+        w.stop()
+
+
+def test_a_third_party_client_sees_an_ordinary_vehicle_beside_a_participant(held_world):
+    """A pymavlink GCS (ardupilotmega, no towerlink dialect) gets heartbeats from the held world
+    and never a TOWERLINK_LOCKSTEP (it would not decode it)."""
+    from pymavlink import mavutil
+    w, p = held_world
+    port = p.addr[1]
+    p.send(L.JOIN)
+    t = p.next_tick()
+    gcs = mavutil.mavlink_connection(f"udpout:127.0.0.1:{port}", source_system=254, dialect="ardupilotmega")
+    try:
+        gcs.mav.heartbeat_send(6, 8, 0, 0, 4)
+        seen: list = []
+        while w.t < 2.5:                         # the participant keeps the world going
+            p.send(L.ACK, t)
+            t = p.next_tick()
+            while (m := gcs.recv_match(blocking=False)) is not None:
+                seen.append(m)
+        while (m := gcs.recv_match(blocking=True, timeout=0.5)) is not None:
+            seen.append(m)
+        types = {m.get_type() for m in seen}
+        assert "HEARTBEAT" in types and "ATTITUDE" in types
+        assert not types & {"BAD_DATA", "UNKNOWN_43005", "TOWERLINK_LOCKSTEP"}
+        assert all(m.get_msgId() != L.MSG_ID for m in seen)
+    finally:
+        gcs.close()

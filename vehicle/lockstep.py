@@ -1,0 +1,118 @@
+"""The world's lockstep gate (issue 11): who the world waits for, and whether it may step on.
+
+Pure: no sockets, no clocks of its own (wall times are passed in). The world
+(vehicle/world.py) feeds it every TOWERLINK_LOCKSTEP it receives (gcs.lockstep) with the
+vehicle index whose endpoint it arrived on and the reply channel, and asks it:
+
+* ``started(wall)``: may the world leave t = 0? When ``expect`` participants have joined on
+  every vehicle (so the run starts at the same sim time whatever the machine), or when
+  ``timeout`` wall seconds passed since the first JOIN (then it starts with whoever is there);
+* ``passed(t_usec)``: has every registered participant acknowledged sim time t on every
+  vehicle link it joined on? Per link, because UDP keeps order only per socket pair: a
+  reaction sent to vehicle 1 before the ACK is known to have arrived only when the ACK came
+  on vehicle 1's endpoint too;
+* ``holds(sysid, compid, vehicle, boundary)``: must this participant's packet wait for the
+  next TICK boundary? (then it takes effect at a sim time the data fixes, not the machine);
+* ``drop_silent(wall)``: participants not heard from for ``timeout`` wall seconds, dropped
+  (returned, to be logged) so the world goes on.
+
+A participant is a (sysid, compid) pair: a tower behind a bridge shares the bridge's
+address but is its own participant. TICKs go to every channel a participant joined from,
+once per channel.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from gcs.lockstep import ACK, JOIN, LEAVE, PARTICIPANT_NAMES, Lockstep
+
+
+@dataclass
+class Participant:
+    sysid: int
+    compid: int
+    kind: int
+    heard: float                                           # wall s, last message from it
+    acked: dict[int, int] = field(default_factory=dict)     # vehicle index -> newest ACK, us
+    channels: dict[int, object] = field(default_factory=dict)  # vehicle index -> reply channel
+
+    @property
+    def name(self) -> str:
+        return f"{PARTICIPANT_NAMES.get(self.kind, 'participant')} (sysid {self.sysid}, compid {self.compid})"
+
+
+class LockstepGate:
+    def __init__(self, vehicles: int, expect: int = 1, timeout: float = 10.0) -> None:
+        self.vehicles = vehicles           # number of vehicles in the world
+        self.expect = expect               # participants to wait for before leaving t = 0
+        self.timeout = timeout             # wall s of silence before a participant is dropped
+        self.participants: dict[tuple[int, int], Participant] = {}
+        self.first_join: float | None = None
+        self.is_started = False
+        self.dropped = 0
+
+    def on_message(self, m: Lockstep, vehicle: int, channel, wall: float) -> str | None:
+        """Take one TOWERLINK_LOCKSTEP received on `vehicle`'s endpoint; a log line or None."""
+        key = (m.sysid, m.compid)
+        p = self.participants.get(key)
+        if m.kind == LEAVE:
+            if p is not None:
+                del self.participants[key]
+                return f"lockstep: {p.name} left"
+            return None
+        if m.kind not in (JOIN, ACK):
+            return None
+        line = None
+        if p is None:
+            p = self.participants[key] = Participant(m.sysid, m.compid, m.participant, wall)
+            if self.first_join is None:
+                self.first_join = wall
+            line = f"lockstep: {p.name} joined"
+        p.heard = wall
+        if vehicle not in p.channels:
+            p.channels[vehicle] = channel
+            p.acked.setdefault(vehicle, -1)
+        if m.kind == ACK:
+            p.acked[vehicle] = max(p.acked.get(vehicle, -1), m.time_usec)
+        return line
+
+    def started(self, wall: float) -> bool:
+        if not self.is_started:
+            full = [p for p in self.participants.values() if len(p.channels) >= self.vehicles]
+            if len(full) >= self.expect or (self.first_join is not None and wall - self.first_join >= self.timeout):
+                self.is_started = True
+        return self.is_started
+
+    def passed(self, t_usec: int) -> bool:
+        return all(a >= t_usec for p in self.participants.values() for a in p.acked.values())
+
+    def waiting_for(self, t_usec: int) -> list[Participant]:
+        return [p for p in self.participants.values() if any(a < t_usec for a in p.acked.values())]
+
+    def drop_silent(self, wall: float, t_usec: int) -> list[Participant]:
+        """Participants that owe an ACK for t and were silent for `timeout` wall s: removed."""
+        gone = [p for p in self.waiting_for(t_usec) if wall - p.heard >= self.timeout]
+        for p in gone:
+            del self.participants[(p.sysid, p.compid)]
+            self.dropped += 1
+        return gone
+
+    def holds(self, sysid: int, compid: int, vehicle: int, boundary_usec: int | None) -> bool:
+        """Must a packet from (sysid, compid) on `vehicle`'s endpoint wait for the next TICK?
+
+        Yes for a participant's packet while the world is between TICKs (boundary None), or
+        when it already ACKed the TICK the world stands at (it belongs to the next frame).
+        Packets of anyone else are handled on arrival (an ordinary vehicle)."""
+        p = self.participants.get((sysid, compid))
+        if p is None:
+            return False
+        return boundary_usec is None or p.acked.get(vehicle, -1) >= boundary_usec
+
+    def channels(self, vehicle: int) -> list:
+        """Where TICKs for `vehicle` go: each joined channel once."""
+        out: list = []
+        for p in self.participants.values():
+            ch = p.channels.get(vehicle)
+            if ch is not None and all(ch is not c for c in out):
+                out.append(ch)
+        return out
