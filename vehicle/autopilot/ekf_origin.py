@@ -14,14 +14,11 @@ Units: degrees, metres AMSL (up), NED metres (down positive). Pure: no clocks, n
 """
 from __future__ import annotations
 
-import itertools
 import math
 
 import numpy as np
 
 from gcs import geo
-
-_SETS = itertools.count(1)     # versions unique across reboots, so a new origin is always announced
 
 
 class EkfOrigin:
@@ -29,7 +26,6 @@ class EkfOrigin:
         self.world_origin = world_origin
         self.lla: tuple[float, float, float] | None = None
         self.offset = np.zeros(3)          # world NED of the origin (m)
-        self.version = 0                   # bumps when the origin is set (-> GPS_GLOBAL_ORIGIN)
 
     @property
     def is_set(self) -> bool:
@@ -45,7 +41,6 @@ class EkfOrigin:
         self.lla = (round(lat * 1e7) / 1e7, round(lon * 1e7) / 1e7, round(alt * 100) / 100)
         lat, lon, alt = self.lla
         self.offset = np.asarray(geo.lla_to_ned(self.world_origin, lat, lon, alt), float)
-        self.version = next(_SETS)
         return True
 
     def to_local(self, world_ned) -> np.ndarray:
