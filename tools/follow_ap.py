@@ -10,8 +10,11 @@ vehicles, as mavlink-router and ArduPilot do not echo a link's broadcast back to
 
 This driver only sets the follower up, over the world's push link (the run's vehicles.tlog
 socket): FOLL_ENABLE 1, FOLL_SYSID = the drone, FOLL_OFS_TYPE 1 (the lab's yaw-only frame is
-the same idea) with the scenario's follow offset, then FOLLOW (Rover 6) and arm, repeated
-once a wall second until the rover's HEARTBEAT says FOLLOW and armed. FOLL_POS_P stays at
+the same idea) with the scenario's follow offset, then FOLLOW (Rover 6) and arm, all in one
+go (the vehicle handles them in order, so FOLL_ENABLE is set when FOLLOW is asked for),
+repeated every half wall second until the rover's HEARTBEAT says FOLLOW and armed. The
+monitor is no lockstep participant: when FOLLOW starts (a few sim seconds in, before the
+first goal) varies a little from run to run, and so does ArduPilot's follow figure. FOLL_POS_P stays at
 ArduPilot's default (0.1) unless --foll-pos-p is given.
 """
 from __future__ import annotations
@@ -19,7 +22,7 @@ from __future__ import annotations
 import time
 
 ROVER_FOLLOW = 6
-RETRY = 1.0                      # wall s between attempts
+RETRY = 0.5                      # wall s between attempts
 
 
 class ApFollowDriver:
@@ -58,7 +61,7 @@ class ApFollowDriver:
         return self.mode == ROVER_FOLLOW and self.armed
 
     def tick(self) -> None:
-        """Called often; acts at most once a wall second until the rover follows."""
+        """Called often; acts at most every RETRY wall s until the rover follows."""
         now = self.clock()
         if self.following or now - self._last < RETRY:
             return
@@ -68,12 +71,10 @@ class ApFollowDriver:
             if name not in self.confirmed:
                 self._send(self.sysid, tl.MAVLink_param_set_message(self.sysid, 1, name.encode(), value,
                                                                     tl.MAV_PARAM_TYPE_REAL32))
-        if len(self.confirmed) < len(self.params):
-            return
         if self.mode != ROVER_FOLLOW:
             self._send(self.sysid, tl.MAVLink_command_long_message(
                 self.sysid, 1, tl.MAV_CMD_DO_SET_MODE, 0, tl.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
                 ROVER_FOLLOW, 0, 0, 0, 0, 0))
-        elif not self.armed:
+        if not self.armed:
             self._send(self.sysid, tl.MAVLink_command_long_message(
                 self.sysid, 1, tl.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0))
