@@ -25,7 +25,7 @@ demo: $(STAMP)
 	$(BIN)/towerlink fly
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
 
 bench: $(STAMP)
 	$(BIN)/python -m pip install -q -e '.[test,plot,bench]'

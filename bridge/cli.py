@@ -82,6 +82,16 @@ own, no follow, and the tower's SET_POSITION_TARGET_LOCAL_NED (tower frame) goes
 received, to the node link, where the lab's tower_to_map turns it into a world goal.
 Telemetry to the tower is still mapped world -> tower (the tower's link is in its frame).
 
+A family (issue 12). With --vehicle SYSID=URL (repeatable) the bridge serves the
+scenario's vehicles instead of --drone/--rover: each is named by the scenario (drone1,
+rover1, van, ...; frames <name> and <name>_yaw), and every rover a scenario drone names
+follows that drone (one follower per pair, each at --follow-rate, in its own drone's
+--follow-frame). Goals are routed by target_system, one waiting goal per drone.
+A goal whose frame hangs on a moving vehicle (the tower on the van) and whose
+time_boot_ms is set is resolved at that stamp, tf2's time travel
+lookup_transform_full(world, t, frame, t, fixed=world): where the tower pointed when
+it spoke. A re-sent goal with the same stamp gets the same world point.
+
 Give negative offsets with '=': --follow-offset=-2,0 (2 m behind).
 """
 from __future__ import annotations
@@ -100,6 +110,17 @@ def _offset(text: str) -> tuple[float, float]:
     return x, y
 
 
+def _vehicle_url(text: str) -> tuple[int, str]:
+    sysid, sep, url = text.partition("=")
+    try:
+        n = int(sysid)
+    except ValueError:
+        n = 0
+    if not sep or not url or not 1 <= n <= 255:
+        raise argparse.ArgumentTypeError(f"want SYSID=URL with SYSID 1..255, got {text!r}")
+    return n, url
+
+
 def _url_or_none(text: str) -> str | None:
     return None if text.lower() in ("none", "off", "") else text
 
@@ -116,6 +137,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="extra world-frame GCS-side endpoint (repeatable), e.g. udpout:127.0.0.1:14610")
     g.add_argument("--world-origin", type=_lla, default=None, metavar="LAT,LON,ALT",
                    help="where world is (deg, deg, m AMSL); default: the drone's EKF origin (GPS_GLOBAL_ORIGIN)")
+    g.add_argument("--vehicle", action="append", default=[], metavar="SYSID=URL", type=_vehicle_url,
+                   help="serve the scenario's vehicle SYSID at URL (repeatable); replaces --drone/--rover, "
+                        "e.g. --vehicle 1=udpout:127.0.0.1:14560 --vehicle 4=udpout:127.0.0.1:14590")
     g.add_argument("--drone-sysid", type=int, default=1)
     g.add_argument("--rover-sysid", type=int, default=2)
     g.add_argument("--sysid", type=int, default=250, help="the bridge's own sysid (default %(default)s)")
@@ -196,7 +220,14 @@ def config_from_args(args):
 
     sc = load_scenario(args.scenario)
     statics = list(sc.static_transforms) + [parse_static_transform(s) for s in args.static]
+    vehicles, pairs = [], []
+    if args.vehicle:
+        names = {sysid: name for name, sysid, _kind in sc.vehicles}
+        vehicles = [(names.get(sysid, f"vehicle{sysid}"), url, sysid) for sysid, url in args.vehicle]
+        given = {sysid for sysid, _url in args.vehicle}
+        pairs = [(d, r) for d, r in sc.pairs if d in given and r in given]
     return BridgeConfig(
+        vehicles=vehicles, pairs=pairs,
         tower=args.tower, drone=args.drone, rover=args.rover, outs=list(args.out),
         drone_sysid=args.drone_sysid, rover_sysid=args.rover_sysid, sysid=args.sysid,
         compid=args.compid, tower_frame=args.tower_frame, statics=statics, world_origin=args.world_origin,
@@ -263,7 +294,9 @@ def _run(args) -> int:
         return 2
     signal.signal(signal.SIGTERM, bridge.stop)
     signal.signal(signal.SIGINT, bridge.stop)
-    bridge.log(f"tower {cfg.tower} ({cfg.tower_frame} frame); drone {cfg.drone}; rover {cfg.rover}; "
+    served = (", ".join(f"{n} (sysid {s}) {u}" for n, s, u in ((n, s, u) for n, u, s in cfg.vehicles))
+              if cfg.vehicles else f"drone {cfg.drone}; rover {cfg.rover}")
+    bridge.log(f"tower {cfg.tower} ({cfg.tower_frame} frame); {served}; "
                f"outs {cfg.outs or '-'}; follow {'off' if not cfg.follow else cfg.follow_frame} "
                f"offset {cfg.follow_offset}; frames {[ts.child_frame_id for ts in cfg.statics]}")
     try:

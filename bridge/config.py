@@ -41,6 +41,10 @@ class BridgeConfig:
     trust_sysids: tuple = (TOWER_SYSID,)
     allow_redefine: bool = False    # may a trusted sender redefine a scenario frame?
     signing_key: bytes | None = None
+    # a family (issue 12): every vehicle as (name, url, sysid), and (drone, rover) sysid pairs to
+    # follow; empty: the lab's drone and rover above
+    vehicles: list = field(default_factory=list)
+    pairs: list = field(default_factory=list)
     # nodes (issue 12): a world-frame link for tf2_ros-style nodes, and routing only
     nodes: str | None = None        # e.g. udpin:127.0.0.1:14620 (gcs.tf2_ros.DEFAULT_URL's peer)
     route_only: bool = False        # no vehicle frames, no goal translation, no follow: nodes do them

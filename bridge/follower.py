@@ -31,8 +31,11 @@ ARM_RETRY = 1.0                 # s between arm commands (wall; sim with --locks
 
 
 class Follower:
-    def __init__(self, cfg, buffer, clock, log, warn_once) -> None:
+    def __init__(self, cfg, buffer, clock, log, warn_once, drone: str = "drone",
+                 status: bool = True) -> None:
         self.cfg = cfg
+        self.drone = drone                  # the followed drone's frame (and drone + "_yaw")
+        self.status = status                # send TOWERLINK_FOLLOW_STATUS (one pair of a family)
         self.buffer = buffer
         self.clock = clock
         self.log = log
@@ -56,10 +59,10 @@ class Follower:
     def _tick(self, stamp: float, velocity, rover) -> list[tuple]:
         cfg = self.cfg
         try:
-            Tf = self.buffer.lookup_transform(cfg.world_frame, "drone", stamp)
-            Ty = self.buffer.lookup_transform(cfg.world_frame, "drone_yaw", stamp)
+            Tf = self.buffer.lookup_transform(cfg.world_frame, self.drone, stamp)
+            Ty = self.buffer.lookup_transform(cfg.world_frame, self.drone + "_yaw", stamp)
         except TransformException as exc:
-            self.warn_once("follow-lookup", f"follow: no drone transform at {stamp:.3f}: {exc}")
+            self.warn_once(f"follow-lookup-{self.drone}", f"follow: no {self.drone} transform at {stamp:.3f}: {exc}")
             return []
         try:    # the rover's targets are in its own local frame (static: world -> rover_origin)
             To = self.buffer.lookup_transform(origin_frame(rover.name), cfg.world_frame, stamp).transform
@@ -87,10 +90,11 @@ class Follower:
         self.last_goal = (gx, gy)
         out += self._want_mode(ROVER_GUIDED, rover)
         rp = rover.position or (math.nan, math.nan)
-        out.append(("gcs", tl.MAVLink_towerlink_follow_status_message(
-            int(round(stamp * 1e6)), gp.ref[0], gp.ref[1], gp.full[0], gp.full[1], gp.yaw[0],
-            gp.yaw[1], gx, gy, vx, vy, rp[0], rp[1], gp.height, gp.tilt, gp.err_full, gp.err_yaw,
-            0 if cfg.follow_frame == "drone" else 1, self.state)))
+        if self.status:
+            out.append(("gcs", tl.MAVLink_towerlink_follow_status_message(
+                int(round(stamp * 1e6)), gp.ref[0], gp.ref[1], gp.full[0], gp.full[1], gp.yaw[0],
+                gp.yaw[1], gx, gy, vx, vy, rp[0], rp[1], gp.height, gp.tilt, gp.err_full, gp.err_yaw,
+                0 if cfg.follow_frame == "drone" else 1, self.state)))
         return out
 
     def check(self, rover, rover_stamp: float | None, rover_wall: float | None) -> list[tuple]:
@@ -100,8 +104,9 @@ class Follower:
         if not sup.holding and sup.stale(now, rover_stamp, rover_wall):
             sup.holding = True
             self.state = tl.TOWERLINK_FOLLOW_STATE_HOLDING
-            self.log(f"follow: no drone telemetry for > {self.cfg.follow_timeout} s (sim); rover to HOLD")
-            return [("gcs", _text("follow: drone lost, rover HOLD")), *self._want_mode(ROVER_HOLD, rover)]
+            self.log(f"follow: no {self.drone} telemetry for > {self.cfg.follow_timeout} s (sim); "
+                     f"{rover.name} to HOLD")
+            return [("gcs", _text(f"follow: {self.drone} lost, {rover.name} HOLD")), *self._want_mode(ROVER_HOLD, rover)]
         if self.mode_wanted is not None:
             return self._ensure_mode(self.mode_wanted, rover)
         return []

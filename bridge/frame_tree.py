@@ -86,14 +86,18 @@ class FrameTree:
     def lookup(self, target: str, source: str):
         return self.buffer.lookup_transform(target, source, LATEST)
 
+    def is_dynamic(self, target: str, source: str) -> bool:
+        """Does the chain between the two frames hold a dynamic (time-varying) edge?"""
+        stats = self.buffer.edge_stats()
+        return any(f in stats and not stats[f].is_static for f in self.buffer.chain(target, source))
+
     def fresh_lookup(self, target: str, source: str, now: float | None):
         """lookup_transform(target, source, LATEST), refusing stale dynamic chains.
 
         `now` is the newest vehicle clock seen (s, one timeline; None: nothing to judge by).
         """
         T = self.buffer.lookup_transform(target, source, LATEST)
-        stats = self.buffer.edge_stats()
-        dynamic = any(f in stats and not stats[f].is_static for f in self.buffer.chain(target, source))
+        dynamic = self.is_dynamic(target, source)
         if dynamic and now is not None and T.stamp < now - self.max_age:
             raise StaleTransform(f"{source} -> {target} is {now - T.stamp:.2f} s old "
                                  f"(max {self.max_age} s)")

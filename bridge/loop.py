@@ -89,9 +89,10 @@ class Bridge:
         self.outs += self.node_links
         self.gcs_links = [self.tower, *self.outs]
         self.vehicles: dict[int, VehicleRecord] = {}
-        self.origins = OriginDesk(cfg.world_frame, cfg.world_origin, "drone" if cfg.drone else None)
-        for name, url, sysid in (("drone", cfg.drone, cfg.drone_sysid),
-                                 ("rover", cfg.rover, cfg.rover_sysid)):
+        first = (cfg.vehicles[0][0] if cfg.vehicles else "drone" if cfg.drone else None)
+        self.origins = OriginDesk(cfg.world_frame, cfg.world_origin, first)   # world: its origin
+        for name, url, sysid in (cfg.vehicles or (("drone", cfg.drone, cfg.drone_sysid),
+                                                  ("rover", cfg.rover, cfg.rover_sysid))):
             if url:
                 link = Link(name, url, clock)
                 link.sysids.add(sysid)
@@ -116,7 +117,15 @@ class Bridge:
         self.goals = GoalDesk(self.tree, self.codec, self.to_vehicle, self.tower.stats,
                               self.timeline.world_clock, self.behaviour_clock, self.log, self.statustext,
                               cfg.world_frame, self.vehicle_frame)
-        self.follower = Follower(cfg, self.buffer, self.behaviour_clock, self.log, self.warn_once)
+        # one follower per (drone, rover) pair; only the first reports TOWERLINK_FOLLOW_STATUS
+        # (the message names no vehicle), the others log and steer
+        self.followers: dict[int, tuple[Follower, int]] = {}
+        for k, (d, r) in enumerate(cfg.pairs or [(cfg.drone_sysid, cfg.rover_sysid)]):
+            if d in self.vehicles:
+                self.followers[d] = (Follower(cfg, self.buffer, self.behaviour_clock, self.log, self.warn_once,
+                                              self.vehicles[d].name, status=k == 0), r)
+        self.follower = next(iter(self.followers.values()))[0] if self.followers else \
+            Follower(cfg, self.buffer, self.behaviour_clock, self.log, self.warn_once)
         self.telemetry = TelemetryDesk(self)
         self.node_desk = NodeDesk(self)
         self.tower_drops = 0
@@ -166,9 +175,11 @@ class Bridge:
     def command(self, v: VehicleRecord, command: int, *params) -> None:
         v.link.send(self.codec.pack_own(command_message(v.sysid, command, *params)))
 
-    def send_out(self, out: list[tuple]) -> None:
-        """Send what a room decided: ("rover", msg) or ("gcs", msg), packed as the bridge."""
-        rover = self.vehicles.get(self.cfg.rover_sysid)
+    def send_out(self, out: list[tuple], rover: VehicleRecord | None = None) -> None:
+        """Send what a room decided: ("rover", msg) to `rover` (default: the lab's) or
+        ("gcs", msg), packed as the bridge."""
+        if rover is None:
+            rover = self.vehicles.get(self.cfg.rover_sysid)
         for dest, msg in out:
             if dest == "gcs":
                 self.send_own_to_gcs(msg)
@@ -240,13 +251,15 @@ class Bridge:
                 return
             if msg.coordinate_frame in translate.TRANSLATED_FRAMES:
                 self.goals.submit(PendingGoal("spt", msg, (pkt.sysid, pkt.compid, pkt.seq, pkt.v2),
-                                              self.cfg.tower_frame, msg.target_system, self.clock()))
+                                              self.cfg.tower_frame, msg.target_system, self.clock(),
+                                              stamp=self.goal_stamp(msg)))
                 return
         elif mid == MSG_TL_TARGET:
             msg = self._decode(link, pkt)
             if msg is not None:
                 self.goals.submit(PendingGoal("named", msg, (pkt.sysid, pkt.compid, pkt.seq, True),
-                                              mav_str(msg.frame_id), msg.target_system, self.clock()))
+                                              mav_str(msg.frame_id), msg.target_system, self.clock(),
+                                              stamp=self.goal_stamp(msg)))
             return
         elif mid == MSG_TL_STATIC:
             msg = self._decode(link, pkt)
@@ -262,6 +275,15 @@ class Bridge:
             if msg is not None:
                 self.lockstep.on_tower(msg)     # and on to the world, in order after its goals
         self.route_from_gcs(link, pkt)
+
+    def goal_stamp(self, msg) -> float | None:
+        """A tower goal's time_boot_ms (the target vehicle's clock) on the one timeline, or None."""
+        ms = getattr(msg, "time_boot_ms", 0)
+        if not isinstance(ms, int) or ms <= 0:
+            return None
+        v = self.vehicles.get(msg.target_system)
+        t = self.timeline.to_ref(v.name, ms / 1000.0) if v is not None else None
+        return ms / 1000.0 if t is None else t
 
     def on_vehicle_packet(self, v: VehicleRecord, pkt: Packet) -> None:
         if pkt.msgid == MSG_TL_LOCKSTEP:        # the world's TICK: ours, never routed raw
@@ -332,9 +354,11 @@ class Bridge:
         """Goal retries and the follower's checks: every wall tick, or with --lockstep at
         every barrier (the world's sim time), so they happen at the same sim time every run."""
         self.goals.retry()
-        rover = self.vehicles.get(self.cfg.rover_sysid)
-        if self.cfg.follow and rover is not None:
-            self.send_out(self.follower.check(rover, *rover_clock(rover)))
+        if self.cfg.follow:
+            for follower, rsys in self.followers.values():
+                rover = self.vehicles.get(rsys)
+                if rover is not None:
+                    self.send_out(follower.check(rover, *rover_clock(rover)), rover)
 
     def on_sim_tick(self, t: float) -> None:
         """The lockstep barrier reached sim time t (s): the sim-time upkeep, before the ACK."""
@@ -450,7 +474,8 @@ def summary(b: Bridge) -> str:
     if nf.owners or nf.refused:
         parts.append(f"node frames: {', '.join(f'{c} by {o}' for c, o in sorted(nf.owners.items())) or '-'}; "
                      f"refused {sum(nf.refused.values())}")
-    parts.append(f"follow ticks {b.follower.ticks}; decode errors {b.codec.decode_errors}; "
+    ticks = " ".join(f"{b.vehicles[d].name}:{f.ticks}" for d, (f, _r) in b.followers.items())
+    parts.append(f"follow ticks {ticks or 0}; decode errors {b.codec.decode_errors}; "
                  f"tower telemetry dropped (no transform) {b.tower_drops}")
     if b.lockstep is not None:
         parts.append(f"lockstep: {b.lockstep.barriers} barriers, last at {b.lockstep.sim_now:.3f} s sim; "

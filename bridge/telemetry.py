@@ -39,7 +39,7 @@ class TelemetryDesk:
         self.cfg = b.cfg
         self.clock = b.behaviour_clock     # sim time (the lockstep barrier) with --lockstep, else wall
         self.wall = b.clock                 # the timeline's readings are always wall-stamped
-        self.clocks, self.timeline, self.tree, self.follower = b.clocks, b.timeline, b.tree, b.follower
+        self.clocks, self.timeline, self.tree, self.followers = b.clocks, b.timeline, b.tree, b.followers
         self.vehicles = b.vehicles
         self.origins = b.origins
         self.command, self.send_own_to_gcs, self.send_out = b.command, b.send_own_to_gcs, b.send_out
@@ -155,6 +155,7 @@ class TelemetryDesk:
         if publish:
             self.send_own_to_gcs(transform_message(s.full))
             self.send_own_to_gcs(transform_message(s.yaw))
-        rover = self.vehicles.get(self.cfg.rover_sysid)
-        if v.sysid == self.cfg.drone_sysid and self.cfg.follow and rover is not None:
-            self.send_out(self.follower.on_drone_sample(s.stamp, s.velocity, reset, rover))
+        pair = self.followers.get(v.sysid)
+        rover = self.vehicles.get(pair[1]) if pair else None
+        if self.cfg.follow and rover is not None:
+            self.send_out(pair[0].on_drone_sample(s.stamp, s.velocity, reset, rover), rover)

@@ -677,19 +677,23 @@ class Client:
         return p
 
     def goto(self, x: float, y: float, z: float, sysid: int = 1, *, yaw: float | None = None,
-             frame: int = mavlink.MAV_FRAME_LOCAL_NED, component: int = 1) -> None:
+             frame: int = mavlink.MAV_FRAME_LOCAL_NED, component: int = 1,
+             time_boot_ms: int | None = None) -> None:
         """Send one SET_POSITION_TARGET_LOCAL_NED (position, optional yaw) in the link's frame.
 
         On the bridge's tower link, MAV_FRAME_LOCAL_NED means the tower frame. To name
-        another frame known to the bridge use `goto_named`.
+        another frame known to the bridge use `goto_named`. The goal is stamped with
+        `time_boot_ms` (default: the vehicle's newest time seen); a bridge resolves a goal
+        in a moving frame at that stamp, so re-sends keep the first send's stamp.
         """
-        ms = int(self.sim_time(sysid) * 1000) & 0xFFFFFFFF
+        ms = (int(self.sim_time(sysid) * 1000) if time_boot_ms is None else int(time_boot_ms)) & 0xFFFFFFFF
         mask = MASK_POS_ONLY if yaw is None else MASK_POS_YAW
         self._send(lambda: self.mav.set_position_target_local_ned_send(
             ms, sysid, component, frame, mask, x, y, z, 0, 0, 0, 0, 0, 0, yaw or 0.0, 0))
 
     def goto_named(self, frame_name: str, x: float, y: float, z: float, sysid: int = 1, *,
-                   yaw: float | None = None, component: int = 1) -> None:
+                   yaw: float | None = None, component: int = 1,
+                   time_boot_ms: int | None = None) -> None:
         """A position goal in a frame named by id (any frame the bridge's buffer knows).
 
         Sent as the bridge dialect's TOWERLINK_POSITION_TARGET; the bridge transforms it
@@ -700,7 +704,7 @@ class Client:
         if send is None:
             raise ClientError("this connection does not speak the towerlink dialect "
                               "(TOWERLINK_POSITION_TARGET); open it with gcs.dialect")
-        ms = int(self.sim_time(sysid) * 1000) & 0xFFFFFFFF
+        ms = (int(self.sim_time(sysid) * 1000) if time_boot_ms is None else int(time_boot_ms)) & 0xFFFFFFFF
         mask = MASK_POS_ONLY if yaw is None else MASK_POS_YAW
         fid = frame_name.encode()
         self._send(lambda: send(ms, sysid, component, fid, mask, x, y, z, 0, 0, 0, yaw or 0.0, 0))

@@ -4,6 +4,24 @@ A scenario is TOML (see gcs/scenarios/default.toml). Its static frames are
 written exactly like static_transform_publisher arguments, and this module holds
 the one parser for that form, used by the loader and by
 `towerlink static-transform`.
+
+Vehicles. The lab has one drone (frame ``drone``, sysid 1) and its rover (``rover``,
+sysid 2). A scenario may instead list a family (gcs/scenarios/family.toml)::
+
+    [[drones]]                 # one table per drone, in sysid order (1, 2, ...)
+    name = "drone1"            # its frame id (and drone1_yaw)
+    altitude = 8.0             # its own altitude layer, m above home
+    rover = "rover1"           # the rover that follows it (omit: none)
+    goals = [[x, y], ...]      # its own queue of goals, in mission.goal_frame
+
+and mount the tower on a van (gcs/scenarios/van.toml): ``[van]`` names a rover that
+drives a route of its own (world NED [x, y], looped) and the tower is a static child
+of the van frame, so world -> tower changes as the van drives and turns.
+
+Sysids follow `towerlink sitl --drones N --rovers M`: drones first (1..N), then the
+following rovers in their drones' order, then the van. Separation (see
+:func:`check_separation`): every drone flies its own altitude layer, at least
+``mission.min_separation`` m above or below every other drone's.
 """
 from __future__ import annotations
 
@@ -57,6 +75,26 @@ def parse_static_transform(args: Sequence[str] | str) -> TransformStamped:
 
 
 @dataclass(frozen=True)
+class DroneSpec:
+    """One drone of the scenario and the rover that follows it (if any)."""
+    name: str                                        # frame id, e.g. "drone1"
+    sysid: int
+    altitude: float                                  # m above home: its layer
+    goals: tuple[tuple[float, float, float], ...]    # in the scenario's goal_frame, z down
+    rover: str | None = None                         # frame id of its follower
+    rover_sysid: int | None = None
+
+
+@dataclass(frozen=True)
+class VanSpec:
+    """A rover that carries the tower and drives its own route (world NED, m)."""
+    name: str
+    sysid: int
+    route: tuple[tuple[float, float], ...]           # world [x, y], driven in order, looped
+    speed: float                                     # m/s (the rover's WP_SPEED)
+
+
+@dataclass(frozen=True)
 class Scenario:
     """Everything the world, bridge and tower need to fly one lab run."""
 
@@ -71,6 +109,33 @@ class Scenario:
     follow_frame: str                                # drone | drone_yaw
     follow_offset: tuple[float, float]               # m, in the yaw-only drone frame
     follow_rate_hz: float
+    drones: tuple[DroneSpec, ...] = ()
+    van: VanSpec | None = None
+    min_separation: float = 3.0                      # m between drone altitude layers
+
+    @property
+    def rovers(self) -> list[tuple[str, int]]:
+        """(name, sysid) of every rover in sysid order: followers, then the van."""
+        out = [(d.rover, d.rover_sysid) for d in self.drones if d.rover]
+        if self.van is not None:
+            out.append((self.van.name, self.van.sysid))
+        return out
+
+    @property
+    def vehicles(self) -> list[tuple[str, int, str]]:
+        """(name, sysid, kind) of every vehicle, kind "copter" or "rover", in sysid order."""
+        return [(d.name, d.sysid, "copter") for d in self.drones] + \
+            [(n, s, "rover") for n, s in self.rovers]
+
+    @property
+    def pairs(self) -> list[tuple[int, int]]:
+        """(drone sysid, rover sysid) for every drone that a rover follows."""
+        return [(d.sysid, d.rover_sysid) for d in self.drones if d.rover_sysid is not None]
+
+    @property
+    def is_family(self) -> bool:
+        """More than the lab's one drone and one rover (names, sysids or a van)."""
+        return [(n, s) for n, s, _k in self.vehicles] != [("drone", 1), ("rover", 2)]
     wind: tuple[float, float, float] | None = None   # speed m/s, from-direction deg, turbulence m/s
 
     def wind_arg(self) -> str | None:
@@ -93,14 +158,31 @@ class Scenario:
         return list(seen)
 
 
+def shipped_scenarios() -> list[str]:
+    """Names of the scenarios shipped in gcs/scenarios (``towerlink fly NAME``)."""
+    return sorted(p.stem for p in DEFAULT_SCENARIO.parent.glob("*.toml"))
+
+
+def scenario_path(path: str | Path | None) -> Path:
+    """A file path, or the name of a shipped scenario ("family", "van"); None: the default."""
+    if path is None:
+        return DEFAULT_SCENARIO
+    p = Path(path)
+    if not p.exists() and p.suffix == "" and p.parent == Path("."):
+        shipped = DEFAULT_SCENARIO.parent / f"{p.name}.toml"
+        if shipped.exists():
+            return shipped
+    return p
+
+
 def load_scenario(path: str | Path | None = None) -> Scenario:
-    """Load and validate a scenario file (the built-in default when path is None)."""
-    path = Path(path) if path is not None else DEFAULT_SCENARIO
+    """Load and validate a scenario file or a shipped one by name (the default when None)."""
+    path = scenario_path(path)
     try:
         with open(path, "rb") as f:
             data = tomllib.load(f)
     except FileNotFoundError:
-        raise ScenarioError(f"{path}: no such scenario file") from None
+        raise ScenarioError(f"{path}: no such scenario file (shipped: {', '.join(shipped_scenarios())})") from None
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
     return _build(data, path)
@@ -175,13 +257,95 @@ def _build(data: dict[str, Any], path: Path) -> Scenario:
             raise fail(f"wind.turbulence {turb:g} m/s is outside 0..10 (SIM_WIND_TURB)")
         wind = (speed, direction, turb)
 
-    return Scenario(
+    min_sep = _number(mission.get("min_separation", 3.0), "mission.min_separation", fail)
+    drones, van = _vehicles(data, goals, altitude, fail)
+    owned = {d.name for d in drones} | {d.rover for d in drones if d.rover} | \
+        ({van.name} if van else set())
+    for ts in statics:
+        if ts.child_frame_id in owned:
+            raise fail(f"static_transforms: {ts.child_frame_id!r} is a vehicle's frame; "
+                       f"it cannot also be static")
+    if van is not None and van.name not in {ts.frame_id for ts in statics}:
+        raise fail(f"van {van.name!r}: no static transform hangs a frame on it "
+                   f"(e.g. \"0 0 0 0 0 0 {van.name} tower\")")
+    sc = Scenario(
         name=str(data.get("name", path.stem)), path=path, wind=wind,
         static_transforms=tuple(statics), goals=tuple(goals), goal_frame=goal_frame,
         altitude=altitude, radius=radius, finish=finish, follow_frame=follow_frame,
         follow_offset=(_number(offset[0], "follow.offset", fail), _number(offset[1], "follow.offset", fail)),
-        follow_rate_hz=rate,
+        follow_rate_hz=rate, drones=drones, van=van, min_separation=min_sep,
     )
+    problem = check_separation(sc)
+    if problem:
+        raise fail(problem)
+    return sc
+
+
+def check_separation(sc: Scenario) -> str | None:
+    """Why the drones' altitude layers are too close (None if they are not).
+
+    Each drone flies its whole queue at its own altitude; two layers closer than
+    min_separation could meet when their paths cross.
+    """
+    alts = sorted((d.altitude, d.name) for d in sc.drones)
+    for (a, na), (b, nb) in zip(alts, alts[1:]):
+        if b - a < sc.min_separation - 1e-9:
+            return (f"drones {na!r} ({a:g} m) and {nb!r} ({b:g} m) fly layers {b - a:g} m apart; "
+                    f"mission.min_separation is {sc.min_separation:g} m")
+    return None
+
+
+def _vehicles(data: dict[str, Any], goals: list, altitude: float, fail) -> tuple[tuple[DroneSpec, ...], VanSpec | None]:
+    """The drones (with their rovers) and the van; the lab's pair when none are listed."""
+    tables = data.get("drones")
+    if tables is None:
+        specs = [dict(name="drone", altitude=altitude, goals=goals, rover="rover")]
+    else:
+        if not isinstance(tables, list) or not tables or not all(isinstance(t, dict) for t in tables):
+            raise fail("drones must be a list of [[drones]] tables")
+        specs = []
+        for k, t in enumerate(tables):
+            alt = _number(t.get("altitude", altitude), f"drones[{k}].altitude", fail)
+            if not 0.5 <= alt <= 500.0:
+                raise fail(f"drones[{k}].altitude {alt} m is outside 0.5..500 m")
+            gl = []
+            for i, g in enumerate(t.get("goals", [])):
+                if not isinstance(g, list) or len(g) not in (2, 3):
+                    raise fail(f"drones[{k}].goals[{i}] must be [x, y] or [x, y, z], got {g!r}")
+                xyz = [_number(v, f"drones[{k}].goals[{i}]", fail) for v in g]
+                gl.append((xyz[0], xyz[1], xyz[2] if len(xyz) == 3 else -alt))
+            rover = t.get("rover")
+            if rover is not None and not isinstance(rover, str):
+                raise fail(f"drones[{k}].rover must be a frame name, got {rover!r}")
+            specs.append(dict(name=str(t.get("name", f"drone{k + 1}")), altitude=alt, goals=gl, rover=rover))
+    n = len(specs)
+    drones, rover_sysid = [], n + 1
+    for k, sp in enumerate(specs):
+        rs = None
+        if sp["rover"]:
+            rs, rover_sysid = rover_sysid, rover_sysid + 1
+        drones.append(DroneSpec(sp["name"], k + 1, sp["altitude"], tuple(sp["goals"]), sp["rover"], rs))
+    van = None
+    vt = data.get("van")
+    if vt is not None:
+        if not isinstance(vt, dict):
+            raise fail("van must be a [van] table")
+        route = []
+        for i, p in enumerate(vt.get("route", [])):
+            if not isinstance(p, list) or len(p) != 2:
+                raise fail(f"van.route[{i}] must be [x, y] (world NED, m), got {p!r}")
+            route.append(tuple(_number(v, f"van.route[{i}]", fail) for v in p))
+        if len(route) < 2:
+            raise fail("van.route needs at least two points")
+        speed = _number(vt.get("speed", 2.0), "van.speed", fail)
+        if not 0.1 <= speed <= 10.0:
+            raise fail(f"van.speed {speed} m/s is outside 0.1..10 m/s")
+        van = VanSpec(str(vt.get("name", "van")), rover_sysid, tuple(route), speed)
+    names = [d.name for d in drones] + [d.rover for d in drones if d.rover] + ([van.name] if van else [])
+    dup = {x for x in names if names.count(x) > 1}
+    if dup:
+        raise fail(f"vehicle names must differ: {sorted(dup)} used twice")
+    return tuple(drones), van
 
 
 def _number(value: Any, where: str, fail) -> float:

@@ -17,10 +17,29 @@ seconds, from the drone's own time_boot_ms (the wall clock is used only for the
 per-goal deadline and the re-send period; with --lockstep those count sim seconds too,
 taken from the world's TICKs). Exit status 0 iff every goal was reached.
 
+A goal is stamped with the drone's time when it is first sent and re-sent with that
+same stamp. When the tower's frame moves (the tower on the van), the bridge resolves it
+in world at that stamp; the tower does the same with the transform stream the bridge
+sends on its link (gcs.tower_family.TowerFrames, a tf2 TransformListener in small): the goal's
+world point is lookup_transform_full(world, t, tower, stamp, fixed=world) applied to it,
+and a sample (tower frame, latest transform) counts as reached when it is within the
+radius of that world point seen from the tower now. Each goal also records how far the
+same tower coordinates would land with the latest transform when it was reached
+(``latest_offset``).
+
+A family (a scenario with [[drones]], see gcs.scenario; run by gcs.tower_family): one Mission per drone, each on
+its own connection to the bridge and in its own thread, with its own queue. They take
+off one at a time from the highest altitude layer down (a drone climbs only once the
+drone of the layer above holds its layer, so no climb passes another drone closer than
+the layer spacing), then fly at once. A separation watch measures the 3-D distance
+between every two airborne drones (above 1 m) and logs when it drops below the
+scenario's min_separation.
+
 Examples:
   towerlink tower                                   # default scenario, bridge at udpout:127.0.0.1:14600
   towerlink tower --goals="-131.04,73.52;-105.06,88.52" --radius 0.5 --finish rtl
   towerlink tower --connect udpout:127.0.0.1:15600 --result out/tower.json --tlog out/tower.tlog
+  towerlink tower --scenario family                 # every drone of the family at once (gcs.tower_family)
 """
 from __future__ import annotations
 
@@ -31,6 +50,10 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from gcs.tower_family import TowerFrames
 
 DEFAULT_CONNECT = "udpout:127.0.0.1:14600"
 DRONE_SYSID = 1
@@ -77,6 +100,9 @@ class GoalResult:
     sends: int = 0
     wall_s: float | None = None
     error: str | None = None
+    world: tuple[float, float, float] | None = None   # resolved at the stamp (moving tower only)
+    latest_offset: float | None = None   # m: the same goal resolved with the latest transform when
+                                         # reached lands this far from `world` (moving tower only)
 
     @property
     def time_to_reach(self) -> float | None:
@@ -117,7 +143,9 @@ class Mission:
                  radius: float, finish: str = "land", frame: str = "tower",
                  goal_timeout: float = 120.0, resend: float = 1.0, sysid: int = DRONE_SYSID,
                  connect_timeout: float = 60.0, arm_timeout: float = 60.0,
-                 log: Callable[[str], None] = print) -> None:
+                 log: Callable[[str], None] = print, frames: "TowerFrames | None" = None,
+                 before_takeoff: Callable[[], None] | None = None,
+                 after_takeoff: Callable[[], None] | None = None) -> None:
         if finish not in ("land", "rtl", "none"):
             raise ValueError(f"finish must be land, rtl or none, not {finish!r}")
         self.c = client
@@ -132,15 +160,19 @@ class Mission:
         self.connect_timeout = connect_timeout
         self.arm_timeout = arm_timeout
         self.log = log
+        self.frames = frames
+        self.before_takeoff = before_takeoff
+        self.after_takeoff = after_takeoff
         self.result = MissionResult(finish=finish, altitude=altitude, radius=radius,
                                     goals=[GoalResult(i + 1, g, frame) for i, g in enumerate(self.goals)])
 
     def send_goal(self, g: GoalResult) -> None:
         x, y, z = g.goal
+        ms = int(round(g.sent_sim * 1000)) if g.sent_sim is not None else None   # the first send's stamp
         if self.frame == "tower":   # the tower link's own frame: plain SET_POSITION_TARGET_LOCAL_NED
-            self.c.goto(x, y, z, self.sysid)
+            self.c.goto(x, y, z, self.sysid, time_boot_ms=ms)
         else:
-            self.c.goto_named(self.frame, x, y, z, self.sysid)
+            self.c.goto_named(self.frame, x, y, z, self.sysid, time_boot_ms=ms)
         g.sends += 1
 
     def run(self) -> MissionResult:
@@ -175,11 +207,18 @@ class Mission:
         self.log(f"drone: heartbeat, mode {st.mode_name}, {'armed' if st.armed else 'disarmed'}")
         c.set_mode("GUIDED", s, timeout=self.arm_timeout)
         self.log("mode GUIDED")
+        if self.before_takeoff is not None:
+            # wait here, disarmed: an armed copter left on the ground disarms itself (DISARM_DELAY)
+            self.before_takeoff()
         c.arm(s, timeout=self.arm_timeout)
         r.start_sim = c.sim_time(s)
         self.log(f"armed at t={r.start_sim:.2f} s (sim)")
-        p = c.takeoff(self.altitude, s, timeout=self.goal_timeout,
-                      tolerance=max(self.radius, 0.3))
+        try:
+            p = c.takeoff(self.altitude, s, timeout=self.goal_timeout,
+                          tolerance=max(self.radius, 0.3))
+        finally:
+            if self.after_takeoff is not None:
+                self.after_takeoff()
         r.takeoff_sim = p.t
         r.takeoff_position = p.xyz
         self.log(f"takeoff: {self.altitude:g} m reached at t={p.t:.2f} s "
@@ -193,10 +232,14 @@ class Mission:
         self.send_goal(g)
         self.log(f"goal {g.index}/{n} sent: {self.frame} {_fmt(g.goal)} at t={g.sent_sim:.2f} s")
         t0 = time.monotonic()
+        moving = self.frames is not None and self.frames.moving(self.frame)
         try:
-            hit = c.wait_reached(g.goal, self.radius, self.goal_timeout, sysid=self.sysid,
-                                 resend=lambda: self.send_goal(g), resend_interval=self.resend,
-                                 after_ms=after_ms)
+            if moving:
+                hit = self._wait_reached_moving(g, after_ms)
+            else:
+                hit = c.wait_reached(g.goal, self.radius, self.goal_timeout, sysid=self.sysid,
+                                     resend=lambda: self.send_goal(g), resend_interval=self.resend,
+                                     after_ms=after_ms)
         except Exception as exc:  # GoalTimeout and friends
             g.error = str(exc)
             g.distance = getattr(exc, "distance", None)
@@ -208,10 +251,41 @@ class Mission:
         g.reached_sim = hit.position.t
         g.distance = hit.distance
         g.position = hit.position.xyz
+        extra = ""
+        if moving and g.world is not None:
+            g.latest_offset = self.frames.latest_offset(self.frame, g.goal, g.world)
+            extra = (f"; world {_fmt(g.world)} resolved at its stamp, the latest transform would "
+                     f"put it {_f(g.latest_offset)} m away")
         self.log(f"goal {g.index}/{n} reached: {self.frame} {_fmt(g.goal)} in "
                  f"{g.time_to_reach:.2f} s sim (at t={g.reached_sim:.2f} s, "
-                 f"{g.distance:.2f} m off, {g.sends} sends, {g.wall_s:.1f} s wall)")
+                 f"{g.distance:.2f} m off, {g.sends} sends, {g.wall_s:.1f} s wall){extra}")
         return True
+
+    def _wait_reached_moving(self, g: GoalResult, after_ms: int):
+        """wait_reached for a goal in a moving frame: judged against its world point at its stamp."""
+        from gcs.client import GoalTimeout, Reached
+        c, st = self.c, self.c.system(self.sysid)
+        end = time.monotonic() + self.goal_timeout
+        last_resend = time.monotonic()
+        last_seen, dist = None, None
+        while True:
+            now = time.monotonic()
+            if g.world is None:
+                g.world = self.frames.world_point(self.frame, g.goal, g.sent_sim)
+            p = st.position
+            if g.world is not None and p is not None and p is not last_seen and p.time_boot_ms > after_ms:
+                last_seen = p
+                here = self.frames.seen_from(self.frame, g.world)   # the goal in the tower frame now
+                if here is not None:
+                    dist = p.distance_to(here)
+                    if dist <= self.radius:
+                        return Reached(p, dist)
+            if now >= end:
+                raise GoalTimeout(g.goal, self.radius, dist, self.goal_timeout)
+            if now - last_resend >= self.resend:
+                last_resend = now
+                self.send_goal(g)
+            c.poll(min(0.05, max(0.0, end - now)))
 
     def _finish(self) -> None:
         if self.finish == "none":
@@ -227,6 +301,10 @@ class Mission:
 
 def _fmt(p: Sequence[float]) -> str:
     return "[" + ", ".join(f"{v:.2f}" for v in p) + "]"
+
+
+def _f(x: float | None) -> str:
+    return "-" if x is None else f"{x:.2f}"
 
 
 # ----------------------------------------------------------------------------- CLI
@@ -292,6 +370,13 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"tower: --goals: {exc}", file=sys.stderr)
         return 2
+    if sc.is_family and not args.goals:
+        if getattr(args, "lockstep", False):
+            print("tower: --lockstep is for one drone; a family's connections do not join the "
+                  "lockstep handshake yet", file=sys.stderr)
+            return 2
+        from gcs.tower_family import run_family
+        return run_family(args, sc, radius=radius, finish=finish, frame=frame)
     if not goals:
         print("tower: the scenario has no goals", file=sys.stderr)
         return 2

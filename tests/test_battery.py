@@ -272,3 +272,17 @@ def test_battery_status_shows_the_drain_over_pymavlink(processes, tmp_path):
     s = recv(m, "SYS_STATUS", 5)
     assert s.current_battery > 1000 and abs(s.voltage_battery - later.voltages[0]) < 300
     m.close()
+
+
+def test_smartrtl_actions_copter_and_rover():
+    """BATT_FS_LOW_ACT 3 (SmartRTL or RTL) on the copter, 4 (SmartRTL or Hold) on the rover:
+    both enter SMART_RTL, having a recorded path home."""
+    w = _world(BATT_LOW_MAH=3200, BATT_FS_LOW_ACT=3)
+    ap = _fly(w, 10.0)
+    _goto(ap, 20.0, 0.0, -10.0)
+    _until(w, lambda: ap.mode == mav.COPTER_MODE_SMART_RTL, 60)
+    w = _world(drones=0, rovers=1, BATT_LOW_MAH=3290, BATT_FS_LOW_ACT=4)
+    ap = w.vehicles[0].ap
+    assert ap.set_mode(modes.ROVER_GUIDED) and ap.arm() == mav.MAV_RESULT_ACCEPTED
+    _goto(ap, 200.0, 0.0, 0.0)
+    _until(w, lambda: ap.mode == mav.ROVER_MODE_SMART_RTL, 60)

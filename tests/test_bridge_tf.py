@@ -84,6 +84,8 @@ def test_bridge_buffer_reorder_duplicate_loss_reboot(world):
                bridge.buffer.edge_stats()["drone"].samples == 5, 5, "5 samples stored")
     st = bridge.buffer.edge_stats()["drone"]
     assert st.most_recent == 1.5 and st.oldest == 1.0
+    # world -> drone goes through drone_origin, known once the drone answers GPS_GLOBAL_ORIGIN
+    wait_until(lambda: bridge.origins.known("drone"), 5, "drone origin")
     # stamped with the drone clock: lookups at its stamps are exact, between them interpolated
     assert bridge.buffer.lookup_transform("world", "drone", 1.2).transform.xyz[0] == pytest.approx(1.2)
     assert bridge.buffer.lookup_transform("world", "drone", 1.45).transform.xyz[0] == pytest.approx(1.45)

@@ -77,11 +77,18 @@ def recv(m, types, timeout=5.0, cond=None, heartbeat_every=0.5):
             return msg
 
 
-def command(m, cmd, *params, timeout=5.0):
-    """COMMAND_LONG and its COMMAND_ACK result."""
+def command(m, cmd, *params, timeout=5.0, tries=3):
+    """COMMAND_LONG and its COMMAND_ACK result. Re-sent (confirmation + 1) when no ACK comes
+    within timeout / tries, as MAVProxy and MAVSDK do: a UDP datagram can be lost on a loaded
+    machine (a full receive buffer), and a GCS that never retries is not how clients behave."""
     p = list(params) + [0.0] * (7 - len(params))
-    m.mav.command_long_send(m.target_system, m.target_component, cmd, 0, *p)
-    return recv(m, "COMMAND_ACK", timeout, cond=lambda a: a.command == cmd).result
+    for confirmation in range(tries):
+        m.mav.command_long_send(m.target_system, m.target_component, cmd, confirmation, *p)
+        try:
+            return recv(m, "COMMAND_ACK", timeout / tries, cond=lambda a: a.command == cmd).result
+        except AssertionError:
+            if confirmation == tries - 1:
+                raise
 
 
 def local_pos(m, timeout=5.0):
@@ -96,10 +103,12 @@ def wait_position(m, target, tol, timeout, idx=(0, 1, 2)):
     return recv(m, "LOCAL_POSITION_NED", timeout, cond=near)
 
 
-def set_mode(m, name, timeout=5.0):
-    m.set_mode(name)
-    ack = recv(m, "COMMAND_ACK", timeout, cond=lambda a: a.command == mav.MAV_CMD_DO_SET_MODE)
-    return ack.result
+def set_mode(m, name, timeout=5.0, tries=3):
+    """DO_SET_MODE by name (pymavlink's mode mapping) and its COMMAND_ACK result, re-sent as
+    `command` does."""
+    number = m.mode_mapping()[name]
+    return command(m, mav.MAV_CMD_DO_SET_MODE, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, number,
+                   timeout=timeout, tries=tries)
 
 
 def wait_armable(m, timeout=20.0):

@@ -66,10 +66,10 @@ class ScriptedClient:
     def sim_time(self, sysid):
         return self.t
 
-    def goto(self, x, y, z, sysid):
+    def goto(self, x, y, z, sysid, **kw):
         self.sent.append((x, y, z))
 
-    def goto_named(self, frame, x, y, z, sysid):
+    def goto_named(self, frame, x, y, z, sysid, **kw):
         self.sent.append((frame, x, y, z))
 
     def wait_reached(self, goal, radius, timeout, *, sysid, resend, resend_interval, after_ms):

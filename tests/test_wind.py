@@ -87,6 +87,20 @@ def test_turbulence_is_seeded_has_its_standard_deviation_and_only_aloft():
     assert np.dot(x[1:], x[:-1]) / np.dot(x, x) == pytest.approx(math.exp(-0.02 / TURB_TAU), abs=0.02)
 
 
+def test_a_vehicles_gusts_do_not_depend_on_who_else_is_in_its_process():
+    """sitl --workers splits the vehicles over processes: vehicle 2 feels the same turbulence
+    alone as beside vehicles 0 and 1 (its stream is seeded [seed, WIND, 2])."""
+    p = WindParams(speed=3, turbulence=1.5, type=FULL)
+    together, alone = WindField(p, 9), WindField(p, 9)
+    for _ in range(300):
+        together.advance(0.02)
+        alone.advance(0.02)
+        a = together.air_velocity("copter", np.full(3, 10.0), np.ones(3, bool), 0.02, [0, 1, 2])
+        b = alone.air_velocity("copter", np.full(1, 10.0), np.ones(1, bool), 0.02, [2])
+        assert np.array_equal(a[2], b[0])
+    assert not np.array_equal(a[0], a[2])
+
+
 def test_parse_wind_and_its_errors():
     assert parse_wind("8,270,1") == WindParams(speed=8, direction=270, turbulence=1)
     assert parse_wind(" 5 , 90 ") == WindParams(speed=5, direction=90)

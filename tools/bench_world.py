@@ -62,7 +62,7 @@ def _cpu_seconds(pid: int) -> float:
 class Sink:
     """UDP listeners on `groups` consecutive ports (network g on base + g). Counts datagrams,
     frames, bytes, the (network, sysid) pairs seen, and frames from a sysid that network does
-    not hold (`misrouted`); keeps every vehicle's latest SYSTEM_TIME.time_boot_ms."""
+    not hold (`misrouted`); keeps each vehicle's first and latest SYSTEM_TIME in `window`."""
 
     def __init__(self, groups: int, expected: list[set[int]]) -> None:
         self.socks = self._bind(groups)
@@ -70,7 +70,9 @@ class Sink:
         self.expected = expected
         self.packets = self.bytes = self.datagrams = self.misrouted = 0
         self.seen: set[tuple[int, int]] = set()
-        self.boot_ms: dict[tuple[int, int], int] = {}    # (network, sysid) -> SYSTEM_TIME.time_boot_ms
+        # (network, sysid) -> [(wall s, SYSTEM_TIME.time_boot_ms) of the first and the latest]
+        self.clock: dict[tuple[int, int], list[tuple[float, int]]] = {}
+        self.window: tuple[float, float] | None = None      # wall span the rates are taken over
         self.running = True
         self.threads = [threading.Thread(target=self._run, args=(g, s), daemon=True)
                         for g, s in enumerate(self.socks)]
@@ -119,9 +121,14 @@ class Sink:
                     self.seen.add((g, sysid))
                 else:
                     self.misrouted += 1
-                if data[off + 7] == 2 and data[off + 8] == 0 and data[off + 9] == 0:
+                if data[off + 7] == 2 and data[off + 8] == 0 and data[off + 9] == 0:   # SYSTEM_TIME
                     payload = data[off + 10:off + 10 + n].ljust(12, b"\0")   # MAVLink 2 trims zeros
-                    self.boot_ms[(g, sysid)] = struct.unpack_from("<I", payload, 8)[0]   # SYSTEM_TIME
+                    now = time.monotonic()
+                    w = self.window
+                    if w is not None and w[0] <= now <= w[1]:
+                        mark = (now, struct.unpack_from("<I", payload, 8)[0])
+                        c = self.clock.setdefault((g, sysid), [mark, mark])
+                        c[1] = mark
                 off = end
 
     def close(self) -> None:
@@ -184,11 +191,10 @@ def world_bench(drones: int, rovers: int, seconds: float, workers: int = 2) -> t
             time.sleep(0.1)
         t_all = time.monotonic() - t_start
         time.sleep(1.0)                       # let start-up transients pass
-        c0, w0, p0, b0, s0, d0 = (_cpu_seconds(proc.pid), time.monotonic(), sink.packets, sink.bytes,
-                                  dict(sink.boot_ms), sink.datagrams)
+        c0, w0, p0, b0, d0 = _cpu_seconds(proc.pid), time.monotonic(), sink.packets, sink.bytes, sink.datagrams
+        sink.window = (w0, w0 + seconds)
         time.sleep(seconds)
-        c1, w1, p1, b1, s1, d1 = (_cpu_seconds(proc.pid), time.monotonic(), sink.packets, sink.bytes,
-                                  dict(sink.boot_ms), sink.datagrams)
+        c1, w1, p1, b1, d1 = _cpu_seconds(proc.pid), time.monotonic(), sink.packets, sink.bytes, sink.datagrams
     finally:
         proc.terminate()
         try:
@@ -201,9 +207,12 @@ def world_bench(drones: int, rovers: int, seconds: float, workers: int = 2) -> t
         print(f"world process ended with {proc.returncode}: {err[-2000:]}")
     wall = w1 - w0
     cpu = (c1 - c0) / wall
-    # sim s per wall s of every vehicle heard at both ends of the window; the slowest counts
-    rts = [(s1[k] - s0[k]) / 1000.0 / wall for k in s1 if k in s0]
-    rt = min(rts) if rts else 0.0
+    # sim s per wall s of every vehicle whose SYSTEM_TIMEs in the window span >= 40 % of it
+    # (SYSTEM_TIME streams at a few Hz of sim time: a slow world sends few); the slowest counts
+    rts = sorted((b[1] - a[1]) / 1000.0 / (b[0] - a[0]) for a, b in sink.clock.values()
+                 if b[0] - a[0] >= 0.4 * seconds)
+    rt = rts[0] if rts else 0.0
+    rt_med = rts[len(rts) // 2] if rts else 0.0
     fleets, rest = _split(drones, rovers)
     seen = len(sink.seen)
     rows = [["vehicles seen on the wire (network, sysid)", f"{seen}", f"{n}", "met" if seen == n else "MISSED"],
@@ -215,9 +224,11 @@ def world_bench(drones: int, rovers: int, seconds: float, workers: int = 2) -> t
              "met" if cpu <= 2.0 else "MISSED"],
             ["world processes (--workers)", f"{workers}", "<= 2 cores", "-"],
             ["sim s per wall s, slowest vehicle (SYSTEM_TIME)", f"{rt:.2f}", "1.00", "met" if rt >= 0.98 else "MISSED"],
-            ["sim s per wall s, median vehicle", f"{sorted(rts)[len(rts) // 2] if rts else 0.0:.2f}", "", "-"],
-            ["CPU per sim s (cores needed at real time)", f"{cpu / max(rt, 1e-9):.2f} cores", "<= 2 cores",
-             "met" if cpu / max(rt, 1e-9) <= 2.0 else "MISSED"],
+            ["sim s per wall s, median vehicle", f"{rt_med:.2f}", "", "-"],
+            ["vehicles with a measurable sim clock in the window", f"{len(rts)}", f"{n}", "-"],
+            ["CPU per sim s (cores needed at real time)",
+             f"{cpu / rt_med:.2f} cores" if rt_med > 0 else "not measurable", "<= 2 cores",
+             "met" if rt_med > 0 and cpu / rt_med <= 2.0 else "MISSED"],
             ["  in-process split, CPU s per sim s: fleets (physics+sensors+estimator+control)", f"{fleets:.2f} s", "", "-"],
             ["  in-process split, CPU s per sim s: autopilots + MAVLink telemetry", f"{rest:.2f} s", "", "-"],
             ["messages / s (all vehicles)", f"{(p1 - p0) / wall:.0f}", "", "-"],

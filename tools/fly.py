@@ -40,6 +40,16 @@ drone's ground point, from truth); and the wobble figure for both follow frames
 (the bridge computes the ground point through the full-attitude and the yaw-only
 frame on every follow tick, whichever one it steers by).
 
+A family or van scenario (`towerlink fly family`, `towerlink fly van`; shipped
+scenarios are named without .toml): the world starts every vehicle the scenario lists
+(--drones N --rovers M, one loopback port each), the bridge serves each (--vehicle
+SYSID=URL) with a follower per (drone, rover) pair, and the tower flies every drone at
+once. A van gets its route as a mission (van.waypoints: DO_CHANGE_SPEED, the route,
+DO_JUMP back, forever) and a driver on a port of its own puts it in AUTO and arms it
+(van.log). The summary then has a row per vehicle, a row per goal of every drone (with
+the time-travel figure when the tower rides the van) and the closest approach of two
+airborne drones; tracks.png draws every vehicle.
+
 With --lockstep (issue 11) the world waits for the bridge and the tower (TOWERLINK_LOCKSTEP),
 so a seed gives the same summary figures at any --speedup (max: as fast as the machine allows)
 and under any CPU load:
@@ -71,6 +81,7 @@ from gcs.mavstr import mav_str
 os.environ.setdefault("MAVLINK20", "1")
 
 DRONE, ROVER = 1, 2
+SITL_HOME = (-35.363261, 149.16523, 584.0)     # towerlink sitl's default --home (ArduPilot's CMAC)
 SCORING_PARAMS = ("WPNAV_SPEED", "WPNAV_ACCEL", "PSC_JERK_XY")
 
 
@@ -259,9 +270,17 @@ class Launch:
                  tower_args: tuple[str, ...] = (), echo: bool = False, host: str = "127.0.0.1",
                  view_port: int | None = None, nodes: str | os.PathLike | None = None,
                  lockstep: bool = False, follow_with: str = "bridge", foll_pos_p: float | None = None) -> None:
+        from gcs.scenario import load_scenario, scenario_path
         self.dir = Path(run_dir)
         self.dir.mkdir(parents=True, exist_ok=True)
-        self.scenario = str(Path(scenario).resolve()) if scenario else None
+        self.scenario = str(scenario_path(scenario).resolve()) if scenario else None
+        self.sc = load_scenario(self.scenario)
+        self.family = self.sc.is_family
+        if self.family and lockstep:
+            # the family's tower holds one connection per drone; those do not join the
+            # lockstep handshake yet (it counts one tower)
+            raise ValueError(f"--lockstep flies the lab's drone and rover; scenario {self.sc.name!r} "
+                             f"has {len(self.sc.vehicles)} vehicles (lockstep for a family is not done yet)")
         self.speedup = speedup          # float('inf'): --speedup max
         self.lockstep = lockstep        # issue 11: world, bridge and tower in lockstep
         self.seed = seed
@@ -276,8 +295,14 @@ class Launch:
         self.nodes = sorted(Path(nodes).glob("*.py")) if nodes else []
         if nodes and not self.nodes:
             raise ValueError(f"no nodes (*.py) in {nodes}")
-        names = ("drone", "rover", "tower", "vehicles", "bridge", "proxy", "nodes")
+        names = ["drone", "rover", "tower", "vehicles", "bridge", "proxy", "nodes"]
+        if self.family:
+            names += [f"vehicle{s}" for _n, s, _k in self.sc.vehicles]
+            if self.sc.van is not None:
+                names.append("van_driver")
         self.ports = dict(zip(names, free_udp_ports(len(names), host)))
+        self.van_driver: threading.Thread | None = None
+        self._van_stop = threading.Event()
         self.procs: dict[str, subprocess.Popen] = {}
         self.logs: dict[str, object] = {}
         self.proxy = None
@@ -293,6 +318,8 @@ class Launch:
             raise ValueError(f"--follow-with: bridge, ardupilot or both, not {follow_with!r}")
         # who follows the drone: the bridge's tf follow drives rover sysid 2; ArduPilot's FOLLOW
         # (tools/follow_ap.py) drives sysid 2 instead, or a second rover (sysid 3) beside it
+        if follow_with != "bridge" and self.family:
+            raise ValueError("--follow-with ardupilot|both flies the lab's drone and rover, not a family")
         self.follow_with = follow_with
         self.foll_pos_p = foll_pos_p
         self.ap_follower = {"bridge": None, "ardupilot": ROVER, "both": ROVER + 1}[follow_with]
@@ -317,6 +344,8 @@ class Launch:
 
     def sitl_cmd(self) -> list[str]:
         h = self.host
+        if self.family:
+            return self.family_sitl_cmd()
         # the bridge and the tower are the lockstep participants: the world waits for both at t=0
         lock = ("--lockstep", "2") if self.lockstep else ()
         return towerlink_cmd("sitl", "--speedup", speedup_text(self.speedup), "--seed", str(self.seed),
@@ -334,11 +363,67 @@ class Launch:
         w = load_scenario(self.scenario).wind_arg()
         return ["--wind", w] if w else []
 
+    def family_sitl_cmd(self) -> list[str]:
+        """Every vehicle of the scenario, vehicle i (sysid i+1) on its own udpin port."""
+        h, sc = self.host, self.sc
+        cmd = towerlink_cmd("sitl", "--drones", str(len(sc.drones)), "--rovers", str(len(sc.rovers)),
+                            "--speedup", speedup_text(self.speedup), "--seed", str(self.seed), "--no-save",
+                            "--tcp-base", "0", "--udp-base", "0",
+                            "--home=" + ",".join(f"{v:.10g}" for v in SITL_HOME),   # "=": it starts with "-"
+                            "--out", f"udpout:{h}:{self.ports['vehicles']}", *self._scenario_wind())
+        for _name, sysid, _kind in sc.vehicles:
+            cmd += ["--endpoint", f"{sysid - 1}=udpin:{h}:{self.ports[f'vehicle{sysid}']}"]
+        if sc.van is not None:
+            i = sc.van.sysid - 1
+            cmd += ["--endpoint", f"{i}=udpin:{h}:{self.ports['van_driver']}",
+                    "--mission", f"{i}={self.write_van_mission()}"]
+        return cmd + list(self.sitl_args)
+
+    def write_van_mission(self) -> Path:
+        """The van's route as a QGC WPL 110 mission, looped with DO_JUMP (world NED -> lat/lon)."""
+        from gcs.geo import ned_to_lla
+        from gcs.wpl import WplItem, write
+        van = self.sc.van
+        items = [WplItem(0, 1, 0, 16, 0, 0, 0, 0, SITL_HOME[0], SITL_HOME[1], SITL_HOME[2]),
+                 WplItem(1, 0, 3, 178, 1, van.speed, -1, 0, 0, 0, 0)]      # DO_CHANGE_SPEED ground
+        for x, y in van.route:
+            lat, lon, _alt = ned_to_lla(SITL_HOME, (x, y, 0.0))
+            items.append(WplItem(len(items), 0, 3, 16, 0, 0, 0, 0, lat, lon, 0.0))
+        items.append(WplItem(len(items), 0, 3, 177, 2, -1, 0, 0, 0, 0, 0))  # DO_JUMP to 2, forever
+        path = self.dir / "van.waypoints"
+        write(str(path), items)
+        return path
+
+    def drive_van(self) -> None:
+        """The van's driver: AUTO and arm on its own link, then keep the link read (van.log)."""
+        from gcs.client import Client, ClientError
+        van = self.sc.van
+        with open(self.dir / "van.log", "a") as f:
+            def log(msg: str) -> None:
+                f.write(f"van: {msg}\n")
+                f.flush()
+            try:
+                with Client.connect(f"udpout:{self.host}:{self.ports['van_driver']}", log=log) as c:
+                    c.wait_heartbeat(van.sysid, timeout=60)
+                    c.set_mode("AUTO", van.sysid, timeout=30)
+                    c.arm(van.sysid, timeout=60)
+                    log(f"AUTO and armed at t={c.sim_time(van.sysid):.2f} s: driving its route "
+                        f"at {van.speed:g} m/s")
+                    while not self._van_stop.is_set():
+                        c.poll(0.2)
+            except (ClientError, OSError) as exc:
+                log(f"could not start the van: {exc}")
+
     def bridge_cmd(self) -> list[str]:
         h = self.host
-        cmd = towerlink_cmd("bridge", "--tower", f"udpin:{h}:{self.ports['tower']}",
-                            "--drone", f"udpout:{h}:{self.ports['drone']}",
-                            "--rover", f"udpout:{h}:{self.ports['rover']}",
+        if self.family:
+            vehicles = []
+            for _name, sysid, _kind in self.sc.vehicles:
+                vehicles += ["--vehicle", f"{sysid}=udpout:{h}:{self.ports[f'vehicle{sysid}']}"]
+        else:
+            vehicles = ["--drone", f"udpout:{h}:{self.ports['drone']}",
+                        "--rover", f"udpout:{h}:{self.ports['rover']}"]
+        cmd = towerlink_cmd("bridge", "--tower", f"udpin:{h}:{self.ports['tower']}", *vehicles,
                             "--out", f"udpout:{h}:{self.ports['bridge']}",
                             "--speedup", speedup_text(self.speedup))
         if self.lockstep:
@@ -387,6 +472,7 @@ class Launch:
                 self.goal_state.update(n=n, total=total, last=what)
                 if what == "reached":
                     self.goal_state["reached"] = n
+                    self.goal_state["count"] = self.goal_state.get("count", 0) + 1
             g = re.search(r"goal \d+/\d+ sent: \w+ \[([^\]]+)\] at t=([-\d.]+) s", line)
             if g and self.view is not None:
                 try:
@@ -414,6 +500,9 @@ class Launch:
             self.monitor.listeners["vehicles"] = self.ap_driver.on_message
         self.monitor.start()
         self._start("sitl", self.sitl_cmd())
+        if self.family and self.sc.van is not None:
+            self.van_driver = threading.Thread(target=self.drive_van, daemon=True, name="van-driver")
+            self.van_driver.start()
         self.start_bridge()
         for path in self.nodes:
             self._start(f"node-{path.stem}", self.node_cmd(path))
@@ -485,6 +574,9 @@ class Launch:
         snap = self.monitor.snapshot() if self.monitor else {"sim": 0, "drone": None, "follow_err": None}
         gs = self.goal_state
         goal = f"goal {gs['n']}/{gs['total']} {gs['last']}" if gs["total"] else "goal -/- (preparing)"
+        if self.family:
+            total = sum(len(d.goals) for d in self.sc.drones)
+            goal = f"goals {gs.get('count', 0)}/{total} reached"
         d = snap["drone"]
         dtxt = f"drone [{d[0]:7.2f}, {d[1]:7.2f}, {d[2]:6.2f}]" if d else "drone [waiting]"
         e = snap["follow_err"]
@@ -520,6 +612,9 @@ class Launch:
                 except subprocess.TimeoutExpired:
                     _signal_group(p, signal.SIGKILL)
                     p.wait(5)
+        self._van_stop.set()
+        if self.van_driver is not None:
+            self.van_driver.join(3.0)
         if self.proxy is not None:
             self.proxy.stop()
         if self.monitor is not None:
@@ -554,10 +649,14 @@ class Launch:
         if self.sim0 is not None and self.monitor is not None:
             snap = self.monitor.snapshot()
             meta["achieved_speedup"] = (snap["sim"] - self.sim0[0]) / max(1e-6, time.monotonic() - self.sim0[1])
-        s = summarize(self.dir, tower=tower, scenario_path=self.scenario, meta=meta)
+        if self.family:
+            from tools.family_summary import format_family_summary, summarize_family
+            s = summarize_family(self.dir, tower=tower, scenario_path=self.scenario, meta=meta)
+        else:
+            s = summarize(self.dir, tower=tower, scenario_path=self.scenario, meta=meta)
         s["ok"] = bool(s["ok"]) and tower_rc == 0
         (self.dir / "summary.json").write_text(json.dumps(s, indent=2, default=_json_default))
-        text = format_summary(s)
+        text = format_family_summary(s) if self.family else format_summary(s)
         extras = []
         try:
             from tools.plot_tracks import plot_run
@@ -621,7 +720,8 @@ def _speedup(text: str) -> float:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenario", nargs="?", default=None,
-                        help="scenario TOML (default: the built-in lab scenario)")
+                        help="scenario TOML, or a shipped one by name: default, family (3 drones, "
+                             "3 rovers), van (the tower on a moving van); default: the lab scenario")
     parser.add_argument("--speedup", type=_speedup, default=5.0, metavar="N|max",
                         help="at most N sim seconds per wall second (default 5; the machine may deliver less); "
                              "'max': as fast as the machine allows (use with --lockstep)")

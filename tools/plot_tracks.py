@@ -10,6 +10,10 @@ scenario's frames); the tower, usually far outside the flown area, is shown in a
 overview inset and by an arrow at the map's edge. The right-hand panel shows the
 rover's distance to the drone's ground point and the attitude-caused ground-point
 error of both drone frames (when the bridge's follow ticks were recorded).
+
+A family or van run draws every vehicle the scenario lists (drones solid, following
+rovers dashed, the van dotted), every drone's goals numbered with its name, and one
+follow-error curve per (drone, rover) pair.
 """
 from __future__ import annotations
 
@@ -29,20 +33,38 @@ def _goals_world(run_dir: Path | None, scenario: str | None):
         meta = json.loads((run_dir / "meta.json").read_text())
     sc = load_scenario(scenario or meta.get("scenario"))
     buf = sc.buffer()
-    tower_origin = buf.lookup_transform("world", "tower").transform.translation if "tower" in sc.frames() else None
+    tower_origin = None
+    if "tower" in sc.frames() and buf.can_transform("world", "tower"):   # not when it rides the van
+        tower_origin = buf.lookup_transform("world", "tower").transform.translation
     goals = []
     if run_dir is not None and (run_dir / "tower.json").exists():
         tj = json.loads((run_dir / "tower.json").read_text())
+        for d in tj.get("drones", []):           # a family: every drone's goals, labelled
+            for g in d.get("goals", []):
+                w = g.get("world")
+                if w is None and buf.can_transform("world", g.get("frame", "tower")):
+                    w = buf.lookup_transform("world", g.get("frame", "tower")).transform.apply_point(
+                        np.array(g["goal"], float))
+                if w is not None:
+                    goals.append((np.array(w, float), bool(g.get("reached")), f"{d['name']} {g['index']}"))
         for g in tj.get("goals", []):
             T = buf.lookup_transform("world", g.get("frame", "tower")).transform
             goals.append((T.apply_point(np.array(g["goal"], float)), bool(g.get("reached"))))
-    else:
+    elif buf.can_transform("world", sc.goal_frame):
         T = buf.lookup_transform("world", sc.goal_frame).transform
-        goals = [(T.apply_point(np.array(g, float)), None) for g in sc.goals]
-    return goals, tower_origin, buf
+        goals = [(T.apply_point(np.array(g, float)), None, f"{d.name} {k + 1}" if sc.is_family else None)
+                 for d in sc.drones for k, g in enumerate(d.goals)]
+    return goals, tower_origin, buf, sc
 
 
-def plot(data: RunData, out: str | Path, *, goals=(), tower=None, buf=None, title: str = "") -> Path:
+LAB_VEHICLES = ((DRONE, "drone", "copter"), (ROVER, "rover", "rover"))
+
+
+def plot(data: RunData, out: str | Path, *, goals=(), tower=None, buf=None, title: str = "",
+         vehicles=LAB_VEHICLES, pairs=((DRONE, ROVER),), van: int | None = None, spoke=()) -> Path:
+    """vehicles: (sysid, name, kind) to draw; pairs: (drone, rover) sysids whose follow error
+    is plotted; van: the sysid drawn dotted; spoke: (van xy, goal xy) world pairs, where the
+    tower on the van was when it sent each goal, drawn as a triangle and a thin line."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -52,20 +74,37 @@ def plot(data: RunData, out: str | Path, *, goals=(), tower=None, buf=None, titl
     src = "truth" if data.truth else "estimate"
     tracks = data.truth or data.estimate
     pts = []
-    for sysid, name, color in ((DRONE, "drone", "tab:blue"), (ROVER, "rover", "tab:orange")):
+    lab = tuple(vehicles) == LAB_VEHICLES
+    palette = ["tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown",
+               "tab:pink", "tab:olive", "tab:cyan", "tab:gray"]
+    colors = {sysid: palette[k % len(palette)] for k, (sysid, _n, _kind) in enumerate(vehicles)}
+    # a rover takes its drone's colour, lighter: pairs read at a glance
+    for d, r in pairs:
+        if not lab and d in colors and r in colors:
+            colors[r] = colors[d]
+    for sysid, name, kind in vehicles:
         tr = tracks.get(sysid)
         if tr is None or not len(tr):
             continue
-        ax.plot(tr.xyz[:, 1], tr.xyz[:, 0], color=color, lw=1.6 if sysid == DRONE else 1.2,
-                label=f"{name} ({src})", ls="-" if sysid == DRONE else "--")
-        ax.plot(tr.xyz[0, 1], tr.xyz[0, 0], "o", color=color, ms=5)
+        color = colors[sysid]
+        ls = ":" if sysid == van else ("-" if kind == "copter" else "--")
+        ax.plot(tr.xyz[:, 1], tr.xyz[:, 0], color=color if sysid != van else "black",
+                lw=1.6 if kind == "copter" else 1.2, label=f"{name} ({src})", ls=ls,
+                alpha=1.0 if kind == "copter" or lab else 0.7)
+        ax.plot(tr.xyz[0, 1], tr.xyz[0, 0], "o", color=color if sysid != van else "black", ms=5)
         pts.append(tr.xyz[:, :2])
-    for k, (g, reached) in enumerate(goals):
+    for k, item in enumerate(goals):
+        g, reached = item[0], item[1]
+        label = item[2] if len(item) > 2 and item[2] else f"{k + 1}"
         mk = "*" if reached in (True, None) else "x"
         ax.plot(g[1], g[0], mk, color="green" if reached in (True, None) else "red", ms=14,
                 label="goals" if k == 0 else None)
-        ax.annotate(f"{k + 1}", (g[1], g[0]), textcoords="offset points", xytext=(7, 7), fontsize=10)
+        ax.annotate(label, (g[1], g[0]), textcoords="offset points", xytext=(7, 7), fontsize=10 if lab else 8)
         pts.append(np.array([g[:2]]))
+    for k, (pv, pg) in enumerate(spoke):
+        ax.plot(pv[1], pv[0], "^", color="purple", ms=9, label="tower (on the van) when it sent the goal" if k == 0 else None)
+        ax.plot([pv[1], pg[1]], [pv[0], pg[0]], color="purple", lw=0.8, ls="-", alpha=0.6)
+        pts.append(np.array([pv[:2]]))
     ax.plot(0, 0, "k+", ms=10, label="world origin (home)")
     pts.append(np.zeros((1, 2)))
     allp = np.vstack(pts)
@@ -99,7 +138,7 @@ def plot(data: RunData, out: str | Path, *, goals=(), tower=None, buf=None, titl
                     ins.plot(tr.xyz[:, 1], tr.xyz[:, 0], color=color, lw=1)
             ins.plot(ty, tx, "^", color="purple", ms=7)
             ins.plot(0, 0, "k+")
-            if buf is not None:  # the tower's axes, 25 m long
+            if buf is not None and buf.can_transform("world", "tower"):  # the tower's axes, 25 m long
                 T = buf.lookup_transform("world", "tower").transform
                 for axis, col in ((np.array([25.0, 0, 0]), "red"), (np.array([0, 25.0, 0]), "green")):
                     e = T.apply_point(axis)
@@ -107,16 +146,20 @@ def plot(data: RunData, out: str | Path, *, goals=(), tower=None, buf=None, titl
             ins.set_aspect("equal", adjustable="datalim")
             ins.set_title("overview (tower x red, y green)", fontsize=7)
             ins.tick_params(labelsize=6)
-    ax.legend(loc="center", fontsize=8)
+    ax.legend(loc="center" if lab else "best", fontsize=8 if lab else 7)
     ax.set_title(title or "tracks (world, seen from above)", fontsize=11)
 
     ax2 = fig.add_axes([0.71, 0.56, 0.26, 0.33])
     ax3 = fig.add_axes([0.71, 0.09, 0.26, 0.33], sharex=ax2)
-    dr, rv = data.truth.get(DRONE), data.truth.get(ROVER)
-    if dr is not None and rv is not None and len(dr) and len(rv):
-        m = (rv.t >= dr.t[0]) & (rv.t <= dr.t[-1])
-        err = np.hypot(*(rv.xyz[m, :2] - dr.at(rv.t[m])[:, :2]).T)
-        ax2.plot(rv.t[m], err, color="tab:orange", lw=1, label="rover to drone ground point (truth)")
+    names = {s: n for s, n, _k in vehicles}
+    for d, r in pairs:
+        dr, rv = data.truth.get(d), data.truth.get(r)
+        if dr is not None and rv is not None and len(dr) and len(rv):
+            m = (rv.t >= dr.t[0]) & (rv.t <= dr.t[-1])
+            err = np.hypot(*(rv.xyz[m, :2] - dr.at(rv.t[m])[:, :2]).T)
+            label = "rover to drone ground point (truth)" if lab else \
+                f"{names.get(r, r)} to {names.get(d, d)} ground point (truth)"
+            ax2.plot(rv.t[m], err, color="tab:orange" if lab else colors[d], lw=1, label=label)
     if data.follow:
         f = data.follow
         ax3.plot(f["t"], f["err_full"], color="tab:red", lw=1, label="full attitude (drone)")
@@ -154,8 +197,18 @@ def plot_run(path: str | Path, out: str | Path | None = None, scenario: str | No
         run_dir = path.parent if (path.parent / "tower.json").exists() else None
         out = out or path.with_suffix(".png")
         title = f"tracks: {path.name}"
-    goals, tower, buf = _goals_world(run_dir, scenario)
-    return plot(data, out, goals=goals, tower=tower, buf=buf, title=title)
+    goals, tower, buf, sc = _goals_world(run_dir, scenario)
+    if not sc.is_family:
+        return plot(data, out, goals=goals, tower=tower, buf=buf, title=title)
+    vehicles = [(s, n, k) for n, s, k in sc.vehicles]
+    spoke = []
+    vt = (data.truth or data.estimate).get(sc.van.sysid) if sc.van else None
+    if vt is not None and len(vt) and run_dir is not None and (run_dir / "tower.json").exists():
+        for d in json.loads((run_dir / "tower.json").read_text()).get("drones", []):
+            spoke += [(vt.at(g["sent_sim"]), g["world"]) for g in d.get("goals", [])
+                      if g.get("sent_sim") is not None and g.get("world") is not None]
+    return plot(data, out, goals=goals, tower=tower, buf=buf, title=title, vehicles=vehicles,
+                pairs=sc.pairs, van=sc.van.sysid if sc.van else None, spoke=spoke)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -60,6 +60,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import math
 import os
 import signal
 import sys
@@ -232,6 +233,12 @@ def run(args: argparse.Namespace) -> int:
         return 2
     if args.workers < 1:
         print("towerlink sitl: --workers must be >= 1", file=sys.stderr)
+        return 2
+    if args.workers > 1 and (args.lockstep or math.isinf(args.speedup)):
+        # each worker paces itself to the wall clock from one shared t = 0; an unpaced or
+        # lockstepped clock would be one per process, so they would not be one world
+        print("towerlink sitl: --workers needs a finite --speedup and no --lockstep "
+              "(each worker paces itself to the wall clock)", file=sys.stderr)
         return 2
     from vehicle.autopilot.params import ParamFileError
     from vehicle.network_plan import PlanError

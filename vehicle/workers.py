@@ -11,6 +11,10 @@ run at real time; a worker that cannot keep up falls behind alone, and says so i
 behind count). Workers are forked (they start with the parent's imports); they stop on
 SIGTERM/SIGINT, when the parent goes away, or when told to; the parent stops when a worker
 dies. Each prints its own stats line at exit.
+
+Not shared: world-wide state changed at run time (a PARAM_SET of SIM_WIND_* moves the air
+of the worker that received it only; --wind at start is every worker's). Refused by the CLI:
+--workers with --lockstep or --speedup max (those clocks are one process's).
 """
 from __future__ import annotations
 

@@ -126,6 +126,7 @@ class World:
         self.plan = cfg.network_plan()        # PlanError before anything is built
         # one air mass for the world (SIM_WIND_*), turbulence seeded by the world's seed
         self.wind = WindField(cfg.wind, cfg.seed)
+        self._fleet_ids: dict[str, list[int]] = {}
         file_params = read_parm_file(cfg.params_file) if cfg.params_file else {}
         file_params.pop("SYSID_THISMAV", None)
         lo, hi = cfg.share if cfg.share is not None else (0, cfg.drones + cfg.rovers)
@@ -162,6 +163,7 @@ class World:
                 if any(own[x] != fleet_params[x] for x in own):
                     fleet.set_params(own, i=k)
             self.fleets.append((kind, fleet))
+            self._fleet_ids[kind] = [first + j for j in js]     # world indices (wind streams)
             for k, j in enumerate(js):     # k: index in the fleet, j: the kind's index
                 index = first + j
                 push = self._pusher(fleet, core_names, k, stores[k])
@@ -238,7 +240,7 @@ class World:
         w.advance(dt)
         for kind, fleet in self.fleets:
             h = fleet.home[:, 2] - fleet.pos[:, 2]        # height above its home ground, m
-            fleet.set_air(w.air_velocity(kind, h, h > 0.05, dt))
+            fleet.set_air(w.air_velocity(kind, h, h > 0.05, dt, self._fleet_ids[kind]))
 
     def clock(self) -> float:
         return self.t

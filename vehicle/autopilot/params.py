@@ -38,8 +38,10 @@ class ParamDef:
 
 
 def _d(name, default, lo, hi, integer=False, doc=""):
-    from vehicle.autopilot.params_ardupilot import TYPES, UNITS
-    return ParamDef(name, float(default), float(lo), float(hi), integer, doc, UNITS.get(name, ""), TYPES.get(name))
+    from vehicle.autopilot.params_ardupilot import META, TYPES, UNITS
+    units, ptype = META.get(name, ("", None))
+    return ParamDef(name, float(default), float(lo), float(hi), integer, doc, UNITS.get(name, units),
+                    TYPES.get(name, ptype))
 
 
 _STREAMS = [

@@ -200,6 +200,11 @@ _ROVER_ONLY = [
 
 COPTER_EXTRA = _defs(_COPTER_ONLY + _SHARED)
 ROVER_EXTRA = _defs(_ROVER_ONLY + _SHARED)
+# units and type by name from the rows above, for a parameter params.py defines itself (its
+# definition wins, but ArduPilot's type and units stay): the first row naming it
+META: dict[str, tuple[str, int]] = {}
+for _row in _COPTER_ONLY + _SHARED + _ROVER_ONLY:
+    META.setdefault(_row[0], (_row[5], _row[4]))
 
 # ArduPilot's type (and units) of the parameters params.py and the cores define, by name
 TYPES = {
@@ -218,4 +223,5 @@ UNITS = {
     "LAND_SPEED": "cm/s", "LAND_SPEED_HIGH": "cm/s", "DISARM_DELAY": "s", "WPNAV_RADIUS": "cm",
     "CIRCLE_RATE": "deg/s", "RALLY_LIMIT_KM": "km", "SRTL_ACCURACY": "m", "PHLD_BRAKE_RATE": "deg/s",
     "PHLD_BRAKE_ANGLE": "cdeg", "WP_RADIUS": "m", "LOIT_RADIUS": "m", "SR0_EXTRA1": "Hz",
+    "SIM_WIND_DIR_Z": "deg", "SIM_WIND_T_ALT": "m",
 }

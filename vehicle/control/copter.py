@@ -146,8 +146,11 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
         c.ax, c.ay = w(level, 0.0, c.ax), w(level, 0.0, c.ay)
     # yaw reference: slew to the target yaw, or integrate a yaw rate
     ymax = g.rate_y_max
-    dy = wrap_pi(sp.yaw - c.yaw)
-    yr = w(sp.use_yaw, xp.clip(dy * g.ang_y, -ymax, ymax), xp.clip(sp.yaw_rate, -ymax, ymax))
+    if xp.any(sp.use_yaw):
+        dy = wrap_pi(sp.yaw - c.yaw)
+        yr = w(sp.use_yaw, xp.clip(dy * g.ang_y, -ymax, ymax), xp.clip(sp.yaw_rate, -ymax, ymax))
+    else:                     # no yaw targets: the wrap (np.remainder, dear) is not needed
+        yr = xp.clip(sp.yaw_rate, -ymax, ymax)
     c.yaw = wrap_pi(c.yaw + yr * dt)
 
     # ---- position / velocity -----------------------------------------------------

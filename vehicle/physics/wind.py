@@ -23,8 +23,9 @@ Model (learned from libraries/SITL/SIM_Aircraft.cpp update_wind and the SITL inp
   physics frame, about 40 ms at 1200 Hz) and scrambles the horizontal direction every
   frame, which makes its turbulence nearly white; here its correlation time is TURB_TAU
   (0.5 s) whatever the physics rate, so gusts are gusts a position controller feels and
-  the result does not depend on --rate. Each vehicle has its own turbulence; the draws come
-  from one generator seeded by the world's seed, so a run is repeatable.
+  the result does not depend on --rate. Each vehicle has its own turbulence, drawn from its
+  own generator seeded [world seed, "WIND", vehicle index], so a run is repeatable and a
+  vehicle feels the same gusts whichever `--workers` process runs it.
 - A vehicle on the ground feels no wind force (its ground contact holds it); the physics
   cores apply that rule.
 
@@ -40,6 +41,8 @@ import numpy as np
 
 SMOOTH_TAU = 0.02     # s: lag of the mean wind behind SIM_WIND_SPD / SIM_WIND_DIR changes
 TURB_TAU = 0.5        # s: correlation time of the turbulence
+BLOCK = 64            # ticks of turbulence draws fetched per vehicle at a time
+_WIND_TAG = 0x57494E44   # "WIND": keeps these streams apart from the sensors' [seed, j]
 
 WIND_TYPE_SQRT, WIND_TYPE_NO_LIMIT, WIND_TYPE_COEF = 0, 1, 2
 
@@ -129,7 +132,9 @@ class WindField:
 
     def __init__(self, params: WindParams | None = None, seed: int = 0) -> None:
         self.params = params or WindParams()
-        self.rng = np.random.default_rng([int(seed) & 0xFFFFFFFF, 0x57494E44])   # "WIND"
+        self.seed = int(seed) & 0xFFFFFFFF
+        self._rngs: dict[int, np.random.Generator] = {}
+        self._blocks: dict[object, list] = {}
         self._dir = air_direction(self.params)      # lagged unit-ish vector x speed below
         self._mean = self.params.speed              # lagged reference speed
         self._turb: dict[object, np.ndarray] = {}
@@ -149,10 +154,27 @@ class WindField:
         self._dir = self._dir + (air_direction(self.params) - self._dir) * k
         self._mean = self._mean + (self.params.speed - self._mean) * k
 
-    def air_velocity(self, key, height: np.ndarray, airborne: np.ndarray, dt: float) -> np.ndarray:
+    def _normals(self, key, ids) -> np.ndarray:
+        """(n,3) standard normals for this tick, one row per vehicle from its own stream."""
+        b = self._blocks.get(key)
+        if b is None or b[1] >= BLOCK or b[0].shape[1] != len(ids):
+            rows = []
+            for i in ids:
+                g = self._rngs.get(i)
+                if g is None:
+                    g = self._rngs[i] = np.random.default_rng([self.seed, _WIND_TAG, int(i)])
+                rows.append(g.standard_normal((BLOCK, 3)))
+            b = self._blocks[key] = [np.stack(rows, axis=1), 0]
+        out = b[0][b[1]]
+        b[1] += 1
+        return out
+
+    def air_velocity(self, key, height: np.ndarray, airborne: np.ndarray, dt: float,
+                     ids=None) -> np.ndarray:
         """(n,3) air velocity, world NED m/s, for the n vehicles of group `key` at `height`
         m above home; turbulence only where `airborne`, advanced by dt (call once per
-        group per world tick, after advance())."""
+        group per world tick, after advance()). ids: the vehicles' world indices (their
+        turbulence streams; default 0..n-1)."""
         p = self.params
         h = np.asarray(height, float)
         lagged = WindParams(**{**p.__dict__, "speed": self._mean})
@@ -164,7 +186,7 @@ class WindField:
         if p.turbulence > 0.0:
             a = math.exp(-dt / TURB_TAU)
             t *= a
-            t += p.turbulence * math.sqrt(1.0 - a * a) * self.rng.standard_normal((n, 3))
+            t += p.turbulence * math.sqrt(1.0 - a * a) * self._normals(key, range(n) if ids is None else ids)
             out = out + np.where(np.asarray(airborne, bool)[:, None], t, 0.0)
         else:
             t[:] = 0.0
