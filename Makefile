@@ -25,7 +25,8 @@ demo: $(STAMP)
 	$(BIN)/towerlink fly
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile -m "not slow"
+	$(BIN)/python -m pytest -q -m slow
 
 bench: $(STAMP)
 	$(BIN)/python -m pip install -q -e '.[test,plot,bench]'

@@ -1,4 +1,11 @@
-"""pytest fixtures shared by every test module."""
+"""pytest fixtures shared by every test module.
+
+`make test` runs the suite in two passes: everything not marked slow on two cores
+(pytest-xdist, `-n 2 --dist loadfile`: a module's tests stay on one worker, so a module-scoped
+fixture is built once), then the full-system tests (marked slow) one at a time, so no two
+whole-system runs compete for the CPU (their figures, e.g. the rover's follow error, come from
+processes that react on the wall clock unless they run in lockstep).
+"""
 from __future__ import annotations
 
 import pytest
@@ -15,13 +22,3 @@ def processes():
     finally:
         procs.stop_all()
 
-
-@pytest.hookimpl(tryfirst=True)
-def pytest_collection_modifyitems(config, items):
-    """`make test` runs on two cores (pytest-xdist, --dist loadgroup): a module's tests stay
-    together on one worker (module-scoped fixtures are built once), and the full-system tests
-    marked slow share one group, so no two whole-system runs compete for the CPU (their
-    figures, e.g. the rover's follow error, come from processes on the wall clock)."""
-    for item in items:
-        group = "system" if item.get_closest_marker("slow") else item.module.__name__
-        item.add_marker(pytest.mark.xdist_group(group))

@@ -3,7 +3,6 @@ figures and failsafe with ArduPilot's texts and actions (in-process on the real 
 BATTERY_STATUS / SYS_STATUS over pymavlink from a real `towerlink sitl`."""
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pytest

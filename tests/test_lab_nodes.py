@@ -36,7 +36,7 @@ def test_the_bridge_only_routed(run):
     # the drone's frames are world_to_drone's; the bridge neither followed nor translated a goal
     node = f"node:255/{component_for('world_to_drone')}"
     assert f"node frames: drone by {node}, drone_yaw by {node}; refused 0" in log
-    assert "follow ticks 0;" in log
+    assert "follow ticks drone:0;" in log            # the bridge drove no follow (per pair since the family)
     kinds = {m.get_type() for m in read_tlog(run_dir / "bridge.tlog")}
     assert "TOWERLINK_FOLLOW_STATUS" not in kinds and "TOWERLINK_TRANSFORM" in kinds
 

@@ -20,7 +20,7 @@ from vehicle.autopilot import modes
 from vehicle.physics import ScalarOps
 from vehicle.physics import multicopter as mc
 from vehicle.physics import rover as rphys
-from vehicle.physics.wind import (TURB_TAU, WindField, WindParams, air_direction, parse_wind,
+from vehicle.physics.wind import (TURB_TAU, WindField, WindParams, parse_wind,
                                   profile_speed)
 from vehicle.world import World, WorldConfig
 
