@@ -20,12 +20,15 @@ are translated are re-encoded with the sender's ids. Malformed input (garbage, b
 CRC, truncated, unknown ids) is counted per link and dropped.
 
 Frames. The buffer holds the scenario's static frames, statics added live
-(TOWERLINK_STATIC_TRANSFORM, e.g. `towerlink static-transform --publish`), world->drone
-and world->rover (body FRD, from LOCAL_POSITION_NED + ATTITUDE_QUATERNION paired by
-time_boot_ms and stamped time_boot_ms/1000) and world->drone_yaw / world->rover_yaw
-(yaw-only). On the tower link SET_POSITION_TARGET_LOCAL_NED (LOCAL_NED or
-LOCAL_OFFSET_NED) is mapped tower->world, LOCAL_POSITION_NED and
-POSITION_TARGET_LOCAL_NED world->tower. TOWERLINK_POSITION_TARGET names its frame.
+(TOWERLINK_STATIC_TRANSFORM, e.g. `towerlink static-transform --publish`), each vehicle's
+origin world->drone_origin / world->rover_origin (static, from the vehicle's
+GPS_GLOBAL_ORIGIN: a real vehicle's local NED is centred where it booted; world is
+--world-origin, else the drone's origin; asked with REQUEST_MESSAGE until known), and
+drone_origin->drone, rover_origin->rover (body FRD, from LOCAL_POSITION_NED +
+ATTITUDE_QUATERNION paired by time_boot_ms and stamped time_boot_ms/1000) with
+drone_origin->drone_yaw / rover_origin->rover_yaw (yaw-only). On the tower link
+SET_POSITION_TARGET_LOCAL_NED (LOCAL_NED or LOCAL_OFFSET_NED) is mapped tower->the
+target's <name>_origin, LOCAL_POSITION_NED and POSITION_TARGET_LOCAL_NED <name>_origin->tower. TOWERLINK_POSITION_TARGET names its frame.
 A goal whose transform is missing (or whose dynamic chain is older than
 --max-transform-age) waits and is retried every tick; it is never sent with a guess.
 Every transform is published as TOWERLINK_TRANSFORM (statics at 1 Hz wall, dynamic at
@@ -94,6 +97,7 @@ Give negative offsets with '=': --follow-offset=-2,0 (2 m behind).
 from __future__ import annotations
 
 import argparse
+import math
 import signal
 import sys
 
@@ -133,6 +137,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="rover endpoint (default %(default)s; 'none' to disable)")
     g.add_argument("--out", action="append", default=[], metavar="URL",
                    help="extra world-frame GCS-side endpoint (repeatable), e.g. udpout:127.0.0.1:14610")
+    g.add_argument("--world-origin", type=_lla, default=None, metavar="LAT,LON,ALT",
+                   help="where world is (deg, deg, m AMSL); default: the drone's EKF origin (GPS_GLOBAL_ORIGIN)")
     g.add_argument("--vehicle", action="append", default=[], metavar="SYSID=URL", type=_vehicle_url,
                    help="serve the scenario's vehicle SYSID at URL (repeatable); replaces --drone/--rover, "
                         "e.g. --vehicle 1=udpout:127.0.0.1:14560 --vehicle 4=udpout:127.0.0.1:14590")
@@ -217,7 +223,7 @@ def config_from_args(args):
         vehicles=vehicles, pairs=pairs,
         tower=args.tower, drone=args.drone, rover=args.rover, outs=list(args.out),
         drone_sysid=args.drone_sysid, rover_sysid=args.rover_sysid, sysid=args.sysid,
-        compid=args.compid, tower_frame=args.tower_frame, statics=statics,
+        compid=args.compid, tower_frame=args.tower_frame, statics=statics, world_origin=args.world_origin,
         follow=args.follow,
         follow_frame=args.follow_frame or sc.follow_frame,
         follow_offset=tuple(args.follow_offset) if args.follow_offset is not None else tuple(sc.follow_offset),
@@ -229,6 +235,16 @@ def config_from_args(args):
         allow_redefine=args.allow_redefine, signing_key=key_from_text(args.signing_key),
         nodes=args.nodes, route_only=args.route_only,
         lockstep=args.lockstep)
+
+
+def _lla(text: str) -> tuple[float, float, float]:
+    try:
+        lat, lon, alt = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected LAT,LON,ALT, got {text!r}") from None
+    if not (abs(lat) <= 90 and abs(lon) <= 180 and math.isfinite(alt)):
+        raise argparse.ArgumentTypeError(f"not a place: {text!r}")
+    return (lat, lon, alt)
 
 
 def start_viewer(port: int) -> tuple[str, object]:

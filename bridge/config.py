@@ -22,6 +22,7 @@ class BridgeConfig:
     compid: int = 191           # MAV_COMP_ID_ONBOARD_COMPUTER
     tower_frame: str = "tower"
     world_frame: str = "world"
+    world_origin: tuple | None = None   # (lat, lon, alt AMSL) of world; None: the drone's EKF origin
     statics: list = field(default_factory=list)   # TransformStamped
     follow: bool = True
     follow_frame: str = "drone_yaw"

@@ -24,6 +24,7 @@ from gcs.modes import ROVER_GUIDED, ROVER_HOLD
 from bridge import translate
 from bridge.codec import command_message as _command, statustext_message as _text
 from bridge.follow import FollowSupervisor, ground_points
+from bridge.origins import origin_frame
 
 MODE_RETRY = 0.5                # s between DO_SET_MODE commands (wall; sim with --lockstep)
 ARM_RETRY = 1.0                 # s between arm commands (wall; sim with --lockstep)
@@ -63,6 +64,11 @@ class Follower:
         except TransformException as exc:
             self.warn_once(f"follow-lookup-{self.drone}", f"follow: no {self.drone} transform at {stamp:.3f}: {exc}")
             return []
+        try:    # the rover's targets are in its own local frame (static: world -> rover_origin)
+            To = self.buffer.lookup_transform(origin_frame(rover.name), cfg.world_frame, stamp).transform
+        except TransformException as exc:
+            self.warn_once("follow-origin", f"follow: rover origin not known yet: {exc}")
+            return []
         out: list[tuple] = []
         gp = ground_points(Tf.transform, Ty.transform, cfg.follow_offset, stamp)
         gx, gy = gp.goal(cfg.follow_frame)
@@ -75,9 +81,11 @@ class Follower:
         mask = translate.IGNORE_ACC | translate.IGNORE_YAW | translate.IGNORE_YAW_RATE
         if not cfg.follow_ff:
             mask |= translate.IGNORE_VEL
+        lx, ly, _ = To.apply_point((gx, gy, 0.0))
+        lvx, lvy, _ = To.apply_vector((vx, vy, 0.0))
         out.append(("rover", tl.MAVLink_set_position_target_local_ned_message(
             int(round(stamp * 1000)) & 0xFFFFFFFF, rover.sysid, 1, tl.MAV_FRAME_LOCAL_NED, mask,
-            gx, gy, 0.0, vx, vy, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)))
+            float(lx), float(ly), 0.0, float(lvx), float(lvy), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)))
         self.ticks += 1
         self.last_goal = (gx, gy)
         out += self._want_mode(ROVER_GUIDED, rover)

@@ -20,6 +20,7 @@ from gcs.frames import LATEST, Buffer, TransformStamped
 from gcs.tf2_ros.stream import reset_edge  # noqa: F401 - one home, shared with every listener
 
 SCENARIO = "scenario"
+ORIGIN = "origin"               # world -> <vehicle>_origin, from the vehicle's GPS_GLOBAL_ORIGIN
 
 
 class StaleTransform(Exception):
@@ -41,8 +42,8 @@ class FrameTree:
 
     # ------------------------------------------------------------------ static
     def add_vehicle(self, name: str) -> None:
-        """`name` and `name`_yaw are dynamic frames the bridge owns."""
-        self.owned |= {name, name + "_yaw"}
+        """`name` and `name`_yaw are dynamic frames the bridge owns, `name`_origin a static one."""
+        self.owned |= {name, name + "_yaw", name + "_origin"}
 
     def authority(self, child: str) -> str | None:
         """Who defined static frame `child` (``scenario``, ``static-transform:N``), or None."""
@@ -52,7 +53,7 @@ class FrameTree:
     def add_static(self, ts: TransformStamped, authority: str) -> TransformStamped:
         """Add or replace a static frame (stamp 0); ValueError / TransformException if refused."""
         ts = TransformStamped(ts.frame_id, ts.child_frame_id, 0.0, ts.transform)
-        if authority != SCENARIO and ts.child_frame_id in self.owned:
+        if authority not in (SCENARIO, ORIGIN) and ts.child_frame_id in self.owned:
             raise ValueError(f"{ts.child_frame_id!r} is a frame the bridge owns")
         self.buffer.set_transform_static(ts, authority=authority)
         self.statics[ts.child_frame_id] = (ts, authority)

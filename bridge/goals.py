@@ -48,7 +48,7 @@ class PendingGoal:
 
 class GoalDesk:
     def __init__(self, tree: FrameTree, codec, send, stats, world_clock, clock, log, statustext,
-                 world_frame: str = "world") -> None:
+                 world_frame: str = "world", frame_of=None) -> None:
         self.tree = tree
         self.codec = codec
         self._send = send                   # (target_system, bytes) -> bool (reached a vehicle)
@@ -58,6 +58,8 @@ class GoalDesk:
         self.log = log
         self.statustext = statustext
         self.world_frame = world_frame
+        # target_system -> the frame its local NED is in (<vehicle>_origin; world if unknown)
+        self.frame_of = frame_of or (lambda target: world_frame)
         self.pending: dict[int, PendingGoal] = {}
         self.resolved: dict[int, tuple] = {}     # target -> ((frame, stamp), world <- frame)
         self.time_travel: list[tuple[int, float, float]] = []   # (target, stamp, m moved by LATEST)
@@ -71,8 +73,10 @@ class GoalDesk:
             self.try_goal(g)
 
     def try_goal(self, g: PendingGoal) -> bool:
-        """Translate `g` into world and send it, or leave it pending; True if sent."""
+        """Translate `g` into the target's local frame (its <name>_origin) and send it, or
+        leave it pending; True if sent."""
         g.attempts += 1
+        dst = self.frame_of(g.target)
         try:
             T = self._resolve(g)
         except (TransformException, StaleTransform) as exc:
@@ -81,7 +85,7 @@ class GoalDesk:
             if now - g.last_warn >= 1.0:
                 g.last_warn = now
                 self.log(f"goal for sysid {g.target} in {g.frame!r} waits: {exc}")
-                self.statustext(f"goal waits: no {g.frame}->{self.world_frame} tf")
+                self.statustext(f"goal waits: no {g.frame}->{dst} tf")
             return False
         out = translate.set_position_target(g.msg, T) if g.kind == "spt" else translate.named_target(g.msg, T)
         if self._send(g.target, self.codec.pack_as(out, g.src)):
@@ -95,20 +99,22 @@ class GoalDesk:
         return True
 
     def _resolve(self, g: PendingGoal):
-        """world <- g.frame for this goal: at its stamp when the chain moves, else LATEST."""
+        """dst <- g.frame for this goal, dst the target's local frame (<name>_origin): at its
+        stamp when the chain moves, else LATEST."""
+        dst = self.frame_of(g.target)
         key = (g.frame, g.stamp)
         memo = self.resolved.get(g.target)
         if g.stamp is not None and memo is not None and memo[0] == key:
             return memo[1]                  # a re-send of a goal already placed in world
-        newest = self.tree.fresh_lookup(self.world_frame, g.frame, self.world_clock())
+        newest = self.tree.fresh_lookup(dst, g.frame, self.world_clock())
         latest = newest.transform
-        if g.stamp is None or not self.tree.is_dynamic(self.world_frame, g.frame):
+        if g.stamp is None or not self.tree.is_dynamic(dst, g.frame):
             return latest
         if g.stamp > newest.stamp:
             raise ExtrapolationException(f"goal stamped {g.stamp:.3f} s; {g.frame} known up to "
                                          f"{newest.stamp:.3f} s: waiting for it")
         try:
-            T = self.tree.buffer.lookup_transform_full(self.world_frame, g.stamp, g.frame, g.stamp,
+            T = self.tree.buffer.lookup_transform_full(dst, g.stamp, g.frame, g.stamp,
                                                        self.world_frame).transform
         except ExtrapolationException as exc:
             # stamped before the frame's kept history (before it appeared, or older than

@@ -52,6 +52,7 @@ from bridge.telemetry import MSG_LOCAL_POSITION_NED, MSG_POSITION_TARGET_LOCAL_N
 from bridge.links import Link, Packet
 from bridge.node_desk import NodeDesk
 from bridge.lockstep_desk import LockstepDesk
+from bridge.origins import OriginDesk, origin_frame
 from bridge.pairing import VehicleFrames
 from bridge.timeline import Timeline
 from bridge.trust import StaticTrust
@@ -89,12 +90,14 @@ class Bridge:
         self.outs += self.node_links
         self.gcs_links = [self.tower, *self.outs]
         self.vehicles: dict[int, VehicleRecord] = {}
+        first = (cfg.vehicles[0][0] if cfg.vehicles else "drone" if cfg.drone else None)
+        self.origins = OriginDesk(cfg.world_frame, cfg.world_origin, first)   # world: its origin
         for name, url, sysid in (cfg.vehicles or (("drone", cfg.drone, cfg.drone_sysid),
                                                   ("rover", cfg.rover, cfg.rover_sysid))):
             if url:
                 link = Link(name, url, clock)
                 link.sysids.add(sysid)
-                self.vehicles[sysid] = VehicleRecord(name, sysid, link, VehicleFrames(name, cfg.world_frame))
+                self.vehicles[sysid] = VehicleRecord(name, sysid, link, VehicleFrames(name, origin_frame(name)))
                 if not cfg.route_only:
                     self.tree.add_vehicle(name)
         self.links = [*self.gcs_links, *(v.link for v in self.vehicles.values())]
@@ -116,7 +119,7 @@ class Bridge:
                                 self.log, self.warn_once, clock)
         self.goals = GoalDesk(self.tree, self.codec, self.to_vehicle, self.tower.stats,
                               self.timeline.world_clock, self.behaviour_clock, self.log, self.statustext,
-                              cfg.world_frame)
+                              cfg.world_frame, self.vehicle_frame)
         # one follower per (drone, rover) pair; only the first reports TOWERLINK_FOLLOW_STATUS
         # (the message names no vehicle), the others log and steer
         self.followers: dict[int, tuple[Follower, int]] = {}
@@ -148,6 +151,11 @@ class Bridge:
             self.log(text)
             return True
         return False
+
+    def vehicle_frame(self, sysid: int) -> str:
+        """The frame vehicle `sysid`'s local NED is in: <name>_origin (world for others)."""
+        v = self.vehicles.get(sysid)
+        return origin_frame(v.name) if v is not None else self.cfg.world_frame
 
     # ------------------------------------------------------------------ sending
     def send_own_to_gcs(self, msg) -> None:
@@ -293,20 +301,21 @@ class Bridge:
                 return
             if pkt.msgid in TO_TOWER and (pkt.msgid == MSG_LOCAL_POSITION_NED or
                                           msg.coordinate_frame in translate.TRANSLATED_FRAMES):
-                to_tower = self.translate_to_tower(msg, pkt, TO_TOWER[pkt.msgid])
+                to_tower = self.translate_to_tower(msg, pkt, TO_TOWER[pkt.msgid], origin_frame(v.name))
             if not self.telemetry.on_message(v, pkt.msgid, pkt.compid, msg):
                 return              # the answer to our own probe: not forwarded
         self.route_from_vehicle(v, pkt, to_tower)
 
-    def translate_to_tower(self, msg, pkt: Packet, fn) -> bytes | None:
-        """`msg` mapped world -> tower and packed as its sender, or None (dropped, counted)."""
+    def translate_to_tower(self, msg, pkt: Packet, fn, source: str) -> bytes | None:
+        """`msg` (in the vehicle's `source` = <name>_origin frame) mapped to tower and packed
+        as its sender, or None (dropped, counted)."""
         if not self.tower.connected:
             return None
         try:
-            T = self.tree.lookup(self.cfg.tower_frame, self.cfg.world_frame)
+            T = self.tree.lookup(self.cfg.tower_frame, source)
         except TransformException as exc:
             self.tower_drops += 1
-            self.warn_once("to-tower", f"telemetry to the tower dropped: no {self.cfg.world_frame} -> "
+            self.warn_once("to-tower", f"telemetry to the tower dropped: no {source} -> "
                                        f"{self.cfg.tower_frame} transform ({exc})")
             return None
         self.tower.stats.translated += 1
@@ -364,6 +373,7 @@ class Bridge:
         for link in self.links:
             link.poll()
         self.telemetry.release_held()
+        self.telemetry.ask_origins(now)
         if self.lockstep is None:
             self.sim_checks(lambda rover: self.timeline.newest(rover.name))
         else:

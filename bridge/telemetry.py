@@ -17,16 +17,19 @@ from gcs.dialect import towerlink as tl
 from gcs.frames import TransformException
 from bridge.codec import transform_message
 from bridge.config import VehicleRecord
+from bridge.frame_tree import ORIGIN
+from bridge.origins import origin_from_message
 
 MSG_HEARTBEAT = 0
 MSG_SYSTEM_TIME = 2
 MSG_ATTITUDE_QUATERNION = 31
 MSG_LOCAL_POSITION_NED = 32
 MSG_POSITION_TARGET_LOCAL_NED = 85
+MSG_GPS_GLOBAL_ORIGIN = 49
 MSG_TIMESYNC = 111
 #: vehicle messages the bridge reads (besides routing them)
 TELEMETRY_IN = frozenset((MSG_HEARTBEAT, MSG_SYSTEM_TIME, MSG_ATTITUDE_QUATERNION, MSG_LOCAL_POSITION_NED,
-                          MSG_POSITION_TARGET_LOCAL_NED, MSG_TIMESYNC))
+                          MSG_POSITION_TARGET_LOCAL_NED, MSG_TIMESYNC, MSG_GPS_GLOBAL_ORIGIN))
 STREAM_REQUEST_PERIOD = 5.0     # wall s between re-asking a vehicle whose telemetry stopped
 
 
@@ -38,6 +41,7 @@ class TelemetryDesk:
         self.wall = b.clock                 # the timeline's readings are always wall-stamped
         self.clocks, self.timeline, self.tree, self.followers = b.clocks, b.timeline, b.tree, b.followers
         self.vehicles = b.vehicles
+        self.origins = b.origins
         self.command, self.send_own_to_gcs, self.send_out = b.command, b.send_own_to_gcs, b.send_out
         self.log, self.warn_once = b.log, b.warn_once
 
@@ -47,7 +51,7 @@ class TelemetryDesk:
         wall = self.wall()
         if mid == MSG_LOCAL_POSITION_NED:
             v.last_pos_wall = now
-            v.position = (msg.x, msg.y, msg.z)
+            v.position = self.world_position(v, (msg.x, msg.y, msg.z))
             self.clocks.reading(v, msg.time_boot_ms / 1000.0, wall)
             for s in v.frames.on_local_position(msg.time_boot_ms, msg.x, msg.y, msg.z,
                                                  msg.vx, msg.vy, msg.vz):
@@ -64,7 +68,41 @@ class TelemetryDesk:
             return not self.clocks.on_timesync(v, msg, wall)
         elif mid == MSG_HEARTBEAT and compid == 1:
             self.on_heartbeat(v, msg, now)
+        elif mid == MSG_GPS_GLOBAL_ORIGIN:
+            self.on_origin(v, msg)
         return True
+
+    # ------------------------------------------------------------------ origins
+    def on_origin(self, v: VehicleRecord, msg) -> None:
+        """GPS_GLOBAL_ORIGIN: (re)define world -> <vehicle>_origin, published at once."""
+        lla = origin_from_message(msg)
+        if lla is None:
+            return
+        for ts in self.origins.on_origin(v.name, lla):
+            try:
+                ts = self.tree.add_static(ts, ORIGIN)
+            except (TransformException, ValueError) as exc:
+                self.warn_once(f"origin-{ts.child_frame_id}", f"{ts.child_frame_id}: refused: {exc}")
+                continue
+            t = ts.transform.translation
+            o = self.origins.origins[ts.child_frame_id[:-len("_origin")]]
+            self.log(f"{ts.frame_id} -> {ts.child_frame_id}: {t[0]:.2f} {t[1]:.2f} {t[2]:.2f} m NED "
+                     f"(GPS_GLOBAL_ORIGIN {o[0]:.7f},{o[1]:.7f},{o[2]:.2f})")
+            self.send_own_to_gcs(transform_message(ts, static=True))
+
+    def ask_origins(self, now: float) -> None:
+        """REQUEST_MESSAGE(GPS_GLOBAL_ORIGIN) to every vehicle that is up and has not said."""
+        for v in self.vehicles.values():
+            up = v.last_heartbeat_wall is not None or v.last_pos_wall > -1e9
+            if up and self.origins.wanted(v.name, now):
+                self.command(v, tl.MAV_CMD_REQUEST_MESSAGE, MSG_GPS_GLOBAL_ORIGIN)
+
+    def world_position(self, v: VehicleRecord, local) -> tuple | None:
+        """A vehicle's local NED (m, from its origin) in world, None until its origin is known."""
+        if not self.origins.known(v.name):
+            return None
+        off = self.origins.edge(v.name).transform.translation
+        return (local[0] + off[0], local[1] + off[1], local[2] + off[2])
 
     def on_heartbeat(self, v: VehicleRecord, msg, now: float) -> None:
         first = v.last_heartbeat_wall is None

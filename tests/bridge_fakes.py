@@ -118,6 +118,7 @@ class FakeVehicle(Endpoint):
         self.mode = 0
         self.armed = False
         self.params = {"WPNAV_SPEED": 500.0, "SYSID_THISMAV": float(sysid)}
+        self.origin = (-35.363261, 149.165230, 584.0)     # GPS_GLOBAL_ORIGIN: one shared world
         self.handlers.append(FakeVehicle._respond)
 
     def _respond(self, m) -> None:
@@ -129,6 +130,9 @@ class FakeVehicle(Endpoint):
                 self.mode = int(m.param2)
             self.mav.command_ack_send(m.command, tl.MAV_RESULT_ACCEPTED, 0, 0,
                                       m.get_srcSystem(), m.get_srcComponent())
+            if m.command == tl.MAV_CMD_REQUEST_MESSAGE and int(m.param1) == 49 and self.origin:
+                self.send_origin()
+                return
             self.heartbeat()
         elif t == "PARAM_REQUEST_READ" and m.target_system == self.sysid:
             name = m.param_id if isinstance(m.param_id, str) else m.param_id.decode()
@@ -136,6 +140,10 @@ class FakeVehicle(Endpoint):
                 idx = list(self.params).index(name)
                 self.mav.param_value_send(name.encode(), self.params[name], tl.MAV_PARAM_TYPE_REAL32,
                                           len(self.params), idx)
+
+    def send_origin(self) -> None:
+        lat, lon, alt = self.origin
+        self.mav.gps_global_origin_send(int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1e3)), 0)
 
     def heartbeat(self) -> None:
         base = tl.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | (tl.MAV_MODE_FLAG_SAFETY_ARMED if self.armed else 0)
@@ -174,6 +182,14 @@ def bridge_config(tower_port, drone_port=None, rover_port=None, **kw) -> BridgeC
     return BridgeConfig(tower=f"udpin:127.0.0.1:{tower_port}",
                         drone=f"udpout:127.0.0.1:{drone_port}" if drone_port else None,
                         rover=f"udpout:127.0.0.1:{rover_port}" if rover_port else None, **kw)
+
+
+def wait_origins(bridge, *vehicles: FakeVehicle) -> None:
+    """Heartbeat from each fake vehicle and wait until the bridge knows their GPS_GLOBAL_ORIGIN
+    (it asks a vehicle it has heard from; without it the vehicle's frames are not in world)."""
+    for v in vehicles:
+        v.heartbeat()
+    wait_until(lambda: all(bridge.origins.known(v.name) for v in vehicles), 5, "vehicle origins")
 
 
 @contextmanager
@@ -217,8 +233,7 @@ def bridge_with_fakes(rover: bool = True, out: bool = False, heartbeats: bool = 
             # the bridge heartbeats the vehicles first, so they learn its address
             wait_until(lambda: all(v.peer for v in vehicles), 5, "bridge reaching the vehicles")
             if heartbeats:
-                for v in vehicles:
-                    v.heartbeat()
+                wait_origins(bridge, *vehicles)
             if tower_heartbeat:
                 tower.mav.heartbeat_send(tl.MAV_TYPE_GCS, tl.MAV_AUTOPILOT_INVALID, 0, 0, 0)
                 wait_until(lambda: bridge.tower.peers, 5, "tower peer known")

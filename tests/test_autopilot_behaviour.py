@@ -42,8 +42,11 @@ def _fly(w: World, alt=5.0):
 
 
 def _goto(ap, x, y, z):
+    """GUIDED to world NED (x, y, z), the frame ap.pos is in; on the wire LOCAL_NED is from
+    the vehicle's own EKF origin (where it booted), so the point is sent in that frame."""
     mask = VEL_BITS | ACC_BITS | YAW_IGNORE | YAW_RATE_IGNORE
-    assert ap.position_target_local(A.MAV_FRAME_LOCAL_NED, mask, (x, y, z), (0, 0, 0), (0, 0, 0), 0, 0)
+    local = ap.local_origin.to_local((x, y, z))
+    assert ap.position_target_local(A.MAV_FRAME_LOCAL_NED, mask, tuple(local), (0, 0, 0), (0, 0, 0), 0, 0)
 
 
 # ---------------------------------------------------------------- rover

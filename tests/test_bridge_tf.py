@@ -84,6 +84,8 @@ def test_bridge_buffer_reorder_duplicate_loss_reboot(world):
                bridge.buffer.edge_stats()["drone"].samples == 5, 5, "5 samples stored")
     st = bridge.buffer.edge_stats()["drone"]
     assert st.most_recent == 1.5 and st.oldest == 1.0
+    # world -> drone goes through drone_origin, known once the drone answers GPS_GLOBAL_ORIGIN
+    wait_until(lambda: bridge.origins.known("drone"), 5, "drone origin")
     # stamped with the drone clock: lookups at its stamps are exact, between them interpolated
     assert bridge.buffer.lookup_transform("world", "drone", 1.2).transform.xyz[0] == pytest.approx(1.2)
     assert bridge.buffer.lookup_transform("world", "drone", 1.45).transform.xyz[0] == pytest.approx(1.45)
@@ -105,7 +107,10 @@ def test_transform_stream_reaches_tower(world):
     T = Transform.from_euler(yaw=0.7, pitch=0.2, roll=0.1, translation=(3, 4, -9))
     drone.pose(2000, T.xyz, q_wxyz(T))
     m = tower.wait("TOWERLINK_TRANSFORM", lambda m: m.child_frame_id == "drone")
-    assert m.time_usec == 2_000_000 and m.frame_id == "world" and not m.flags & 1
+    # the drone's pose is in its own local frame, centred on its EKF origin (GPS_GLOBAL_ORIGIN)
+    assert m.time_usec == 2_000_000 and m.frame_id == "drone_origin" and not m.flags & 1
+    o = tower.wait("TOWERLINK_TRANSFORM", lambda m: m.child_frame_id == "drone_origin")
+    assert o.frame_id == "world" and o.flags & 1
     np.testing.assert_allclose(m.translation, T.xyz, atol=1e-5)
     np.testing.assert_allclose(np.abs(np.dot(m.rotation, T.xyzw)), 1.0, atol=1e-6)
     tower.wait("TOWERLINK_TRANSFORM", lambda m: m.child_frame_id == "drone_yaw")

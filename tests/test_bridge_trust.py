@@ -145,7 +145,8 @@ def test_unsigned_sender_is_no_peer_and_gets_no_stream():
             for c in (unsigned, signed):
                 c.mav.heartbeat_send(tl.MAV_TYPE_GCS, tl.MAV_AUTOPILOT_INVALID, 0, 0, 0)
             # the signed GCS gets the bridge's (signed) static frame stream ...
-            m = wait_until(lambda: signed.recv_match(type="TOWERLINK_TRANSFORM", blocking=True, timeout=0.5),
+            m = wait_until(lambda: signed.recv_match(type="TOWERLINK_TRANSFORM", blocking=True, timeout=0.5,
+                                                     condition="TOWERLINK_TRANSFORM.child_frame_id=='tower'"),
                            10, "stream to the signed GCS")
             assert m.get_signed() and m.child_frame_id == "tower"
             assert len(bridge.tower.peers) == 1

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from gcs.dialect import towerlink as tl
 from bridge.follow import FollowSupervisor, ground_points
 from gcs.frames import Transform
-from bridge_fakes import Endpoint, FakeVehicle, bridge_config, running_bridge, sync
+from bridge_fakes import Endpoint, FakeVehicle, bridge_config, running_bridge, sync, wait_origins
 from support import free_ports, wait_until
 
 angle = st.floats(-math.pi, math.pi, allow_nan=False)
@@ -108,8 +108,7 @@ def test_follow_loop_goal_mode_and_wobble_figure(world, frame):
             wait_until(lambda: drone.peer and rover.peer, 5, "bridge reaching the vehicles")
             tower.mav.heartbeat_send(tl.MAV_TYPE_GCS, tl.MAV_AUTOPILOT_INVALID, 0, 0, 0)
             wait_until(lambda: bridge.tower.peers, 5, "tower peer")
-            rover.heartbeat()
-            wait_until(lambda: bridge.vehicles[2].last_heartbeat_wall, 5, "rover heartbeat")
+            wait_origins(bridge, drone, rover)
             fly(drone, rover, 1000, 21)              # 1 s of telemetry at 20 Hz, pitched 0.2 rad
             goals = wait_until(lambda: len(rover.of_type("SET_POSITION_TARGET_LOCAL_NED")) >= 10 and
                                rover.of_type("SET_POSITION_TARGET_LOCAL_NED"), 5, "10 Hz goals")
@@ -137,8 +136,7 @@ def test_follow_timeout_holds_then_resumes(world):
     cfg = _start(world, follow=True, follow_timeout=1.0)
     with running_bridge(cfg) as bridge:
         wait_until(lambda: drone.peer and rover.peer, 5, "bridge reaching the vehicles")
-        rover.heartbeat()
-        wait_until(lambda: bridge.vehicles[2].last_heartbeat_wall, 5, "rover heartbeat")
+        wait_origins(bridge, drone, rover)
         fly(drone, rover, 1000, 5)
         wait_until(lambda: rover.mode == 15, 5, "GUIDED")
         # the drone goes silent; the rover's clock runs on past the timeout

@@ -100,6 +100,9 @@ def test_tower_to_map_sends_the_tower_goal_to_the_drone_in_world():
 def test_ground_robot_controller_sends_the_ground_point_under_the_drone(frame, ahead):
     node = FakeNode()
     grc = load("ground_robot_controller").GroundRobotController(node, frame)
+    # the rover booted 3 m south of world's origin: its targets are from there (rover_origin)
+    node.deliver(transform_message(TransformStamped("world", "rover_origin", 0.0, Transform(translation=(-3.0, 0.0, 0.0))),
+                                   static=True), 250)
     # flying north at 5 m/s, 9 m up, nose down 0.1 rad: (0, 0, 9) in the tilting frame is
     # 9 sin 0.1 m behind the drone (checkpoint 2's wobble), in the level frame right under it
     for k, t in enumerate((1.0, 1.1)):
@@ -111,7 +114,7 @@ def test_ground_robot_controller_sends_the_ground_point_under_the_drone(frame, a
     goals = of_type(node, "SET_POSITION_TARGET_LOCAL_NED")
     g = goals[-1]
     assert g.target_system == 2 and g.z == 0.0 and g.time_boot_ms == 1100
-    assert g.x == pytest.approx(10.5 - ahead, abs=1e-4) and g.y == pytest.approx(3.0)
+    assert g.x == pytest.approx(10.5 - ahead + 3.0, abs=1e-4) and g.y == pytest.approx(3.0)
     assert (g.vx, g.vy) == pytest.approx((5.0, 0.0), abs=1e-3)
     assert len(goals) == 1                                    # at 1.0 there was no 0.9 to take a velocity from
     grc.on_transform()                                        # no new drone time: no new goal

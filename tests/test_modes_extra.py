@@ -168,12 +168,14 @@ def test_every_built_in_mode_accepted_disarmed():
     cap, rap = w.vehicles[0].ap, w.vehicles[1].ap
     for ap, table, follow in ((cap, modes.COPTER_SUPPORTED, modes.FOLLOW),
                               (rap, modes.ROVER_SUPPORTED, modes.ROVER_FOLLOW)):
-        table = table - {modes.AUTO if ap.kind == "copter" else modes.ROVER_AUTO}   # needs a mission
+        table = table - {modes.AUTO if ap.kind == "copter" else modes.ROVER_AUTO, follow}   # needs a mission
         for m in sorted(table):
             assert ap.set_mode(m), (ap.kind, m)
             w.run_for(0.1)
             assert ap.mode == m and not ap.armed
-        assert not ap.set_mode(follow)                  # FOLLOW: a later task
+        assert not ap.set_mode(follow)                  # FOLLOW needs FOLL_ENABLE, as ArduPilot's
+        assert ap.params.set("FOLL_ENABLE", 1, save=False) is None
+        assert ap.set_mode(follow) and ap.mode == follow and not ap.armed
     # arming as ArduCopter allows it: not in BRAKE, SMART_RTL, RTL, LAND
     for m, ok in ((modes.BRAKE, False), (modes.SMART_RTL, False), (modes.ALT_HOLD, True), (modes.POSHOLD, True)):
         assert cap.set_mode(m)

@@ -61,14 +61,22 @@ def test_every_built_in_mode_disarmed(sitl):
             _hb_mode(m, mapping[name])
             hb = recv(m, "HEARTBEAT", 5, cond=lambda h: h.get_srcSystem() == m.target_system)
             assert not hb.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED
-        # FOLLOW is listed but not built yet: refused in ArduPilot's words (the text comes first)
+        # FOLLOW without FOLL_ENABLE: refused in ArduPilot's words (the texts come first);
+        # with it, accepted (vehicle/autopilot/follow_mode.py, tests/test_follow_mode.py)
         m.set_mode("FOLLOW")
-        got = {}
-        while len(got) < 2:
+        texts = []
+        while True:
             msg = recv(m, ["COMMAND_ACK", "STATUSTEXT"], 5)
-            got[msg.get_type()] = msg
-        assert got["COMMAND_ACK"].result == mav.MAV_RESULT_FAILED
-        assert got["STATUSTEXT"].text == "Mode change to FOLLOW failed: init failed"
+            if msg.get_type() == "COMMAND_ACK":
+                break
+            texts.append(msg.text)
+        assert msg.result == mav.MAV_RESULT_FAILED
+        assert texts == (["Set FOLL_ENABLE = 1", "Mode change to FOLLOW failed: init failed"] if m is drone
+                         else ["Flight mode change failed"]), texts
+        m.mav.param_set_send(m.target_system, 1, b"FOLL_ENABLE", 1, mav.MAV_PARAM_TYPE_INT8)
+        recv(m, "PARAM_VALUE", 5, cond=lambda p: p.param_id == "FOLL_ENABLE" and p.param_value == 1)
+        assert set_mode(m, "FOLLOW") == mav.MAV_RESULT_ACCEPTED
+        _hb_mode(m, mapping["FOLLOW"])
 
 
 @pytest.mark.timeout(150)

@@ -101,8 +101,10 @@ def test_run_folder_is_complete(run):
               "summary.txt", "tracks.png", "frames.pdf", "frames.png", "frames.yaml", "meta.json", "run.mcap"):
         assert f in names, f
     y = (run_dir / "frames.yaml").read_text()
-    for frame in ("tower", "drone", "drone_yaw", "rover"):
+    for frame in ("tower", "drone_origin", "rover_origin"):
         assert f"{frame}: \n  parent: 'world'" in y
+    for frame in ("drone", "drone_yaw", "rover"):      # each vehicle's pose is in its own origin frame
+        assert f"{frame}: \n  parent: '{frame.split('_')[0]}_origin'" in y
     assert "MISSION OK" in s["text"]
 
 
@@ -113,8 +115,9 @@ def test_live_view_saw_the_bridge_tree_on_the_sim_clock(run):
     bridge_edges = {(st.parent, child) for child, st in buf.edge_stats().items()}
     seen = {(ft["parent_frame_id"], ft["child_frame_id"])
             for topic in ("/tf", "/tf_static") for _, body in live.of(topic) for ft in body["transforms"]}
-    assert seen - {("world_enu", "world")} == bridge_edges and {("world", "tower"), ("world", "drone"), ("world", "drone_yaw"),
-                                     ("world", "rover")} <= seen
+    assert seen - {("world_enu", "world")} == bridge_edges and {
+        ("world", "tower"), ("world", "drone_origin"), ("world", "rover_origin"), ("drone_origin", "drone"),
+        ("drone_origin", "drone_yaw"), ("rover_origin", "rover")} <= seen
     tf = live.of("/tf")
     assert len(tf) > 100
     # log time is the transform's own sim stamp, and the sim clock spans the mission

@@ -117,6 +117,10 @@ def _bridge(cpu: int):
                 _data, link_addr = drone.recvfrom(65535)   # the bridge's first heartbeat
             except socket.timeout:
                 raise RuntimeError(f"`towerlink bridge` sent nothing in 15 s:\n{proc.stderr_tail()}") from None
+            # as a vehicle does once its EKF origin is set: the bridge places the drone's
+            # frame (drone_origin) in world with it, so tower goals have somewhere to go
+            drone.sendto(bytes(tl.MAVLink_gps_global_origin_message(-353632610, 1491652300, 584000, 0)
+                               .pack(tl.MAVLink(None, 1, 1))), link_addr)
             hb = bytes(tl.MAVLink_heartbeat_message(tl.MAV_TYPE_GCS, tl.MAV_AUTOPILOT_INVALID, 0, 0, 0, 3)
                        .pack(tl.MAVLink(None, 255, 190)))
             tower.settimeout(0.2)

@@ -74,7 +74,7 @@ import threading
 import time
 from pathlib import Path
 
-from gcs.geo import lla_to_ned
+from gcs.geo import lla_to_ned, ned_to_lla
 from gcs.lockstep import speedup_text, speedup_type
 from gcs.mavstr import mav_str
 
@@ -136,6 +136,7 @@ class Monitor(threading.Thread):
         self.params: dict[str, float] = {}
         self.follow = None
         self.counts = {name: 0 for name in ports}
+        self.addr_of: dict[tuple[str, int], tuple] = {}   # (link, sysid) -> where it sends from
         self.listeners: dict[str, object] = {}    # link name -> callable(message), e.g. the live view
 
     def run(self) -> None:
@@ -155,11 +156,11 @@ class Monitor(threading.Thread):
                         except OSError:
                             break
                         self.peer[name] = addr
-                        self._datagram(name, data)
+                        self._datagram(name, data, addr)
         finally:
             sel.close()
 
-    def _datagram(self, name: str, data: bytes) -> None:
+    def _datagram(self, name: str, data: bytes, addr=None) -> None:
         try:
             msgs = self.parsers[name].parse_buffer(data) or []
         except Exception:  # noqa: BLE001 - a monitor never dies of a bad packet
@@ -171,6 +172,8 @@ class Monitor(threading.Thread):
                 continue
             f.write(usec + m.get_msgbuf())
             self.counts[name] += 1
+            if addr is not None:
+                self.addr_of[(name, m.get_srcSystem())] = addr
             self._track(m)
             listener = self.listeners.get(name)
             if listener is not None:
@@ -186,22 +189,37 @@ class Monitor(threading.Thread):
         with self.lock:
             if isinstance(ms, int) and src in (DRONE, ROVER) and t != "SET_POSITION_TARGET_LOCAL_NED":
                 self.sim_ms = max(self.sim_ms, ms)
-            if t == "HOME_POSITION":
-                self.origin[src] = (m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3, m.x, m.y, m.z)
+            # each vehicle's local NED is centred on its own EKF origin (GPS_GLOBAL_ORIGIN, or
+            # HOME_POSITION's lla less its local x, y, z); world is the drone's, as the bridge's
+            if t == "HOME_POSITION" and src not in self.origin:
+                self.origin[src] = ned_to_lla((m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3),
+                                              (-m.x, -m.y, -m.z))
             elif t == "GPS_GLOBAL_ORIGIN":
-                self.origin[src] = (m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3, 0.0, 0.0, 0.0)
-            elif t == "SIM_STATE" and src in self.origin:
-                lat0, lon0, alt0, ox, oy, oz = self.origin[src]
+                self.origin[src] = (m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3)
+            elif t == "SIM_STATE" and DRONE in self.origin:
                 lat = m.lat_int * 1e-7 if getattr(m, "lat_int", 0) else m.lat
                 lon = m.lon_int * 1e-7 if getattr(m, "lon_int", 0) else m.lon
-                n, e, d = lla_to_ned((lat0, lon0, alt0), lat, lon, m.alt)
-                self.truth[src] = (n + ox, e + oy, d + oz)
+                self.truth[src] = lla_to_ned(self.origin[DRONE], lat, lon, m.alt)
             elif t == "LOCAL_POSITION_NED":
-                self.estimate[src] = (m.x, m.y, m.z)
+                off = (lla_to_ned(self.origin[DRONE], *self.origin[src])
+                       if DRONE in self.origin and src in self.origin else (0.0, 0.0, 0.0))
+                self.estimate[src] = (m.x + off[0], m.y + off[1], m.z + off[2])
             elif t == "PARAM_VALUE" and src == DRONE:
                 self.params[mav_str(m.param_id)] = float(m.param_value)
             elif t == "TOWERLINK_FOLLOW_STATUS":
                 self.follow = m
+
+    def send_to_vehicle(self, sysid: int, msg) -> bool:
+        """`msg` to vehicle `sysid` through the world's push link (its own socket); False if
+        that vehicle has not been heard yet."""
+        addr = self.addr_of.get(("vehicles", sysid))
+        if addr is None:
+            return False
+        try:
+            self.socks["vehicles"].sendto(msg.pack(self.encoder), addr)
+        except OSError:
+            return False
+        return True
 
     def request_params(self, names=SCORING_PARAMS) -> None:
         """Ask the drone (through the world's push link) for the parameters the scoring needs."""
@@ -251,7 +269,7 @@ class Launch:
                  loss_seed: int = 1, sitl_args: tuple[str, ...] = (), bridge_args: tuple[str, ...] = (),
                  tower_args: tuple[str, ...] = (), echo: bool = False, host: str = "127.0.0.1",
                  view_port: int | None = None, nodes: str | os.PathLike | None = None,
-                 lockstep: bool = False) -> None:
+                 lockstep: bool = False, follow_with: str = "bridge", foll_pos_p: float | None = None) -> None:
         from gcs.scenario import load_scenario, scenario_path
         self.dir = Path(run_dir)
         self.dir.mkdir(parents=True, exist_ok=True)
@@ -296,6 +314,16 @@ class Launch:
         self.bridge_restarts = 0
         self.view_port = view_port      # None: no live view; 0: any free port
         self.view = None
+        if follow_with not in ("bridge", "ardupilot", "both"):
+            raise ValueError(f"--follow-with: bridge, ardupilot or both, not {follow_with!r}")
+        # who follows the drone: the bridge's tf follow drives rover sysid 2; ArduPilot's FOLLOW
+        # (tools/follow_ap.py) drives sysid 2 instead, or a second rover (sysid 3) beside it
+        if follow_with != "bridge" and self.family:
+            raise ValueError("--follow-with ardupilot|both flies the lab's drone and rover, not a family")
+        self.follow_with = follow_with
+        self.foll_pos_p = foll_pos_p
+        self.ap_follower = {"bridge": None, "ardupilot": ROVER, "both": ROVER + 1}[follow_with]
+        self.ap_driver = None
 
     # -- processes
 
@@ -325,7 +353,7 @@ class Launch:
                              "--endpoint", f"0=udpin:{h}:{self.ports['drone']}",
                              "--endpoint", f"1=udpin:{h}:{self.ports['rover']}",
                              "--out", f"udpout:{h}:{self.ports['vehicles']}", *self._scenario_wind(),
-                             *lock, *self.sitl_args)
+                             *lock, *(("--rovers", "2") if self.follow_with == "both" else ()), *self.sitl_args)
 
     def _scenario_wind(self) -> list[str]:
         """The scenario's wind table as `sitl --wind` (none when it has no wind)."""
@@ -406,6 +434,8 @@ class Launch:
             cmd += ["--follow-frame", self.follow_frame]
         if self.nodes:
             cmd += ["--nodes", f"udpin:{h}:{self.ports['nodes']}", "--route-only"]
+        if self.follow_with == "ardupilot":
+            cmd += ["--no-follow"]          # the rover follows in its own FOLLOW mode
         return cmd + list(self.bridge_args)
 
     def node_cmd(self, path: Path) -> list[str]:
@@ -462,6 +492,12 @@ class Launch:
             from tools.live_view import LiveView
             self.view = LiveView(self.host, self.view_port)
             self.monitor.listeners["bridge"] = self.view.on_message
+        if self.ap_follower is not None:
+            from gcs.scenario import load_scenario
+            from tools.follow_ap import ApFollowDriver
+            self.ap_driver = ApFollowDriver(self.monitor.send_to_vehicle, self.ap_follower, DRONE,
+                                            load_scenario(self.scenario).follow_offset, self.foll_pos_p)
+            self.monitor.listeners["vehicles"] = self.ap_driver.on_message
         self.monitor.start()
         self._start("sitl", self.sitl_cmd())
         if self.family and self.sc.van is not None:
@@ -512,6 +548,8 @@ class Launch:
             if now - last_params > 2.0 and self.monitor is not None:
                 last_params = now
                 self.monitor.request_params()
+            if self.ap_driver is not None:
+                self.ap_driver.tick()
             self.achieved_speedup()          # also anchors sim0 for the summary when quiet
             if progress and now - last_print >= progress:
                 last_print = now
@@ -552,6 +590,7 @@ class Launch:
         meta = {"scenario": self.scenario, "speedup": speedup_text(self.speedup), "lockstep": self.lockstep,
                 "seed": self.seed,
                 "follow_frame": self.follow_frame, "goals": self.goals, "tower_loss": self.tower_loss,
+                "follow_with": self.follow_with, "ardupilot_follower": self.ap_follower,
                 "ports": self.ports,
                 "commands": {k: shlex.join(v) for k, v in
                              (("sitl", self.sitl_cmd()), ("bridge", self.bridge_cmd()), ("tower", self.tower_cmd()),
@@ -701,6 +740,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--nodes", metavar="DIR", default=None,
                         help="run every DIR/*.py as a tf2_ros node (e.g. examples/lab: the lab's tower_to_map, "
                              "world_to_drone, ground_robot_controller); the bridge only routes (--route-only)")
+    parser.add_argument("--follow-with", choices=("bridge", "ardupilot", "both"), default="bridge",
+                        help="who makes the rover follow: the bridge's tf follow (default), ArduPilot's own "
+                             "FOLLOW mode on the rover (bridge follow off), or both side by side (a second "
+                             "rover, sysid 3, in FOLLOW); the summary gives each one's follow error")
+    parser.add_argument("--foll-pos-p", type=float, default=None,
+                        help="FOLL_POS_P for ArduPilot's follow (default: ArduPilot's 0.1)")
     parser.add_argument("-v", "--verbose", action="store_true", help="echo the tower's log lines")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
 
@@ -718,7 +763,7 @@ def run(args: argparse.Namespace) -> int:
                         follow_frame=args.follow_frame, goals=args.goals, alt=args.alt, radius=args.radius,
                         finish=args.finish, goal_timeout=args.goal_timeout, tower_loss=args.tower_loss,
                         echo=args.verbose, view_port=args.view, nodes=args.nodes,
-                        lockstep=args.lockstep)
+                        lockstep=args.lockstep, follow_with=args.follow_with, foll_pos_p=args.foll_pos_p)
     except ValueError as exc:
         print(f"towerlink fly: {exc}", file=sys.stderr)
         return 2

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from gcs.frames.batch import ground_point
-from gcs.geo import lla_to_ned
+from gcs.geo import lla_to_ned, ned_to_lla
 from gcs.mavstr import mav_str
 
 os.environ.setdefault("MAVLINK20", "1")
@@ -188,16 +188,23 @@ def load_messages(msgs: Iterable[Any], data: RunData | None = None) -> RunData:
             data.bridge_status[mav_str(m.link)] = {k: int(getattr(m, k)) for k in
                                               ("rx_packets", "tx_packets", "malformed", "unroutable",
                                                "translated", "deferred")}
+    # each vehicle's local NED is centred on its own EKF origin; world is the first vehicle's
+    # (the drone's), as the bridge's world is by default
+    local0 = {src: _local_origin(origin.get(src), home.get(src)) for src in set(origin) | set(home)}
+    local0 = {k: v for k, v in local0.items() if v is not None}
+    ref = local0[min(local0)] if local0 else None
     for src, rows in truth_lla.items():
-        conv = _lla_converter(origin.get(src), home.get(src))
-        if conv is None:
+        if ref is None or src not in local0:
             continue
         out = []
         for (tt, lat, lon, alt, r, p, y, vn, ve, vd) in rows:
-            n, e, d = conv(lat, lon, alt)
+            n, e, d = lla_to_ned(ref, lat, lon, alt)
             out.append((tt, n, e, d, r, p, y, vn, ve, vd))
         data.truth[src] = _track(out, ("roll", "pitch", "yaw", "vn", "ve", "vd"))
     for src, rows in est_rows.items():
+        if ref is not None and src in local0:
+            off = lla_to_ned(ref, *local0[src])
+            rows = [(tt, x + off[0], y + off[1], z + off[2], *v) for (tt, x, y, z, *v) in rows]
         data.estimate[src] = _track(rows, ("vx", "vy", "vz"))
     if follow_rows:
         a = np.array(follow_rows, dtype=float)
@@ -207,20 +214,15 @@ def load_messages(msgs: Iterable[Any], data: RunData | None = None) -> RunData:
     return data
 
 
-def _lla_converter(origin, home):
-    """lat/lon/alt -> world NED, from GPS_GLOBAL_ORIGIN, else HOME_POSITION (lla + local xyz)."""
+def _local_origin(origin, home):
+    """Where a vehicle's local NED is centred (lat, lon, alt): its GPS_GLOBAL_ORIGIN, else
+    HOME_POSITION's lla less its local x, y, z; None if neither was logged."""
     if origin is not None:
-        lat0, lon0, alt0 = origin
-        off = (0.0, 0.0, 0.0)
-    elif home is not None:
-        (lat0, lon0, alt0), off = home
-    else:
-        return None
-
-    def conv(lat, lon, alt):
-        n, e, d = lla_to_ned((lat0, lon0, alt0), lat, lon, alt)
-        return n + off[0], e + off[1], d + off[2]
-    return conv
+        return origin
+    if home is not None:
+        lla, xyz = home
+        return ned_to_lla(lla, (-xyz[0], -xyz[1], -xyz[2]))
+    return None
 
 
 def load_run(run_dir: str | os.PathLike) -> RunData:
@@ -249,6 +251,30 @@ def rms(x: np.ndarray) -> float:
 
 def horizontal_error(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.hypot(a[..., 0] - b[..., 0], a[..., 1] - b[..., 1])
+
+
+def _follow_error(drone_truth, rover_truth, t0, t1) -> dict[str, Any]:
+    """Horizontal distance from a rover to the point under the drone, on truth, over the mission."""
+    if drone_truth is None or rover_truth is None or not len(drone_truth) or not len(rover_truth):
+        return {}
+    rt = rover_truth.window(t0, t1)
+    keep = (rt.t >= drone_truth.t[0]) & (rt.t <= drone_truth.t[-1])
+    rt = Track(rt.t[keep], rt.xyz[keep])
+    err = horizontal_error(rt.xyz, drone_truth.at(rt.t))
+    return {"source": "truth (SIM_STATE)", **_stat(err)}
+
+
+def world_transforms(data: RunData, child: str, vehicle: str = "drone") -> list[tuple[float, tuple]]:
+    """The recorded transforms world -> `child`: the bridge's <vehicle>_origin -> child moved by
+    the static world -> <vehicle>_origin (a translation, from GPS_GLOBAL_ORIGIN); tlogs from
+    before the origin frames have world -> child itself."""
+    origin = vehicle + "_origin"
+    rows = data.transforms.get((origin, child))
+    off = data.statics.get(("world", origin))
+    if not rows or off is None:
+        return data.transforms.get(("world", child), [])
+    ox, oy, oz = off[:3]
+    return [(t, (v[0] + ox, v[1] + oy, v[2] + oz, *v[3:])) for t, v in rows]
 
 
 def ground_point_errors(transforms: list[tuple[float, tuple]]) -> tuple[np.ndarray, np.ndarray]:
@@ -335,12 +361,17 @@ def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
     t1 = max(done) if done else tower.get("end_sim")
 
     follow: dict[str, Any] = {}
+    # who followed: the bridge's tf follow (rover sysid 2), or ArduPilot's FOLLOW mode on sysid 2
+    # (fly --follow-with ardupilot) or on a second rover, sysid 3 (--follow-with both)
+    ap_sysid = meta.get("ardupilot_follower")
+    follow_ap: dict[str, Any] = {}
+    if ap_sysid not in (None, ROVER):
+        follow_ap = _follow_error(drone_truth, data.truth.get(ap_sysid), t0, t1)
+        if follow_ap:
+            follow_ap["by"] = f"ArduPilot FOLLOW (sysid {ap_sysid})"
     if drone_truth is not None and rover_truth is not None and len(drone_truth) and len(rover_truth):
-        rt = rover_truth.window(t0, t1)
-        rt = Track(rt.t[(rt.t >= drone_truth.t[0]) & (rt.t <= drone_truth.t[-1])],
-                   rt.xyz[(rt.t >= drone_truth.t[0]) & (rt.t <= drone_truth.t[-1])])
-        err = horizontal_error(rt.xyz, drone_truth.at(rt.t))
-        follow = {"source": "truth (SIM_STATE)", **_stat(err)}
+        follow = _follow_error(drone_truth, rover_truth, t0, t1)
+        follow["by"] = "ArduPilot FOLLOW (sysid 2)" if ap_sysid == ROVER else "bridge tf follow (sysid 2)"
     elif data.follow:  # no truth recorded: the bridge's view (telemetry estimates)
         f = data.follow
         m = _in(f["t"], t0, t1) & np.isfinite(f["rover_x"])
@@ -360,7 +391,7 @@ def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
                 if data.follow_frame in (0, 1) else str(data.follow_frame)
     tfw: dict[str, Any] = {}
     for child in ("drone", "drone_yaw"):
-        ts, e = ground_point_errors(data.transforms.get(("world", child), []))
+        ts, e = ground_point_errors(world_transforms(data, child))
         if ts.size:
             tfw[child] = _stat(e[_in(ts, t0, t1)])
     if tfw:
@@ -388,7 +419,7 @@ def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
     out = {
         "ok": bool(tower.get("ok")) and reached == len(goals_out) and reached > 0,
         "scenario": sc.name, "goals_reached": reached, "goals_total": len(goals_out),
-        "goals": goals_out, "follow_error": follow, "wobble": wobble, "flight": flight, "hover": hover,
+        "goals": goals_out, "follow_error": follow, "follow_error_ardupilot": follow_ap, "wobble": wobble, "flight": flight, "hover": hover,
         "limits": {"WPNAV_SPEED": v, "WPNAV_ACCEL": a, "PSC_JERK_XY": j},
         "mission_window_sim": [t0, t1],
         "bridge_status": data.bridge_status, "tower_error": tower.get("error"),
@@ -466,9 +497,14 @@ def format_summary(s: dict) -> str:
                      f"{_f(g['rover_error_at_arrival'], '7.2f'):>7}")
     lines.append("")
     fe = s.get("follow_error") or {}
+    fa = s.get("follow_error_ardupilot") or {}
     if fe.get("n"):
-        lines.append(f"rover follow error (rover vs drone ground point, {fe['source']}, over the mission): "
+        by = f" by {fe['by']}" if fe.get("by") else ""
+        lines.append(f"rover follow error{by} (rover vs drone ground point, {fe['source']}, over the mission): "
                      f"RMS {fe['rms']:.2f} m, max {fe['max']:.2f} m")
+        if fa.get("n"):
+            lines.append(f"rover follow error by {fa['by']} (same flight, {fa['source']}): "
+                         f"RMS {fa['rms']:.2f} m, max {fa['max']:.2f} m")
     else:
         lines.append("rover follow error: not measured (no truth in the tlogs)")
     w = s.get("wobble") or {}

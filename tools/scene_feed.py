@@ -185,6 +185,7 @@ class SceneFeed:
     _last_display: int = -10**18
     _goals: list[tuple[float, float, float]] = field(default_factory=list)
     _follow: tuple | None = None
+    _origins: dict[str, tuple[float, float, float]] = field(default_factory=dict)
     _err: _Running = field(default_factory=_Running)
     _wob_full: _Running = field(default_factory=_Running)
     _wob_yaw: _Running = field(default_factory=_Running)
@@ -231,9 +232,14 @@ class SceneFeed:
             return []
         topic = "/tf_static" if m.flags & 1 else "/tf"
         recs = [Record(topic, ns, {"transforms": [frame_transform(ns, parent, child, tr, q)]})]
-        if parent == "world" and not child.endswith("_yaw") and not m.flags & 1:
+        if m.flags & 1 and parent == "world" and child.endswith("_origin"):
+            self._origins[child] = (float(tr[0]), float(tr[1]), float(tr[2]))
+        # a vehicle's pose is in its own origin frame (world -> <vehicle>_origin, static): its
+        # track is drawn in world
+        off = (0.0, 0.0, 0.0) if parent == "world" else self._origins.get(parent)
+        if off is not None and not child.endswith("_yaw") and not m.flags & 1:
             track = self._tracks.setdefault(child, [])
-            p = (float(tr[0]), float(tr[1]), float(tr[2]))
+            p = (float(tr[0]) + off[0], float(tr[1]) + off[1], float(tr[2]) + off[2])
             if not track or math.dist(track[-1], p) >= self.track_step:
                 track.append(p)
         return recs

@@ -52,6 +52,7 @@ PLAN_FILE = "network_plan.json"      # in the state dir: the network plan of the
 DEFAULT_STATE_DIR = os.path.join(os.environ.get("XDG_STATE_HOME", os.path.expanduser("~/.local/state")),
                                  "towerlink", "sitl")
 AP_RATE = 50.0
+SHARE_RATE = 10.0        # Hz sim: GLOBAL_POSITION_INT heard by the other vehicles (FOLLOW)
 
 
 @dataclass
@@ -113,6 +114,7 @@ class World:
         self.cfg = cfg
         self.dt = 1.0 / cfg.rate
         self.ap_every = max(1, int(round(cfg.rate / AP_RATE)))
+        self.share_every = self.ap_every * max(1, int(round(AP_RATE / SHARE_RATE)))
         self.steps = 0
         self.t = 0.0
         # sim t = 0 is this wall time (--workers: one instant shared by every process)
@@ -241,6 +243,22 @@ class World:
     def clock(self) -> float:
         return self.t
 
+    def share_positions(self, t: float) -> None:
+        """The vehicles of one world hear each other's GLOBAL_POSITION_INT, as vehicles on one
+        telemetry network do (ArduPilot routes it between its links; a mavlink-router or a
+        shared radio does between vehicles). Only a vehicle with FOLL_ENABLE listens: it is
+        FOLLOW's lead. Vehicles in other processes get it over MAVLink (on_GLOBAL_POSITION_INT)."""
+        listeners = [v for v in self.vehicles if v.ap.follow.enabled()]
+        if not listeners:
+            return
+        for lead in self.vehicles:
+            if not lead.ap.est_ok:
+                continue
+            msg = lead.link.telemetry.global_position_int()
+            for v in listeners:
+                if v is not lead:
+                    v.ap.follow.on_global_position(lead.sysid, msg, t, v.ap.home_lla()[2])
+
     def log(self, text: str) -> None:
         print(f"[sitl t={self.t:9.3f}] {text}", flush=True)
 
@@ -258,6 +276,8 @@ class World:
             for v in self.vehicles:
                 v.ap.update(t)
                 v.link.update(t)
+            if self.steps % self.share_every == 0:
+                self.share_positions(t)
 
     def run_for(self, seconds: float) -> None:
         """Step synchronously (no I/O pacing) for `seconds` of sim time."""

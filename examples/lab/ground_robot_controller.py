@@ -6,7 +6,9 @@ transformed into world with the listener's buffer and sent to the rover (z 0, GU
 armed), 10 times a second of the drone's clock. --follow-frame drone goes through the
 tilting frame (checkpoint 2: it wobbles), drone_yaw through the level one (checkpoint 3).
 The drone's velocity, from two lookups 0.1 s apart on its clock, goes with the goal so
-the rover keeps pace.
+the rover keeps pace. The rover's targets are in its own local frame, centred where it
+booted (its EKF origin): goal and velocity go through the static world -> rover_origin
+edge the bridge publishes from the rover's GPS_GLOBAL_ORIGIN; without it, no goal.
 
     python examples/lab/ground_robot_controller.py --connect udpout:127.0.0.1:14620 --follow-frame drone_yaw
 """
@@ -59,13 +61,15 @@ class GroundRobotController:
                 return
             x, y = self.ground_point(t)
             x0, y0 = self.ground_point(t - DT)
+            to_rover = self.buffer.lookup_transform("rover_origin", "world", LATEST).transform
         except TransformException:
-            return                                         # no drone frame (yet): nothing to follow
+            return                                         # no drone frame or rover origin (yet)
         self.last = t
-        vx, vy = (x - x0) / DT, (y - y0) / DT
+        vx, vy, _ = to_rover.apply_vector(((x - x0) / DT, (y - y0) / DT, 0.0))
+        x, y, _ = to_rover.apply_point((x, y, 0.0))
         self.node.send(tl.MAVLink_set_position_target_local_ned_message(
             int(t * 1000) & 0xFFFFFFFF, self.rover, 1, tl.MAV_FRAME_LOCAL_NED, POS_VEL,
-            x, y, 0.0, vx, vy, 0.0, 0, 0, 0, 0, 0))
+            float(x), float(y), 0.0, float(vx), float(vy), 0.0, 0, 0, 0, 0, 0))
 
     def mainloop(self) -> None:
         self.listener.add_callback(self.on_transform)      # follow on the drone's clock, not the wall's

@@ -10,6 +10,7 @@ the world calls `update(t)` at a fixed sim rate. Text for the GCS goes out throu
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 
@@ -20,8 +21,10 @@ from gcs import geo
 from gcs.frames import euler_from_quaternion
 from vehicle.autopilot import modes
 from vehicle.autopilot.auto import AutoMode
+from vehicle.autopilot.ekf_origin import EkfOrigin
 from vehicle.autopilot.battery import CRITICAL, Battery, action_priority
 from vehicle.autopilot.fence import Fence
+from vehicle.autopilot.follow_mode import Follow
 from vehicle.autopilot.guided import GuidedTarget, TargetError, decode_global, decode_local
 from vehicle.autopilot.mission_store import MissionStore
 from vehicle.autopilot.params import ParamStore
@@ -85,6 +88,8 @@ class Autopilot:
         self.boot_sysid = int(params["SYSID_THISMAV"])
         self.origin = origin
         self.start_ned = np.asarray(start_ned, float)
+        # local NED (LOCAL_POSITION_NED, local targets) is centred here, set at the first fix
+        self.local_origin = EkfOrigin(origin)
         self.text = text or (lambda sev, msg: None)
         # parameter changes (PARAM_SET, DO_CHANGE_SPEED) reach this vehicle's index only
         self.push_params = push_params or (lambda p: fleet.set_params(p, i=index))
@@ -106,9 +111,9 @@ class Autopilot:
         # missions, fence and rally points; the link fills the store, the runner flies it
         self.missions = missions if missions is not None else MissionStore()
         self.item_reached: Callable[[int], None] = lambda seq: None   # -> MISSION_ITEM_REACHED
-        self.origin_set = False                      # EKF origin known (first good estimate)
         self.auto = AutoMode(self)
         self.fence = Fence(self)
+        self.follow = Follow(params, lambda: self.sysid, origin)     # FOLLOW mode's lead
         self.refresh()
 
     # ----- state read-back ------------------------------------------------------------
@@ -128,7 +133,7 @@ class Autopilot:
     def ekf_origin(self) -> tuple[float, float, float] | None:
         """(lat deg, lon deg, alt m AMSL) of the local NED frame's origin once the estimator
         has set it (GPS_GLOBAL_ORIGIN), else None."""
-        return tuple(self.origin) if self.origin_set else None
+        return self.local_origin.lla
 
     def home_lla(self) -> tuple[float, float, float]:
         return geo.ned_to_lla(self.origin, self.home if self.home is not None else self.start_ned)
@@ -175,8 +180,8 @@ class Autopilot:
         dt = t - self.t
         self.t = t
         self.refresh()
-        if self.est_ok:
-            self.origin_set = True
+        if not self.local_origin.is_set and self.est_ok:
+            self.local_origin.set(*self.lla())    # ArduPilot: EKF origin at the first GPS fix
         if self.home is None and self.est_ok:
             self.home = self.pos.copy()
             self.home[2] = max(self.home[2], 0.0) if self.kind == "copter" else self.home[2]
@@ -249,6 +254,9 @@ class Autopilot:
         if number in self.needs_position and not self.est_ok:
             self.text(SEV_WARNING, f"Mode change to {self.mode_names[number]} failed: requires position")
             return False
+        if number == self.follow_mode and not self.follow.enabled():
+            self.follow_refused(number)
+            return False
         if number == self.auto_mode:
             self.refresh()
             if not self.auto.init():
@@ -264,6 +272,11 @@ class Autopilot:
         self.enter_mode(number)
         return True
 
+    follow_mode = -1
+
+    def follow_refused(self, number: int) -> None:
+        self.text(SEV_WARNING, "Set FOLL_ENABLE = 1")           # ArduCopter's ModeFollow::init
+        self.mode_init_failed(number)
     def mode_init(self, number: int) -> bool:
         """False when mode `number` cannot start now (its init fails, as ArduPilot's Mode::init)."""
         return True
@@ -362,10 +375,14 @@ class Autopilot:
         if not self.in_guided():
             return False
         self.refresh()
+        # the wire's local frame is centred on this vehicle's EKF origin, the fleet's on the world
         try:
-            tgt = decode_local(frame, type_mask, p, v, a, yaw, yaw_rate, self.pos, self.yaw)
+            tgt = decode_local(frame, type_mask, p, v, a, yaw, yaw_rate, self.local_origin.to_local(self.pos),
+                               self.yaw)
         except TargetError as e:
             return self._refuse(str(e))
+        if tgt.pos is not None:
+            tgt = dataclasses.replace(tgt, pos=self.local_origin.to_world(tgt.pos))
         return self.accept_target(tgt)
 
     def position_target_global(self, frame, type_mask, lat_int, lon_int, alt, v, a, yaw, yaw_rate) -> bool:

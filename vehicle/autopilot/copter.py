@@ -45,6 +45,7 @@ class CopterAutopilot(CopterModes, CopterAutoFlight, Autopilot):
     guided_mode = modes.GUIDED
     auto_mode = modes.AUTO
     rtl_mode = modes.RTL
+    follow_mode = modes.FOLLOW
     max_speed = 20.0      # m/s: WPNAV_SPEED's maximum
     initial_mode = modes.STABILIZE
 
@@ -223,6 +224,8 @@ class CopterAutopilot(CopterModes, CopterAutoFlight, Autopilot):
             self._land(dt)
         elif m == modes.RTL:
             self._rtl(dt)
+        elif m == modes.FOLLOW:
+            self._follow()
         else:  # STABILIZE without RC: level, altitude and yaw held, horizontal drift free
             self.setpoint(level=True, yaw=self.hold_yaw)
             self.echo = GuidedTarget("acc", None, None, np.zeros(3), self.hold_yaw, None)
@@ -245,6 +248,23 @@ class CopterAutopilot(CopterModes, CopterAutoFlight, Autopilot):
         elif tgt.yaw_rate is not None:
             self.hold_yaw = self.yaw
         self.setpoint(pos=tgt.pos, vel=tgt.vel, acc=tgt.acc, yaw=yaw, yaw_rate=tgt.yaw_rate)
+
+    def _follow(self) -> None:
+        """FOLLOW: the lead's velocity plus FOLL_POS_P times the offset error, within WPNAV's
+        limits (vehicle/autopilot/follow_mode.py); no valid lead: stop and hold."""
+        p = self.params
+        cmd = self.follow.command(self.t, self.pos, float(p.get("WPNAV_SPEED", 500)) / 100.0,
+                                  float(p.get("WPNAV_ACCEL", 250)) / 100.0,
+                                  (float(p.get("WPNAV_SPEED_UP", 250)) / 100.0,
+                                   float(p.get("WPNAV_SPEED_DN", 150)) / 100.0))
+        if cmd is None:
+            self.setpoint(yaw=self.hold_yaw)
+            self.echo = GuidedTarget("vel", None, np.zeros(3), None, self.hold_yaw, None)
+            return
+        if cmd.yaw is not None:
+            self.hold_yaw = cmd.yaw
+        self.setpoint(vel=cmd.vel, yaw=self.hold_yaw)
+        self.echo = GuidedTarget("vel", None, cmd.vel, None, self.hold_yaw, None)
 
     def _descent_speed(self) -> float:
         home_z = self.home[2] if self.home is not None else 0.0

@@ -157,6 +157,33 @@ COPTER_TABLE = COPTER_TABLE + COPTER_EXTRA
 ROVER_TABLE = ROVER_TABLE + ROVER_EXTRA
 
 
+# FOLLOW mode (vehicle/autopilot/follow_mode.py), AP_Follow's names, defaults and ranges
+_FOLLOW = [
+    _d("FOLL_ENABLE", 0, 0, 1, True, "follow: 0 disabled, 1 enabled (FOLLOW mode needs it)"),
+    _d("FOLL_SYSID", 0, 0, 255, True, "follow target's MAVLink system id, 0 = the first one heard"),
+    _d("FOLL_DIST_MAX", 100, 1, 1000, False, "follow distance maximum (m): further, the target is invalid"),
+    _d("FOLL_OFS_TYPE", 0, 0, 1, True, "follow offset type: 0 north-east-down, 1 relative to the lead's heading"),
+    _d("FOLL_OFS_X", 0, -100, 100, False, "follow offset north / forward (m)"),
+    _d("FOLL_OFS_Y", 0, -100, 100, False, "follow offset east / right (m)"),
+    _d("FOLL_OFS_Z", 0, -100, 100, False, "follow offset down (m)"),
+    _d("FOLL_POS_P", 0.1, 0.01, 1.0, False, "follow position error P gain (1/s)"),
+]
+_FOLLOW_COPTER = [
+    _d("FOLL_YAW_BEHAVE", 1, 0, 3, True,
+       "follow yaw: 0 none, 1 face the lead vehicle, 2 same as the lead, 3 direction of flight"),
+    _d("FOLL_ALT_TYPE", 1, 0, 1, True, "follow altitude type: 0 absolute, 1 relative (towerlink: relative)"),
+]
+
+
+def _add_missing(table: list[ParamDef], extra: list[ParamDef]) -> None:
+    have = {d.name for d in table}
+    table += [d for d in extra if d.name not in have]
+
+
+_add_missing(COPTER_TABLE, _FOLLOW + _FOLLOW_COPTER)
+_add_missing(ROVER_TABLE, _FOLLOW)
+
+
 def core_table(kind: str) -> list[ParamDef]:
     """The cores' parameters (vehicle/params_core.py) as ParamDefs; [] if not available."""
     try:

@@ -70,6 +70,11 @@ class RoverAutopilot(RoverModes, Autopilot):
             self.rtl_start()
         self.enter_extra_mode(number)
 
+    follow_mode = modes.ROVER_FOLLOW
+
+    def follow_refused(self, number: int) -> None:
+        self.mode_init_failed(number)          # Rover's ModeFollow::_enter fails without a word
+
     def mode_init_failed(self, number: int) -> None:
         self.text(SEV_WARNING, "Flight mode change failed")     # Rover::set_mode's words
 
@@ -165,6 +170,9 @@ class RoverAutopilot(RoverModes, Autopilot):
         if self.mode == modes.ROVER_RTL:
             self._rtl_drive()
             return
+        if self.mode == modes.ROVER_FOLLOW:
+            self._follow()
+            return
         if self.run_extra_mode(self.mode):      # ACRO, STEERING, LOITER, SMART_RTL (rover_modes.py)
             return
         # GUIDED
@@ -186,6 +194,20 @@ class RoverAutopilot(RoverModes, Autopilot):
             # RoverFleet steers to headings: lead the heading so the P loop turns at yaw_rate
             yaw = self.yaw + tgt.yaw_rate / max(0.1, float(self.params.get("ATC_STR_ANG_P", 2.5)))
         self.setpoint(pos=tgt.pos, vel=tgt.vel, yaw=yaw, yaw_rate=tgt.yaw_rate)
+
+    def _follow(self) -> None:
+        """FOLLOW (Rover/mode_follow.cpp): drive at the lead's velocity plus FOLL_POS_P times
+        the offset error, within WP_SPEED (else CRUISE_SPEED); no valid lead: stop."""
+        p = self.params
+        speed = float(p.get("WP_SPEED", 0)) or float(p.get("CRUISE_SPEED", 8))
+        if self.speed_override:
+            speed = self.speed_override
+        cmd = self.follow.command(self.t, self.pos, speed, float(p.get("ATC_ACCEL_MAX", 2.0)) or 2.0, None)
+        if cmd is None or np.hypot(cmd.vel[0], cmd.vel[1]) < 0.05:
+            self._stop()
+            return
+        self.setpoint(vel=cmd.vel)
+        self.echo = GuidedTarget("vel", None, cmd.vel, None, None, None)
 
     def position_target_local(self, frame, type_mask, p, v, a, yaw, yaw_rate) -> bool:
         """Rover also takes yaw-only and yaw-rate-only targets (turn in place), as ArduRover."""

@@ -164,8 +164,12 @@ class Telemetry:
             _i(ap.vel[2] * 100, -32768, 32767), _i(hdg * 100, 0, 35999))
 
     def local_position_ned(self):
+        # NED from this vehicle's EKF origin; none before it is set (ArduPilot has no local
+        # position then either)
         ap = self.link.ap
-        p, v = ap.pos, ap.vel
+        if not ap.local_origin.is_set:
+            return None
+        p, v = ap.local_origin.to_local(ap.pos), ap.vel
         return mav.MAVLink_local_position_ned_message(self.boot_ms(), float(p[0]), float(p[1]), float(p[2]),
                                                       float(v[0]), float(v[1]), float(v[2]))
 
@@ -194,7 +198,7 @@ class Telemetry:
         if ap.home is None:
             return None
         lat, lon, alt = ap.home_lla()
-        h = ap.home
+        h = ap.local_origin.to_local(ap.home)       # x, y, z: home in the local (EKF origin) frame
         return mav.MAVLink_home_position_message(
             _i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1), _i(alt * 1000, -2**31, 2**31 - 1),
             float(h[0]), float(h[1]), float(h[2]), [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0, self.usec())
@@ -245,7 +249,7 @@ class Telemetry:
         t = ap.echo
         if t is None:
             return None
-        p = t.pos if t.pos is not None else (0.0, 0.0, 0.0)
+        p = ap.local_origin.to_local(t.pos) if t.pos is not None else (0.0, 0.0, 0.0)
         v = t.vel if t.vel is not None else (0.0, 0.0, 0.0)
         a = t.acc if t.acc is not None else (0.0, 0.0, 0.0)
         return mav.MAVLink_position_target_local_ned_message(

@@ -466,6 +466,18 @@ class VehicleLink:
         self.ap.position_target_global(m.coordinate_frame, m.type_mask, m.lat_int, m.lon_int, m.alt,
                                        (m.vx, m.vy, m.vz), (m.afx, m.afy, m.afz), m.yaw, m.yaw_rate)
 
+    def on_GLOBAL_POSITION_INT(self, m, ch) -> None:
+        """Another vehicle's position: FOLLOW's lead, when FOLL_ENABLE is set (AP_Follow)."""
+        self.ap.follow.on_global_position(m.get_srcSystem(), m, self.ap.t, self.ap.home_lla()[2])
+
+    def on_SET_GPS_GLOBAL_ORIGIN(self, m, ch) -> None:
+        """As ArduPilot's handle_set_gps_global_origin: a bad latitude/longitude is dropped
+        silently; the origin is set only if it is not set yet (then GPS_GLOBAL_ORIGIN goes out
+        from update()); a second one is ignored, also silently. Altitude is mm AMSL."""
+        lat, lon, alt = m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3
+        if abs(lat) > 90 or abs(lon) > 180:
+            return
+        self.ap.local_origin.set(lat, lon, alt)
     _ftp: ftp.FtpServer | None = None
 
     def on_FILE_TRANSFER_PROTOCOL(self, m, ch) -> None:
