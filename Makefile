@@ -12,10 +12,14 @@ help:
 	@echo "make test   - run the test suite"
 	@echo "make bench  - run the benchmarks (peers side by side)"
 
+# setuptools warns that folders named like the packages shadow them: for this checkout's
+# editable install that is the point, so the first command a person runs stays quiet
+QUIET_EDITABLE := PYTHONWARNINGS='ignore:Editable installation'
+
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e '.[test,plot]'
+	$(QUIET_EDITABLE) $(BIN)/python -m pip install -q -e '.[test,plot]'
 	rm -f $(VENV)/.installed-*
 	touch $@
 
@@ -29,7 +33,7 @@ test: $(STAMP)
 	$(BIN)/python -m pytest -q -m slow
 
 bench: $(STAMP)
-	$(BIN)/python -m pip install -q -e '.[test,plot,bench]'
+	$(QUIET_EDITABLE) $(BIN)/python -m pip install -q -e '.[test,plot,bench]'
 	$(BIN)/towerlink bench
 
 clean:
