@@ -139,25 +139,14 @@ def test_pymavlink_rover_runs_a_mission_in_auto(processes, tmp_path):
 
 # ----- MAVSDK ---------------------------------------------------------------------------
 def client(port: int) -> int:
-    from mavsdk import ComponentType, Configuration, Mavsdk
+    from mavsdk_client import autopilot, step, wait
     from mavsdk.plugins.action import Action
     from mavsdk.plugins.mission_raw import MissionItem, MissionRaw
     from mavsdk.plugins.telemetry import Telemetry
 
-    def step(msg):
-        print("STEP", msg, flush=True)
-
-    sdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
-    sdk.add_any_connection(f"udpin://127.0.0.1:{port}")
-    system = sdk.first_autopilot(20.0)
-    if system is None:
-        raise SystemExit("no autopilot discovered")
+    system = autopilot(port)
     tel, action, raw = Telemetry(system), Action(system), MissionRaw(system)
-    deadline = time.monotonic() + 30
-    while not tel.health().is_global_position_ok or not tel.health().is_armable:
-        if time.monotonic() > deadline:
-            raise SystemExit("not armable")
-        time.sleep(0.2)
+    wait(lambda: tel.health().is_global_position_ok and tel.health().is_armable, 30, "armable")
     pos = tel.position()
     home = (pos.latitude_deg, pos.longitude_deg, pos.absolute_altitude_m)
     rel = 6
@@ -173,19 +162,12 @@ def client(port: int) -> int:
     action.set_takeoff_altitude(8.0)
     action.arm()
     action.takeoff()
-    deadline = time.monotonic() + 40
-    while tel.position().relative_altitude_m < 7.0:
-        if time.monotonic() > deadline:
-            raise SystemExit("no takeoff")
-        time.sleep(0.2)
+    wait(lambda: tel.position().relative_altitude_m >= 7.0, 40, "takeoff")
     step("airborne")
     raw.start_mission()
     step("started")
-    deadline = time.monotonic() + 60
-    while not progress or progress[-1][0] < progress[-1][1] or progress[-1][1] == 0:
-        if time.monotonic() > deadline:
-            raise SystemExit(f"progress stalled: {progress}")
-        time.sleep(0.2)
+    wait(lambda: progress and progress[-1][1] > 0 and progress[-1][0] >= progress[-1][1], 60,
+         f"mission progress to the end (so far {progress})")
     seen = [c for c, _ in progress]
     # MAVSDK counts the raw mission with its home item: the end is (5, 5)
     if seen != sorted(seen) or progress[-1] != (len(items), len(items)):

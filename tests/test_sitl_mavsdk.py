@@ -8,37 +8,17 @@ The vehicle pushes to it with --out udpout:127.0.0.1:PORT; MAVSDK listens on udp
 from __future__ import annotations
 
 import sys
-import time
 
 import pytest
 
 
 def client(port: int) -> int:
-    from mavsdk import ComponentType, Configuration, Mavsdk
+    from mavsdk_client import autopilot, step, wait
     from mavsdk.plugins.action import Action
     from mavsdk.plugins.offboard import Offboard, PositionNedYaw
     from mavsdk.plugins.telemetry import Telemetry
 
-    def step(msg):
-        print("STEP", msg, flush=True)
-
-    def wait(cond, timeout, what):
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            try:
-                if cond():
-                    return
-            except Exception:
-                pass
-            time.sleep(0.1)  # poll
-        raise SystemExit(f"timeout: {what}")
-
-    sdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
-    sdk.add_any_connection(f"udpin://127.0.0.1:{port}")
-    system = sdk.first_autopilot(20.0)
-    if system is None:
-        raise SystemExit("no autopilot discovered")
-    step("discovered")
+    system = autopilot(port)
     tel, act, off = Telemetry(system), Action(system), Offboard(system)
 
     def healthy():

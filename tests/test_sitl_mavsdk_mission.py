@@ -20,12 +20,9 @@ def e7(v: float) -> int:
 
 
 def client(port: int) -> int:
-    from mavsdk import ComponentType, Configuration, Mavsdk
+    from mavsdk_client import autopilot, step
     from mavsdk.plugins.geofence import Circle, FenceType, Geofence, GeofenceData, Point, Polygon
     from mavsdk.plugins.mission_raw import MissionItem, MissionRaw
-
-    def step(msg):
-        print("STEP", msg, flush=True)
 
     def check(cond, what):
         if not cond:
@@ -35,12 +32,7 @@ def client(port: int) -> int:
         return (it.seq, it.frame, it.command, round(it.param1, 4), round(it.param2, 4), it.x, it.y,
                 round(it.z, 3), it.mission_type)
 
-    sdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
-    sdk.add_any_connection(f"udpin://127.0.0.1:{port}")
-    system = sdk.first_autopilot(20.0)
-    if system is None:
-        raise SystemExit("no autopilot discovered")
-    step("discovered")
+    system = autopilot(port)
     raw = MissionRaw(system)
     lat, lon, alt = HOME
     rel = 6      # MAV_FRAME_GLOBAL_RELATIVE_ALT_INT

@@ -11,37 +11,38 @@ from __future__ import annotations
 import math
 import sys
 import threading
-import time
 
 import pytest
 
 
+# the flight mode MAVSDK reports after each step: its names for ArduCopter's GUIDED, BRAKE,
+# RTL and ArduRover's HOLD, GUIDED, RTL
+MAVSDK_MODES = {
+    "copter": {"armed": "OFFBOARD", "offboard.start": "OFFBOARD", "offboard.stop": "HOLD",
+               "goto_location": "OFFBOARD", "hold": "HOLD", "return_to_launch": "RETURN_TO_LAUNCH"},
+    "rover": {"armed": "HOLD", "offboard.start": "OFFBOARD", "offboard.stop": "HOLD",
+              "goto_location": "OFFBOARD", "hold": "HOLD", "return_to_launch": "RETURN_TO_LAUNCH"},
+}
+
+
 def client(port: int, kind: str) -> int:
-    from mavsdk import ComponentType, Configuration, Mavsdk
+    from mavsdk_client import autopilot, wait
     from mavsdk.plugins.action import Action
     from mavsdk.plugins.offboard import Offboard, PositionNedYaw
     from mavsdk.plugins.telemetry import FlightMode, Telemetry
 
-    def wait(cond, timeout, what):
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            try:
-                if cond():
-                    return
-            except Exception:
-                pass
-            time.sleep(0.1)  # poll the client's cached telemetry
-        raise SystemExit(f"timeout: {what}")
-
-    sdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
-    sdk.add_any_connection(f"udpin://127.0.0.1:{port}")
-    system = sdk.first_autopilot(20.0)
-    if system is None:
-        raise SystemExit("no autopilot discovered")
+    system = autopilot(port)
     tel, act, off = Telemetry(system), Action(system), Offboard(system)
 
     def mode(what):
-        time.sleep(0.5)                       # let a heartbeat carry the new mode
+        """Wait until MAVSDK reports the mode a MAVSDK user expects after `what` (a heartbeat
+        must carry it), then print what it reports; the test compares (a timeout prints the
+        mode MAVSDK kept reporting)."""
+        want = MAVSDK_MODES[kind][what]
+        try:
+            wait(lambda: FlightMode(int(tel.flight_mode())).name == want, 10, f"{want} after {what}")
+        except SystemExit:
+            pass
         print("MODE", what, FlightMode(int(tel.flight_mode())).name, flush=True)
 
     def healthy():
@@ -135,8 +136,7 @@ def test_mavsdk_copter_hold_offboard_goto_origin_rtl(processes, tmp_path):
     # the vehicle's side: STABILIZE, GUIDED (offboard), BRAKE (stop), GUIDED (goto), BRAKE (hold), RTL
     assert seen[-5:] == [4, 17, 4, 17, 6], seen
     # MAVSDK's names for ArduCopter's GUIDED, BRAKE and RTL
-    assert modes == {"armed": "OFFBOARD", "offboard.start": "OFFBOARD", "offboard.stop": "HOLD",
-                     "goto_location": "OFFBOARD", "hold": "HOLD", "return_to_launch": "RETURN_TO_LAUNCH"}, modes
+    assert modes == MAVSDK_MODES["copter"], modes
     # the EKF origin: where the local NED frame is centred (this world: its origin, the drone's start)
     assert abs(origin[0] - home[0]) * 111_319.5 < 0.5 and abs(origin[1] - home[1]) * 111_319.5 < 0.5
 
@@ -146,10 +146,9 @@ def test_mavsdk_rover_hold_offboard_goto_origin_rtl(processes, tmp_path):
     modes, origin, home, seen = _run(processes, tmp_path, "rover")
     # GUIDED (offboard), HOLD (stop), GUIDED (goto), HOLD, RTL: MAVSDK's Hold is ArduRover's HOLD
     assert seen[-5:] == [15, 4, 15, 4, 11], seen
-    assert modes == {"armed": "HOLD", "offboard.start": "OFFBOARD", "offboard.stop": "HOLD",
-                     "goto_location": "OFFBOARD", "hold": "HOLD", "return_to_launch": "RETURN_TO_LAUNCH"}, modes
-    # GPS_GLOBAL_ORIGIN answers REQUEST_MESSAGE(49); today every vehicle of a world shares the
-    # world's origin (each vehicle's own EKF origin is the other half of issue 10), metres away
+    assert modes == MAVSDK_MODES["rover"], modes
+    # GPS_GLOBAL_ORIGIN answers REQUEST_MESSAGE(49): the rover's own EKF origin, set where it
+    # booted (3 m from the drone in this world), metres from home at most
     dn = (origin[0] - home[0]) * 111_319.5
     de = (origin[1] - home[1]) * 111_319.5 * math.cos(math.radians(home[0]))
     assert origin[0] != 0.0 and math.hypot(dn, de) < 50.0
