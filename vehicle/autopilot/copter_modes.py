@@ -26,7 +26,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from vehicle.autopilot import modes
 from vehicle.autopilot.guided import GuidedTarget
-from vehicle.autopilot.smartrtl import SmartRTLPath
+from vehicle.autopilot.smartrtl import RecordsSmartRTLPath
 
 BRAKE_MODE_DECEL_RATE = 750.0    # cm/s/s (ArduCopter config.h)
 STOPPED_SPEED = 0.1              # m/s: below it the copter counts as stopped
@@ -34,8 +34,10 @@ GRAVITY = 9.80665
 NAN = float("nan")
 
 
-class CopterModes:
+class CopterModes(RecordsSmartRTLPath):
     """Mixin: needs Autopilot's state (pos, vel, t, params, hold_pos, setpoint, ...)."""
+
+    SMART_RTL_MODE = modes.SMART_RTL
 
     def __init__(self, *a, **kw) -> None:
         self.brake_t0 = 0.0
@@ -44,24 +46,7 @@ class CopterModes:
         self.srtl_stage = ""
         self.srtl_dest: np.ndarray | None = None
         self.srtl_popped: np.ndarray | None = None   # taken off the path, not yet reached
-        self._srtl_was_armed = False
         super().__init__(*a, **kw)
-        self.srtl = SmartRTLPath(float(self.params.get("SRTL_ACCURACY", 2.0)),
-                                 int(self.params.get("SRTL_POINTS", 300)),
-                                 text=lambda sev, msg: self.text(sev, msg))
-
-    # ----- bookkeeping ---------------------------------------------------------------------
-    def update(self, t: float) -> None:
-        super().update(t)
-        if self.armed and not self._srtl_was_armed:
-            self.srtl.set_home(self.pos, t)           # a new path at every arming
-        self._srtl_was_armed = self.armed
-        self.srtl.update(self.pos, self.est_ok, self.armed and self.mode != modes.SMART_RTL, t)
-
-    def mode_init(self, number: int) -> bool:
-        if number == modes.SMART_RTL:
-            return self.srtl.usable()
-        return super().mode_init(number)
 
     def exit_mode(self, number: int) -> None:
         if number in (modes.BRAKE, modes.POSHOLD, modes.GUIDED) and self.stopping:

@@ -17,32 +17,18 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from vehicle.autopilot import modes
 from vehicle.autopilot.guided import GuidedTarget
-from vehicle.autopilot.smartrtl import SmartRTLPath
+from vehicle.autopilot.smartrtl import RecordsSmartRTLPath
 
 
-class RoverModes:
+class RoverModes(RecordsSmartRTLPath):
     """Mixin: needs Autopilot's state and RoverAutopilot's _stop()."""
+
+    SMART_RTL_MODE = modes.ROVER_SMART_RTL
 
     def __init__(self, *a, **kw) -> None:
         self.srtl_dest: np.ndarray | None = None
         self.srtl_done = False
-        self._srtl_was_armed = False
         super().__init__(*a, **kw)
-        self.srtl = SmartRTLPath(float(self.params.get("SRTL_ACCURACY", 2.0)),
-                                 int(self.params.get("SRTL_POINTS", 300)),
-                                 text=lambda sev, msg: self.text(sev, msg))
-
-    def update(self, t: float) -> None:
-        super().update(t)
-        if self.armed and not self._srtl_was_armed:
-            self.srtl.set_home(self.pos, t)
-        self._srtl_was_armed = self.armed
-        self.srtl.update(self.pos, self.est_ok, self.armed and self.mode != modes.ROVER_SMART_RTL, t)
-
-    def mode_init(self, number: int) -> bool:
-        if number == modes.ROVER_SMART_RTL:
-            return self.srtl.usable()
-        return super().mode_init(number)
 
     def exit_mode(self, number: int) -> None:
         if number == modes.ROVER_SMART_RTL and not self.srtl_done and self.srtl_dest is not None:

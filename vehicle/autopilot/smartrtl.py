@@ -161,3 +161,30 @@ class SmartRTLPath:
     def push(self, p) -> None:
         """Put back a point not reached (leaving SMART_RTL mid-way, as ArduPilot's exit())."""
         self.points.append(np.asarray(p, float).copy())
+
+
+class RecordsSmartRTLPath:
+    """Mixin of the copter's and the rover's autopilots: the SmartRTL path, started anew at
+    every arming and recorded while armed in every mode but SMART_RTL itself (which flies it).
+    The subclass names its SMART_RTL mode number in SMART_RTL_MODE."""
+
+    SMART_RTL_MODE = -1
+
+    def __init__(self, *a, **kw) -> None:
+        self._srtl_was_armed = False
+        super().__init__(*a, **kw)
+        self.srtl = SmartRTLPath(float(self.params.get("SRTL_ACCURACY", 2.0)),
+                                 int(self.params.get("SRTL_POINTS", 300)),
+                                 text=lambda sev, msg: self.text(sev, msg))
+
+    def update(self, t: float) -> None:
+        super().update(t)
+        if self.armed and not self._srtl_was_armed:
+            self.srtl.set_home(self.pos, t)           # a new path at every arming
+        self._srtl_was_armed = self.armed
+        self.srtl.update(self.pos, self.est_ok, self.armed and self.mode != self.SMART_RTL_MODE, t)
+
+    def mode_init(self, number: int) -> bool:
+        if number == self.SMART_RTL_MODE:
+            return self.srtl.usable()        # no usable path: "Mode change ... failed: init failed"
+        return super().mode_init(number)
