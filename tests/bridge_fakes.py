@@ -210,19 +210,22 @@ def running_bridge(cfg: BridgeConfig):
 
 @contextmanager
 def bridge_with_fakes(rover: bool = True, out: bool = False, heartbeats: bool = True,
-                      tower_heartbeat: bool = True, **cfg_kw):
+                      tower_heartbeat: bool = True, origins: dict | None = None, **cfg_kw):
     """A running bridge wired to a fake drone (and rover), a tower endpoint and, with
     out=True, a listener on a world-frame --out; the tower is known to the bridge, and
     with heartbeats=True the vehicles have sent one. Yields a dict with bridge, tower,
     drone, rover (or None) and out (or None); everything is closed after. Rover follow
     is off unless follow=True is given (it would send the rover goals of its own).
-    tower_heartbeat=False: the tower endpoint stays silent (not yet a peer of the bridge)."""
+    tower_heartbeat=False: the tower endpoint stays silent (not yet a peer of the bridge).
+    origins={"rover": (lat, lon, alt)}: where a fake vehicle booted (its GPS_GLOBAL_ORIGIN)."""
     from support import free_ports
     cfg_kw.setdefault("follow", False)
     tport, dport, rport, oport = free_ports(4)
     fakes = {"drone": FakeVehicle(1, dport, name="drone"),
              "rover": FakeVehicle(2, rport, tl.MAV_TYPE_GROUND_ROVER, name="rover") if rover else None,
              "out": Endpoint(254, 1, oport, listen=True, name="out") if out else None}
+    for name, lla in (origins or {}).items():
+        fakes[name].origin = lla
     if out:
         cfg_kw["outs"] = [f"udpout:127.0.0.1:{oport}"]
     cfg = bridge_config(tport, dport, rport if rover else None, **cfg_kw)

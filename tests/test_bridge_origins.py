@@ -8,9 +8,9 @@ import pytest
 
 from gcs import geo
 from gcs.dialect import towerlink as tl
-from gcs.frames import ConnectivityException, Transform
+from gcs.frames import ConnectivityException
 from bridge.origins import OriginDesk, origin_from_message
-from bridge_fakes import Endpoint, FakeVehicle, bridge_config, running_bridge, wait_origins
+from bridge_fakes import FakeVehicle, bridge_config, bridge_with_fakes, running_bridge
 from support import free_ports, wait_until
 
 HOME = (-35.363261, 149.165230, 584.0)
@@ -36,46 +36,32 @@ def test_origin_from_message_refuses_non_places():
 
 
 def test_rover_booted_3m_away_lands_in_world_and_gets_targets_in_its_own_frame():
-    tport, dport, rport = free_ports(3)
-    drone = FakeVehicle(1, dport, name="drone")
-    rover = FakeVehicle(2, rport, tl.MAV_TYPE_GROUND_ROVER, name="rover")
     # it booted 3 m south of the drone (an origin is 1e-7 deg: about 1 cm, as ArduPilot's Location)
-    rover.origin = tuple(round(v, 7) for v in geo.ned_to_lla(HOME, (-3.0, 0.0, 0.0)))
-    south = geo.lla_to_ned(HOME, *rover.origin)[0]
+    rover_origin = tuple(round(v, 7) for v in geo.ned_to_lla(HOME, (-3.0, 0.0, 0.0)))
+    south = geo.lla_to_ned(HOME, *rover_origin)[0]
     assert south == pytest.approx(-3.0, abs=0.011)
-    cfg = bridge_config(tport, dport, rport, follow=True, follow_offset=(0.0, 0.0))
-    try:
-        with running_bridge(cfg) as bridge:
-            tower = Endpoint(255, 190, tport, listen=False, name="tower")
-            try:
-                wait_until(lambda: drone.peer and rover.peer, 5, "bridge reaching the vehicles")
-                tower.mav.heartbeat_send(tl.MAV_TYPE_GCS, tl.MAV_AUTOPILOT_INVALID, 0, 0, 0)
-                wait_until(lambda: bridge.tower.peers, 5, "tower peer")
-                wait_origins(bridge, drone, rover)
-                for k in range(21):                # the rover at its own local (0, 0), the drone hovering
-                    rover.pose(1000 + 50 * k, (0.0, 0.0, 0.0))
-                wait_until(lambda: bridge.vehicles[2].position is not None, 5, "rover position")
-                for k in range(21):
-                    drone.pose(1000 + 50 * k, (4.0, 2.0, -9.0))
-                wait_until(lambda: bridge.buffer.can_transform("world", "rover") and bridge.buffer.can_transform("world", "drone"),
-                           5, "world -> rover, drone")
-                T = bridge.buffer.lookup_transform("world", "rover")
-                assert T.transform.xyz == pytest.approx((south, 0.0, 0.0), abs=1e-6)
-                assert bridge.buffer.lookup_transform("world", "drone").transform.xyz == \
-                    pytest.approx((4.0, 2.0, -9.0), abs=1e-3)
-                # the ground point under the drone is world (4, 2): the rover's own (7, 2)
-                g = wait_until(lambda: rover.of_type("SET_POSITION_TARGET_LOCAL_NED"), 5, "follow goal")[-1]
-                assert (g.x, g.y) == pytest.approx((4.0 - south, 2.0), abs=1e-4)
-                # the follow status (world) has the rover where it is in world
-                fs = tower.wait("TOWERLINK_FOLLOW_STATUS", lambda m: math.isfinite(m.rover_x))
-                assert (fs.rover_x, fs.rover_y) == pytest.approx((south, 0.0), abs=1e-4)
-                # the tower sees the static edge on the stream
-                m = tower.wait("TOWERLINK_TRANSFORM", lambda m: m.child_frame_id == "rover_origin")
-                assert m.flags & 1 and m.frame_id == "world" and m.translation[0] == pytest.approx(south, abs=1e-5)
-            finally:
-                tower.close()
-    finally:
-        drone.close(); rover.close()
+    with bridge_with_fakes(follow=True, follow_offset=(0.0, 0.0), origins={"rover": rover_origin}) as f:
+        bridge, tower, drone, rover = f["bridge"], f["tower"], f["drone"], f["rover"]
+        for k in range(21):                # the rover at its own local (0, 0), the drone hovering
+            rover.pose(1000 + 50 * k, (0.0, 0.0, 0.0))
+        wait_until(lambda: bridge.vehicles[2].position is not None, 5, "rover position")
+        for k in range(21):
+            drone.pose(1000 + 50 * k, (4.0, 2.0, -9.0))
+        wait_until(lambda: bridge.buffer.can_transform("world", "rover") and bridge.buffer.can_transform("world", "drone"),
+                   5, "world -> rover, drone")
+        T = bridge.buffer.lookup_transform("world", "rover")
+        assert T.transform.xyz == pytest.approx((south, 0.0, 0.0), abs=1e-6)
+        assert bridge.buffer.lookup_transform("world", "drone").transform.xyz == \
+            pytest.approx((4.0, 2.0, -9.0), abs=1e-3)
+        # the ground point under the drone is world (4, 2): the rover's own (7, 2)
+        g = wait_until(lambda: rover.of_type("SET_POSITION_TARGET_LOCAL_NED"), 5, "follow goal")[-1]
+        assert (g.x, g.y) == pytest.approx((4.0 - south, 2.0), abs=1e-4)
+        # the follow status (world) has the rover where it is in world
+        fs = tower.wait("TOWERLINK_FOLLOW_STATUS", lambda m: math.isfinite(m.rover_x))
+        assert (fs.rover_x, fs.rover_y) == pytest.approx((south, 0.0), abs=1e-4)
+        # the tower sees the static edge on the stream
+        m = tower.wait("TOWERLINK_TRANSFORM", lambda m: m.child_frame_id == "rover_origin")
+        assert m.flags & 1 and m.frame_id == "world" and m.translation[0] == pytest.approx(south, abs=1e-5)
 
 
 def test_without_an_origin_the_vehicle_is_not_in_world():
