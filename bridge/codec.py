@@ -4,21 +4,14 @@
   MAVLink 2 signed when a key is given), re-packs a message it translated with the
   original sender's sysid, compid, seq and protocol version, and decodes a raw packet
   (None and counted when it does not decode).
-* :func:`transform_message` / :func:`transform_from_message` encode and decode
-  TOWERLINK_TRANSFORM (and read TOWERLINK_STATIC_TRANSFORM);
-  :func:`static_transform_message` builds the request to add a static frame.
-
-Frame ids are at most 16 bytes on the wire (char[16]); a longer id is a ValueError,
-never silently cut. Stamps are seconds on the sender's timeline, sent as microseconds.
+* The transform messages (TOWERLINK_TRANSFORM, TOWERLINK_STATIC_TRANSFORM) have their one
+  home in gcs.tf2_ros.wire, shared with the nodes: frame ids at most 16 bytes (a longer id
+  is a ValueError, never cut), stamps sent as microseconds.
 """
 from __future__ import annotations
 
 from gcs.dialect import encoder
 from gcs.dialect import towerlink as tl
-from gcs.mavstr import mav_str  # noqa: F401 - re-exported for the loop
-# the wire encoding of transforms has one home, shared with the nodes (gcs.tf2_ros)
-from gcs.tf2_ros.wire import (FRAME_ID_LEN, STATIC_FLAG, frame_bytes,  # noqa: F401
-                              static_transform_message, transform_from_message, transform_message)
 
 
 class Codec:

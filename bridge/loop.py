@@ -42,8 +42,9 @@ from gcs.dialect import towerlink as tl
 from gcs.frames import TransformException
 from bridge import translate
 from bridge.clock_desk import ClockDesk
-from bridge.codec import (Codec, bridge_status_message, command_message, mav_str,
-                          statustext_message, transform_from_message, transform_message)
+from bridge.codec import Codec, bridge_status_message, command_message, statustext_message
+from gcs.tf2_ros.wire import transform_from_message, transform_message
+from gcs.mavstr import mav_str
 from bridge.config import BridgeConfig, VehicleRecord
 from bridge.follower import Follower
 from bridge.frame_tree import FrameTree

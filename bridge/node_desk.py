@@ -14,7 +14,8 @@ from __future__ import annotations
 from gcs.dialect import towerlink as tl
 from gcs.frames import TransformException
 from gcs.mavstr import mav_str
-from bridge.codec import statustext_message, transform_from_message, transform_message
+from bridge.codec import statustext_message
+from gcs.tf2_ros.wire import transform_from_message, transform_message
 from bridge.links import Link, Packet
 from bridge.node_frames import NodeFrames, publisher
 

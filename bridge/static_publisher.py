@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import time
 
-from bridge.codec import static_transform_message
+from gcs.tf2_ros.wire import static_transform_message
 from gcs.frames import TransformStamped
 
 TOWER_SYSID = 255       # a GCS's sysid, the one a bridge trusts by default (--trust-sysid)

@@ -15,7 +15,7 @@ from dataclasses import replace
 
 from gcs.dialect import towerlink as tl
 from gcs.frames import TransformException
-from bridge.codec import transform_message
+from gcs.tf2_ros.wire import transform_message
 from bridge.config import VehicleRecord
 from bridge.frame_tree import ORIGIN
 from bridge.origins import origin_from_message

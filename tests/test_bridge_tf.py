@@ -9,7 +9,7 @@ import pytest
 
 from gcs.dialect import towerlink as tl
 from gcs.frames import LATEST, Buffer, Transform
-from bridge.codec import transform_message
+from gcs.tf2_ros.wire import transform_message
 from bridge.listener import TransformListener
 from bridge.pairing import VehicleFrames
 from bridge.timeline import Timeline
@@ -126,7 +126,7 @@ def test_transform_stream_reaches_tower(world):
 
 def test_transform_message_roundtrip():
     from gcs.frames import TransformStamped
-    from bridge.codec import transform_from_message
+    from gcs.tf2_ros.wire import transform_from_message
     ts = TransformStamped("world", "a_long_frame_16c", 12.345678,
                           Transform.from_euler(yaw=1, pitch=0.2, roll=0.3, translation=(1, 2, 3)))
     msg = transform_message(ts, static=True)

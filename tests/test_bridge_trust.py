@@ -107,7 +107,7 @@ def client(port: int, key: bytes | None, sysid: int = 255):
 
 
 def verdict(conn, ts: TransformStamped) -> str | None:
-    from bridge.codec import static_transform_message
+    from gcs.tf2_ros.wire import static_transform_message
     conn.mav.send(static_transform_message(ts))
     m = conn.recv_match(type="STATUSTEXT", blocking=True, timeout=1.0)
     return m.text if m is not None and m.text.startswith("static tf") else None

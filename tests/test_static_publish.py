@@ -5,7 +5,7 @@ import subprocess
 import sys
 
 from gcs.dialect import mavlink_connection
-from bridge.codec import transform_from_message
+from gcs.tf2_ros.wire import transform_from_message
 from support import free_port, wait_until
 
 

@@ -44,7 +44,7 @@ def figures(summary: dict) -> dict:
 def fly(run_dir, speedup: float) -> dict:
     with launched(run_dir, goals=tower_goals(MISSION_WORLD), follow_frame="drone_yaw", finish="land",
                   speedup=speedup, lockstep=True) as launch:
-        s = finish(launch, timeout=240)
+        finish(launch, timeout=240)         # asserts the tower finished its goals
     return json.loads((run_dir / "summary.json").read_text())
 
 

@@ -11,7 +11,7 @@ import pytest
 
 from gcs.dialect import towerlink as tl
 from gcs.frames import Buffer, Transform, TransformStamped
-from bridge.codec import transform_message
+from gcs.tf2_ros.wire import transform_message
 from bridge_fakes import FakeVehicle
 from support import free_ports, wait_until
 from gcs.frames import euler_from_quaternion

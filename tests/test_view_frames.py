@@ -92,7 +92,7 @@ def test_write_drawing_without_graphviz(tmp_path, ext):
 
 def test_from_tlog_and_cli(tmp_path, capsys):
     from gcs.dialect import encoder
-    from bridge.codec import transform_message
+    from gcs.tf2_ros.wire import transform_message
     mav = encoder(250, 191)
     path = tmp_path / "bridge.tlog"
     with open(path, "wb") as f:
