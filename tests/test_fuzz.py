@@ -189,6 +189,12 @@ def test_fuzz_sitl_and_bridge(processes, tmp_path):
         tower.clear()
         def read():
             tower.mav.heartbeat_send(tl.MAV_TYPE_GCS, tl.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+            # the fuzz's valid REQUEST_DATA_STREAM / SET_MESSAGE_INTERVAL may have (legitimately,
+            # as on ArduPilot) switched streams off: a GCS asks again for what it reads, as
+            # MAVProxy does when it connects
+            tower.mav.request_data_stream_send(1, 1, tl.MAV_DATA_STREAM_ALL, 4, 1)
+            for msgid in (0, 32, 251):      # HEARTBEAT, LOCAL_POSITION_NED, NAMED_VALUE_INT
+                tower.mav.command_long_send(1, 1, tl.MAV_CMD_SET_MESSAGE_INTERVAL, 0, msgid, 0, 0, 0, 0, 0, 0)
             tower.mav.param_request_read_send(1, 1, b"SYSID_THISMAV", -1)
             return tower.of_type("PARAM_VALUE", lambda m: m.param_id == "SYSID_THISMAV")
         assert wait_until(read, 20, "PARAM_VALUE through the bridge", interval=0.3)[-1].param_value == 1
