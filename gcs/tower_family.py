@@ -7,7 +7,10 @@
   below the scenario's min_separation.
 * :func:`run_family`: `towerlink tower` for a scenario with several drones (or a van):
   one connection, thread and gcs.tower.Mission per drone, take-offs from the highest
-  altitude layer down, one result file for all.
+  altitude layer down, one result file for all. With --lockstep each connection is a
+  participant of its own (compid 190 + k: the world tells participants apart by sysid
+  and compid) that keeps polling, so ACKing, while it waits for the layer above, and
+  leaves (closes) as soon as its drone is done, so the world never waits for it idle.
 """
 from __future__ import annotations
 
@@ -161,10 +164,23 @@ def run_family(args: argparse.Namespace, sc, *, radius: float, finish: str, fram
     order = sorted(drones, key=lambda d: -d.altitude)
     gates = {d.sysid: threading.Event() for d in order}
     clients, missions = [], []
+    lockstep = bool(getattr(args, "lockstep", False))
+
+    def hold(c, e: threading.Event, name: str) -> None:
+        """Wait for the layer above: with lockstep keep polling (each poll ACKs a TICK, and
+        the deadline counts sim seconds), else block on the event."""
+        logger(name)("waiting for the layer above to be held")
+        if not lockstep:
+            e.wait(args.goal_timeout)
+            return
+        end = c.clock() + args.goal_timeout
+        while not e.is_set() and c.clock() < end:
+            c.poll(0.05)
     try:
         for k, d in enumerate(drones):
             tlog = args.tlog if k == 0 else None     # one recording of the link is enough
-            c = Client.connect(args.connect, log=logger(d.name), tlog=tlog)
+            c = Client.connect(args.connect, log=logger(d.name), tlog=tlog, lockstep=lockstep,
+                               source_component=190 + k if lockstep else 190)
             clients.append(c)
             # every connection gets the whole stream; each feeds the shared frames and watch
             # (both locked), so they stay current while any drone is still flying
@@ -178,9 +194,7 @@ def run_family(args: argparse.Namespace, sc, *, radius: float, finish: str, fram
                 goal_timeout=args.goal_timeout, resend=args.resend, sysid=d.sysid,
                 connect_timeout=args.connect_timeout, arm_timeout=args.connect_timeout,
                 log=logger(d.name), frames=frames,
-                before_takeoff=(lambda e=above, n=d.name: (logger(n)("waiting for the layer above to be held"),
-                                                            e.wait(args.goal_timeout)))
-                if above is not None else None,
+                before_takeoff=(lambda e=above, n=d.name, c=c: hold(c, e, n)) if above is not None else None,
                 after_takeoff=gates[d.sysid].set))
     except ClientError as exc:
         log(str(exc))
@@ -197,6 +211,8 @@ def run_family(args: argparse.Namespace, sc, *, radius: float, finish: str, fram
             results[m.sysid] = m.result
         finally:
             gates[m.sysid].set()           # never leave a lower layer waiting for a failed drone
+            if lockstep:
+                m.c.close()                # LEAVE now: the world must not wait for an idle link
 
     threads = [threading.Thread(target=fly, args=(m,), name=f"tower-{d.name}", daemon=True)
                for m, d in zip(missions, drones)]

@@ -153,8 +153,14 @@ def test_fly_family_command_lines_give_every_vehicle_its_port_and_the_bridge_eac
         assert f"{sysid - 1}=udpin:127.0.0.1:{port}" in eps      # world vehicle index = sysid - 1
         assert f"{sysid}=udpout:127.0.0.1:{port}" in vehicles
     assert "--drone" not in bridge and "--rover" not in bridge
-    with pytest.raises(ValueError, match="lockstep for a family is not done yet"):
-        Launch(tmp_path / "l", scenario="family", lockstep=True)
+    assert "--lockstep" not in sitl and "--lockstep" not in bridge
+    # lockstep: the world waits for the bridge and the tower's three drone connections
+    ls = Launch(tmp_path / "l", scenario="family", lockstep=True)
+    sitl, tower = ls.sitl_cmd(), ls.tower_cmd()
+    assert sitl[sitl.index("--lockstep") + 1] == "4"
+    assert "--lockstep" in ls.bridge_cmd() and "--lockstep" in tower
+    van = Launch(tmp_path / "v", scenario="van", lockstep=True).sitl_cmd()
+    assert van[van.index("--lockstep") + 1] == "3"           # bridge, the one drone's tower, the van's driver
 
 
 def test_fly_van_route_is_a_looped_mission_on_the_van(tmp_path):

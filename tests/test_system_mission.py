@@ -20,11 +20,11 @@ pytestmark = pytest.mark.slow
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     run_dir = tmp_path_factory.mktemp("mission")
-    # 2x, not the default 5x: the bridge and tower are not in lockstep with the world yet
-    # (issue 11), so on a loaded 2-core CI machine their wall-clock lag becomes speedup
-    # times as much sim lag and the rover's follow error grew past 1 m at 5x (CI: 1.03 m).
+    # in lockstep (issue 11), as `towerlink fly` by default, at max: the world waits for the
+    # bridge and the tower, so a loaded CI machine cannot turn their wall-clock lag into sim
+    # lag (free-running at 5x the rover's follow error once grew past 1 m on CI: 1.03 m)
     with launched(run_dir, goals=tower_goals(MISSION_WORLD), follow_frame="drone_yaw",
-                  finish="land", speedup=2.0, view_port=0) as launch:
+                  finish="land", speedup=float("inf"), lockstep=True, view_port=0) as launch:
         # a Foxglove client watches the whole flight live (`towerlink fly --view`)
         from tools.foxglove_client import FoxgloveClient
         live = FoxgloveClient(launch.view.url, ("/tf", "/tf_static", "/vehicles", "/goals"))

@@ -144,7 +144,7 @@ def format_family_summary(s: dict) -> str:
     lines = [f"{'MISSION OK' if s.get('ok') else 'MISSION FAILED'}: {s.get('goals_reached', 0)}/"
              f"{s.get('goals_total', 0)} goals reached  |  scenario {s.get('scenario')}"
              + (f", seed {s['seed']}" if s.get("seed") is not None else "")
-             + (f", speedup {s['speedup']:g}x" if s.get("speedup") else "")
+             + (f", speedup {_speedup(s['speedup'])}" if s.get("speedup") else "")
              + (f" (achieved {s['achieved_speedup']:.1f}x)" if s.get("achieved_speedup") else ""), ""]
     lines.append(f"  {'vehicle':<8} {'sysid':>5}  {'role':<36} {'path m':>7} {'top m':>6}  "
                  f"{'goals':>5} {'reach s':>7}  {'follow RMS':>10} {'max':>6}")
@@ -179,3 +179,8 @@ def format_family_summary(s: dict) -> str:
     if s.get("tower_error"):
         lines.append(f"tower: {s['tower_error']}")
     return "\n".join(lines)
+
+
+def _speedup(v) -> str:
+    """The asked speedup as the summary shows it: "5x", or "max" (--speedup max)."""
+    return v if isinstance(v, str) else f"{v:g}x"

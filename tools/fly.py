@@ -50,11 +50,14 @@ DO_JUMP back, forever) and a driver on a port of its own puts it in AUTO and arm
 the time-travel figure when the tower rides the van) and the closest approach of two
 airborne drones; tracks.png draws every vehicle.
 
-With --lockstep (issue 11) the world waits for the bridge and the tower (TOWERLINK_LOCKSTEP),
-so a seed gives the same summary figures at any --speedup (max: as fast as the machine allows)
-and under any CPU load:
+Lockstep (issue 11) is the default: the world waits for the bridge, the tower (each of a
+family's drone connections) and the van's driver (TOWERLINK_LOCKSTEP), so a seed gives the
+same summary figures at any --speedup (max: as fast as the machine allows) and under any CPU
+load. --no-lockstep runs the old free-running world (figures then depend on the machine):
 
-  towerlink fly --lockstep --speedup max
+  towerlink fly --speedup max            # lockstep, as fast as the machine allows
+  towerlink fly family --speedup max
+  towerlink fly --no-lockstep            # free-running world
 
 Exit status 0 iff the tower reached every goal.
 """
@@ -276,11 +279,6 @@ class Launch:
         self.scenario = str(scenario_path(scenario).resolve()) if scenario else None
         self.sc = load_scenario(self.scenario)
         self.family = self.sc.is_family
-        if self.family and lockstep:
-            # the family's tower holds one connection per drone; those do not join the
-            # lockstep handshake yet (it counts one tower)
-            raise ValueError(f"--lockstep flies the lab's drone and rover; scenario {self.sc.name!r} "
-                             f"has {len(self.sc.vehicles)} vehicles (lockstep for a family is not done yet)")
         self.speedup = speedup          # float('inf'): --speedup max
         self.lockstep = lockstep        # issue 11: world, bridge and tower in lockstep
         self.seed = seed
@@ -371,6 +369,10 @@ class Launch:
                             "--tcp-base", "0", "--udp-base", "0",
                             "--home=" + ",".join(f"{v:.10g}" for v in SITL_HOME),   # "=": it starts with "-"
                             "--out", f"udpout:{h}:{self.ports['vehicles']}", *self._scenario_wind())
+        if self.lockstep:
+            # participants: the bridge, one tower connection per drone with goals, the van's driver
+            n = 1 + sum(1 for d in sc.drones if d.goals) + (sc.van is not None)
+            cmd += ["--lockstep", str(n)]
         for _name, sysid, _kind in sc.vehicles:
             cmd += ["--endpoint", f"{sysid - 1}=udpin:{h}:{self.ports[f'vehicle{sysid}']}"]
         if sc.van is not None:
@@ -403,7 +405,11 @@ class Launch:
                 f.write(f"van: {msg}\n")
                 f.flush()
             try:
-                with Client.connect(f"udpout:{self.host}:{self.ports['van_driver']}", log=log) as c:
+                # with lockstep a participant for the van alone, on the van's own endpoint
+                # (compid 200: the world tells it from the tower's connections)
+                with Client.connect(f"udpout:{self.host}:{self.ports['van_driver']}", log=log,
+                                    source_component=200, lockstep=self.lockstep,
+                                    lockstep_target=van.sysid) as c:
                     c.wait_heartbeat(van.sysid, timeout=60)
                     c.set_mode("AUTO", van.sysid, timeout=30)
                     c.arm(van.sysid, timeout=60)
@@ -717,10 +723,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "3 rovers), van (the tower on a moving van); default: the lab scenario")
     parser.add_argument("--speedup", type=speedup_type, default=5.0, metavar="N|max",
                         help="at most N sim seconds per wall second (default 5; the machine may deliver less); "
-                             "'max': as fast as the machine allows (use with --lockstep)")
-    parser.add_argument("--lockstep", action="store_true",
-                        help="whole-system lockstep (issue 11): the world waits for the bridge and the tower "
-                             "(TOWERLINK_LOCKSTEP), so a seed gives the same figures at any speed and load")
+                             "'max': as fast as the machine and the lockstep participants allow")
+    parser.add_argument("--lockstep", action=argparse.BooleanOptionalAction, default=True,
+                        help="whole-system lockstep (issue 11; the default): the world waits for the bridge, "
+                             "the tower and the van's driver (TOWERLINK_LOCKSTEP), so a seed gives the same "
+                             "figures at any --speedup and load. --no-lockstep: the old free-running world; "
+                             "the bridge and the tower then lag it by their wall-clock time times the speedup, "
+                             "and the figures depend on the machine. Third-party clients see an ordinary "
+                             "vehicle either way")
     parser.add_argument("--follow-frame", choices=("drone", "drone_yaw"), default=None,
                         help="frame the rover's goal is written in (default: the scenario's)")
     parser.add_argument("--seed", type=int, default=1, help="the world's noise seed (default 1)")
