@@ -467,3 +467,36 @@ def test_a_world_in_two_worker_processes_steps_as_one_under_one_participant(proc
     finally:
         for link in links:
             link.close()
+
+
+def test_with_a_signing_key_only_a_signed_join_counts_and_the_ticks_are_signed():
+    from gcs.signing import SignatureCheck, key_from_text, signing_timestamp
+    key = key_from_text("lockstep secret")
+    port = free_port()
+    w = World(WorldConfig(drones=1, rovers=0, state_dir=None, tcp_base=None, udp_base=None, speedup=math.inf,
+                          endpoints={0: [f"udpin:127.0.0.1:{port}"]}, lockstep=1, lockstep_period=0.04,
+                          lockstep_timeout=30.0, signing_key=key))
+    w.start_thread()
+    forger, signer = Participant(port, sysid=251), Participant(port, sysid=250)
+    try:
+        # unsigned, and signed with another key: neither joins, both are counted as the link counts
+        forger.sock.sendto(L.pack(L.JOIN, 0, participant=L.BRIDGE, sysid=251, compid=191), forger.addr)
+        forger.sock.sendto(L.pack(L.JOIN, 0, participant=L.BRIDGE, sysid=251, compid=191,
+                                  signing=(key_from_text("wrong"), 0, signing_timestamp())), forger.addr)
+        stats = w.vehicles[0].link.stats
+        wait_until(lambda: stats["unsigned"] >= 1 and stats["bad_signature"] >= 1, 5.0, "both refused")
+        assert w.lockstep.gate.participants == {} and w.steps == 0
+        signer.sock.sendto(L.pack(L.JOIN, 0, participant=L.BRIDGE, sysid=250, compid=191,
+                                  signing=(key, 0, signing_timestamp())), signer.addr)
+        while True:
+            data, _ = signer.sock.recvfrom(65535)
+            m, rest = L.unpack(data)
+            if m is not None and m.kind == L.TICK:
+                break
+        assert m.time_usec == 0 and set(w.lockstep.gate.participants) == {(250, 191)}
+        tick = data[:len(data) - len(rest)]
+        assert tick[2] & 1 and SignatureCheck(key).check(tick, 1, 1) is None   # signed with the key
+    finally:
+        forger.close()
+        signer.close()
+        w.stop()
