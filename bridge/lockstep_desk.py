@@ -35,9 +35,14 @@ class LockstepDesk:
         self.ticks: dict[str, int] = {}     # vehicle link name -> newest TICK, us
         self.barrier_usec = -1
         self.period_usec = 0
-        self.tower_joined = False
+        self.tower_ids: set[tuple[int, int]] = set()   # (sysid, compid) of each joined tower connection
         self._next_join = 0.0
         self.barriers = 0
+
+    @property
+    def tower_joined(self) -> bool:
+        """Does any tower connection take part (a family's tower has one per drone)?"""
+        return bool(self.tower_ids)
 
     @property
     def sim_now(self) -> float:
@@ -77,14 +82,18 @@ class LockstepDesk:
                 self.period_usec)))
 
     def on_tower(self, msg) -> None:
-        """A TOWERLINK_LOCKSTEP from the tower (routed on to the world by the loop)."""
+        """A TOWERLINK_LOCKSTEP from a tower connection (routed on to the world by the loop).
+        Each (sysid, compid) joins and leaves on its own: one drone's connection leaving must
+        not stop the TICKs of the others."""
+        who = (msg.get_srcSystem(), msg.get_srcComponent())
         if msg.kind in (tl.TOWERLINK_LOCKSTEP_KIND_JOIN, tl.TOWERLINK_LOCKSTEP_KIND_ACK):
-            if not self.tower_joined:
-                self.log("lockstep: the tower joined; its TICKs follow the world's")
-            self.tower_joined = True
-        elif msg.kind == tl.TOWERLINK_LOCKSTEP_KIND_LEAVE:
-            self.tower_joined = False
-            self.log("lockstep: the tower left")
+            if who not in self.tower_ids:
+                self.log(f"lockstep: the tower (sysid {who[0]}, compid {who[1]}) joined; its TICKs "
+                         f"follow the world's")
+            self.tower_ids.add(who)
+        elif msg.kind == tl.TOWERLINK_LOCKSTEP_KIND_LEAVE and who in self.tower_ids:
+            self.tower_ids.discard(who)
+            self.log(f"lockstep: the tower (sysid {who[0]}, compid {who[1]}) left")
 
     @staticmethod
     def _message(kind: int, t_usec: int, target: int):

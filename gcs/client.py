@@ -518,8 +518,9 @@ class Client:
     def wait_heartbeat(self, sysid: int = 1, timeout: float = 30.0) -> SystemState:
         """Wait for a vehicle heartbeat from `sysid` (newer than this call)."""
         t0 = self._now()
-        st = self._wait(lambda: (self.system(sysid).heartbeat_wall or 0) >= t0 and self.system(sysid),
-                        timeout)
+        # "is not None": with lockstep the clock starts at 0, and no heartbeat is not one at 0
+        st = self._wait(lambda: self.system(sysid).heartbeat_wall is not None
+                        and self.system(sysid).heartbeat_wall >= t0 and self.system(sysid), timeout)
         if st is None:
             raise HeartbeatTimeout(f"no heartbeat from system {sysid} in {timeout:g} s")
         return st

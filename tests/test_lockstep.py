@@ -500,3 +500,60 @@ def test_with_a_signing_key_only_a_signed_join_counts_and_the_ticks_are_signed()
         forger.close()
         signer.close()
         w.stop()
+
+
+def test_bridge_desk_keeps_ticking_the_tower_while_any_of_its_connections_takes_part():
+    # a family's tower: one connection per drone (compid 190 + k); drone3's leaving when it is
+    # done must not stop the TICKs the other two wait for
+    from types import SimpleNamespace
+
+    from bridge.lockstep_desk import LockstepDesk
+    sent = []
+    link = SimpleNamespace(send=lambda data: None)
+    vehicles = {1: SimpleNamespace(name="drone1", sysid=1, link=link)}
+    desk = LockstepDesk(vehicles, lambda m: m, lambda m: sent.append(m), lambda t: None,
+                        lambda line: None, lambda: 0.0)
+
+    def from_tower(kind, compid):
+        m = tl.MAVLink_towerlink_lockstep_message(0, 0, kind, L.TOWER, 0)
+        m.pack(tl.MAVLink(None, srcSystem=255, srcComponent=compid))   # gives it its sender's header
+        return m
+
+    for compid in (190, 191, 192):
+        desk.on_tower(from_tower(L.JOIN, compid))
+    desk.on_tower(from_tower(L.LEAVE, 192))
+    desk.on_vehicle(vehicles[1], tl.MAVLink_towerlink_lockstep_message(0, 0, L.TICK, L.WORLD, 40000))
+    assert [(m.kind, m.time_usec) for m in sent] == [(L.TICK, 0)] and desk.tower_joined
+    desk.on_tower(from_tower(L.LEAVE, 190))
+    desk.on_tower(from_tower(L.LEAVE, 191))
+    desk.on_vehicle(vehicles[1], tl.MAVLink_towerlink_lockstep_message(40000, 0, L.TICK, L.WORLD, 40000))
+    assert len(sent) == 1 and not desk.tower_joined          # all gone: no TICK to the tower
+
+
+def test_a_lockstep_client_at_t0_does_not_take_no_heartbeat_for_one():
+    # the van's driver asked for AUTO before the van's first heartbeat and got the copter's
+    # mode number: with lockstep the clock starts at 0, and "no heartbeat" compared as t = 0
+    from gcs.client import Client, ClientError
+    port = free_port()
+    world = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    world.bind(("127.0.0.1", port))
+    world.settimeout(5.0)
+    c = Client.connect(f"udpout:127.0.0.1:{port}", lockstep=True, lockstep_target=3, source_component=200)
+    c.lockstep_timeout = 0.5
+    try:
+        parser = tl.MAVLink(None)
+        while True:
+            data, addr = world.recvfrom(65535)
+            ms = [m for m in parser.parse_buffer(data) or [] if m.get_type() == "TOWERLINK_LOCKSTEP"]
+            if ms:
+                break
+        assert (ms[0].kind, ms[0].target_system, ms[0].participant) == (L.JOIN, 3, L.OTHER)
+        world.sendto(L.pack(L.TICK, 0, sysid=3), addr)
+        c.poll(0.0)
+        assert c.tick_usec == 0
+        with pytest.raises(ClientError):        # no TICK, no heartbeat: it waits, then times out
+            c.wait_heartbeat(3, timeout=1.0)
+        assert c.system(3).mav_type is None
+    finally:
+        c.close()
+        world.close()

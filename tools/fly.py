@@ -607,7 +607,10 @@ class Launch:
         """Stop everything this launch started (tower first, world last); idempotent."""
         order = [("tower", signal.SIGINT), *((f"node-{p.stem}", signal.SIGTERM) for p in self.nodes),
                  ("bridge", signal.SIGTERM), ("sitl", signal.SIGTERM)]
+        self._van_stop.set()
         for name, sig in order:
+            if name == "bridge" and self.van_driver is not None:
+                self.van_driver.join(3.0)   # it leaves the lockstep at its next TICK: the world still runs
             p = self.procs.get(name)
             if p is None:
                 continue
