@@ -514,8 +514,10 @@ class Launch:
             self._start(f"node-{path.stem}", self.node_cmd(path))
         if self.tower_loss > 0:
             from tools.loss_proxy import LossProxy
+            from gcs.lockstep import is_lockstep
             self.proxy = LossProxy(self.ports["proxy"], (self.host, self.ports["tower"]),
-                                   loss=self.tower_loss, seed=self.loss_seed, host=self.host)
+                                   loss=self.tower_loss, seed=self.loss_seed, host=self.host,
+                                   spare=is_lockstep if self.lockstep else None)
             self.proxy.start()
         self._start("tower", self.tower_cmd())
         self.write_meta()
