@@ -1,0 +1,96 @@
+"""Issue 11, across machines: the world on one host, the bridge and the tower on another, in lockstep.
+
+The two hosts are Linux network namespaces joined by a veth pair (tests/netns.py; with `tc`
+and netem, 2 ms of delay on each end). On host B, `towerlink fly --world-host ADDR_A
+--world-cmd-prefix "ip netns exec A"` runs the world on host A, as a user runs it on another
+machine; the same mission, seed and flags then fly on one host (loopback). With lockstep the
+figures (every summary.json number but where and how fast it ran, system_support.WALL_FIELDS)
+must be equal: the link between the hosts, and its latency, change nothing.
+"""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from netns import NetnsUnavailable, two_hosts
+from system_support import figures, tower_goals
+
+pytestmark = pytest.mark.slow
+
+ROOT = Path(__file__).resolve().parent.parent
+#: a short mission: the lab's house (world [-4, -2]), then 10 m east; the drone hovers after
+GOALS = tower_goals([(-4.0, -2.0), (6.0, -2.0)])
+
+
+@pytest.fixture
+def hosts():
+    try:
+        with two_hosts("2ms") as pair:
+            yield pair
+    except NetnsUnavailable as exc:
+        pytest.skip(f"cannot make test hosts as network namespaces: {exc}")
+
+
+def fly(out: Path, *, prefix: list[str] = (), extra: list[str] = ()) -> subprocess.CompletedProcess:
+    """`towerlink fly --lockstep --speedup max` of the short mission, run after `prefix`."""
+    cmd = [*prefix, sys.executable, "-m", "tools.cli", "fly", "--lockstep", "--speedup", "max", "--seed", "1",
+           f"--goals={GOALS}", "--finish", "none", "--out", str(out), "-q", "--timeout", "60", *extra]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env, cwd=ROOT,
+                         start_new_session=True)
+    try:
+        text, _ = p.communicate(timeout=90)
+    finally:
+        if p.poll() is None:            # SIGTERM: fly stops everything it started, then exits
+            os.killpg(p.pid, signal.SIGTERM)
+            try:
+                p.wait(10)
+            except subprocess.TimeoutExpired:
+                os.killpg(p.pid, signal.SIGKILL)
+                p.wait(5)
+    return subprocess.CompletedProcess(cmd, p.returncode, text)
+
+
+def link_packets(host) -> tuple[int, int]:
+    """(rx, tx) packets on the host's end of the veth pair."""
+    r = subprocess.run(["ip", "-n", host.netns, "-s", "-j", "link", "show", "dev", host.dev],
+                       capture_output=True, text=True, timeout=10, check=True)
+    stats = json.loads(r.stdout)[0]["stats64"]
+    return stats["rx"]["packets"], stats["tx"]["packets"]
+
+
+def test_world_on_another_host_flies_the_same_figures(hosts, tmp_path, record_property):
+    a, b = hosts.a, hosts.b
+    record_property("link_delay", hosts.delay or f"none ({hosts.delay_note})")
+    across = fly(tmp_path / "across", prefix=b.prefix(),
+                 extra=["--world-host", a.addr, "--world-cmd-prefix", " ".join(a.prefix())])
+    assert across.returncode == 0, across.stdout[-3000:]
+    one = fly(tmp_path / "one")
+    assert one.returncode == 0, one.stdout[-3000:]
+
+    # the world ran on A, listening on all its interfaces and pushing to B; the bridge on B
+    # reached it at A's address; and the flight's traffic went over the pair
+    meta = json.loads((tmp_path / "across" / "meta.json").read_text())
+    sitl, bridge = meta["commands"]["sitl"], meta["commands"]["bridge"]
+    assert sitl.startswith(f"ip netns exec {a.netns} ")
+    assert f"--endpoint 0=udpin:0.0.0.0:{meta['ports']['drone']}" in sitl
+    assert f"--out udpout:{b.addr}:{meta['ports']['vehicles']}" in sitl
+    assert f"--drone udpout:{a.addr}:{meta['ports']['drone']}" in bridge
+    assert f"--tower udpin:127.0.0.1:{meta['ports']['tower']}" in bridge
+    rx, tx = link_packets(a)
+    assert rx > 500 and tx > 500, f"world host's link carried rx {rx}, tx {tx} packets"
+
+    s_across = json.loads((tmp_path / "across" / "summary.json").read_text())
+    s_one = json.loads((tmp_path / "one" / "summary.json").read_text())
+    assert s_across["ok"] and s_one["ok"] and s_across["goals_reached"] == 2
+    x, y = figures(s_across), figures(s_one)
+    assert len(x) > 40 and "follow_error.rms" in x and "goals[1].time_to_reach" in x
+    assert "limits.WPNAV_SPEED" in x        # the monitor's PARAM_REQUEST_READ reached the world and back
+    diff = {k: (x.get(k), y.get(k)) for k in sorted(set(x) | set(y)) if x.get(k) != y.get(k)}
+    assert diff == {}, f"figures that differ between the world on another host and one host: {diff}"
