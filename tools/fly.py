@@ -40,6 +40,12 @@ drone's ground point, from truth); and the wobble figure for both follow frames
 (the bridge computes the ground point through the full-attitude and the yaw-only
 frame on every follow tick, whichever one it steers by).
 
+With --world-host ADDR the world runs on another host (tools/hosts.py), the bridge and the
+tower here; it listens on 0.0.0.0 there and pushes telemetry to this host:
+
+  towerlink fly --lockstep --world-host 10.0.0.2 --world-cmd-prefix "ssh -tt sim-box"
+  towerlink fly --lockstep --world-host 10.211.0.1 --world-cmd-prefix "ip netns exec simA"
+
 A family or van scenario (`towerlink fly family`, `towerlink fly van`; shipped
 scenarios are named without .toml): the world starts every vehicle the scenario lists
 (--drones N --rovers M, one loopback port each), the bridge serves each (--vehicle
@@ -341,7 +347,9 @@ class Launch:
                                  start_new_session=True, env=env, bufsize=1)
             threading.Thread(target=self._read_tower, args=(p, log), daemon=True).start()
         else:
-            p = subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT, start_new_session=True, env=env)
+            # stdin: none reads it, and a world started through `ssh -tt` would take the terminal raw
+            p = subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT, start_new_session=True, env=env,
+                                 stdin=subprocess.DEVNULL)
         self.procs[name] = p
         return p
 
