@@ -96,6 +96,7 @@ def test_attach_prints_the_world_command_and_starts_nothing(tmp_path, capsys):
     assert out.startswith("towerlink fly: start the world on 10.9.8.1:\n  towerlink sitl ")
     assert shlex.split(out.splitlines()[1]) == ["towerlink", *launch.sitl_cmd()[3:]]
     assert launch.procs == {}
+    assert launch.world_cmd()[:2] == ["towerlink", "sitl"]          # meta.json's record of it
 
 
 def test_fly_refuses_a_prefix_without_a_world_host(tmp_path, capsys):

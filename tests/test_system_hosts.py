@@ -3,7 +3,7 @@
 The two hosts are Linux network namespaces joined by a veth pair (tests/netns.py; with `tc`
 and netem, 2 ms of delay on each end). On host B, `towerlink fly --world-host ADDR_A
 --world-cmd-prefix "ip netns exec A"` runs the world on host A, as a user runs it on another
-machine; the same mission, seed and flags then fly on one host (loopback). With lockstep the
+machine; at the same time the same mission, seed and flags fly on one host (loopback). With lockstep the
 figures (every summary.json number but where and how fast it ran, system_support.WALL_FIELDS)
 must be equal: the link between the hosts, and its latency, change nothing.
 """
@@ -37,24 +37,25 @@ def hosts():
         pytest.skip(f"cannot make test hosts as network namespaces: {exc}")
 
 
-def fly(out: Path, *, prefix: list[str] = (), extra: list[str] = ()) -> subprocess.CompletedProcess:
+def start_fly(out: Path, *, prefix: list[str] = (), extra: list[str] = ()) -> subprocess.Popen:
     """`towerlink fly --lockstep --speedup max` of the short mission, run after `prefix`."""
     cmd = [*prefix, sys.executable, "-m", "tools.cli", "fly", "--lockstep", "--speedup", "max", "--seed", "1",
            f"--goals={GOALS}", "--finish", "none", "--out", str(out), "-q", "--timeout", "60", *extra]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
-    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env, cwd=ROOT,
-                         start_new_session=True)
-    try:
-        text, _ = p.communicate(timeout=90)
-    finally:
-        if p.poll() is None:            # SIGTERM: fly stops everything it started, then exits
-            os.killpg(p.pid, signal.SIGTERM)
-            try:
-                p.wait(10)
-            except subprocess.TimeoutExpired:
-                os.killpg(p.pid, signal.SIGKILL)
-                p.wait(5)
-    return subprocess.CompletedProcess(cmd, p.returncode, text)
+    # output to a file: two flights run at once, and a pipe nobody reads could fill
+    with open(out.with_suffix(".out"), "w") as log:
+        return subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env, cwd=ROOT,
+                                start_new_session=True)
+
+
+def stop(p: subprocess.Popen) -> None:
+    if p.poll() is None:            # SIGTERM: fly stops everything it started, then exits
+        os.killpg(p.pid, signal.SIGTERM)
+        try:
+            p.wait(10)
+        except subprocess.TimeoutExpired:
+            os.killpg(p.pid, signal.SIGKILL)
+            p.wait(5)
 
 
 def link_packets(host) -> tuple[int, int]:
@@ -68,11 +69,18 @@ def link_packets(host) -> tuple[int, int]:
 def test_world_on_another_host_flies_the_same_figures(hosts, tmp_path, record_property):
     a, b = hosts.a, hosts.b
     record_property("link_delay", hosts.delay or f"none ({hosts.delay_note})")
-    across = fly(tmp_path / "across", prefix=b.prefix(),
-                 extra=["--world-host", a.addr, "--world-cmd-prefix", " ".join(a.prefix())])
-    assert across.returncode == 0, across.stdout[-3000:]
-    one = fly(tmp_path / "one")
-    assert one.returncode == 0, one.stdout[-3000:]
+    # both at once (lockstep: neither's figures depend on the other's load); separate
+    # namespaces, so their free ports cannot collide
+    flights = {"across": start_fly(tmp_path / "across", prefix=b.prefix(),
+                                   extra=["--world-host", a.addr, "--world-cmd-prefix", " ".join(a.prefix())]),
+               "one": start_fly(tmp_path / "one")}
+    try:
+        for name, p in flights.items():
+            rc = p.wait(90)
+            assert rc == 0, f"{name}: fly exit {rc}\n" + (tmp_path / f"{name}.out").read_text()[-3000:]
+    finally:
+        for p in flights.values():
+            stop(p)
 
     # the world ran on A, listening on all its interfaces and pushing to B; the bridge on B
     # reached it at A's address; and the flight's traffic went over the pair

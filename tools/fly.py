@@ -539,9 +539,8 @@ class Launch:
         return self.world.command(self.sitl_cmd()) if self.world else self.sitl_cmd()
 
     def start_world(self) -> None:
-        if self.world is not None and self.world.attach:
-            from tools.hosts import portable
-            print(f"towerlink fly: start the world on {self.world.addr}:\n  {shlex.join(portable(self.sitl_cmd()))}",
+        if self.world is not None and self.world.attach:      # the user starts it there
+            print(f"towerlink fly: start the world on {self.world.addr}:\n  {shlex.join(self.world_cmd())}",
                   flush=True)
             return
         self._start("sitl", self.world_cmd())
@@ -833,6 +832,8 @@ def run(args: argparse.Namespace) -> int:
     finally:
         launch.stop()
         signal.signal(signal.SIGTERM, old)
+        if world is not None and world.attach:
+            print(f"towerlink fly: the world on {world.addr} is yours to stop (Ctrl-C there)", flush=True)
     if failure:
         print(f"towerlink fly: {failure}; all processes stopped", file=sys.stderr, flush=True)
     try:

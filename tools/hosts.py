@@ -60,7 +60,10 @@ class WorldHost:
     def command(self, local_argv: list[str]) -> list[str]:
         """The argv that starts the world there, from the one that would start it here
         (`python -m tools.cli sitl ...`): as is after an exec-style prefix; through ssh as
-        one shell-quoted `towerlink sitl ...` string (ssh hands its words to the remote shell)."""
+        one shell-quoted `towerlink sitl ...` string (ssh hands its words to the remote shell);
+        for attach, `towerlink sitl ...` as the user types it there."""
+        if self.attach:
+            return portable(local_argv)         # printed for the user to run there
         if not self.via_ssh:
             return [*self.prefix, *local_argv]
         return [*self.prefix, shlex.join(portable(local_argv))]
