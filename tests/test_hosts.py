@@ -6,10 +6,12 @@ check the commands and addresses it rests on, without starting anything.
 from __future__ import annotations
 
 import argparse
+import ipaddress
 import shlex
 
 import pytest
 
+import netns
 from tools import hosts
 from tools.cli import main
 from tools.fly import Launch
@@ -104,3 +106,22 @@ def test_fly_refuses_a_prefix_without_a_world_host(tmp_path, capsys):
     assert rc == 2
     assert "towerlink fly: --world-cmd-prefix and --local-host need --world-host ADDR" in capsys.readouterr().err
     assert not (tmp_path / "run" / "meta.json").exists()
+
+
+def test_test_hosts_get_a_private_slash_30_each():
+    pairs = {netns.subnet(i) for i in range(5000)}
+    assert len(pairs) == 5000                                    # no two runs share one
+    assert netns.subnet(0) == ("10.211.0.1", "10.211.0.2") and netns.subnet(16384) == netns.subnet(0)
+    assert all(ipaddress.ip_address(a) in netns.SUBNETS for a, _b in pairs)
+
+
+def test_test_hosts_say_why_they_cannot_be_made(monkeypatch):
+    monkeypatch.setattr(netns.os, "geteuid", lambda: 1000)
+    with pytest.raises(netns.NetnsUnavailable, match="need root"):
+        with netns.two_hosts():
+            pass
+    monkeypatch.setattr(netns.os, "geteuid", lambda: 0)
+    monkeypatch.setattr(netns.shutil, "which", lambda name: None)
+    with pytest.raises(netns.NetnsUnavailable, match=r"no `ip` command \(iproute2\)"):
+        with netns.two_hosts():
+            pass
