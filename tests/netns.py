@@ -4,7 +4,12 @@
 them) whatever happens. Names carry this process's pid and a random part, and the pair gets
 its own /30, so parallel runs never collide. Where namespaces cannot be made (not root, no
 `ip`, a kernel or container that refuses) it raises NetnsUnavailable saying why; the
-caller skips. With `tc` and the kernel's netem a delay is put on both ends of the link.
+caller skips.
+
+With `tc`, the link gets latency on both ends: netem's fixed delay where the kernel has netem
+(CONFIG_NET_SCH_NETEM), else a token bucket (tbf, in every kernel that has traffic control)
+at SLOW_LINK: each packet then waits its serialisation time (about 0.4 ms for a 100-byte
+MAVLink packet) and queues behind the rest of its burst, a delay that varies with the traffic.
 """
 from __future__ import annotations
 
@@ -19,6 +24,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 SUBNETS = ipaddress.ip_network("10.211.0.0/16")     # private; each pair takes one /30 of it
+SLOW_LINK = ("tbf", "rate", "2mbit", "burst", "1600", "latency", "1s")    # queue up to 1 s: no drops
 
 
 class NetnsUnavailable(Exception):
@@ -40,8 +46,7 @@ class Host:
 class HostPair:
     a: Host
     b: Host
-    delay: str | None       # the netem delay on each end (one way), or None
-    delay_note: str         # why there is no delay, when there is none
+    latency: str            # what delays the link on each end: "netem delay 2ms", "tbf rate 2mbit ...", or "none (why)"
 
 
 def subnet(index: int) -> tuple[str, str]:
@@ -70,6 +75,21 @@ def stop_everything_in(netns: str) -> None:
             os.kill(int(word), signal.SIGKILL)
 
 
+def _slow_down(a: Host, b: Host, delay: str) -> str:
+    """Put latency on both ends of the pair; says what it put, or why none."""
+    if shutil.which("tc") is None:
+        return "none (no `tc` command)"
+    refused = []
+    for qdisc in (("netem", "delay", delay), SLOW_LINK):
+        rs = [subprocess.run(["tc", "-n", h.netns, "qdisc", "replace", "dev", h.dev, "root", *qdisc],
+                             capture_output=True, text=True, timeout=10) for h in (a, b)]
+        bad = [r.stderr.strip() or str(r.returncode) for r in rs if r.returncode != 0]
+        if not bad:
+            return " ".join(qdisc)
+        refused.append(f"{qdisc[0]}: {bad[0]}")
+    return f"none ({'; '.join(refused)})"
+
+
 @contextlib.contextmanager
 def two_hosts(delay: str = "2ms") -> Iterator[HostPair]:
     if os.geteuid() != 0:
@@ -91,17 +111,7 @@ def two_hosts(delay: str = "2ms") -> Iterator[HostPair]:
             _must("-n", h.netns, "addr", "add", f"{h.addr}/30", "dev", h.dev)
             _must("-n", h.netns, "link", "set", "lo", "up")     # each host's own 127.0.0.1
             _must("-n", h.netns, "link", "set", h.dev, "up")
-        note = ""
-        if shutil.which("tc") is None:
-            note = "no `tc` command"
-        else:
-            for h in (a, b):
-                r = subprocess.run(["tc", "-n", h.netns, "qdisc", "add", "dev", h.dev, "root", "netem",
-                                    "delay", delay], capture_output=True, text=True, timeout=10)
-                if r.returncode != 0:
-                    note = f"tc netem refused: {r.stderr.strip()}"
-                    break
-        yield HostPair(a, b, None if note else delay, note)
+        yield HostPair(a, b, _slow_down(a, b, delay))
     finally:
         for ns in made:
             stop_everything_in(ns)
