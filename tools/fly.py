@@ -276,11 +276,9 @@ class Launch:
         self.scenario = str(scenario_path(scenario).resolve()) if scenario else None
         self.sc = load_scenario(self.scenario)
         self.family = self.sc.is_family
-        if self.family and lockstep:
-            # the family's tower holds one connection per drone; those do not join the
-            # lockstep handshake yet (it counts one tower)
-            raise ValueError(f"--lockstep flies the lab's drone and rover; scenario {self.sc.name!r} "
-                             f"has {len(self.sc.vehicles)} vehicles (lockstep for a family is not done yet)")
+        if self.family and lockstep and self.sc.van is not None:
+            # the van's driver is a third client of the world, not a lockstep participant
+            raise ValueError(f"--lockstep flies a family, not the tower on a van (scenario {self.sc.name!r})")
         self.speedup = speedup          # float('inf'): --speedup max
         self.lockstep = lockstep        # issue 11: world, bridge and tower in lockstep
         self.seed = seed
@@ -371,6 +369,8 @@ class Launch:
                             "--tcp-base", "0", "--udp-base", "0",
                             "--home=" + ",".join(f"{v:.10g}" for v in SITL_HOME),   # "=": it starts with "-"
                             "--out", f"udpout:{h}:{self.ports['vehicles']}", *self._scenario_wind())
+        if self.lockstep:                  # the bridge and the family's one tower link (gcs.tower_link)
+            cmd += ["--lockstep", "2"]
         for _name, sysid, _kind in sc.vehicles:
             cmd += ["--endpoint", f"{sysid - 1}=udpin:{h}:{self.ports[f'vehicle{sysid}']}"]
         if sc.van is not None:
