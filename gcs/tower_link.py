@@ -24,7 +24,8 @@ from typing import Any
 from gcs.client import Client, ClientTimeout
 
 PUMP_POLL = 0.02            # wall s per pump pass without lockstep
-BARRIER_TIMEOUT = 30.0      # wall s the pump waits for a mission thread before going on
+RCVBUF = 1 << 23             # bytes asked for the link's receive buffer
+BARRIER_TIMEOUT = 10.0      # wall s the pump waits for a mission thread before going on
 
 
 class SharedClient(Client):
@@ -35,6 +36,15 @@ class SharedClient(Client):
         self._send_lock = threading.RLock()          # before Client.__init__: it sends a heartbeat
         self._pump: threading.Thread | None = None
         super().__init__(master, **kw)
+        sock = getattr(master, "port", None)         # pymavlink's UDP socket
+        if hasattr(sock, "setsockopt"):
+            # 100 drones' telemetry arrives in bursts at each world step: room for a second of
+            # it, so a busy moment does not drop datagrams (the kernel caps it at rmem_max)
+            import socket
+            try:
+                sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, RCVBUF)
+            except OSError:
+                pass
         self._gen = 0                                # pump passes handled
         self._parked: dict[int, int] = {}            # thread id -> the pass it has acted on
         self._members: set[int] = set()              # threads the lockstep barrier waits for
@@ -76,6 +86,10 @@ class SharedClient(Client):
                     return
                 left = end - time.monotonic()
                 if left <= 0:
+                    import sys, traceback
+                    frames = sys._current_frames()
+                    for t in late[:3]:
+                        self.log("late thread:\n" + "".join(traceback.format_stack(frames.get(t))))
                     self.log(f"tower link: {len(late)} mission thread(s) busy for {BARRIER_TIMEOUT:g} s; going on")
                     return
                 self._cond.wait(min(left, 1.0))

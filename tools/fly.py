@@ -85,13 +85,30 @@ SITL_HOME = (-35.363261, 149.16523, 584.0)     # towerlink sitl's default --home
 SCORING_PARAMS = ("WPNAV_SPEED", "WPNAV_ACCEL", "PSC_JERK_XY")
 
 
+FIXED_PORTS = (20000, 32000)    # below Linux's ephemeral range (32768-60999)
+
+
 def free_udp_ports(n: int, host: str = "127.0.0.1") -> list[int]:
+    """n UDP ports free now, picked below the ephemeral range: a world of 100 vehicles opens
+    100 sockets with kernel-chosen (ephemeral) ports while it binds the planned ones, and an
+    ephemeral pick would take a planned port first ("Address already in use")."""
+    import random
     socks = []
+    lo, hi = FIXED_PORTS
+    start = random.randrange(lo, hi)          # parallel runs start at different places
     try:
-        for _ in range(n):
+        for k in range(hi - lo):
+            if len(socks) == n:
+                break
             s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-            s.bind((host, 0))
+            try:
+                s.bind((host, lo + (start - lo + k) % (hi - lo)))
+            except OSError:
+                s.close()
+                continue
             socks.append(s)
+        if len(socks) < n:
+            raise OSError(f"only {len(socks)} free UDP ports in {lo}..{hi - 1}, {n} wanted")
         return [s.getsockname()[1] for s in socks]
     finally:
         for s in socks:
