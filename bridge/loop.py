@@ -124,7 +124,8 @@ class Bridge:
         # one follower per (drone, rover) pair; only the first reports TOWERLINK_FOLLOW_STATUS
         # (the message names no vehicle), the others log and steer
         self.followers: dict[int, tuple[Follower, int]] = {}
-        for k, (d, r) in enumerate(cfg.pairs or [(cfg.drone_sysid, cfg.rover_sysid)]):
+        # a family (--vehicle) follows exactly its pairs, maybe none; the lab its drone and rover
+        for k, (d, r) in enumerate(cfg.pairs if cfg.vehicles else [(cfg.drone_sysid, cfg.rover_sysid)]):
             if d in self.vehicles:
                 self.followers[d] = (Follower(cfg, self.buffer, self.behaviour_clock, self.log, self.warn_once,
                                               self.vehicles[d].name, status=k == 0), r)
@@ -483,5 +484,6 @@ def summary(b: Bridge) -> str:
                  f"tower telemetry dropped (no transform) {b.tower_drops}")
     if b.lockstep is not None:
         parts.append(f"lockstep: {b.lockstep.barriers} barriers, last at {b.lockstep.sim_now:.3f} s sim; "
-                     f"tower {'joined' if b.lockstep.tower_joined else 'not joined'}")
+                     f"tower {'joined' if b.lockstep.tower_joined else 'not joined'}; "
+                     f"TICKs sent to the tower again {b.lockstep.tick_resends}")
     return "\n".join(parts)

@@ -53,7 +53,8 @@ TOWER = 'static_transforms = ["0 0 0 0 0 0 world tower"]\n'
 @pytest.mark.parametrize("body, why", [
     (TOWER + '[mission]\nmin_separation = 3.0\n[[drones]]\nname = "a"\naltitude = 6\n'
      '[[drones]]\nname = "b"\naltitude = 8\n',
-     "drones 'a' (6 m) and 'b' (8 m) fly layers 2 m apart; mission.min_separation is 3 m"),
+     "drones 'a' (6 m) and 'b' (8 m) fly layers 2 m apart and their paths come 2.00 m close in the "
+     "horizontal; mission.min_separation is 3 m"),
     (TOWER + '[[drones]]\nname = "a"\nrover = "a"\n', "vehicle names must differ: ['a'] used twice"),
     (TOWER + '[van]\nroute = [[0, 0], [1, 1]]\n', "van 'van': no static transform hangs a frame on it"),
     ('static_transforms = ["0 0 0 0 0 0 van tower"]\n[van]\nroute = [[0, 0]]\n',
@@ -69,7 +70,7 @@ def test_bad_family_scenarios_are_refused_with_the_reason(tmp_path, body, why):
 
 
 def test_unknown_scenario_name_lists_the_shipped_ones():
-    with pytest.raises(ScenarioError, match="shipped: default, family, van"):
+    with pytest.raises(ScenarioError, match="shipped: default, family, family100, van"):
         load_scenario("no-such-scenario")
 
 
@@ -153,8 +154,13 @@ def test_fly_family_command_lines_give_every_vehicle_its_port_and_the_bridge_eac
         assert f"{sysid - 1}=udpin:127.0.0.1:{port}" in eps      # world vehicle index = sysid - 1
         assert f"{sysid}=udpout:127.0.0.1:{port}" in vehicles
     assert "--drone" not in bridge and "--rover" not in bridge
-    with pytest.raises(ValueError, match="lockstep for a family is not done yet"):
-        Launch(tmp_path / "l", scenario="family", lockstep=True)
+    # lockstep: the world waits for two participants, the bridge and the family's one tower link
+    locked = Launch(tmp_path / "l", scenario="family", lockstep=True)
+    sitl = locked.sitl_cmd()
+    assert sitl[sitl.index("--lockstep") + 1] == "2"
+    assert "--lockstep" in locked.bridge_cmd() and "--lockstep" in locked.tower_cmd()
+    with pytest.raises(ValueError, match="not the tower on a van"):
+        Launch(tmp_path / "v", scenario="van", lockstep=True)
 
 
 def test_fly_van_route_is_a_looped_mission_on_the_van(tmp_path):

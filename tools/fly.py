@@ -91,13 +91,30 @@ SITL_HOME = (-35.363261, 149.16523, 584.0)     # towerlink sitl's default --home
 SCORING_PARAMS = ("WPNAV_SPEED", "WPNAV_ACCEL", "PSC_JERK_XY")
 
 
+FIXED_PORTS = (20000, 32000)    # below Linux's ephemeral range (32768-60999)
+
+
 def free_udp_ports(n: int, host: str = "127.0.0.1") -> list[int]:
+    """n UDP ports free now, picked below the ephemeral range: a world of 100 vehicles opens
+    100 sockets with kernel-chosen (ephemeral) ports while it binds the planned ones, and an
+    ephemeral pick would take a planned port first ("Address already in use")."""
+    import random
     socks = []
+    lo, hi = FIXED_PORTS
+    start = random.randrange(lo, hi)          # parallel runs start at different places
     try:
-        for _ in range(n):
+        for k in range(hi - lo):
+            if len(socks) == n:
+                break
             s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-            s.bind((host, 0))
+            try:
+                s.bind((host, lo + (start - lo + k) % (hi - lo)))
+            except OSError:
+                s.close()
+                continue
             socks.append(s)
+        if len(socks) < n:
+            raise OSError(f"only {len(socks)} free UDP ports in {lo}..{hi - 1}, {n} wanted")
         return [s.getsockname()[1] for s in socks]
     finally:
         for s in socks:
@@ -284,11 +301,9 @@ class Launch:
         self.scenario = str(scenario_path(scenario).resolve()) if scenario else None
         self.sc = load_scenario(self.scenario)
         self.family = self.sc.is_family
-        if self.family and lockstep:
-            # the family's tower holds one connection per drone; those do not join the
-            # lockstep handshake yet (it counts one tower)
-            raise ValueError(f"--lockstep flies the lab's drone and rover; scenario {self.sc.name!r} "
-                             f"has {len(self.sc.vehicles)} vehicles (lockstep for a family is not done yet)")
+        if self.family and lockstep and self.sc.van is not None:
+            # the van's driver is a third client of the world, not a lockstep participant
+            raise ValueError(f"--lockstep flies a family, not the tower on a van (scenario {self.sc.name!r})")
         self.speedup = speedup          # float('inf'): --speedup max
         self.lockstep = lockstep        # issue 11: world, bridge and tower in lockstep
         self.seed = seed
@@ -391,6 +406,8 @@ class Launch:
                             "--tcp-base", "0", "--udp-base", "0",
                             "--home=" + ",".join(f"{v:.10g}" for v in SITL_HOME),   # "=": it starts with "-"
                             "--out", f"udpout:{out}:{self.ports['vehicles']}", *self._scenario_wind())
+        if self.lockstep:                  # the bridge and the family's one tower link (gcs.tower_link)
+            cmd += ["--lockstep", "2"]
         for _name, sysid, _kind in sc.vehicles:
             cmd += ["--endpoint", f"{sysid - 1}=udpin:{h}:{self.ports[f'vehicle{sysid}']}"]
         if sc.van is not None:
