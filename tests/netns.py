@@ -8,8 +8,9 @@ caller skips.
 
 With `tc`, the link gets latency on both ends: netem's fixed delay where the kernel has netem
 (CONFIG_NET_SCH_NETEM), else a token bucket (tbf, in every kernel that has traffic control)
-at SLOW_LINK: each packet then waits its serialisation time (about 0.4 ms for a 100-byte
-MAVLink packet) and queues behind the rest of its burst, a delay that varies with the traffic.
+at SLOW_LINK: a packet passes at once while the bucket holds 1600 bytes of tokens, else it
+waits for them, so the world's telemetry, sent in bursts, queues for a varying few ms
+(measured on a veth pair: one 100-byte packet 0.54 ms round trip, a burst of ten 5.7 ms).
 """
 from __future__ import annotations
 
