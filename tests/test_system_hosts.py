@@ -4,10 +4,10 @@ The two hosts are Linux network namespaces joined by a veth pair (tests/netns.py
 gets latency on both ends where `tc` can: netem's 2 ms, or, where the kernel has no netem, a
 2 Mbit/s token bucket that makes the world's bursts of telemetry queue for a varying few ms.
 On host B, `towerlink fly --world-host ADDR_A --world-cmd-prefix "ip netns exec A"` runs the
-world on host A, as a user runs it on another machine; at the same time the same mission, seed and flags fly on one host (loopback). With
-lockstep the figures (every summary.json number but where and how fast it ran,
-system_support.WALL_FIELDS) must be equal: the link between the hosts and its latency change
-nothing.
+world on host A, as a user runs it on another machine; at the same time the same mission,
+seed and flags fly on one host (loopback). With lockstep the figures (every summary.json
+number but where and how fast it ran, system_support.WALL_FIELDS) must be equal: the link
+between the hosts and its latency change nothing.
 """
 from __future__ import annotations
 
