@@ -211,7 +211,7 @@ class Telemetry:
 
     def attitude_fields(self) -> tuple:
         ap = self.link.ap
-        r, p, y = euler_from_quaternion(ap.quat)
+        r, p, y = ap.euler
         w = ap.rates
         return (self.boot_ms(), r, p, y, float(w[0]), float(w[1]), float(w[2]))
 
