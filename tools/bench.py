@@ -14,6 +14,7 @@ bridge: latency the bridge adds to a tower goal (vs a direct link), forwarding r
 view:   what the live Foxglove view and run.mcap cost per message, vs writing the tlog.
 mission: a 1 km, 10-waypoint AUTO mission's flight time vs the sum of its legs' minimum times.
 mission-transfer: 100-item mission upload and download, pymavlink vs MAVSDK.
+family: the tower's family of 100 drones end to end in lockstep (wall time, goals, separation).
 """
 from __future__ import annotations
 
@@ -30,6 +31,7 @@ BENCHES = {
     "mission": "tools.bench_mission",
     "view": "tools.bench_view",
     "mission-transfer": "tools.bench_mission_transfer",
+    "family": "tools.bench_family",
 }
 
 
