@@ -368,7 +368,7 @@ def expand(plan: Plan, scenario_data: Mapping[str, Any], scenario_digest: str = 
             if validate_scenario is not None:
                 data = scenario_copy(scenario_data, factors)
                 key = json.dumps(data, sort_keys=True, default=str)
-                if key not in checked:
+                if data is not None and key not in checked:
                     checked.add(key)
                     try:
                         validate_scenario(data)
