@@ -13,8 +13,8 @@ from gcs.dialect import towerlink as tl
 from gcs.frames import Transform
 from gcs.scenario import ScenarioError, load_scenario
 from gcs.tower_family import SeparationWatch, TowerFrames
-from tools.family_summary import closest_approach
-from tools.run_summary import Track
+from tools.family_summary import closest_approach, format_family_summary, summarize_family
+from tools.run_summary import RunData, Track
 
 
 def write(tmp_path: Path, text: str) -> Path:
@@ -140,6 +140,34 @@ def test_closest_approach_of_two_crossing_drones(h, dz, k):
     assert got["t"] == pytest.approx(tc, abs=1e-9)
     # on the ground (below 1 m) nothing is judged
     assert closest_approach({"a": Track(t, a.xyz * [1, 1, 0]), "b": b})["closest_m"] is None
+
+
+def test_family_figures_end_with_the_tower(tmp_path):
+    """What is recorded after the tower's end (its last drone's end_sim: the drones hovering
+    while fly stops the processes, as long as the machine takes) is in no figure: with
+    lockstep a seed gives the same summary whatever the wall time of the shutdown."""
+    t = np.arange(0.0, 60.0, 0.1)
+    d = RunData()
+    for _name, sysid, kind in load_scenario("family").vehicles:
+        xyz = np.zeros((t.size, 3))
+        xyz[:, 1] = 10.0 * sysid                        # 10 m apart east
+        if kind == "copter":
+            xyz[t > 1.0, 2] = -(2.0 + 4.0 * sysid)      # up at 1 s, layers 6, 10, 14 m
+            tail = t > 40.0                             # after the tower: all drift to y = 0, climbing
+            xyz[tail, 1] = np.maximum(0.0, 10.0 * sysid - 2.0 * (t[tail] - 40.0))
+            xyz[tail, 2] -= 0.5 * (t[tail] - 40.0)
+        d.truth[sysid] = Track(t, xyz)
+    tower = {"ok": True, "drones": [{"sysid": s, "goals": [], "end_sim": e}
+                                    for s, e in ((1, 40.0), (2, 38.0), (3, 30.0))]}
+    s = summarize_family(tmp_path, tower=tower, scenario_path="family", data=d,
+                         meta={"speedup": "max", "seed": 1})
+    rows = {v["name"]: v for v in s["vehicles"]}
+    assert rows["drone1"]["path_m"] == pytest.approx(6.0)            # the climb, not the tail
+    assert rows["drone3"]["max_height_m"] == pytest.approx(14.0)
+    sep = s["separation"]
+    assert sep["pair"] == ["drone1", "drone2"] and sep["closest_m"] == pytest.approx(math.hypot(10, 4))
+    assert sep["t"] <= 40.0
+    assert "speedup max" in format_family_summary(s).splitlines()[0]
 
 
 def test_fly_family_command_lines_give_every_vehicle_its_port_and_the_bridge_each_one(tmp_path):

@@ -2,7 +2,8 @@
 
 Read from the run folder (tlogs as tools.run_summary reads them, tower.json as
 gcs.tower.run_family writes it). All positions are world NED, m, from truth
-(SIM_STATE) when recorded, else the vehicles' LOCAL_POSITION_NED; times are sim s.
+(SIM_STATE) when recorded, else the vehicles' LOCAL_POSITION_NED; times are sim s. Every
+figure ends with the tower (its last drone's end_sim), not with the recording.
 
 * vehicles: name, sysid, role, path length, highest point; a drone's goals reached and
   mean time to reach; a rover's follow error (horizontal, against its drone's ground
@@ -21,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from tools.run_summary import Track, horizontal_error, load_run, rms
+from tools.run_summary import RunData, Track, horizontal_error, load_run, rms
 
 AIRBORNE_M = 1.0
 
@@ -54,19 +55,25 @@ def closest_approach(tracks: dict[str, Track], airborne: float = AIRBORNE_M) -> 
 
 
 def summarize_family(run_dir: str | os.PathLike, *, tower: dict | None = None,
-                     scenario_path: str | None = None, meta: dict | None = None) -> dict:
+                     scenario_path: str | None = None, meta: dict | None = None,
+                     data: RunData | None = None) -> dict:
     """Score a family / van run; the dict written as summary.json."""
     import json
 
     from gcs.scenario import load_scenario
     run_dir = Path(run_dir)
-    data = load_run(run_dir)
+    data = data if data is not None else load_run(run_dir)
     if tower is None:
         p = run_dir / "tower.json"
         tower = json.loads(p.read_text()) if p.exists() else {"drones": []}
     sc = load_scenario(scenario_path)
     tracks = {sysid: (data.truth.get(sysid) if data.truth.get(sysid) is not None and len(data.truth[sysid])
                       else data.estimate.get(sysid)) for _n, sysid, _k in sc.vehicles}
+    # the run ends with the tower (its last drone's end_sim): what is recorded after that, while
+    # fly stops the processes, lasts as long as the machine takes, so it is no figure's
+    ends = [d["end_sim"] for d in tower.get("drones", []) if d.get("end_sim") is not None]
+    if ends:
+        tracks = {s: tr.window(None, max(ends)) if tr is not None else None for s, tr in tracks.items()}
     source = "truth (SIM_STATE)" if data.truth else "vehicle estimates"
     static_world = None
     try:
@@ -139,11 +146,6 @@ def _f(x, spec=".2f", none="-"):
     return none if x is None else format(x, spec)
 
 
-def _speedup(v) -> str:
-    """The asked speedup: a number, or "max" (meta.json keeps it as text)."""
-    return f"{v:g}" if isinstance(v, (int, float)) else str(v)
-
-
 BIG_FAMILY = 12     # more drones than this: a row per layer and only the drones that missed
 
 
@@ -173,7 +175,8 @@ def format_family_summary(s: dict) -> str:
     lines = [f"{'MISSION OK' if s.get('ok') else 'MISSION FAILED'}: {s.get('goals_reached', 0)}/"
              f"{s.get('goals_total', 0)} goals reached  |  scenario {s.get('scenario')}"
              + (f", seed {s['seed']}" if s.get("seed") is not None else "")
-             + (f", speedup {_speedup(s['speedup'])}x" if s.get("speedup") else "")
+             + (f", speedup {s['speedup']:g}x" if isinstance(s.get("speedup"), (int, float))
+                else f", speedup {s['speedup']}" if s.get("speedup") else "")
              + (f" (achieved {s['achieved_speedup']:.1f}x)" if s.get("achieved_speedup") else ""), ""]
     big = sum(1 for v in s.get("vehicles", []) if v["kind"] == "copter") > BIG_FAMILY
     if big:

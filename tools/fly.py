@@ -40,6 +40,12 @@ drone's ground point, from truth); and the wobble figure for both follow frames
 (the bridge computes the ground point through the full-attitude and the yaw-only
 frame on every follow tick, whichever one it steers by).
 
+With --world-host ADDR the world runs on another host (tools/hosts.py), the bridge and the
+tower here; it listens on 0.0.0.0 there and pushes telemetry to this host:
+
+  towerlink fly --lockstep --world-host 10.0.0.2 --world-cmd-prefix "ssh -tt sim-box"
+  towerlink fly --lockstep --world-host 10.211.0.1 --world-cmd-prefix "ip netns exec simA"
+
 A family or van scenario (`towerlink fly family`, `towerlink fly van`; shipped
 scenarios are named without .toml): the world starts every vehicle the scenario lists
 (--drones N --rovers M, one loopback port each), the bridge serves each (--vehicle
@@ -126,7 +132,8 @@ def towerlink_cmd(*args: str) -> list[str]:
 class Monitor(threading.Thread):
     """Listens where the world and the bridge push, records a tlog per link, tracks progress."""
 
-    def __init__(self, run_dir: Path, ports: dict[str, int], host: str = "127.0.0.1") -> None:
+    def __init__(self, run_dir: Path, ports: dict[str, int], host: str = "127.0.0.1",
+                 binds: dict[str, str] | None = None) -> None:
         super().__init__(daemon=True, name="fly-monitor")
         from gcs.dialect import towerlink as tl
         self.tl = tl
@@ -135,7 +142,7 @@ class Monitor(threading.Thread):
         self.tlogs = {}
         for name, port in ports.items():
             s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-            s.bind((host, port))
+            s.bind(((binds or {}).get(name, host), port))    # binds: a link heard from another host
             s.setblocking(False)
             self.socks[name] = s
             p = tl.MAVLink(None)
@@ -286,7 +293,8 @@ class Launch:
                  loss_seed: int = 1, sitl_args: tuple[str, ...] = (), bridge_args: tuple[str, ...] = (),
                  tower_args: tuple[str, ...] = (), echo: bool = False, host: str = "127.0.0.1",
                  view_port: int | None = None, nodes: str | os.PathLike | None = None,
-                 lockstep: bool = False, follow_with: str = "bridge", foll_pos_p: float | None = None) -> None:
+                 lockstep: bool = False, follow_with: str = "bridge", foll_pos_p: float | None = None,
+                 world=None) -> None:
         from gcs.scenario import load_scenario, scenario_path
         self.dir = Path(run_dir)
         self.dir.mkdir(parents=True, exist_ok=True)
@@ -307,6 +315,7 @@ class Launch:
         self.sitl_args, self.bridge_args, self.tower_args = sitl_args, bridge_args, tower_args
         self.echo = echo
         self.host = host
+        self.world = world      # tools.hosts.WorldHost: the world runs on another host; None: here
         self.nodes = sorted(Path(nodes).glob("*.py")) if nodes else []
         if nodes and not self.nodes:
             raise ValueError(f"no nodes (*.py) in {nodes}")
@@ -353,12 +362,14 @@ class Launch:
                                  start_new_session=True, env=env, bufsize=1)
             threading.Thread(target=self._read_tower, args=(p, log), daemon=True).start()
         else:
-            p = subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT, start_new_session=True, env=env)
+            # stdin: none reads it, and a world started through `ssh -tt` would take the terminal raw
+            p = subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT, start_new_session=True, env=env,
+                                 stdin=subprocess.DEVNULL)
         self.procs[name] = p
         return p
 
     def sitl_cmd(self) -> list[str]:
-        h = self.host
+        h, out = self._world_binds()
         if self.family:
             return self.family_sitl_cmd()
         # the bridge and the tower are the lockstep participants: the world waits for both at t=0
@@ -367,8 +378,17 @@ class Launch:
                              "--no-save", "--tcp-base", "0", "--udp-base", "0",
                              "--endpoint", f"0=udpin:{h}:{self.ports['drone']}",
                              "--endpoint", f"1=udpin:{h}:{self.ports['rover']}",
-                             "--out", f"udpout:{h}:{self.ports['vehicles']}", *self._scenario_wind(),
+                             "--out", f"udpout:{out}:{self.ports['vehicles']}", *self._scenario_wind(),
                              *lock, *(("--rovers", "2") if self.follow_with == "both" else ()), *self.sitl_args)
+
+    def _world_binds(self) -> tuple[str, str]:
+        """(where the world's endpoints listen, where it pushes its telemetry)."""
+        return (self.world.bind, self.world.local) if self.world else (self.host, self.host)
+
+    @property
+    def world_addr(self) -> str:
+        """Where the bridge (and the van's driver) reach the world's endpoints."""
+        return self.world.addr if self.world else self.host
 
     def _scenario_wind(self) -> list[str]:
         """The scenario's wind table as `sitl --wind` (none when it has no wind)."""
@@ -380,12 +400,12 @@ class Launch:
 
     def family_sitl_cmd(self) -> list[str]:
         """Every vehicle of the scenario, vehicle i (sysid i+1) on its own udpin port."""
-        h, sc = self.host, self.sc
+        (h, out), sc = self._world_binds(), self.sc
         cmd = towerlink_cmd("sitl", "--drones", str(len(sc.drones)), "--rovers", str(len(sc.rovers)),
                             "--speedup", speedup_text(self.speedup), "--seed", str(self.seed), "--no-save",
                             "--tcp-base", "0", "--udp-base", "0",
                             "--home=" + ",".join(f"{v:.10g}" for v in SITL_HOME),   # "=": it starts with "-"
-                            "--out", f"udpout:{h}:{self.ports['vehicles']}", *self._scenario_wind())
+                            "--out", f"udpout:{out}:{self.ports['vehicles']}", *self._scenario_wind())
         if self.lockstep:                  # the bridge and the family's one tower link (gcs.tower_link)
             cmd += ["--lockstep", "2"]
         for _name, sysid, _kind in sc.vehicles:
@@ -420,7 +440,7 @@ class Launch:
                 f.write(f"van: {msg}\n")
                 f.flush()
             try:
-                with Client.connect(f"udpout:{self.host}:{self.ports['van_driver']}", log=log) as c:
+                with Client.connect(f"udpout:{self.world_addr}:{self.ports['van_driver']}", log=log) as c:
                     c.wait_heartbeat(van.sysid, timeout=60)
                     c.set_mode("AUTO", van.sysid, timeout=30)
                     c.arm(van.sysid, timeout=60)
@@ -432,14 +452,14 @@ class Launch:
                 log(f"could not start the van: {exc}")
 
     def bridge_cmd(self) -> list[str]:
-        h = self.host
+        h, w = self.host, self.world_addr
         if self.family:
             vehicles = []
             for _name, sysid, _kind in self.sc.vehicles:
-                vehicles += ["--vehicle", f"{sysid}=udpout:{h}:{self.ports[f'vehicle{sysid}']}"]
+                vehicles += ["--vehicle", f"{sysid}=udpout:{w}:{self.ports[f'vehicle{sysid}']}"]
         else:
-            vehicles = ["--drone", f"udpout:{h}:{self.ports['drone']}",
-                        "--rover", f"udpout:{h}:{self.ports['rover']}"]
+            vehicles = ["--drone", f"udpout:{w}:{self.ports['drone']}",
+                        "--rover", f"udpout:{w}:{self.ports['rover']}"]
         cmd = towerlink_cmd("bridge", "--tower", f"udpin:{h}:{self.ports['tower']}", *vehicles,
                             "--out", f"udpout:{h}:{self.ports['bridge']}",
                             "--speedup", speedup_text(self.speedup))
@@ -504,7 +524,7 @@ class Launch:
         """World, monitor, bridge, (loss proxy), tower: in that order."""
         self.t_wall0 = time.monotonic()
         self.monitor = Monitor(self.dir, {"vehicles": self.ports["vehicles"], "bridge": self.ports["bridge"]},
-                               self.host)
+                               self.host, {"vehicles": self._world_binds()[1]})
         if self.view_port is not None:
             from tools.live_view import LiveView
             self.view = LiveView(self.host, self.view_port)
@@ -516,7 +536,7 @@ class Launch:
                                             load_scenario(self.scenario).follow_offset, self.foll_pos_p)
             self.monitor.listeners["vehicles"] = self.ap_driver.on_message
         self.monitor.start()
-        self._start("sitl", self.sitl_cmd())
+        self.start_world()
         if self.family and self.sc.van is not None:
             self.van_driver = threading.Thread(target=self.drive_van, daemon=True, name="van-driver")
             self.van_driver.start()
@@ -530,6 +550,17 @@ class Launch:
             self.proxy.start()
         self._start("tower", self.tower_cmd())
         self.write_meta()
+
+    def world_cmd(self) -> list[str]:
+        """The command that starts the world, where it runs (--world-cmd-prefix)."""
+        return self.world.command(self.sitl_cmd()) if self.world else self.sitl_cmd()
+
+    def start_world(self) -> None:
+        if self.world is not None and self.world.attach:      # the user starts it there
+            print(f"towerlink fly: start the world on {self.world.addr}:\n  {shlex.join(self.world_cmd())}",
+                  flush=True)
+            return
+        self._start("sitl", self.world_cmd())
 
     def start_bridge(self) -> subprocess.Popen:
         return self._start("bridge", self.bridge_cmd())
@@ -608,9 +639,9 @@ class Launch:
                 "seed": self.seed,
                 "follow_frame": self.follow_frame, "goals": self.goals, "tower_loss": self.tower_loss,
                 "follow_with": self.follow_with, "ardupilot_follower": self.ap_follower,
-                "ports": self.ports,
+                "ports": self.ports, "world_host": self.world.describe() if self.world else None,
                 "commands": {k: shlex.join(v) for k, v in
-                             (("sitl", self.sitl_cmd()), ("bridge", self.bridge_cmd()), ("tower", self.tower_cmd()),
+                             (("sitl", self.world_cmd()), ("bridge", self.bridge_cmd()), ("tower", self.tower_cmd()),
                               *((f"node-{p.stem}", self.node_cmd(p)) for p in self.nodes))}}
         (self.dir / "meta.json").write_text(json.dumps(meta, indent=2))
 
@@ -764,6 +795,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--foll-pos-p", type=float, default=None,
                         help="FOLL_POS_P for ArduPilot's follow (default: ArduPilot's 0.1)")
     parser.add_argument("-v", "--verbose", action="store_true", help="echo the tower's log lines")
+    from tools import hosts
+    hosts.add_arguments(parser)
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
 
 
@@ -776,16 +809,19 @@ def run(args: argparse.Namespace) -> int:
         print(f"towerlink fly: {exc}", file=sys.stderr)
         return 2
     try:
+        from tools import hosts
+        world = hosts.from_args(args)
         launch = Launch(out, scenario=args.scenario, speedup=args.speedup, seed=args.seed,
                         follow_frame=args.follow_frame, goals=args.goals, alt=args.alt, radius=args.radius,
                         finish=args.finish, goal_timeout=args.goal_timeout, tower_loss=args.tower_loss,
                         echo=args.verbose, view_port=args.view, nodes=args.nodes,
-                        lockstep=args.lockstep, follow_with=args.follow_with, foll_pos_p=args.foll_pos_p)
+                        lockstep=args.lockstep, follow_with=args.follow_with, foll_pos_p=args.foll_pos_p,
+                        world=world)
     except ValueError as exc:
         print(f"towerlink fly: {exc}", file=sys.stderr)
         return 2
-    print(f"towerlink fly: world + bridge + tower on 127.0.0.1 (ports {launch.ports}); run folder {out}",
-          flush=True)
+    where = f"bridge + tower on 127.0.0.1, {world.describe()}" if world else "world + bridge + tower on 127.0.0.1"
+    print(f"towerlink fly: {where} (ports {launch.ports}); run folder {out}", flush=True)
     if math.isinf(args.speedup) and not args.lockstep:
         print("towerlink fly: --speedup max without --lockstep: the world runs as fast as the CPU and the "
               "bridge and the tower fall behind it; the figures will depend on the machine", file=sys.stderr)
@@ -813,6 +849,8 @@ def run(args: argparse.Namespace) -> int:
     finally:
         launch.stop()
         signal.signal(signal.SIGTERM, old)
+        if world is not None and world.attach:
+            print(f"towerlink fly: the world on {world.addr} is yours to stop (Ctrl-C there)", flush=True)
     if failure:
         print(f"towerlink fly: {failure}; all processes stopped", file=sys.stderr, flush=True)
     try:

@@ -59,14 +59,6 @@ def finite(p, *idx: int) -> bool:
     return all(math.isfinite(p[i]) for i in idx)
 
 
-def _vec(state, *names, default=None):
-    for n in names:
-        v = getattr(state, n, None)
-        if v is not None:
-            return np.asarray(v, float)
-    return default
-
-
 class Autopilot:
     kind = "?"
     mav_type = 0
@@ -118,14 +110,27 @@ class Autopilot:
 
     # ----- state read-back ------------------------------------------------------------
     def refresh(self) -> None:
-        est = self.fleet.estimate(self.i)
-        self.pos = _vec(est, "pos", "position", default=np.zeros(3))
-        self.vel = _vec(est, "vel", "velocity", default=np.zeros(3))
-        self.quat = _vec(est, "quat", "q", "attitude", default=np.array([0.0, 0.0, 0.0, 1.0]))
-        self.rates = _vec(est, "rates", "omega", "gyro", "ang_vel", default=np.zeros(3))
-        self.yaw = euler_from_quaternion(self.quat)[2]
+        self.pos, self.vel, self.quat, self.rates = self.fleet.estimate_rows(self.i)
+        self._euler = None
         self.est_ok = bool(self.fleet.estimate_ok(self.i))
         self.on_ground = bool(self.fleet.landed(self.i))
+
+    _euler: tuple[float, float, float] | None = None
+
+    @property
+    def euler(self) -> tuple[float, float, float]:
+        """(roll, pitch, yaw) in rad of the estimated attitude (R = Rz(yaw) Ry(pitch) Rx(roll),
+        body FRD -> world NED); worked out on first use after a refresh (most ticks nobody
+        asks, and a 1,000-vehicle world refreshes every vehicle every tick)."""
+        e = self._euler
+        if e is None:
+            e = self._euler = euler_from_quaternion(self.quat)
+        return e
+
+    @property
+    def yaw(self) -> float:
+        """Estimated heading, rad from north, clockwise seen from above."""
+        return self.euler[2]
 
     def lla(self, ned=None) -> tuple[float, float, float]:
         return geo.ned_to_lla(self.origin, self.pos if ned is None else ned)
