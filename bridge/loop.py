@@ -165,9 +165,11 @@ class Bridge:
 
     # ------------------------------------------------------------------ sending
     def send_own_to_gcs(self, msg) -> None:
+        """One of the bridge's own messages (the transform stream, status, texts) to every GCS
+        link, queued behind the telemetry (flushed after each batch and each upkeep pass)."""
         data = self.codec.pack_own(msg)
         for link in self.gcs_links:
-            link.send(data)
+            link.queue(data)
 
     def statustext(self, text: str, severity: int = tl.MAV_SEVERITY_WARNING) -> None:
         self.send_own_to_gcs(statustext_message(text, severity))
@@ -401,6 +403,7 @@ class Bridge:
             usec = int((now - self.t0) * 1e6)
             for link in self.links:
                 self.send_own_to_gcs(bridge_status_message(usec, link.name, link.stats, link.malformed))
+        self._flush_gcs()
 
     # ------------------------------------------------------------------ loop
     def run_once(self, timeout: float) -> None:
