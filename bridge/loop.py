@@ -417,12 +417,17 @@ class Bridge:
                 self._handle(key.data, key.data.on_readable(key.fileobj))
             else:
                 later.append(key)
+        since = 0                       # vehicle packets handled since the GCS links were last served
         for key in later:
             link = key.data
             for _ in range(VEHICLE_BATCHES):
-                self._handle(link, link.on_readable(key.fileobj, VEHICLE_BATCH))
-                self._flush_gcs()
-                self._service_gcs()
+                pkts = link.on_readable(key.fileobj, VEHICLE_BATCH)
+                self._handle(link, pkts)
+                since += len(pkts)
+                if since >= VEHICLE_BATCH:     # counted over links: 100 links with a few each too
+                    since = 0
+                    self._flush_gcs()
+                    self._service_gcs()
                 if link.drained:
                     break
         self._flush_gcs()
