@@ -86,11 +86,10 @@ class SharedClient(Client):
                     return
                 left = end - time.monotonic()
                 if left <= 0:
-                    import sys, traceback
-                    frames = sys._current_frames()
-                    for t in late[:3]:
-                        self.log("late thread:\n" + "".join(traceback.format_stack(frames.get(t))))
-                    self.log(f"tower link: {len(late)} mission thread(s) busy for {BARRIER_TIMEOUT:g} s; going on")
+                    names = {t.ident: t.name for t in threading.enumerate()}
+                    busy = ", ".join(names.get(t, str(t)) for t in late[:5])
+                    self.log(f"tower link: {len(late)} mission thread(s) ({busy}) busy for "
+                             f"{BARRIER_TIMEOUT:g} s wall with a TICK not acted on; going on")
                     return
                 self._cond.wait(min(left, 1.0))
 

@@ -54,7 +54,9 @@ once. A van gets its route as a mission (van.waypoints: DO_CHANGE_SPEED, the rou
 DO_JUMP back, forever) and a driver on a port of its own puts it in AUTO and arms it
 (van.log). The summary then has a row per vehicle, a row per goal of every drone (with
 the time-travel figure when the tower rides the van) and the closest approach of two
-airborne drones; tracks.png draws every vehicle.
+airborne drones; tracks.png draws every vehicle. `towerlink fly family100 --lockstep --speedup
+max` flies 100 drones (gcs/family_plan.py: own lanes, two altitude layers, no rovers; the summary
+then counts per layer); a family flies in lockstep too (not the van).
 
 With --lockstep (issue 11) the world waits for the bridge and the tower (TOWERLINK_LOCKSTEP),
 so a seed gives the same summary figures at any --speedup (max: as fast as the machine allows)
@@ -765,7 +767,8 @@ def _json_default(o):
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenario", nargs="?", default=None,
                         help="scenario TOML, or a shipped one by name: default, family (3 drones, "
-                             "3 rovers), van (the tower on a moving van); default: the lab scenario")
+                             "3 rovers), family100 (100 drones in lanes on two layers), van (the tower on "
+                             "a moving van); default: the lab scenario")
     parser.add_argument("--speedup", type=speedup_type, default=5.0, metavar="N|max",
                         help="at most N sim seconds per wall second (default 5; the machine may deliver less); "
                              "'max': as fast as the machine allows (use with --lockstep)")
