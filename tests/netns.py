@@ -112,6 +112,7 @@ def two_hosts(delay: str = "2ms") -> Iterator[HostPair]:
             _must("-n", h.netns, "addr", "add", f"{h.addr}/30", "dev", h.dev)
             _must("-n", h.netns, "link", "set", "lo", "up")     # each host's own 127.0.0.1
             _must("-n", h.netns, "link", "set", h.dev, "up")
+            _must("netns", "exec", h.netns, "true")         # e.g. a container that cannot remount /sys
         yield HostPair(a, b, _slow_down(a, b, delay))
     finally:
         for ns in made:

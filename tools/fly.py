@@ -595,7 +595,10 @@ class Launch:
                 p = self.procs.get(name)
                 if p is not None and p.poll() is not None:
                     raise RuntimeError(f"{name} exited with status {p.returncode}; see {self.dir / (name + '.log')}")
-            if now - last_params > 2.0 and self.monitor is not None:
+            # every 0.5 s until the scoring parameters have come (a short lockstep run at max
+            # speed is over in a few wall seconds), then every 2 s
+            missing = self.monitor is not None and any(n not in self.monitor.params for n in SCORING_PARAMS)
+            if now - last_params > (0.5 if missing else 2.0) and self.monitor is not None:
                 last_params = now
                 self.monitor.request_params()
             if self.ap_driver is not None:
@@ -797,6 +800,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "rover, sysid 3, in FOLLOW); the summary gives each one's follow error")
     parser.add_argument("--foll-pos-p", type=float, default=None,
                         help="FOLL_POS_P for ArduPilot's follow (default: ArduPilot's 0.1)")
+    parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                        help="a vehicle parameter for the world (ArduPilot name, e.g. WPNAV_SPEED=300); "
+                             "repeatable; written to RUN/params.parm and passed as sitl --params")
     parser.add_argument("-v", "--verbose", action="store_true", help="echo the tower's log lines")
     from tools import hosts
     hosts.add_arguments(parser)
@@ -811,6 +817,19 @@ def run(args: argparse.Namespace) -> int:
     except ScenarioError as exc:
         print(f"towerlink fly: {exc}", file=sys.stderr)
         return 2
+    sitl_args: tuple[str, ...] = ()
+    if args.param:      # --param NAME=VALUE: a .parm file of defaults for the world (sitl --params)
+        lines = []
+        for item in args.param:
+            name, _eq, value = item.partition("=")
+            try:
+                lines.append(f"{name.strip()} {float(value):.9g}")
+            except ValueError:
+                print(f"towerlink fly: --param {item!r}: write NAME=VALUE, e.g. WPNAV_SPEED=300", file=sys.stderr)
+                return 2
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "params.parm").write_text("\n".join(lines) + "\n")
+        sitl_args = ("--params", str((out / "params.parm").resolve()))
     try:
         from tools import hosts
         world = hosts.from_args(args)
@@ -819,7 +838,7 @@ def run(args: argparse.Namespace) -> int:
                         finish=args.finish, goal_timeout=args.goal_timeout, tower_loss=args.tower_loss,
                         echo=args.verbose, view_port=args.view, nodes=args.nodes,
                         lockstep=args.lockstep, follow_with=args.follow_with, foll_pos_p=args.foll_pos_p,
-                        world=world)
+                        world=world, sitl_args=sitl_args)
     except ValueError as exc:
         print(f"towerlink fly: {exc}", file=sys.stderr)
         return 2

@@ -252,6 +252,22 @@ class _FleetBase:
                             np.array([s.wx[i], s.wy[i], s.wz[i]]), np.array([s.ax[i], s.ay[i], s.az[i]]),
                             self.sim_time)
 
+    TRUTH_ROW = ("px", "py", "pz", "vx", "vy", "vz", "qx", "qy", "qz", "qw", "wx", "wy", "wz", "ax", "ay", "az")
+    _truth_snap: tuple | None = None       # (sim_time, rows) of one step
+
+    def truth_row(self, i: int) -> list[float]:
+        """truth(i) as Python floats, in TRUTH_ROW's order (SIM_STATE of every vehicle at
+        10 Hz): a vector fleet lists all its vehicles' rows once per step."""
+        if self.scalar:
+            s = self._ps[i]
+            return [getattr(s, k) for k in self.TRUTH_ROW]
+        snap = self._truth_snap
+        if snap is None or snap[0] != self.sim_time:
+            s = self._phys
+            snap = self._truth_snap = (self.sim_time,
+                                       np.column_stack([getattr(s, k) for k in self.TRUTH_ROW]).tolist())
+        return snap[1][i]
+
     # ---- estimate ----------------------------------------------------------------
     def _scalar_est_live(self) -> bool:
         return self.scalar and self.use_estimator and self._ests[0] is not None

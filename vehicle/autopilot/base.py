@@ -111,7 +111,7 @@ class Autopilot:
     # ----- state read-back ------------------------------------------------------------
     def refresh(self) -> None:
         self.pos, self.vel, self.quat, self.rates = self.fleet.estimate_rows(self.i)
-        self._euler = None
+        self._euler = self._lla = None
         self.est_ok = bool(self.fleet.estimate_ok(self.i))
         self.on_ground = bool(self.fleet.landed(self.i))
 
@@ -132,16 +132,34 @@ class Autopilot:
         """Estimated heading, rad from north, clockwise seen from above."""
         return self.euler[2]
 
+    _lla: tuple[float, float, float] | None = None
+
     def lla(self, ned=None) -> tuple[float, float, float]:
-        return geo.ned_to_lla(self.origin, self.pos if ned is None else ned)
+        """(lat deg, lon deg, alt m AMSL) of world NED `ned`, by default of the estimate
+        (worked out once per refresh: several telemetry messages want it)."""
+        if ned is not None:
+            return geo.ned_to_lla(self.origin, ned)
+        lla = self._lla
+        if lla is None:
+            lla = self._lla = geo.ned_to_lla(self.origin, self.pos)
+        return lla
 
     def ekf_origin(self) -> tuple[float, float, float] | None:
         """(lat deg, lon deg, alt m AMSL) of the local NED frame's origin once the estimator
         has set it (GPS_GLOBAL_ORIGIN), else None."""
         return self.local_origin.lla
 
+    _home_lla: tuple | None = None         # (home NED as bytes, its lat/lon/alt)
+
     def home_lla(self) -> tuple[float, float, float]:
-        return geo.ned_to_lla(self.origin, self.home if self.home is not None else self.start_ned)
+        """(lat, lon, alt AMSL) of home (of the start before home is set); kept while home's
+        value stays the same (home may be changed in place)."""
+        ned = self.home if self.home is not None else self.start_ned
+        key = ned.tobytes()
+        c = self._home_lla
+        if c is None or c[0] != key:
+            c = self._home_lla = (key, geo.ned_to_lla(self.origin, ned))
+        return c[1]
 
     @property
     def sysid(self) -> int:

@@ -83,6 +83,11 @@ class Battery:
         self._crit_since: float | None = None
         self.t = 0.0
 
+    _pack_key: tuple | None = None
+    _pack_cfg: tuple[float, int, float] = (0.0, 1, 1.0)
+    _avg_dt: float | None = None
+    _avg_k = 0.0
+
     def reboot(self) -> None:
         """The autopilot restarts: its monitor counts from zero, the pack keeps its charge."""
         self.consumed_mah = self.consumed_wh = 0.0
@@ -109,7 +114,11 @@ class Battery:
         """Advance by dt seconds drawing load_w watts (on top of the avionics); returns the
         failsafe level reached now (NONE if none was)."""
         self.t = t
-        full, cells, cap = self._pack(p)
+        g = p.get
+        key = (g("SIM_BATT_VOLTAGE", 12.6), g("SIM_BATT_CAP_AH", 0.0), g("BATT_CAPACITY", 3300))
+        if key != self._pack_key:             # the pack's figures, re-derived when they change
+            self._pack_key, self._pack_cfg = key, self._pack(p)
+        full, cells, cap = self._pack_cfg
         ocv = full * cell_ocv(max(0.0, 100.0 * (1.0 - self.pack_used_mah / cap))) / CELL_FULL   # soc(p)
         r = CELL_RESISTANCE * cells
         power = AVIONICS_W + max(0.0, float(load_w) if math.isfinite(load_w) else 0.0)
@@ -126,7 +135,9 @@ class Battery:
         self.pack_used_mah += mah
         self.consumed_mah += mah
         self.consumed_wh += self.voltage * i * dt / 3600.0
-        k = 1.0 - math.exp(-dt / AVG_TAU) if dt > 0 else 0.0
+        if dt != self._avg_dt:                 # the tick is fixed: one exp per tick length
+            self._avg_dt, self._avg_k = dt, (1.0 - math.exp(-dt / AVG_TAU) if dt > 0 else 0.0)
+        k = self._avg_k
         self.avg_current += (i - self.avg_current) * k
         return self._check_failsafe(t, armed, p)
 

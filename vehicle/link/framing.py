@@ -25,6 +25,7 @@ import inspect
 import struct
 from binascii import crc_hqx
 from collections.abc import Sequence
+from operator import itemgetter
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
@@ -45,7 +46,7 @@ def x25crc(data: bytes) -> int:
 class MessageLayout:
     """Payload layout of one message type, from pymavlink's generated class."""
 
-    __slots__ = ("msgid", "cls", "crc_extra", "struct", "order", "arrays", "crc_byte", "attrs", "defaults")
+    __slots__ = ("msgid", "cls", "crc_extra", "struct", "order", "arrays", "crc_byte", "attrs", "defaults", "wire_order")
 
     def __init__(self, cls) -> None:
         self.msgid = cls.id
@@ -55,6 +56,8 @@ class MessageLayout:
         self.struct = cls.unpacker                   # wire order, arrays expanded
         names = list(cls.fieldnames)
         self.order = tuple(names.index(n) for n in cls.ordered_fieldnames)
+        # constructor order -> wire order, in C (itemgetter of one index gives no tuple)
+        self.wire_order = itemgetter(*self.order) if len(self.order) > 1 else (lambda v: (v[0],))
         # numeric arrays are flattened into the struct; char[] is one 's' item
         types = dict(zip(names, cls.fieldtypes))     # fieldtypes follow constructor order
         # where a message object keeps each field as sent (char[] raw, as pymavlink's pack)
@@ -69,7 +72,7 @@ class MessageLayout:
         if len(values) < len(self.defaults):
             values = (*values, *self.defaults[len(values):])
         if not self.arrays:
-            return self.struct.pack(*[values[i] for i in self.order])
+            return self.struct.pack(*self.wire_order(values))
         flat: list = []
         cls = self.cls
         for i, n in zip(self.order, cls.array_lengths):
@@ -100,14 +103,14 @@ class Framer:
 
     def frame(self, msgid: int, values: Sequence) -> bytes:
         """The MAVLink 2 frame of message `msgid` with constructor-order `values`."""
-        lay = _LAYOUTS.get(msgid) or layout(msgid)
+        lay = _LAYOUTS.get(msgid)
+        if lay is None:
+            lay = layout(msgid)
         return self.frame_payload(lay, lay.payload(values))
 
     def frame_payload(self, lay: MessageLayout, payload: bytes) -> bytes:
         m = self.mav
-        trimmed = payload.rstrip(b"\0")
-        if not trimmed:
-            trimmed = payload[:1]
+        trimmed = payload.rstrip(b"\0") or payload[:1]      # MAVLink 2: at least one byte stays
         signing = m.signing
         signed = signing.sign_outgoing
         msgid = lay.msgid

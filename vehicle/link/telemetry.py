@@ -181,8 +181,9 @@ class Telemetry:
         ap = self.link.ap
         lat, lon, alt = ap.lla()
         ok = ap.est_ok
-        gs = float(np.hypot(ap.vel[0], ap.vel[1]))
-        cog = math.degrees(math.atan2(ap.vel[1], ap.vel[0])) % 360.0 if gs > 0.2 else 0.0
+        vx, vy, _ = ap.vel.tolist()
+        gs = float(np.hypot(vx, vy))
+        cog = math.degrees(math.atan2(vy, vx)) % 360.0 if gs > 0.2 else 0.0
         return (self.usec(), mav.GPS_FIX_TYPE_3D_FIX if ok else mav.GPS_FIX_TYPE_NO_FIX,
                 _i(lat * 1e7, -2**31, 2**31 - 1) if ok else 0, _i(lon * 1e7, -2**31, 2**31 - 1) if ok else 0,
                 _i(alt * 1000, -2**31, 2**31 - 1) if ok else 0, 121 if ok else 65535, 200 if ok else 65535,
@@ -194,10 +195,11 @@ class Telemetry:
         lat, lon, alt = ap.lla()
         home_alt = ap.home_lla()[2]
         hdg = math.degrees(ap.yaw) % 360.0
+        vx, vy, vz = ap.vel.tolist()
         return (self.boot_ms(), _i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1),
                 _i(alt * 1000, -2**31, 2**31 - 1), _i((alt - home_alt) * 1000, -2**31, 2**31 - 1),
-                _i(ap.vel[0] * 100, -32768, 32767), _i(ap.vel[1] * 100, -32768, 32767),
-                _i(ap.vel[2] * 100, -32768, 32767), _i(hdg * 100, 0, 35999))
+                _i(vx * 100, -32768, 32767), _i(vy * 100, -32768, 32767),
+                _i(vz * 100, -32768, 32767), _i(hdg * 100, 0, 35999))
 
     def local_position_ned_fields(self) -> tuple | None:
         # NED from this vehicle's EKF origin; none before it is set (ArduPilot has no local
@@ -205,29 +207,23 @@ class Telemetry:
         ap = self.link.ap
         if not ap.local_origin.is_set:
             return None
-        p, v = ap.local_origin.to_local(ap.pos), ap.vel
-        return (self.boot_ms(), float(p[0]), float(p[1]), float(p[2]),
-                float(v[0]), float(v[1]), float(v[2]))
+        return (self.boot_ms(), *ap.local_origin.to_local(ap.pos).tolist(), *ap.vel.tolist())
 
     def attitude_fields(self) -> tuple:
         ap = self.link.ap
-        r, p, y = ap.euler
-        w = ap.rates
-        return (self.boot_ms(), r, p, y, float(w[0]), float(w[1]), float(w[2]))
+        return (self.boot_ms(), *ap.euler, *ap.rates.tolist())
 
     def attitude_quaternion_fields(self) -> tuple:
         ap = self.link.ap
-        x, y, z, w = (float(v) for v in ap.quat)
-        r = ap.rates
-        return (self.boot_ms(), w, x, y, z, float(r[0]), float(r[1]),
-                float(r[2]), [0.0, 0.0, 0.0, 0.0])
+        x, y, z, w = ap.quat.tolist()
+        return (self.boot_ms(), w, x, y, z, *ap.rates.tolist(), [0.0, 0.0, 0.0, 0.0])
 
     def vfr_hud_fields(self) -> tuple:
         ap = self.link.ap
-        gs = float(np.hypot(ap.vel[0], ap.vel[1]))
+        vx, vy, vz = ap.vel.tolist()
+        gs = float(np.hypot(vx, vy))
         thr = 0 if not ap.armed else (15 if ap.on_ground else 50)
-        return (gs, gs, _i(math.degrees(ap.yaw) % 360.0, 0, 359), thr,
-                float(ap.lla()[2]), float(-ap.vel[2]))
+        return (gs, gs, _i(math.degrees(ap.yaw) % 360.0, 0, 359), thr, float(ap.lla()[2]), -vz)
 
     def home_position_fields(self) -> tuple | None:
         ap = self.link.ap
@@ -291,17 +287,10 @@ class Telemetry:
 
     def sim_state_fields(self) -> tuple:
         ap = self.link.ap
-        tr = ap.fleet.truth(ap.i)
-        pos = np.asarray(getattr(tr, "pos", ap.pos), float)
-        vel = np.asarray(getattr(tr, "vel", ap.vel), float)
-        q = np.asarray(getattr(tr, "quat", ap.quat), float)
-        w = np.asarray(getattr(tr, "rates", ap.rates), float)
-        acc = np.asarray(getattr(tr, "acc", np.zeros(3)), float)
-        r, p, y = euler_from_quaternion(q)
-        lat, lon, alt = geo.ned_to_lla(ap.origin, pos)
-        return (float(q[3]), float(q[0]), float(q[1]), float(q[2]), r, p, y,
-                float(acc[0]), float(acc[1]), float(acc[2]), float(w[0]), float(w[1]), float(w[2]),
-                lat, lon, alt, 0.0, 0.0, float(vel[0]), float(vel[1]), float(vel[2]),
+        px, py, pz, vx, vy, vz, qx, qy, qz, qw, wx, wy, wz, ax, ay, az = ap.fleet.truth_row(ap.i)
+        r, p, y = euler_from_quaternion((qx, qy, qz, qw))
+        lat, lon, alt = geo.ned_to_lla(ap.origin, (px, py, pz))
+        return (qw, qx, qy, qz, r, p, y, ax, ay, az, wx, wy, wz, lat, lon, alt, 0.0, 0.0, vx, vy, vz,
                 _i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1))
 
     def autopilot_version_fields(self) -> tuple:
