@@ -75,6 +75,9 @@ def _field_offsets(cls) -> dict[str, int]:
     return out
 
 
+BATCH_BYTES = 1400      # a coalesced datagram stays within a 1500-byte Ethernet MTU
+
+
 @dataclass(frozen=True, slots=True)
 class MsgInfo:
     crc_extra: int
@@ -226,6 +229,8 @@ class Link:
         self.kind, self.host, self.port = parse_url(url)
         self.clock = clock
         self.stats = LinkStats()
+        self._pending: list[bytes] = []       # queued packets (queue/flush)
+        self._pending_bytes = 0
         self.sysids: set[int] = set()          # systems seen behind this link
         self.peers = PeerTable()               # udpin: who gets what we send
         self.verify = None                     # (Packet) -> None or the reason it is refused
@@ -327,12 +332,14 @@ class Link:
     def malformed(self) -> int:
         return self.stats.malformed + sum(f.malformed for f in self._framers.values())
 
-    def on_readable(self, s: socket.socket) -> list[Packet]:
-        """Read what is waiting on socket `s`; return the valid packets."""
+    def on_readable(self, s: socket.socket, budget: int = 256) -> list[Packet]:
+        """Read what is waiting on socket `s` (UDP: at most `budget` datagrams; `drained`
+        says whether it read them all); return the valid packets."""
         out: list[Packet] = []
+        self.drained = True
         if self.kind in ("udpin", "udpout"):
             fr = self._framers[s]
-            for _ in range(256):
+            for _ in range(budget):
                 try:
                     data, addr = s.recvfrom(65535)
                 except (BlockingIOError, InterruptedError):
@@ -343,6 +350,8 @@ class Link:
                 if self._check(pkts, addr) and self.kind == "udpin":
                     self.peers.heard(addr, self.clock())
                 out.extend(pkts)
+            else:
+                self.drained = False
         elif self.kind == "tcpin" and s is self.sock:
             while True:
                 try:
@@ -383,13 +392,39 @@ class Link:
     def _fold(self, fr: Framer) -> None:
         self.stats.malformed += fr.malformed + (1 if fr.buf else 0)
 
+    def queue(self, data: bytes) -> None:
+        """Send one packet with the next ones in one datagram (UDP; up to BATCH_BYTES), written
+        by flush() or before the next send(), so order is kept. Forwarded telemetry goes this
+        way: one sendto costs about 10 us on loopback, as much as the rest of the forwarding."""
+        if self.kind not in ("udpin", "udpout"):
+            self.send(data)
+            return
+        if self._pending_bytes + len(data) > BATCH_BYTES:
+            self.flush()
+        self._pending.append(data)
+        self._pending_bytes += len(data)
+
+    def flush(self) -> None:
+        """Write the queued packets now (one datagram)."""
+        if self._pending:
+            data, n = b"".join(self._pending), len(self._pending)
+            self._pending.clear()
+            self._pending_bytes = 0
+            self._write(data, n)
+
     def send(self, data: bytes) -> None:
-        """Write one packet (best effort; UDP drops, a broken TCP link reconnects)."""
+        """Write one packet now, after what is queued (best effort; UDP drops, a broken TCP
+        link reconnects)."""
+        if self._pending:
+            self.flush()
+        self._write(data, 1)
+
+    def _write(self, data: bytes, n: int) -> None:
         st = self.stats
         if self.kind == "udpout":
             try:
                 self.sock.sendto(data, (self.host, self.port))
-                st.tx_packets += 1
+                st.tx_packets += n
             except OSError:
                 st.send_errors += 1
         elif self.kind == "udpin":
@@ -401,7 +436,7 @@ class Link:
                 except OSError:
                     st.send_errors += 1
             if sent:
-                st.tx_packets += 1
+                st.tx_packets += n
         else:
             targets = self._tcp_clients if self.kind == "tcpin" else ([self.sock] if self.sock else [])
             for s in list(targets):
@@ -418,7 +453,7 @@ class Link:
                     self._drop_tcp(s)
                     st.send_errors += 1
                 else:
-                    st.tx_packets += 1
+                    st.tx_packets += n
 
     def reply(self, addr, data: bytes) -> None:
         """Send to one UDP address that is not (yet) a peer, e.g. a refusal's answer."""

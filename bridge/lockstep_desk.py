@@ -14,6 +14,11 @@ packet up to t (the loop handles packets in arrival order). Then, at that barrie
 
 Until the first TICK arrives on a link the bridge sends JOIN there every JOIN_PERIOD wall s,
 and again when no TICK came for REJOIN_AFTER wall s (the world dropped it, or restarted).
+
+UDP may drop a datagram when a reader falls behind (a tower handling 100 drones' telemetry):
+a TICK to the tower not acknowledged within TICK_RESEND wall s is sent again, and the tower
+answers a TICK it already handled with its ACK again (gcs.client), which the bridge routes
+on to the world like the first, so one lost TICK or ACK costs a moment, never the run.
 """
 from __future__ import annotations
 
@@ -21,6 +26,7 @@ from gcs.dialect import towerlink as tl
 
 JOIN_PERIOD = 0.5               # wall s between JOINs on a link that has had no TICK yet
 REJOIN_AFTER = 1.0              # wall s without a TICK on a link: JOIN again (the world dropped us or restarted)
+TICK_RESEND = 0.5               # wall s without the tower's ACK of its newest TICK: send that TICK again
 
 
 class LockstepDesk:
@@ -35,14 +41,12 @@ class LockstepDesk:
         self.ticks: dict[str, int] = {}     # vehicle link name -> newest TICK, us
         self.barrier_usec = -1
         self.period_usec = 0
-        self.tower_ids: set[tuple[int, int]] = set()   # (sysid, compid) of each joined tower connection
+        self.tower_joined = False
+        self.tower_acked = -1               # newest ACK seen from the tower, us
+        self.tower_tick_wall = 0.0          # when its newest TICK was sent (wall s)
+        self.tick_resends = 0
         self._next_join = 0.0
         self.barriers = 0
-
-    @property
-    def tower_joined(self) -> bool:
-        """Does any tower connection take part (a family's tower has one per drone)?"""
-        return bool(self.tower_ids)
 
     @property
     def sim_now(self) -> float:
@@ -50,6 +54,10 @@ class LockstepDesk:
         return max(self.barrier_usec, 0) / 1e6
 
     def upkeep(self, wall: float) -> None:
+        if self.tower_joined and self.barrier_usec > self.tower_acked and \
+                wall - self.tower_tick_wall > TICK_RESEND:
+            self.tick_resends += 1
+            self._tick_tower(wall)
         if wall < self._next_join:
             return
         self._next_join = wall + JOIN_PERIOD
@@ -77,23 +85,25 @@ class LockstepDesk:
         for w in self.vehicles.values():
             w.link.send(self.pack_own(self._message(tl.TOWERLINK_LOCKSTEP_KIND_ACK, barrier, w.sysid)))
         if self.tower_joined:
-            self.send_tower(self.pack_own(tl.MAVLink_towerlink_lockstep_message(
-                barrier, 0, tl.TOWERLINK_LOCKSTEP_KIND_TICK, tl.TOWERLINK_LOCKSTEP_PARTICIPANT_WORLD,
-                self.period_usec)))
+            self._tick_tower(self.wall())
+
+    def _tick_tower(self, wall: float) -> None:
+        self.tower_tick_wall = wall
+        self.send_tower(self.pack_own(tl.MAVLink_towerlink_lockstep_message(
+            self.barrier_usec, 0, tl.TOWERLINK_LOCKSTEP_KIND_TICK, tl.TOWERLINK_LOCKSTEP_PARTICIPANT_WORLD,
+            self.period_usec)))
 
     def on_tower(self, msg) -> None:
-        """A TOWERLINK_LOCKSTEP from a tower connection (routed on to the world by the loop).
-        Each (sysid, compid) joins and leaves on its own: one drone's connection leaving must
-        not stop the TICKs of the others."""
-        who = (msg.get_srcSystem(), msg.get_srcComponent())
+        """A TOWERLINK_LOCKSTEP from the tower (routed on to the world by the loop)."""
         if msg.kind in (tl.TOWERLINK_LOCKSTEP_KIND_JOIN, tl.TOWERLINK_LOCKSTEP_KIND_ACK):
-            if who not in self.tower_ids:
-                self.log(f"lockstep: the tower (sysid {who[0]}, compid {who[1]}) joined; its TICKs "
-                         f"follow the world's")
-            self.tower_ids.add(who)
-        elif msg.kind == tl.TOWERLINK_LOCKSTEP_KIND_LEAVE and who in self.tower_ids:
-            self.tower_ids.discard(who)
-            self.log(f"lockstep: the tower (sysid {who[0]}, compid {who[1]}) left")
+            if not self.tower_joined:
+                self.log("lockstep: the tower joined; its TICKs follow the world's")
+            self.tower_joined = True
+            if msg.kind == tl.TOWERLINK_LOCKSTEP_KIND_ACK:
+                self.tower_acked = max(self.tower_acked, msg.time_usec)
+        elif msg.kind == tl.TOWERLINK_LOCKSTEP_KIND_LEAVE:
+            self.tower_joined = False
+            self.log("lockstep: the tower left")
 
     @staticmethod
     def _message(kind: int, t_usec: int, target: int):

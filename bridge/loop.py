@@ -66,6 +66,8 @@ MSG_TL_TARGET = 43002
 MSG_TL_LOCKSTEP = 43005
 
 TICK = 0.01                     # wall s between upkeep passes
+VEHICLE_BATCH = 32              # vehicle datagrams handled before the GCS links are read again
+VEHICLE_BATCHES = 8             # batches per vehicle link per select (256 datagrams, as before)
 STATIC_PERIOD = 1.0             # wall s between republishing static transforms
 STATUS_PERIOD = 1.0
 TIMESYNC_PERIOD = 1.0           # wall s between TIMESYNC probes of each vehicle link
@@ -90,6 +92,8 @@ class Bridge:
         self.node_links = [Link("nodes", cfg.nodes, clock)] if cfg.nodes else []
         self.outs += self.node_links
         self.gcs_links = [self.tower, *self.outs]
+        self._gcs_set = set(self.gcs_links)
+        self._gcs_udp = [link for link in self.gcs_links if link.kind in ("udpin", "udpout")]
         self.vehicles: dict[int, VehicleRecord] = {}
         first = (cfg.vehicles[0][0] if cfg.vehicles else "drone" if cfg.drone else None)
         self.origins = OriginDesk(cfg.world_frame, cfg.world_origin, first)   # world: its origin
@@ -124,7 +128,8 @@ class Bridge:
         # one follower per (drone, rover) pair; only the first reports TOWERLINK_FOLLOW_STATUS
         # (the message names no vehicle), the others log and steer
         self.followers: dict[int, tuple[Follower, int]] = {}
-        for k, (d, r) in enumerate(cfg.pairs or [(cfg.drone_sysid, cfg.rover_sysid)]):
+        # a family (--vehicle) follows exactly its pairs, maybe none; the lab its drone and rover
+        for k, (d, r) in enumerate(cfg.pairs if cfg.vehicles else [(cfg.drone_sysid, cfg.rover_sysid)]):
             if d in self.vehicles:
                 self.followers[d] = (Follower(cfg, self.buffer, self.behaviour_clock, self.log, self.warn_once,
                                               self.vehicles[d].name, status=k == 0), r)
@@ -160,9 +165,11 @@ class Bridge:
 
     # ------------------------------------------------------------------ sending
     def send_own_to_gcs(self, msg) -> None:
+        """One of the bridge's own messages (the transform stream, status, texts) to every GCS
+        link, queued behind the telemetry (flushed after each batch and each upkeep pass)."""
         data = self.codec.pack_own(msg)
         for link in self.gcs_links:
-            link.send(data)
+            link.queue(data)
 
     def statustext(self, text: str, severity: int = tl.MAV_SEVERITY_WARNING) -> None:
         self.send_own_to_gcs(statustext_message(text, severity))
@@ -208,9 +215,9 @@ class Bridge:
         if t == self.cfg.sysid:
             return
         if to_tower is not None:
-            self.tower.send(to_tower)
+            self.tower.queue(to_tower)      # coalesced, flushed after each batch (run_once)
         for o in self.outs:
-            o.send(pkt.raw)
+            o.queue(pkt.raw)
         if t:
             for other in self.vehicles.values():
                 if other is not v and t in other.link.sysids:
@@ -396,17 +403,55 @@ class Bridge:
             usec = int((now - self.t0) * 1e6)
             for link in self.links:
                 self.send_own_to_gcs(bridge_status_message(usec, link.name, link.stats, link.malformed))
+        self._flush_gcs()
 
     # ------------------------------------------------------------------ loop
     def run_once(self, timeout: float) -> None:
-        for key, _ev in self.sel.select(self.links, timeout):
+        """One select: the GCS links' packets first, then each vehicle link's in batches of
+        VEHICLE_BATCH with the GCS links read again between batches, so a tower goal never
+        waits behind a burst of telemetry (1,000 vehicles send 6,600 datagrams every 100 ms)."""
+        ready = self.sel.select(self.links, timeout)
+        later = []
+        for key, _ev in ready:
+            if key.data in self._gcs_set:
+                self._handle(key.data, key.data.on_readable(key.fileobj))
+            else:
+                later.append(key)
+        since = 0                       # vehicle packets handled since the GCS links were last served
+        for key in later:
             link = key.data
-            for pkt in link.on_readable(key.fileobj):
-                try:
-                    self.on_packet(link, pkt)
-                except Exception as exc:   # never let one packet stop the router
-                    link.stats.malformed += 1
-                    self.warn_once("packet-error", f"packet {pkt.msgid} from {link.name} failed: {exc!r}")
+            for _ in range(VEHICLE_BATCHES):
+                pkts = link.on_readable(key.fileobj, VEHICLE_BATCH)
+                self._handle(link, pkts)
+                since += len(pkts)
+                if since >= VEHICLE_BATCH:     # counted over links: 100 links with a few each too
+                    since = 0
+                    self._flush_gcs()
+                    self._service_gcs()
+                if link.drained:
+                    break
+        self._flush_gcs()
+
+    def _flush_gcs(self) -> None:
+        for link in self.gcs_links:
+            link.flush()
+
+    def _service_gcs(self) -> None:
+        """Read whatever waits on the UDP GCS links now (non-blocking; one syscall per idle
+        socket; TCP ones wait for the next select, their sockets may be mid-connect)."""
+        for link in self._gcs_udp:
+            for s in link.fileobjs():
+                pkts = link.on_readable(s)
+                if pkts:
+                    self._handle(link, pkts)
+
+    def _handle(self, link: Link, pkts) -> None:
+        for pkt in pkts:
+            try:
+                self.on_packet(link, pkt)
+            except Exception as exc:   # never let one packet stop the router
+                link.stats.malformed += 1
+                self.warn_once("packet-error", f"packet {pkt.msgid} from {link.name} failed: {exc!r}")
 
     def run(self, duration: float | None = None) -> None:
         end = None if duration is None else self.clock() + duration
@@ -483,5 +528,6 @@ def summary(b: Bridge) -> str:
                  f"tower telemetry dropped (no transform) {b.tower_drops}")
     if b.lockstep is not None:
         parts.append(f"lockstep: {b.lockstep.barriers} barriers, last at {b.lockstep.sim_now:.3f} s sim; "
-                     f"tower {'joined' if b.lockstep.tower_joined else 'not joined'}")
+                     f"tower {'joined' if b.lockstep.tower_joined else 'not joined'}; "
+                     f"TICKs sent to the tower again {b.lockstep.tick_resends}")
     return "\n".join(parts)

@@ -251,6 +251,7 @@ class Client:
         self.lockstep_timeout = lockstep_timeout   # wall s without a TICK: ClientTimeout
         self.tick_usec: int | None = None         # newest TICK handled (sim us)
         self._ack_due: int | None = None          # TICK handled, ACK not yet sent
+        self._acked = -1                          # newest TICK ACKed (sim us)
         self._last_join = -1e9
         self._last_tick_wall = -1e9
         self.mav = master.mav
@@ -384,6 +385,7 @@ class Client:
         self._maybe_heartbeat()                 # before the ACK: it belongs to this TICK
         if self._ack_due is not None:
             self._lockstep_send(LS_ACK, self._ack_due)
+            self._acked = self._ack_due
             self._ack_due = None
         end = time.monotonic() + self.lockstep_timeout
         n = 0
@@ -448,6 +450,9 @@ class Client:
             if self.tick_usec is None or msg.time_usec > self.tick_usec:
                 self.tick_usec = msg.time_usec
                 self._ack_due = msg.time_usec
+            elif self._ack_due is None and msg.time_usec <= self._acked:
+                # a TICK sent again (our ACK, or the TICK after it, was lost): ACK again
+                self._lockstep_send(LS_ACK, self._acked)
         elif mtype == "STATUSTEXT":
             text = mav_str(msg.text)
             self._text_serial += 1
@@ -518,7 +523,7 @@ class Client:
     def wait_heartbeat(self, sysid: int = 1, timeout: float = 30.0) -> SystemState:
         """Wait for a vehicle heartbeat from `sysid` (newer than this call)."""
         t0 = self._now()
-        # "is not None": with lockstep the clock starts at 0, and no heartbeat is not one at 0
+        # (is not None: with lockstep the clock starts at 0, and "no heartbeat yet" is not "one at 0")
         st = self._wait(lambda: self.system(sysid).heartbeat_wall is not None
                         and self.system(sysid).heartbeat_wall >= t0 and self.system(sysid), timeout)
         if st is None:

@@ -20,8 +20,9 @@ of the van frame, so world -> tower changes as the van drives and turns.
 
 Sysids follow `towerlink sitl --drones N --rovers M`: drones first (1..N), then the
 following rovers in their drones' order, then the van. Separation (see
-:func:`check_separation`): every drone flies its own altitude layer, at least
-``mission.min_separation`` m above or below every other drone's.
+:func:`check_separation`): two drones fly altitude layers at least
+``mission.min_separation`` m apart, or paths (start and goals, world) that far apart in the
+horizontal (gcs/family_plan.py generates 100 drones in lanes on two layers).
 """
 from __future__ import annotations
 
@@ -282,17 +283,80 @@ def _build(data: dict[str, Any], path: Path) -> Scenario:
 
 
 def check_separation(sc: Scenario) -> str | None:
-    """Why the drones' altitude layers are too close (None if they are not).
+    """Why two drones of the plan could come closer than min_separation (None if they cannot).
 
-    Each drone flies its whole queue at its own altitude; two layers closer than
-    min_separation could meet when their paths cross.
+    Each drone flies its whole queue at its own altitude layer, from where the world boots
+    it (gcs.family_plan.drone_start) through its goals. Two drones whose layers are at least
+    min_separation apart never meet; two closer layers (the same one, say) are allowed only
+    when their paths keep min_separation apart in the horizontal (world frame, the goals
+    resolved through the scenario's static frames). A goal frame on a moving vehicle (the
+    van) cannot be resolved ahead of time: there every drone needs its own layer.
     """
-    alts = sorted((d.altitude, d.name) for d in sc.drones)
-    for (a, na), (b, nb) in zip(alts, alts[1:]):
-        if b - a < sc.min_separation - 1e-9:
-            return (f"drones {na!r} ({a:g} m) and {nb!r} ({b:g} m) fly layers {b - a:g} m apart; "
-                    f"mission.min_separation is {sc.min_separation:g} m")
+    ds = list(sc.drones)
+    paths = _world_paths(sc)
+    for a in range(len(ds)):
+        for b in range(a + 1, len(ds)):
+            da, db = ds[a], ds[b]
+            if abs(da.altitude - db.altitude) >= sc.min_separation - 1e-9:
+                continue
+            if paths is None:
+                lo, hi = sorted((da, db), key=lambda d: d.altitude)
+                return (f"drones {lo.name!r} ({lo.altitude:g} m) and {hi.name!r} ({hi.altitude:g} m) fly layers "
+                        f"{hi.altitude - lo.altitude:g} m apart; mission.min_separation is {sc.min_separation:g} m")
+            gap = _path_gap(paths[a], paths[b], sc.min_separation)
+            if gap < sc.min_separation - 1e-9:
+                return (f"drones {da.name!r} ({da.altitude:g} m) and {db.name!r} ({db.altitude:g} m) fly layers "
+                        f"{abs(da.altitude - db.altitude):g} m apart and their paths come {gap:.2f} m close "
+                        f"in the horizontal; mission.min_separation is {sc.min_separation:g} m")
     return None
+
+
+def _world_paths(sc: Scenario) -> list[list[tuple[float, float]]] | None:
+    """Each drone's horizontal path in world (start, then its goals), or None if the goal
+    frame does not hang on world by static frames."""
+    from gcs.family_plan import drone_start
+    from gcs.frames import TransformException
+    if len(sc.drones) < 2:
+        return []
+    try:
+        T = sc.buffer().lookup_transform("world", sc.goal_frame).transform
+    except TransformException:
+        return None
+    return [[drone_start(k)] + [tuple(float(v) for v in T.apply_point(g)[:2]) for g in d.goals]
+            for k, d in enumerate(sc.drones)]
+
+
+def _path_gap(pa: list[tuple[float, float]], pb: list[tuple[float, float]], enough: float) -> float:
+    """Smallest horizontal distance between two polylines (m); stops early once below `enough`
+    is impossible to exceed (bounding boxes farther apart than `enough` answer at once)."""
+    def box(p):
+        xs, ys = [q[0] for q in p], [q[1] for q in p]
+        return min(xs), max(xs), min(ys), max(ys)
+    ax0, ax1, ay0, ay1 = box(pa)
+    bx0, bx1, by0, by1 = box(pb)
+    far = max(bx0 - ax1, ax0 - bx1, by0 - ay1, ay0 - by1, 0.0)
+    if far >= enough:
+        return far
+    sa = list(zip(pa, pa[1:])) or [(pa[0], pa[0])]
+    sb = list(zip(pb, pb[1:])) or [(pb[0], pb[0])]
+    return min(_segment_gap(p, q, r, s) for p, q in sa for r, s in sb)
+
+
+def _segment_gap(p, q, r, s) -> float:
+    """Distance between segments pq and rs in the plane (0 when they cross)."""
+    def cross(o, a, b):
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+    d1, d2, d3, d4 = cross(r, s, p), cross(r, s, q), cross(p, q, r), cross(p, q, s)
+    if ((d1 > 0) != (d2 > 0)) and ((d3 > 0) != (d4 > 0)) and 0 not in (d1, d2, d3, d4):
+        return 0.0
+    return min(_point_segment(p, r, s), _point_segment(q, r, s), _point_segment(r, p, q), _point_segment(s, p, q))
+
+
+def _point_segment(p, a, b) -> float:
+    ax, ay = b[0] - a[0], b[1] - a[1]
+    L = ax * ax + ay * ay
+    t = 0.0 if L == 0 else max(0.0, min(1.0, ((p[0] - a[0]) * ax + (p[1] - a[1]) * ay) / L))
+    return math.hypot(p[0] - a[0] - t * ax, p[1] - a[1] - t * ay)
 
 
 def _vehicles(data: dict[str, Any], goals: list, altitude: float, fail) -> tuple[tuple[DroneSpec, ...], VanSpec | None]:

@@ -27,13 +27,14 @@ radius of that world point seen from the tower now. Each goal also records how f
 same tower coordinates would land with the latest transform when it was reached
 (``latest_offset``).
 
-A family (a scenario with [[drones]], see gcs.scenario; run by gcs.tower_family): one Mission per drone, each on
-its own connection to the bridge and in its own thread, with its own queue. They take
-off one at a time from the highest altitude layer down (a drone climbs only once the
-drone of the layer above holds its layer, so no climb passes another drone closer than
-the layer spacing), then fly at once. A separation watch measures the 3-D distance
-between every two airborne drones (above 1 m) and logs when it drops below the
-scenario's min_separation.
+A family (a scenario with [[drones]], see gcs.scenario; run by gcs.tower_family): one Mission per drone,
+each in its own thread with its own queue, all on one link to the bridge (gcs.tower_link: one
+reader, so 100 drones' telemetry is decoded once; with --lockstep the link is the tower's one
+participant). They take off one altitude layer at a time from the highest down (a layer
+climbs only once every drone of the layer above holds its height, so no climb passes another
+drone closer than the layer spacing), then fly at once. A separation watch measures the 3-D
+distance between airborne drones (above 1 m, neighbours on a grid) and logs when it drops
+below the scenario's min_separation.
 
 Examples:
   towerlink tower                                   # default scenario, bridge at udpout:127.0.0.1:14600

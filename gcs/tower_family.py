@@ -7,10 +7,7 @@
   below the scenario's min_separation.
 * :func:`run_family`: `towerlink tower` for a scenario with several drones (or a van):
   one connection, thread and gcs.tower.Mission per drone, take-offs from the highest
-  altitude layer down, one result file for all. With --lockstep each connection is a
-  participant of its own (compid 190 + k: the world tells participants apart by sysid
-  and compid) that keeps polling, so ACKing, while it waits for the layer above, and
-  leaves (closes) as soon as its drone is done, so the world never waits for it idle.
+  altitude layer down, one result file for all.
 """
 from __future__ import annotations
 
@@ -93,23 +90,40 @@ class TowerFrames:
 class SeparationWatch:
     """The smallest 3-D distance between two airborne drones (tower frame, m), logged when low.
 
-    Fed LOCAL_POSITION_NED from any client (all drones' telemetry reaches every tower
-    connection). Airborne: more than 1 m above where the drone was first seen.
+    Fed LOCAL_POSITION_NED (every drone's telemetry reaches the tower link). Airborne: more
+    than 1 m above where the drone was first seen. Each sample is compared only with the
+    drones in its own and the neighbouring cells of a grid `cell` m wide (O(N) per tick for
+    N drones, not O(N**2)); a closest approach wider than `cell` is not tracked (None).
     """
 
     AIRBORNE = 1.0
 
-    def __init__(self, names: dict[int, str], minimum: float, log: Callable[[str], None]) -> None:
+    def __init__(self, names: dict[int, str], minimum: float, log: Callable[[str], None],
+                 cell: float | None = None) -> None:
         self.names = names
         self.minimum = minimum
         self.log = log
+        self.cell = cell if cell is not None else max(10.0, 3.0 * minimum)
         self.pos: dict[int, tuple[float, float, float]] = {}
         self.ground: dict[int, float] = {}
+        self._key: dict[int, tuple[int, int, int]] = {}
+        self._grid: dict[tuple[int, int, int], set[int]] = {}
         self.closest: float | None = None
         self.closest_pair: tuple[str, str] | None = None
         self.breaches = 0
         self._last_log = -1e9
         self.lock = threading.Lock()
+
+    def _place(self, s: int, p: tuple[float, float, float]) -> tuple[int, int, int]:
+        c = self.cell
+        key = (math.floor(p[0] / c), math.floor(p[1] / c), math.floor(p[2] / c))
+        old = self._key.get(s)
+        if old != key:
+            if old is not None:
+                self._grid[old].discard(s)
+            self._grid.setdefault(key, set()).add(s)
+            self._key[s] = key
+        return key
 
     def on_message(self, msg) -> None:
         if msg.get_type() != "LOCAL_POSITION_NED":
@@ -121,26 +135,63 @@ class SeparationWatch:
             p = (float(msg.x), float(msg.y), float(msg.z))
             self.ground.setdefault(s, p[2])
             self.pos[s] = p
+            kx, ky, kz = self._place(s, p)
             if self.ground[s] - p[2] < self.AIRBORNE:
                 return
-            for o, q in self.pos.items():
-                if o == s or self.ground[o] - q[2] < self.AIRBORNE:
-                    continue
-                d = math.dist(p, q)
-                if self.closest is None or d < self.closest:
-                    self.closest, self.closest_pair = d, (self.names[s], self.names[o])
-                if d < self.minimum:
-                    self.breaches += 1
-                    now = time.monotonic()
-                    if now - self._last_log > 1.0:
-                        self._last_log = now
-                        self.log(f"separation: {self.names[s]} and {self.names[o]} {d:.2f} m apart "
-                                 f"(minimum {self.minimum:g} m)")
+            for dx in (-1, 0, 1):
+                for dy in (-1, 0, 1):
+                    for dz in (-1, 0, 1):
+                        for o in self._grid.get((kx + dx, ky + dy, kz + dz), ()):
+                            q = self.pos[o]
+                            if o == s or self.ground[o] - q[2] < self.AIRBORNE:
+                                continue
+                            self._pair(s, o, math.dist(p, q))
+
+    def _pair(self, s: int, o: int, d: float) -> None:
+        if self.closest is None or d < self.closest:
+            self.closest, self.closest_pair = d, (self.names[s], self.names[o])
+        if d < self.minimum:
+            self.breaches += 1
+            now = time.monotonic()
+            if now - self._last_log > 1.0:
+                self._last_log = now
+                self.log(f"separation: {self.names[s]} and {self.names[o]} {d:.2f} m apart "
+                         f"(minimum {self.minimum:g} m)")
+
+
+class LayerGates:
+    """Take-off order by altitude layer: the highest layer first, each layer once every drone
+    of the layer above holds its height (or has given up), so no climb passes a drone closer
+    than the layer spacing. Drones of one layer climb together."""
+
+    def __init__(self, altitudes: dict[int, float]) -> None:
+        self.layers = sorted(set(altitudes.values()), reverse=True)
+        self.altitude = altitudes
+        self._left = {a: sum(1 for v in altitudes.values() if v == a) for a in self.layers}
+        self._done: set[int] = set()
+        self._lock = threading.Lock()
+
+    def above(self, sysid: int) -> float | None:
+        """The layer this drone waits for (None: the highest, it goes first)."""
+        k = self.layers.index(self.altitude[sysid])
+        return self.layers[k - 1] if k > 0 else None
+
+    def done(self, sysid: int) -> None:
+        """This drone holds its layer (or failed); a second call for it changes nothing."""
+        with self._lock:
+            if sysid not in self._done:
+                self._done.add(sysid)
+                self._left[self.altitude[sysid]] -= 1
+
+    def held(self, layer: float) -> bool:
+        with self._lock:
+            return self._left[layer] <= 0
 
 
 def run_family(args: argparse.Namespace, sc, *, radius: float, finish: str, frame: str) -> int:
-    """Every drone of the scenario at once: one connection, thread and Mission per drone."""
-    from gcs.client import Client, ClientError
+    """Every drone of the scenario at once: one link (gcs.tower_link), a thread and Mission per drone."""
+    from gcs.client import ClientError
+    from gcs.tower_link import SharedClient
 
     out_lock = threading.Lock()
 
@@ -155,67 +206,64 @@ def run_family(args: argparse.Namespace, sc, *, radius: float, finish: str, fram
     if not drones:
         print("tower: the scenario has no goals", file=sys.stderr)
         return 2
-    log(f"scenario {sc.name}: {len(drones)} drone(s) "
-        + ", ".join(f"{d.name} (sysid {d.sysid}, {d.altitude:g} m, {len(d.goals)} goals)" for d in drones)
-        + f" in frame {frame!r}; radius {radius:g} m, finish {finish}; link {args.connect}")
+    lockstep = bool(getattr(args, "lockstep", False))
+    if len(drones) <= 10:
+        log(f"scenario {sc.name}: {len(drones)} drone(s) "
+            + ", ".join(f"{d.name} (sysid {d.sysid}, {d.altitude:g} m, {len(d.goals)} goals)" for d in drones)
+            + f" in frame {frame!r}; radius {radius:g} m, finish {finish}; link {args.connect}")
+    else:
+        layers = sorted({d.altitude for d in drones})
+        log(f"scenario {sc.name}: {len(drones)} drones (sysids {drones[0].sysid}..{drones[-1].sysid}) on "
+            f"{len(layers)} layer(s) {', '.join(f'{a:g}' for a in layers)} m, "
+            f"{sum(len(d.goals) for d in drones)} goals in frame {frame!r}; radius {radius:g} m, "
+            f"finish {finish}; link {args.connect}")
     frames = TowerFrames()
     watch = SeparationWatch({d.sysid: d.name for d in sc.drones}, sc.min_separation, log)
-    # take off from the highest layer down: each waits for the layer above to be held
-    order = sorted(drones, key=lambda d: -d.altitude)
-    gates = {d.sysid: threading.Event() for d in order}
-    clients, missions = [], []
-    lockstep = bool(getattr(args, "lockstep", False))
-
-    def hold(c, e: threading.Event, name: str) -> None:
-        """Wait for the layer above: with lockstep keep polling (each poll ACKs a TICK, and
-        the deadline counts sim seconds), else block on the event."""
-        logger(name)("waiting for the layer above to be held")
-        if not lockstep:
-            e.wait(args.goal_timeout)
-            return
-        end = c.clock() + args.goal_timeout
-        while not e.is_set() and c.clock() < end:
-            c.poll(0.05)
+    gates = LayerGates({d.sysid: d.altitude for d in drones})
     try:
-        for k, d in enumerate(drones):
-            tlog = args.tlog if k == 0 else None     # one recording of the link is enough
-            c = Client.connect(args.connect, log=logger(d.name), tlog=tlog, lockstep=lockstep,
-                               source_component=190 + k if lockstep else 190)
-            clients.append(c)
-            # every connection gets the whole stream; each feeds the shared frames and watch
-            # (both locked), so they stay current while any drone is still flying
-            c.add_listener(frames.on_message)
-            c.add_listener(watch.on_message)
-            i = order.index(d)
-            above = gates[order[i - 1].sysid] if i > 0 else None
-            goals = [(x, y, z) for x, y, z in d.goals]
-            missions.append(Mission(
-                c, goals, altitude=d.altitude, radius=radius, finish=finish, frame=frame,
-                goal_timeout=args.goal_timeout, resend=args.resend, sysid=d.sysid,
-                connect_timeout=args.connect_timeout, arm_timeout=args.connect_timeout,
-                log=logger(d.name), frames=frames,
-                before_takeoff=(lambda e=above, n=d.name, c=c: hold(c, e, n)) if above is not None else None,
-                after_takeoff=gates[d.sysid].set))
+        # one link for the whole family: the bridge sends every drone's telemetry to each peer
+        c = SharedClient.connect(args.connect, log=log, tlog=args.tlog, lockstep=lockstep)
     except ClientError as exc:
         log(str(exc))
-        for c in clients:
-            c.close()
         return 2
+    c.add_listener(frames.on_message)
+    c.add_listener(watch.on_message)
+
+    def before_takeoff(d) -> Callable[[], None] | None:
+        layer = gates.above(d.sysid)
+        if layer is None:
+            return None
+
+        def wait() -> None:
+            # wait disarmed (an armed copter left on the ground disarms itself: DISARM_DELAY),
+            # parked on the link so the lockstep barrier counts this thread as done
+            if not gates.held(layer):
+                logger(d.name)(f"waiting for the layer above ({layer:g} m) to be held")
+                c.wait_until(lambda: gates.held(layer), args.goal_timeout)
+        return wait
+
+    missions = [Mission(
+        c, [(x, y, z) for x, y, z in d.goals], altitude=d.altitude, radius=radius, finish=finish,
+        frame=frame, goal_timeout=args.goal_timeout, resend=args.resend, sysid=d.sysid,
+        connect_timeout=args.connect_timeout, arm_timeout=args.connect_timeout,
+        log=logger(d.name), frames=frames, before_takeoff=before_takeoff(d),
+        after_takeoff=(lambda s=d.sysid: gates.done(s))) for d in drones]
     results: dict[int, MissionResult] = {}
 
     def fly(m: Mission) -> None:
+        c.member()
         try:
             results[m.sysid] = m.run()
         except KeyboardInterrupt:
             m.result.error = "interrupted"
             results[m.sysid] = m.result
         finally:
-            gates[m.sysid].set()           # never leave a lower layer waiting for a failed drone
-            if lockstep:
-                m.c.close()                # LEAVE now: the world must not wait for an idle link
+            gates.done(m.sysid)            # never leave a lower layer waiting for a failed drone
+            c.leave()
 
     threads = [threading.Thread(target=fly, args=(m,), name=f"tower-{d.name}", daemon=True)
                for m, d in zip(missions, drones)]
+    c.start()
     for t in threads:
         t.start()
     try:
@@ -225,8 +273,7 @@ def run_family(args: argparse.Namespace, sc, *, radius: float, finish: str, fram
     except KeyboardInterrupt:
         log("interrupted")
     finally:
-        for c in clients:
-            c.close()
+        c.close()
     out = {"ok": all(results.get(d.sysid) is not None and results[d.sysid].ok for d in drones),
            "scenario": sc.name, "frame": frame, "radius": radius, "finish": finish,
            "min_separation": sc.min_separation,

@@ -57,5 +57,32 @@ def finish(launch: Launch, timeout: float) -> dict:
     return s
 
 
+#: summary.json fields that are not flight figures: what was asked, how fast the machine
+#: delivered it (wall), where it ran (ports, commands, the world's host), and the bridge's
+#: packet counters as of its last status message (sent once a wall second, so they count
+#: whatever passed by then)
+WALL_FIELDS = ("speedup", "achieved_speedup", "run_dir", "ports", "commands", "world_host", "bridge_status")
+
+
+def flatten(d, prefix=""):
+    """{"a": {"b": [1, 2]}} -> {"a.b[0]": 1, "a.b[1]": 2}"""
+    out = {}
+    if isinstance(d, dict):
+        for k, v in d.items():
+            out.update(flatten(v, f"{prefix}.{k}" if prefix else k))
+    elif isinstance(d, list):
+        for i, v in enumerate(d):
+            out.update(flatten(v, f"{prefix}[{i}]"))
+    else:
+        out[prefix] = d
+    return out
+
+
+def figures(summary: dict) -> dict:
+    """Every number (and flag, and name) of a summary.json that describes the flight, flattened."""
+    return {k: v for k, v in flatten(summary).items() if k.split(".")[0].split("[")[0] not in WALL_FIELDS
+            and k != "text"}
+
+
 def tower_result(run_dir: Path) -> dict:
     return json.loads((run_dir / "tower.json").read_text())

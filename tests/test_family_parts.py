@@ -13,8 +13,8 @@ from gcs.dialect import towerlink as tl
 from gcs.frames import Transform
 from gcs.scenario import ScenarioError, load_scenario
 from gcs.tower_family import SeparationWatch, TowerFrames
-from tools.family_summary import closest_approach
-from tools.run_summary import Track
+from tools.family_summary import closest_approach, format_family_summary, summarize_family
+from tools.run_summary import RunData, Track
 
 
 def write(tmp_path: Path, text: str) -> Path:
@@ -53,7 +53,8 @@ TOWER = 'static_transforms = ["0 0 0 0 0 0 world tower"]\n'
 @pytest.mark.parametrize("body, why", [
     (TOWER + '[mission]\nmin_separation = 3.0\n[[drones]]\nname = "a"\naltitude = 6\n'
      '[[drones]]\nname = "b"\naltitude = 8\n',
-     "drones 'a' (6 m) and 'b' (8 m) fly layers 2 m apart; mission.min_separation is 3 m"),
+     "drones 'a' (6 m) and 'b' (8 m) fly layers 2 m apart and their paths come 2.00 m close in the "
+     "horizontal; mission.min_separation is 3 m"),
     (TOWER + '[[drones]]\nname = "a"\nrover = "a"\n', "vehicle names must differ: ['a'] used twice"),
     (TOWER + '[van]\nroute = [[0, 0], [1, 1]]\n', "van 'van': no static transform hangs a frame on it"),
     ('static_transforms = ["0 0 0 0 0 0 van tower"]\n[van]\nroute = [[0, 0]]\n',
@@ -69,7 +70,7 @@ def test_bad_family_scenarios_are_refused_with_the_reason(tmp_path, body, why):
 
 
 def test_unknown_scenario_name_lists_the_shipped_ones():
-    with pytest.raises(ScenarioError, match="shipped: default, family, van"):
+    with pytest.raises(ScenarioError, match="shipped: default, family, family100, van"):
         load_scenario("no-such-scenario")
 
 
@@ -141,6 +142,34 @@ def test_closest_approach_of_two_crossing_drones(h, dz, k):
     assert closest_approach({"a": Track(t, a.xyz * [1, 1, 0]), "b": b})["closest_m"] is None
 
 
+def test_family_figures_end_with_the_tower(tmp_path):
+    """What is recorded after the tower's end (its last drone's end_sim: the drones hovering
+    while fly stops the processes, as long as the machine takes) is in no figure: with
+    lockstep a seed gives the same summary whatever the wall time of the shutdown."""
+    t = np.arange(0.0, 60.0, 0.1)
+    d = RunData()
+    for _name, sysid, kind in load_scenario("family").vehicles:
+        xyz = np.zeros((t.size, 3))
+        xyz[:, 1] = 10.0 * sysid                        # 10 m apart east
+        if kind == "copter":
+            xyz[t > 1.0, 2] = -(2.0 + 4.0 * sysid)      # up at 1 s, layers 6, 10, 14 m
+            tail = t > 40.0                             # after the tower: all drift to y = 0, climbing
+            xyz[tail, 1] = np.maximum(0.0, 10.0 * sysid - 2.0 * (t[tail] - 40.0))
+            xyz[tail, 2] -= 0.5 * (t[tail] - 40.0)
+        d.truth[sysid] = Track(t, xyz)
+    tower = {"ok": True, "drones": [{"sysid": s, "goals": [], "end_sim": e}
+                                    for s, e in ((1, 40.0), (2, 38.0), (3, 30.0))]}
+    s = summarize_family(tmp_path, tower=tower, scenario_path="family", data=d,
+                         meta={"speedup": "max", "seed": 1})
+    rows = {v["name"]: v for v in s["vehicles"]}
+    assert rows["drone1"]["path_m"] == pytest.approx(6.0)            # the climb, not the tail
+    assert rows["drone3"]["max_height_m"] == pytest.approx(14.0)
+    sep = s["separation"]
+    assert sep["pair"] == ["drone1", "drone2"] and sep["closest_m"] == pytest.approx(math.hypot(10, 4))
+    assert sep["t"] <= 40.0
+    assert "speedup max" in format_family_summary(s).splitlines()[0]
+
+
 def test_fly_family_command_lines_give_every_vehicle_its_port_and_the_bridge_each_one(tmp_path):
     from tools.fly import Launch
     launch = Launch(tmp_path, scenario="family")
@@ -154,13 +183,13 @@ def test_fly_family_command_lines_give_every_vehicle_its_port_and_the_bridge_eac
         assert f"{sysid}=udpout:127.0.0.1:{port}" in vehicles
     assert "--drone" not in bridge and "--rover" not in bridge
     assert "--lockstep" not in sitl and "--lockstep" not in bridge
-    # lockstep: the world waits for the bridge and the tower's three drone connections
-    ls = Launch(tmp_path / "l", scenario="family", lockstep=True)
-    sitl, tower = ls.sitl_cmd(), ls.tower_cmd()
-    assert sitl[sitl.index("--lockstep") + 1] == "4"
-    assert "--lockstep" in ls.bridge_cmd() and "--lockstep" in tower
+    # lockstep: the world waits for two participants, the bridge and the family's one tower link
+    locked = Launch(tmp_path / "l", scenario="family", lockstep=True)
+    sitl = locked.sitl_cmd()
+    assert sitl[sitl.index("--lockstep") + 1] == "2"
+    assert "--lockstep" in locked.bridge_cmd() and "--lockstep" in locked.tower_cmd()
     van = Launch(tmp_path / "v", scenario="van", lockstep=True).sitl_cmd()
-    assert van[van.index("--lockstep") + 1] == "3"           # bridge, the one drone's tower, the van's driver
+    assert van[van.index("--lockstep") + 1] == "3"           # bridge, the tower link, the van's driver
 
 
 def test_fly_van_route_is_a_looped_mission_on_the_van(tmp_path):

@@ -76,6 +76,18 @@ def test_no_hover():
     assert "did not hover" in format_hover({}, None)[0]
 
 
+def test_only_hovers_before_the_missions_end_count(tmp_path):
+    """What is recorded after the tower's end (the drone hovering while fly stops the
+    processes, as long as the machine takes) is not the mission's: with lockstep a seed must
+    give the same figures whatever the wall time of the shutdown."""
+    d = _run()                                      # hovers 5 .. 14.9 s
+    assert hover_figures(d, until=4.0) == {}
+    h = hover_figures(d, until=10.0)
+    assert h["segments"] == [[5.0, 10.0]] and h["wobble"]["drone"]["n"] == 41    # 6.0 .. 10.0 s, after SETTLE_S
+    assert summarize(tmp_path, data=d, tower={"ok": True, "goals": [], "end_sim": 4.0})["hover"] == {"wind": None}
+    assert summarize(tmp_path, data=d, tower={"ok": True, "goals": []})["hover"]["seconds"] == pytest.approx(9.9)
+
+
 def test_summary_carries_the_hover_and_the_scenario_wind(tmp_path):
     sc = tmp_path / "wind.toml"
     sc.write_text('wind = {speed = 8, direction = 270, turbulence = 1}\n'

@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parent.parent
 VEHICLE_MAY_USE = ("gcs.frames", "gcs.geo", "gcs.modes", "gcs.mavstr", "gcs.endpoints", "gcs.wpl", "gcs.peers",
                    "gcs.lockstep",
                    "gcs.signing")
-GCS_PROGRAMS = ("gcs.client", "gcs.tower", "gcs.tower_family")
+GCS_PROGRAMS = ("gcs.client", "gcs.tower", "gcs.tower_family", "gcs.tower_link")
 
 
 def _module_name(path: Path, root: Path) -> str:

@@ -3,7 +3,8 @@
 Two `towerlink fly --lockstep` runs of one mission (seed 1; world, bridge and tower as
 processes on loopback): one at --speedup 2 with a CPU-burning process beside it (the
 machine's other work), one at --speedup max. Every number in summary.json must be equal,
-except the fields that describe the machine or the launch rather than the flight:
+except the fields that describe the machine or the launch rather than the flight
+(system_support.WALL_FIELDS).
 """
 from __future__ import annotations
 
@@ -13,32 +14,9 @@ import sys
 
 import pytest
 
-from system_support import MISSION_WORLD, finish, launched, tower_goals
+from system_support import MISSION_WORLD, figures, finish, launched, tower_goals
 
 pytestmark = pytest.mark.slow
-
-#: summary.json fields that are not flight figures: what was asked, how fast the machine
-#: delivered it (wall), where it ran, and the bridge's packet counters as of its last
-#: status message (sent once a wall second, so they count whatever passed by then)
-WALL_FIELDS = ("speedup", "achieved_speedup", "run_dir", "ports", "commands", "bridge_status")
-
-
-def flatten(d, prefix=""):
-    out = {}
-    if isinstance(d, dict):
-        for k, v in d.items():
-            out.update(flatten(v, f"{prefix}.{k}" if prefix else k))
-    elif isinstance(d, list):
-        for i, v in enumerate(d):
-            out.update(flatten(v, f"{prefix}[{i}]"))
-    else:
-        out[prefix] = d
-    return out
-
-
-def figures(summary: dict) -> dict:
-    return {k: v for k, v in flatten(summary).items() if k.split(".")[0].split("[")[0] not in WALL_FIELDS
-            and k != "text"}
 
 
 def fly(run_dir, speedup: float) -> dict:

@@ -10,10 +10,12 @@ world:  1,000 vehicles (4 MAVLink networks, sitl --workers 2) with full default 
         stated peer; 10,000 drones of controller + physics at 400 Hz on one core, CPU per
         drone-step and where the time goes.
 bridge: latency the bridge adds to a tower goal (vs a direct link), forwarding rate
-        with telemetry from 1, 10 and 100 vehicles (vs MAVProxy), bridge on one CPU.
+        with telemetry from 1, 10 and 100 vehicles (vs MAVProxy), bridge on one CPU; the
+        added latency again with 1,000 vehicles' telemetry flowing (a fake source, 4 networks).
 view:   what the live Foxglove view and run.mcap cost per message, vs writing the tlog.
 mission: a 1 km, 10-waypoint AUTO mission's flight time vs the sum of its legs' minimum times.
 mission-transfer: 100-item mission upload and download, pymavlink vs MAVSDK.
+family: the tower's family of 100 drones end to end in lockstep (wall time, goals, separation).
 """
 from __future__ import annotations
 
@@ -30,6 +32,7 @@ BENCHES = {
     "mission": "tools.bench_mission",
     "view": "tools.bench_view",
     "mission-transfer": "tools.bench_mission_transfer",
+    "family": "tools.bench_family",
 }
 
 

@@ -20,6 +20,10 @@ Rows:
   * the time the bridge was runnable but waiting for its CPU (/proc/PID/schedstat),
     per goal, and the load average: what a p99 on a shared machine is made of.
 
+  * added latency with 1,000 vehicles' telemetry flowing (tools.bench_bridge_fleet: a fake
+    source replays ArduPilot's default streams of 1,000 vehicles in 4 networks, 66,000 msg/s),
+    bridge and MAVProxy under the same load, each with its CPU use and forwarded rate.
+
 Targets: added p99 <= 1 ms on loopback; >= 20,000 messages/s forwarded on one core.
 Usage: python -m tools.bench_bridge [--quick] [--samples N] [--seconds S]
 """
@@ -230,6 +234,24 @@ def _vehicle_msgs(ms: int, sysid: int) -> list:
             tl.MAVLink_gps_raw_int_message(ms * 1000, 3, 473977420, 85455940, 600000, 100, 100, 100, 0, 12)]
 
 
+def messages_in(data: bytes, skip_sysid: int = BRIDGE_SYSID) -> int:
+    """How many MAVLink packets a datagram holds (the bridge coalesces forwarded telemetry),
+    not counting those from `skip_sysid` (the bridge's own)."""
+    n, i = 0, 0
+    while i + 6 <= len(data):
+        if data[i] == 0xFD:
+            size = 12 + data[i + 1] + (13 if data[i + 2] & 1 else 0)
+            sysid = data[i + 5]
+        elif data[i] == 0xFE:
+            size, sysid = 8 + data[i + 1], data[i + 3]
+        else:
+            break
+        if sysid != skip_sysid:
+            n += 1
+        i += size
+    return n
+
+
 class _Sink(threading.Thread):
     """Counts the packets arriving at a socket, other than the bridge's own."""
 
@@ -247,8 +269,7 @@ class _Sink(threading.Thread):
                 continue
             except OSError:
                 return
-            if len(data) > 5 and data[5 if data[0] == 0xFD else 3] != BRIDGE_SYSID:
-                self.count += 1
+            self.count += messages_in(data)
 
 
 def _sender(dest: tuple, frames: list[bytes], stop, sent) -> None:
@@ -337,7 +358,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--vehicles", type=int, nargs="+", default=[1, 10, 100], metavar="N",
                     help="telemetry from N vehicles, one rate row each (default 1 10 100)")
     ap.add_argument("--no-peer", action="store_true", help="skip the MAVProxy rate rows")
+    ap.add_argument("--fleet-samples", type=int, default=None,
+                    help="latency samples with 1,000 vehicles' telemetry flowing (tools.bench_bridge_fleet; "
+                         "default 2000, --quick 100; 0 skips the case)")
     a = ap.parse_args(argv)
+    fleet_samples = a.fleet_samples if a.fleet_samples is not None else (100 if a.quick else 2000)
     samples = a.samples or (300 if a.quick else 5000)
     seconds = a.seconds or (0.5 if a.quick else 5.0)
     cpu, mine = _cpus()
@@ -351,6 +376,10 @@ def main(argv: list[str] | None = None) -> int:
             rates = [(n, bridge_rate(bridge, traffic[n], seconds)) for n in a.vehicles]
         rates = [(n, r, None if a.no_peer else mavproxy_rate(traffic[n], seconds, cpu))
                  for n, r in rates]
+        fleet_rows = []
+        if fleet_samples > 0:
+            from tools.bench_bridge_fleet import rows as fleet
+            fleet_rows, _raw = fleet(cpu, fleet_samples, peer=not a.no_peer)
     finally:
         os.sched_setaffinity(0, old)
     b, d = lat["bridge"], lat["direct"]
@@ -380,11 +409,15 @@ def main(argv: list[str] | None = None) -> int:
         rows.append(["  forwarded per CPU-second of the bridge", f"{per_cpu:,.0f}", "MAVProxy, same measure" if peer
                      else "-", prow, "-" if peer is None else f"{per_cpu / max(float(prow.replace(',', '')), 1e-9):.1f}x",
                      f">= {RATE_TARGET:,.0f}", "met" if per_cpu >= RATE_TARGET else "MISSED"])
+    rows += fleet_rows
     print(machine())
     print(f"bridge pinned to CPU {cpu}; this process on CPUs {sorted(mine)}; load average "
           f"{' '.join(f'{x:.2f}' for x in os.getloadavg())} at the end (other processes share these CPUs)")
     print(table("towerlink bridge (a `towerlink bridge` process) vs direct link and MAVProxy, loopback UDP",
                 ["measure", "towerlink", "peer", "peer figure", "ratio", "target", "status"], rows))
+    if fleet_rows:
+        from tools.bench_bridge_fleet import SOURCE_NOTE
+        print(SOURCE_NOTE)
     return 0 if b and all(r[1][0] > 0 for r in rates) else 1
 
 

@@ -29,6 +29,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "view": ("tools.live_view", "serve the bridge's stream live to Foxglove (WebSocket; needs towerlink[view])"),
     "plot": ("tools.plot_tracks", "plot the tracks of a run folder or tlog"),
     "bench": ("tools.bench", "run the benchmarks, peers side by side"),
+    "sweep": ("tools.sweep", "fly many seeded variations of a mission on Ray; one table, plots, effects"),
 }
 
 

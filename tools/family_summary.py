@@ -2,7 +2,8 @@
 
 Read from the run folder (tlogs as tools.run_summary reads them, tower.json as
 gcs.tower.run_family writes it). All positions are world NED, m, from truth
-(SIM_STATE) when recorded, else the vehicles' LOCAL_POSITION_NED; times are sim s.
+(SIM_STATE) when recorded, else the vehicles' LOCAL_POSITION_NED; times are sim s. Every
+figure ends with the tower (its last drone's end_sim), not with the recording.
 
 * vehicles: name, sysid, role, path length, highest point; a drone's goals reached and
   mean time to reach; a rover's follow error (horizontal, against its drone's ground
@@ -21,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from tools.run_summary import Track, horizontal_error, load_run, rms
+from tools.run_summary import RunData, Track, horizontal_error, load_run, rms
 
 AIRBORNE_M = 1.0
 
@@ -54,19 +55,25 @@ def closest_approach(tracks: dict[str, Track], airborne: float = AIRBORNE_M) -> 
 
 
 def summarize_family(run_dir: str | os.PathLike, *, tower: dict | None = None,
-                     scenario_path: str | None = None, meta: dict | None = None) -> dict:
+                     scenario_path: str | None = None, meta: dict | None = None,
+                     data: RunData | None = None) -> dict:
     """Score a family / van run; the dict written as summary.json."""
     import json
 
     from gcs.scenario import load_scenario
     run_dir = Path(run_dir)
-    data = load_run(run_dir)
+    data = data if data is not None else load_run(run_dir)
     if tower is None:
         p = run_dir / "tower.json"
         tower = json.loads(p.read_text()) if p.exists() else {"drones": []}
     sc = load_scenario(scenario_path)
     tracks = {sysid: (data.truth.get(sysid) if data.truth.get(sysid) is not None and len(data.truth[sysid])
                       else data.estimate.get(sysid)) for _n, sysid, _k in sc.vehicles}
+    # the run ends with the tower (its last drone's end_sim): what is recorded after that, while
+    # fly stops the processes, lasts as long as the machine takes, so it is no figure's
+    ends = [d["end_sim"] for d in tower.get("drones", []) if d.get("end_sim") is not None]
+    if ends:
+        tracks = {s: tr.window(None, max(ends)) if tr is not None else None for s, tr in tracks.items()}
     source = "truth (SIM_STATE)" if data.truth else "vehicle estimates"
     static_world = None
     try:
@@ -145,13 +152,49 @@ def _f(x, spec=".2f", none="-"):
     return none if x is None else format(x, spec)
 
 
+BIG_FAMILY = 12     # more drones than this: a row per layer and only the drones that missed
+
+
+def _layer_rows(s: dict) -> list[str]:
+    """A big family in a few lines: per altitude layer, drones, goals reached and times."""
+    layers: dict[str, list[dict]] = {}
+    for v in s.get("vehicles", []):
+        if v["kind"] == "copter":
+            layers.setdefault(v.get("role", ""), []).append(v)
+    lines = [f"  {'layer':<20} {'drones':>6} {'goals':>9} {'mean reach s':>12} {'top m':>6}"]
+    for role, vs in sorted(layers.items()):
+        got = sum(v["goals_reached"] for v in vs)
+        total = sum(v["goals_total"] for v in vs)
+        ttr = [v["mean_time_to_reach"] for v in vs if v.get("mean_time_to_reach") is not None]
+        top = [v["max_height_m"] for v in vs if v.get("max_height_m") is not None]
+        lines.append(f"  {role:<20} {len(vs):>6} {f'{got}/{total}':>9} "
+                     f"{_f(float(np.mean(ttr)) if ttr else None, '12.2f'):>12} {_f(max(top) if top else None, '6.1f'):>6}")
+    missed = [v["name"] for v in s.get("vehicles", []) if v["kind"] == "copter"
+              and v["goals_reached"] < v["goals_total"]]
+    lines.append(f"  drones that missed a goal: {', '.join(missed) if missed else 'none'}"
+                 " (every row and goal: summary.json)")
+    return lines
+
+
 def format_family_summary(s: dict) -> str:
-    """The text of a family / van summary."""
+    """The text of a family / van summary (a big family: per layer, see BIG_FAMILY)."""
     lines = [f"{'MISSION OK' if s.get('ok') else 'MISSION FAILED'}: {s.get('goals_reached', 0)}/"
              f"{s.get('goals_total', 0)} goals reached  |  scenario {s.get('scenario')}"
              + (f", seed {s['seed']}" if s.get("seed") is not None else "")
-             + (f", speedup {_speedup(s['speedup'])}" if s.get("speedup") else "")
+             + (f", speedup {s['speedup']:g}x" if isinstance(s.get("speedup"), (int, float))
+                else f", speedup {s['speedup']}" if s.get("speedup") else "")
              + (f" (achieved {s['achieved_speedup']:.1f}x)" if s.get("achieved_speedup") else ""), ""]
+    big = sum(1 for v in s.get("vehicles", []) if v["kind"] == "copter") > BIG_FAMILY
+    if big:
+        lines += _layer_rows(s)
+    else:
+        lines += _vehicle_rows(s)
+    _separation_rows(s, lines)
+    return "\n".join(lines)
+
+
+def _vehicle_rows(s: dict) -> list[str]:
+    lines = []
     lines.append(f"  {'vehicle':<8} {'sysid':>5}  {'role':<36} {'path m':>7} {'top m':>6}  "
                  f"{'goals':>5} {'reach s':>7}  {'follow RMS':>10} {'max':>6}")
     for v in s.get("vehicles", []):
@@ -168,12 +211,16 @@ def format_family_summary(s: dict) -> str:
         reach = _f(g["time_to_reach"], "7.2f") if g["reached"] else "MISSED"
         lines.append(f"  {g['drone']:<8} {g['index']:>2}/{g['of']:<2}  {tw:>18}  {wd:>16}  {reach:>7}"
                      + (f"  {_f(g.get('latest_offset'), '11.2f'):>11}" if moving else ""))
+    return lines
+
+
+def _separation_rows(s: dict, lines: list[str]) -> None:
     sep = s.get("separation") or {}
     lines.append("")
     if sep.get("closest_m") is not None:
         lines.append(f"separation: closest approach of two airborne drones {sep['closest_m']:.2f} m "
                      f"({' and '.join(sep['pair'])} at t={sep['t']:.2f} s, {sep['source']}); "
-                     f"layers at least {sep['minimum_m']:g} m apart")
+                     f"minimum {sep['minimum_m']:g} m")
     elif len([v for v in s.get("vehicles", []) if v["kind"] == "copter"]) > 1:
         lines.append("separation: not measured (no two drones airborne together in the records)")
     van = s.get("van")
@@ -184,9 +231,3 @@ def format_family_summary(s: dict) -> str:
                      f"{_f(van['latest_offset_max'])} m at most")
     if s.get("tower_error"):
         lines.append(f"tower: {s['tower_error']}")
-    return "\n".join(lines)
-
-
-def _speedup(v) -> str:
-    """The asked speedup as the summary shows it: "5x", or "max" (--speedup max)."""
-    return v if isinstance(v, str) else f"{v:g}x"

@@ -40,6 +40,12 @@ drone's ground point, from truth); and the wobble figure for both follow frames
 (the bridge computes the ground point through the full-attitude and the yaw-only
 frame on every follow tick, whichever one it steers by).
 
+With --world-host ADDR the world runs on another host (tools/hosts.py), the bridge and the
+tower here; it listens on 0.0.0.0 there and pushes telemetry to this host:
+
+  towerlink fly --world-host 10.0.0.2 --world-cmd-prefix "ssh -tt sim-box"
+  towerlink fly --world-host 10.211.0.1 --world-cmd-prefix "ip netns exec simA"
+
 A family or van scenario (`towerlink fly family`, `towerlink fly van`; shipped
 scenarios are named without .toml): the world starts every vehicle the scenario lists
 (--drones N --rovers M, one loopback port each), the bridge serves each (--vehicle
@@ -48,10 +54,12 @@ once. A van gets its route as a mission (van.waypoints: DO_CHANGE_SPEED, the rou
 DO_JUMP back, forever) and a driver on a port of its own puts it in AUTO and arms it
 (van.log). The summary then has a row per vehicle, a row per goal of every drone (with
 the time-travel figure when the tower rides the van) and the closest approach of two
-airborne drones; tracks.png draws every vehicle.
+airborne drones; tracks.png draws every vehicle. `towerlink fly family100 --speedup
+max` flies 100 drones (gcs/family_plan.py: own lanes, two altitude layers, no rovers; the summary
+then counts per layer).
 
-Lockstep (issue 11) is the default: the world waits for the bridge, the tower (each of a
-family's drone connections) and the van's driver (TOWERLINK_LOCKSTEP), so a seed gives the
+Lockstep (issue 11) is the default: the world waits for the bridge, the tower (a family's
+one shared link) and the van's driver (TOWERLINK_LOCKSTEP), so a seed gives the
 same summary figures at any --speedup (max: as fast as the machine allows) and under any CPU
 load. --no-lockstep runs the old free-running world (figures then depend on the machine):
 
@@ -88,13 +96,30 @@ SITL_HOME = (-35.363261, 149.16523, 584.0)     # towerlink sitl's default --home
 SCORING_PARAMS = ("WPNAV_SPEED", "WPNAV_ACCEL", "PSC_JERK_XY")
 
 
+FIXED_PORTS = (20000, 32000)    # below Linux's ephemeral range (32768-60999)
+
+
 def free_udp_ports(n: int, host: str = "127.0.0.1") -> list[int]:
+    """n UDP ports free now, picked below the ephemeral range: a world of 100 vehicles opens
+    100 sockets with kernel-chosen (ephemeral) ports while it binds the planned ones, and an
+    ephemeral pick would take a planned port first ("Address already in use")."""
+    import random
     socks = []
+    lo, hi = FIXED_PORTS
+    start = random.randrange(lo, hi)          # parallel runs start at different places
     try:
-        for _ in range(n):
+        for k in range(hi - lo):
+            if len(socks) == n:
+                break
             s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-            s.bind((host, 0))
+            try:
+                s.bind((host, lo + (start - lo + k) % (hi - lo)))
+            except OSError:
+                s.close()
+                continue
             socks.append(s)
+        if len(socks) < n:
+            raise OSError(f"only {len(socks)} free UDP ports in {lo}..{hi - 1}, {n} wanted")
         return [s.getsockname()[1] for s in socks]
     finally:
         for s in socks:
@@ -112,7 +137,8 @@ def towerlink_cmd(*args: str) -> list[str]:
 class Monitor(threading.Thread):
     """Listens where the world and the bridge push, records a tlog per link, tracks progress."""
 
-    def __init__(self, run_dir: Path, ports: dict[str, int], host: str = "127.0.0.1") -> None:
+    def __init__(self, run_dir: Path, ports: dict[str, int], host: str = "127.0.0.1",
+                 binds: dict[str, str] | None = None) -> None:
         super().__init__(daemon=True, name="fly-monitor")
         from gcs.dialect import towerlink as tl
         self.tl = tl
@@ -121,7 +147,7 @@ class Monitor(threading.Thread):
         self.tlogs = {}
         for name, port in ports.items():
             s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-            s.bind((host, port))
+            s.bind(((binds or {}).get(name, host), port))    # binds: a link heard from another host
             s.setblocking(False)
             self.socks[name] = s
             p = tl.MAVLink(None)
@@ -272,7 +298,8 @@ class Launch:
                  loss_seed: int = 1, sitl_args: tuple[str, ...] = (), bridge_args: tuple[str, ...] = (),
                  tower_args: tuple[str, ...] = (), echo: bool = False, host: str = "127.0.0.1",
                  view_port: int | None = None, nodes: str | os.PathLike | None = None,
-                 lockstep: bool = False, follow_with: str = "bridge", foll_pos_p: float | None = None) -> None:
+                 lockstep: bool = False, follow_with: str = "bridge", foll_pos_p: float | None = None,
+                 world=None) -> None:
         from gcs.scenario import load_scenario, scenario_path
         self.dir = Path(run_dir)
         self.dir.mkdir(parents=True, exist_ok=True)
@@ -290,6 +317,7 @@ class Launch:
         self.sitl_args, self.bridge_args, self.tower_args = sitl_args, bridge_args, tower_args
         self.echo = echo
         self.host = host
+        self.world = world      # tools.hosts.WorldHost: the world runs on another host; None: here
         self.nodes = sorted(Path(nodes).glob("*.py")) if nodes else []
         if nodes and not self.nodes:
             raise ValueError(f"no nodes (*.py) in {nodes}")
@@ -336,12 +364,14 @@ class Launch:
                                  start_new_session=True, env=env, bufsize=1)
             threading.Thread(target=self._read_tower, args=(p, log), daemon=True).start()
         else:
-            p = subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT, start_new_session=True, env=env)
+            # stdin: none reads it, and a world started through `ssh -tt` would take the terminal raw
+            p = subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT, start_new_session=True, env=env,
+                                 stdin=subprocess.DEVNULL)
         self.procs[name] = p
         return p
 
     def sitl_cmd(self) -> list[str]:
-        h = self.host
+        h, out = self._world_binds()
         if self.family:
             return self.family_sitl_cmd()
         # the bridge and the tower are the lockstep participants: the world waits for both at t=0
@@ -350,8 +380,17 @@ class Launch:
                              "--no-save", "--tcp-base", "0", "--udp-base", "0",
                              "--endpoint", f"0=udpin:{h}:{self.ports['drone']}",
                              "--endpoint", f"1=udpin:{h}:{self.ports['rover']}",
-                             "--out", f"udpout:{h}:{self.ports['vehicles']}", *self._scenario_wind(),
+                             "--out", f"udpout:{out}:{self.ports['vehicles']}", *self._scenario_wind(),
                              *lock, *(("--rovers", "2") if self.follow_with == "both" else ()), *self.sitl_args)
+
+    def _world_binds(self) -> tuple[str, str]:
+        """(where the world's endpoints listen, where it pushes its telemetry)."""
+        return (self.world.bind, self.world.local) if self.world else (self.host, self.host)
+
+    @property
+    def world_addr(self) -> str:
+        """Where the bridge (and the van's driver) reach the world's endpoints."""
+        return self.world.addr if self.world else self.host
 
     def _scenario_wind(self) -> list[str]:
         """The scenario's wind table as `sitl --wind` (none when it has no wind)."""
@@ -363,16 +402,15 @@ class Launch:
 
     def family_sitl_cmd(self) -> list[str]:
         """Every vehicle of the scenario, vehicle i (sysid i+1) on its own udpin port."""
-        h, sc = self.host, self.sc
+        (h, out), sc = self._world_binds(), self.sc
         cmd = towerlink_cmd("sitl", "--drones", str(len(sc.drones)), "--rovers", str(len(sc.rovers)),
                             "--speedup", speedup_text(self.speedup), "--seed", str(self.seed), "--no-save",
                             "--tcp-base", "0", "--udp-base", "0",
                             "--home=" + ",".join(f"{v:.10g}" for v in SITL_HOME),   # "=": it starts with "-"
-                            "--out", f"udpout:{h}:{self.ports['vehicles']}", *self._scenario_wind())
+                            "--out", f"udpout:{out}:{self.ports['vehicles']}", *self._scenario_wind())
         if self.lockstep:
-            # participants: the bridge, one tower connection per drone with goals, the van's driver
-            n = 1 + sum(1 for d in sc.drones if d.goals) + (sc.van is not None)
-            cmd += ["--lockstep", str(n)]
+            # the bridge, the family's one tower link (gcs.tower_link) and the van's driver
+            cmd += ["--lockstep", str(2 + (sc.van is not None))]
         for _name, sysid, _kind in sc.vehicles:
             cmd += ["--endpoint", f"{sysid - 1}=udpin:{h}:{self.ports[f'vehicle{sysid}']}"]
         if sc.van is not None:
@@ -406,8 +444,8 @@ class Launch:
                 f.flush()
             try:
                 # with lockstep a participant for the van alone, on the van's own endpoint
-                # (compid 200: the world tells it from the tower's connections)
-                with Client.connect(f"udpout:{self.host}:{self.ports['van_driver']}", log=log,
+                # (compid 200: the world tells it from the tower's link)
+                with Client.connect(f"udpout:{self.world_addr}:{self.ports['van_driver']}", log=log,
                                     source_component=200, lockstep=self.lockstep,
                                     lockstep_target=van.sysid) as c:
                     c.wait_heartbeat(van.sysid, timeout=60)
@@ -421,14 +459,14 @@ class Launch:
                 log(f"could not start the van: {exc}")
 
     def bridge_cmd(self) -> list[str]:
-        h = self.host
+        h, w = self.host, self.world_addr
         if self.family:
             vehicles = []
             for _name, sysid, _kind in self.sc.vehicles:
-                vehicles += ["--vehicle", f"{sysid}=udpout:{h}:{self.ports[f'vehicle{sysid}']}"]
+                vehicles += ["--vehicle", f"{sysid}=udpout:{w}:{self.ports[f'vehicle{sysid}']}"]
         else:
-            vehicles = ["--drone", f"udpout:{h}:{self.ports['drone']}",
-                        "--rover", f"udpout:{h}:{self.ports['rover']}"]
+            vehicles = ["--drone", f"udpout:{w}:{self.ports['drone']}",
+                        "--rover", f"udpout:{w}:{self.ports['rover']}"]
         cmd = towerlink_cmd("bridge", "--tower", f"udpin:{h}:{self.ports['tower']}", *vehicles,
                             "--out", f"udpout:{h}:{self.ports['bridge']}",
                             "--speedup", speedup_text(self.speedup))
@@ -493,7 +531,7 @@ class Launch:
         """World, monitor, bridge, (loss proxy), tower: in that order."""
         self.t_wall0 = time.monotonic()
         self.monitor = Monitor(self.dir, {"vehicles": self.ports["vehicles"], "bridge": self.ports["bridge"]},
-                               self.host)
+                               self.host, {"vehicles": self._world_binds()[1]})
         if self.view_port is not None:
             from tools.live_view import LiveView
             self.view = LiveView(self.host, self.view_port)
@@ -505,7 +543,7 @@ class Launch:
                                             load_scenario(self.scenario).follow_offset, self.foll_pos_p)
             self.monitor.listeners["vehicles"] = self.ap_driver.on_message
         self.monitor.start()
-        self._start("sitl", self.sitl_cmd())
+        self.start_world()
         if self.family and self.sc.van is not None:
             self.van_driver = threading.Thread(target=self.drive_van, daemon=True, name="van-driver")
             self.van_driver.start()
@@ -521,6 +559,17 @@ class Launch:
             self.proxy.start()
         self._start("tower", self.tower_cmd())
         self.write_meta()
+
+    def world_cmd(self) -> list[str]:
+        """The command that starts the world, where it runs (--world-cmd-prefix)."""
+        return self.world.command(self.sitl_cmd()) if self.world else self.sitl_cmd()
+
+    def start_world(self) -> None:
+        if self.world is not None and self.world.attach:      # the user starts it there
+            print(f"towerlink fly: start the world on {self.world.addr}:\n  {shlex.join(self.world_cmd())}",
+                  flush=True)
+            return
+        self._start("sitl", self.world_cmd())
 
     def start_bridge(self) -> subprocess.Popen:
         return self._start("bridge", self.bridge_cmd())
@@ -553,7 +602,10 @@ class Launch:
                 p = self.procs.get(name)
                 if p is not None and p.poll() is not None:
                     raise RuntimeError(f"{name} exited with status {p.returncode}; see {self.dir / (name + '.log')}")
-            if now - last_params > 2.0 and self.monitor is not None:
+            # every 0.5 s until the scoring parameters have come (a short lockstep run at max
+            # speed is over in a few wall seconds), then every 2 s
+            missing = self.monitor is not None and any(n not in self.monitor.params for n in SCORING_PARAMS)
+            if now - last_params > (0.5 if missing else 2.0) and self.monitor is not None:
                 last_params = now
                 self.monitor.request_params()
             if self.ap_driver is not None:
@@ -599,9 +651,9 @@ class Launch:
                 "seed": self.seed,
                 "follow_frame": self.follow_frame, "goals": self.goals, "tower_loss": self.tower_loss,
                 "follow_with": self.follow_with, "ardupilot_follower": self.ap_follower,
-                "ports": self.ports,
+                "ports": self.ports, "world_host": self.world.describe() if self.world else None,
                 "commands": {k: shlex.join(v) for k, v in
-                             (("sitl", self.sitl_cmd()), ("bridge", self.bridge_cmd()), ("tower", self.tower_cmd()),
+                             (("sitl", self.world_cmd()), ("bridge", self.bridge_cmd()), ("tower", self.tower_cmd()),
                               *((f"node-{p.stem}", self.node_cmd(p)) for p in self.nodes))}}
         (self.dir / "meta.json").write_text(json.dumps(meta, indent=2))
 
@@ -725,7 +777,8 @@ def _json_default(o):
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenario", nargs="?", default=None,
                         help="scenario TOML, or a shipped one by name: default, family (3 drones, "
-                             "3 rovers), van (the tower on a moving van); default: the lab scenario")
+                             "3 rovers), family100 (100 drones in lanes on two layers), van (the tower on "
+                             "a moving van); default: the lab scenario")
     parser.add_argument("--speedup", type=speedup_type, default=5.0, metavar="N|max",
                         help="at most N sim seconds per wall second (default 5; the machine may deliver less); "
                              "'max': as fast as the machine and the lockstep participants allow")
@@ -761,7 +814,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "rover, sysid 3, in FOLLOW); the summary gives each one's follow error")
     parser.add_argument("--foll-pos-p", type=float, default=None,
                         help="FOLL_POS_P for ArduPilot's follow (default: ArduPilot's 0.1)")
+    parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                        help="a vehicle parameter for the world (ArduPilot name, e.g. WPNAV_SPEED=300); "
+                             "repeatable; written to RUN/params.parm and passed as sitl --params")
     parser.add_argument("-v", "--verbose", action="store_true", help="echo the tower's log lines")
+    from tools import hosts
+    hosts.add_arguments(parser)
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
 
 
@@ -773,17 +831,33 @@ def run(args: argparse.Namespace) -> int:
     except ScenarioError as exc:
         print(f"towerlink fly: {exc}", file=sys.stderr)
         return 2
+    sitl_args: tuple[str, ...] = ()
+    if args.param:      # --param NAME=VALUE: a .parm file of defaults for the world (sitl --params)
+        lines = []
+        for item in args.param:
+            name, _eq, value = item.partition("=")
+            try:
+                lines.append(f"{name.strip()} {float(value):.9g}")
+            except ValueError:
+                print(f"towerlink fly: --param {item!r}: write NAME=VALUE, e.g. WPNAV_SPEED=300", file=sys.stderr)
+                return 2
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "params.parm").write_text("\n".join(lines) + "\n")
+        sitl_args = ("--params", str((out / "params.parm").resolve()))
     try:
+        from tools import hosts
+        world = hosts.from_args(args)
         launch = Launch(out, scenario=args.scenario, speedup=args.speedup, seed=args.seed,
                         follow_frame=args.follow_frame, goals=args.goals, alt=args.alt, radius=args.radius,
                         finish=args.finish, goal_timeout=args.goal_timeout, tower_loss=args.tower_loss,
                         echo=args.verbose, view_port=args.view, nodes=args.nodes,
-                        lockstep=args.lockstep, follow_with=args.follow_with, foll_pos_p=args.foll_pos_p)
+                        lockstep=args.lockstep, follow_with=args.follow_with, foll_pos_p=args.foll_pos_p,
+                        world=world, sitl_args=sitl_args)
     except ValueError as exc:
         print(f"towerlink fly: {exc}", file=sys.stderr)
         return 2
-    print(f"towerlink fly: world + bridge + tower on 127.0.0.1 (ports {launch.ports}); run folder {out}",
-          flush=True)
+    where = f"bridge + tower on 127.0.0.1, {world.describe()}" if world else "world + bridge + tower on 127.0.0.1"
+    print(f"towerlink fly: {where} (ports {launch.ports}); run folder {out}", flush=True)
     if math.isinf(args.speedup) and not args.lockstep:
         print("towerlink fly: --speedup max without --lockstep: the world runs as fast as the CPU and the "
               "bridge and the tower fall behind it; the figures will depend on the machine", file=sys.stderr)
@@ -811,6 +885,8 @@ def run(args: argparse.Namespace) -> int:
     finally:
         launch.stop()
         signal.signal(signal.SIGTERM, old)
+        if world is not None and world.attach:
+            print(f"towerlink fly: the world on {world.addr} is yours to stop (Ctrl-C there)", flush=True)
     if failure:
         print(f"towerlink fly: {failure}; all processes stopped", file=sys.stderr, flush=True)
     try:

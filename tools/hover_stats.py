@@ -64,9 +64,13 @@ def _stat(x) -> dict[str, Any]:
     return {"rms": float(np.sqrt(np.mean(x * x))), "max": float(x.max()), "n": int(x.size)}
 
 
-def hover_figures(data, drone: int = 1) -> dict[str, Any]:
-    """Hover error and wobble of `drone` (sysid) from a RunData; {} when it never hovered."""
+def hover_figures(data, drone: int = 1, until: float | None = None) -> dict[str, Any]:
+    """Hover error and wobble of `drone` (sysid) from a RunData, up to sim time `until` (s; the
+    mission's end: what the recording holds after it, while the launcher stops the processes,
+    lasts as long as the machine takes); {} when it never hovered."""
     tr = data.truth.get(drone)
+    if tr is not None and until is not None:
+        tr = tr.window(None, until)
     if tr is None or not len(tr):
         return {}
     vel = np.column_stack([tr.extra["vn"], tr.extra["ve"], tr.extra["vd"]])

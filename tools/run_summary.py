@@ -412,7 +412,7 @@ def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
                       "max_tilt_deg": float(tilt.max())}
 
     from tools.hover_stats import hover_figures
-    hover = hover_figures(data, DRONE)
+    hover = hover_figures(data, DRONE, until=tower.get("end_sim"))     # not the tail fly records while stopping
     hover["wind"] = list(sc.wind) if sc.wind else None
 
     reached = sum(g["reached"] for g in goals_out)

@@ -252,6 +252,22 @@ class _FleetBase:
                             np.array([s.wx[i], s.wy[i], s.wz[i]]), np.array([s.ax[i], s.ay[i], s.az[i]]),
                             self.sim_time)
 
+    TRUTH_ROW = ("px", "py", "pz", "vx", "vy", "vz", "qx", "qy", "qz", "qw", "wx", "wy", "wz", "ax", "ay", "az")
+    _truth_snap: tuple | None = None       # (sim_time, rows) of one step
+
+    def truth_row(self, i: int) -> list[float]:
+        """truth(i) as Python floats, in TRUTH_ROW's order (SIM_STATE of every vehicle at
+        10 Hz): a vector fleet lists all its vehicles' rows once per step."""
+        if self.scalar:
+            s = self._ps[i]
+            return [getattr(s, k) for k in self.TRUTH_ROW]
+        snap = self._truth_snap
+        if snap is None or snap[0] != self.sim_time:
+            s = self._phys
+            snap = self._truth_snap = (self.sim_time,
+                                       np.column_stack([getattr(s, k) for k in self.TRUTH_ROW]).tolist())
+        return snap[1][i]
+
     # ---- estimate ----------------------------------------------------------------
     def _scalar_est_live(self) -> bool:
         return self.scalar and self.use_estimator and self._ests[0] is not None
@@ -293,6 +309,28 @@ class _FleetBase:
         e = self.estimator
         return VehicleState(e.pos[i].copy(), e.vel[i].copy(), e.quat[i].copy(), e.rates[i].copy(),
                             e.acc[i].copy(), self.sim_time)
+
+    _est_snap: tuple | None = None         # (sim_time, pos, vel, quat, rates) of one step
+
+    def estimate_rows(self, i: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """estimate(i)'s pos, vel, quat, rates (the same values), for the autopilots of a big
+        world that read every vehicle each tick: a vector fleet copies its estimate arrays
+        once per step and hands out rows of that copy (read-only views) instead of building
+        a VehicleState per vehicle."""
+        if self.scalar:
+            e = self.estimate(i)
+            return e.pos, e.vel, e.quat, e.rates
+        snap = self._est_snap
+        if snap is None or snap[0] != self.sim_time:          # stepped since: a new snapshot
+            if self.use_estimator:
+                e = self.estimator
+                arrays = [e.pos.copy(), e.vel.copy(), e.quat.copy(), e.rates.copy()]
+            else:
+                arrays = [self.pos, self.vel, self.quat, self.rates]     # fresh stacks of the truth
+            for a in arrays:
+                a.flags.writeable = False
+            snap = self._est_snap = (self.sim_time, *arrays)
+        return snap[1][i], snap[2][i], snap[3][i], snap[4][i]
 
     def estimate_ok(self, i: int) -> bool:
         """Position estimate good (pre-arm): always True when flying on truth."""

@@ -59,14 +59,6 @@ def finite(p, *idx: int) -> bool:
     return all(math.isfinite(p[i]) for i in idx)
 
 
-def _vec(state, *names, default=None):
-    for n in names:
-        v = getattr(state, n, None)
-        if v is not None:
-            return np.asarray(v, float)
-    return default
-
-
 class Autopilot:
     kind = "?"
     mav_type = 0
@@ -118,25 +110,56 @@ class Autopilot:
 
     # ----- state read-back ------------------------------------------------------------
     def refresh(self) -> None:
-        est = self.fleet.estimate(self.i)
-        self.pos = _vec(est, "pos", "position", default=np.zeros(3))
-        self.vel = _vec(est, "vel", "velocity", default=np.zeros(3))
-        self.quat = _vec(est, "quat", "q", "attitude", default=np.array([0.0, 0.0, 0.0, 1.0]))
-        self.rates = _vec(est, "rates", "omega", "gyro", "ang_vel", default=np.zeros(3))
-        self.yaw = euler_from_quaternion(self.quat)[2]
+        self.pos, self.vel, self.quat, self.rates = self.fleet.estimate_rows(self.i)
+        self._euler = self._lla = None
         self.est_ok = bool(self.fleet.estimate_ok(self.i))
         self.on_ground = bool(self.fleet.landed(self.i))
 
+    _euler: tuple[float, float, float] | None = None
+
+    @property
+    def euler(self) -> tuple[float, float, float]:
+        """(roll, pitch, yaw) in rad of the estimated attitude (R = Rz(yaw) Ry(pitch) Rx(roll),
+        body FRD -> world NED); worked out on first use after a refresh (most ticks nobody
+        asks, and a 1,000-vehicle world refreshes every vehicle every tick)."""
+        e = self._euler
+        if e is None:
+            e = self._euler = euler_from_quaternion(self.quat)
+        return e
+
+    @property
+    def yaw(self) -> float:
+        """Estimated heading, rad from north, clockwise seen from above."""
+        return self.euler[2]
+
+    _lla: tuple[float, float, float] | None = None
+
     def lla(self, ned=None) -> tuple[float, float, float]:
-        return geo.ned_to_lla(self.origin, self.pos if ned is None else ned)
+        """(lat deg, lon deg, alt m AMSL) of world NED `ned`, by default of the estimate
+        (worked out once per refresh: several telemetry messages want it)."""
+        if ned is not None:
+            return geo.ned_to_lla(self.origin, ned)
+        lla = self._lla
+        if lla is None:
+            lla = self._lla = geo.ned_to_lla(self.origin, self.pos)
+        return lla
 
     def ekf_origin(self) -> tuple[float, float, float] | None:
         """(lat deg, lon deg, alt m AMSL) of the local NED frame's origin once the estimator
         has set it (GPS_GLOBAL_ORIGIN), else None."""
         return self.local_origin.lla
 
+    _home_lla: tuple | None = None         # (home NED as bytes, its lat/lon/alt)
+
     def home_lla(self) -> tuple[float, float, float]:
-        return geo.ned_to_lla(self.origin, self.home if self.home is not None else self.start_ned)
+        """(lat, lon, alt AMSL) of home (of the start before home is set); kept while home's
+        value stays the same (home may be changed in place)."""
+        ned = self.home if self.home is not None else self.start_ned
+        key = ned.tobytes()
+        c = self._home_lla
+        if c is None or c[0] != key:
+            c = self._home_lla = (key, geo.ned_to_lla(self.origin, ned))
+        return c[1]
 
     @property
     def sysid(self) -> int:

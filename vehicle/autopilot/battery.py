@@ -23,6 +23,7 @@ Monitor (AP_BattMonitor; BATT_MONITOR 0 none, 3 voltage only, 4 voltage and curr
 from __future__ import annotations
 
 import math
+from bisect import bisect_left
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -39,13 +40,18 @@ MOTOR_EFFICIENCY = 0.8     # shaft power / electrical power of motors and ESCs
 AVG_TAU = 10.0             # s: current average for time_remaining
 
 
+_OCV_TOPS = [s1 for s1, _ in OCV_CURVE[1:]]          # upper end of each curve segment
+_OCV_SEGMENTS = list(zip(OCV_CURVE, OCV_CURVE[1:]))
+
+
 def cell_ocv(soc_pct: float) -> float:
     """Open-circuit voltage of one cell (V) at soc_pct % (clamped to 0..100)."""
     s = min(100.0, max(0.0, soc_pct))
-    for (s0, v0), (s1, v1) in zip(OCV_CURVE, OCV_CURVE[1:]):
-        if s <= s1:
-            return v0 + (v1 - v0) * (s - s0) / (s1 - s0)
-    return OCV_CURVE[-1][1]
+    k = bisect_left(_OCV_TOPS, s)                      # the first segment with s <= its top
+    if k == len(_OCV_SEGMENTS):
+        return OCV_CURVE[-1][1]
+    (s0, v0), (s1, v1) = _OCV_SEGMENTS[k]
+    return v0 + (v1 - v0) * (s - s0) / (s1 - s0)
 
 
 @dataclass
@@ -77,6 +83,11 @@ class Battery:
         self._crit_since: float | None = None
         self.t = 0.0
 
+    _pack_key: tuple | None = None
+    _pack_cfg: tuple[float, int, float] = (0.0, 1, 1.0)
+    _avg_dt: float | None = None
+    _avg_k = 0.0
+
     def reboot(self) -> None:
         """The autopilot restarts: its monitor counts from zero, the pack keeps its charge."""
         self.consumed_mah = self.consumed_wh = 0.0
@@ -103,8 +114,12 @@ class Battery:
         """Advance by dt seconds drawing load_w watts (on top of the avionics); returns the
         failsafe level reached now (NONE if none was)."""
         self.t = t
-        full, cells, cap = self._pack(p)
-        ocv = full * cell_ocv(self.soc(p)) / CELL_FULL
+        g = p.get
+        key = (g("SIM_BATT_VOLTAGE", 12.6), g("SIM_BATT_CAP_AH", 0.0), g("BATT_CAPACITY", 3300))
+        if key != self._pack_key:             # the pack's figures, re-derived when they change
+            self._pack_key, self._pack_cfg = key, self._pack(p)
+        full, cells, cap = self._pack_cfg
+        ocv = full * cell_ocv(max(0.0, 100.0 * (1.0 - self.pack_used_mah / cap))) / CELL_FULL   # soc(p)
         r = CELL_RESISTANCE * cells
         power = AVIONICS_W + max(0.0, float(load_w) if math.isfinite(load_w) else 0.0)
         disc = ocv * ocv - 4.0 * r * power
@@ -120,7 +135,9 @@ class Battery:
         self.pack_used_mah += mah
         self.consumed_mah += mah
         self.consumed_wh += self.voltage * i * dt / 3600.0
-        k = 1.0 - math.exp(-dt / AVG_TAU) if dt > 0 else 0.0
+        if dt != self._avg_dt:                 # the tick is fixed: one exp per tick length
+            self._avg_dt, self._avg_k = dt, (1.0 - math.exp(-dt / AVG_TAU) if dt > 0 else 0.0)
+        k = self._avg_k
         self.avg_current += (i - self.avg_current) * k
         return self._check_failsafe(t, armed, p)
 
@@ -153,30 +170,34 @@ class Battery:
         return BatteryReading(self.voltage, self.current if cur else None, self.consumed_mah if cur else None,
                               self.consumed_wh if cur else None, rem, tr, self.failsafe)
 
-    def _levels(self, p: Mapping[str, float]) -> tuple[bool, bool, bool, bool]:
-        """(low voltage, low capacity, critical voltage, critical capacity) right now."""
-        v = self.resting_voltage if int(p.get("BATT_FS_VOLTSRC", 0)) == 1 else self.voltage
-        low_v, crt_v = float(p.get("BATT_LOW_VOLT", 10.5)), float(p.get("BATT_CRT_VOLT", 0))
-        low_mah, crt_mah = float(p.get("BATT_LOW_MAH", 0)), float(p.get("BATT_CRT_MAH", 0))
-        left = float(p.get("BATT_CAPACITY", 3300)) - self.consumed_mah
-        cur = self.has_current(p)
-        return (v > 0 and low_v > 0 and v < low_v, cur and low_mah > 0 and left < low_mah,
-                v > 0 and crt_v > 0 and v < crt_v, cur and crt_mah > 0 and left < crt_mah)
-
     def _check_failsafe(self, t: float, armed: bool, p: Mapping[str, float]) -> int:
-        if self.monitor_type(p) == 0:
+        # runs every tick for every vehicle: each parameter is read once, capacity only armed
+        g = p.get
+        monitor = int(g("BATT_MONITOR", 4))
+        if monitor == 0:
             return NONE
-        low_v, low_c, crt_v, crt_c = self._levels(p)
-        timer = float(p.get("BATT_LOW_TIMER", 10))
+        v = self.resting_voltage if int(g("BATT_FS_VOLTSRC", 0)) == 1 else self.voltage
+        low_volt, crt_volt = float(g("BATT_LOW_VOLT", 10.5)), float(g("BATT_CRT_VOLT", 0))
+        low_v = v > 0 and low_volt > 0 and v < low_volt
+        crt_v = v > 0 and crt_volt > 0 and v < crt_volt
         # the voltage timers run whether armed or not; the failsafe is only raised armed
         self._crit_since = (self._crit_since if self._crit_since is not None else t) if crt_v else None
         self._low_since = (self._low_since if self._low_since is not None else t) if low_v else None
+        if not armed:
+            return NONE
+        # capacity: current monitoring only (BATT_MONITOR 3 is voltage only)
+        cur = monitor != 3
+        low_mah, crt_mah = float(g("BATT_LOW_MAH", 0)), float(g("BATT_CRT_MAH", 0))
+        left = float(g("BATT_CAPACITY", 3300)) - self.consumed_mah
+        low_c = cur and low_mah > 0 and left < low_mah
+        crt_c = cur and crt_mah > 0 and left < crt_mah
+        timer = float(g("BATT_LOW_TIMER", 10))
         level = NONE
         if (crt_v and timer > 0 and t - self._crit_since > timer) or crt_c:
             level = CRITICAL
         elif (low_v and timer > 0 and t - self._low_since > timer) or low_c:
             level = LOW
-        if not armed or level <= self.failsafe:
+        if level <= self.failsafe:
             return NONE
         self.failsafe = level
         return level

@@ -14,6 +14,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from gcs import geo
 from gcs.frames import euler_from_quaternion
+from vehicle.link.framing import layout
 
 
 # stream group parameter -> MAVLink message ids it schedules (ArduPilot's groups, plus
@@ -68,29 +69,72 @@ def _i(v: float, lo: int, hi: int) -> int:
 
 
 class Telemetry:
-    """Builds messages for one vehicle; `link` gives mav (encoder), ap (autopilot), clock."""
+    """Builds messages for one vehicle; `link` gives framer, ap (autopilot), clock.
+
+    Each message has one builder, `<name>_fields()`: the field values in the order of
+    pymavlink's constructor (None when not available now). `frame(msgid)` packs them straight
+    onto the wire (vehicle/link/framing.py: no message object); `build(msgid)` and the
+    `<name>()` methods give pymavlink message objects for replies and tests."""
 
     def __init__(self, link) -> None:
         self.link = link
+        # msgid -> its field builder (the messages this vehicle can send on request or stream)
         self.builders = {
-            mav.MAVLINK_MSG_ID_HEARTBEAT: self.heartbeat,
-            mav.MAVLINK_MSG_ID_SYS_STATUS: self.sys_status,
-            mav.MAVLINK_MSG_ID_GPS_RAW_INT: self.gps_raw_int,
-            mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: self.global_position_int,
-            mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED: self.local_position_ned,
-            mav.MAVLINK_MSG_ID_ATTITUDE: self.attitude,
-            mav.MAVLINK_MSG_ID_ATTITUDE_QUATERNION: self.attitude_quaternion,
-            mav.MAVLINK_MSG_ID_VFR_HUD: self.vfr_hud,
-            mav.MAVLINK_MSG_ID_HOME_POSITION: self.home_position,
-            mav.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: self.extended_sys_state,
-            mav.MAVLINK_MSG_ID_SYSTEM_TIME: self.system_time,
-            mav.MAVLINK_MSG_ID_BATTERY_STATUS: self.battery_status,
-            mav.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED: self.position_target_local_ned,
-            mav.MAVLINK_MSG_ID_SIM_STATE: self.sim_state,
-            mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION: self.autopilot_version,
-            mav.MAVLINK_MSG_ID_MISSION_CURRENT: lambda: self.link.missions.mission_current(),
-            mav.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN: self.gps_global_origin,
+            mav.MAVLINK_MSG_ID_HEARTBEAT: self.heartbeat_fields,
+            mav.MAVLINK_MSG_ID_SYS_STATUS: self.sys_status_fields,
+            mav.MAVLINK_MSG_ID_GPS_RAW_INT: self.gps_raw_int_fields,
+            mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: self.global_position_int_fields,
+            mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED: self.local_position_ned_fields,
+            mav.MAVLINK_MSG_ID_ATTITUDE: self.attitude_fields,
+            mav.MAVLINK_MSG_ID_ATTITUDE_QUATERNION: self.attitude_quaternion_fields,
+            mav.MAVLINK_MSG_ID_VFR_HUD: self.vfr_hud_fields,
+            mav.MAVLINK_MSG_ID_HOME_POSITION: self.home_position_fields,
+            mav.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: self.extended_sys_state_fields,
+            mav.MAVLINK_MSG_ID_SYSTEM_TIME: self.system_time_fields,
+            mav.MAVLINK_MSG_ID_BATTERY_STATUS: self.battery_status_fields,
+            mav.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED: self.position_target_local_ned_fields,
+            mav.MAVLINK_MSG_ID_SIM_STATE: self.sim_state_fields,
+            mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION: self.autopilot_version_fields,
+            mav.MAVLINK_MSG_ID_MISSION_CURRENT: self.mission_current_fields,
+            mav.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN: self.gps_global_origin_fields,
         }
+
+    def build(self, msgid: int):
+        """The message object with this id, or None if not available now (unknown id, home unset)."""
+        b = self.builders.get(msgid)
+        if b is None:
+            return None
+        v = b()
+        return None if v is None else layout(msgid).cls(*v)
+
+    def frame(self, msgid: int) -> bytes | None:
+        """The message with this id framed for the link (advances nothing: the caller counts
+        the sequence number), or None if not available now."""
+        v = self.builders[msgid]()
+        return None if v is None else self.link.framer.frame(msgid, v)
+
+    # the message objects (replies, share_positions, tests)
+    def heartbeat(self):
+        return self.build(mav.MAVLINK_MSG_ID_HEARTBEAT)
+
+    def sys_status(self):
+        return self.build(mav.MAVLINK_MSG_ID_SYS_STATUS)
+
+    def global_position_int(self):
+        return self.build(mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT)
+
+    def gps_global_origin(self):
+        return self.build(mav.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN)
+
+    def battery_status(self):
+        return self.build(mav.MAVLINK_MSG_ID_BATTERY_STATUS)
+
+    def autopilot_version(self):
+        return self.build(mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
+
+    def mission_current_fields(self) -> tuple:
+        m = self.link.missions.mission_current()
+        return tuple(getattr(m, f) for f in m.fieldnames)
 
     # time
     def boot_ms(self) -> int:
@@ -99,18 +143,13 @@ class Telemetry:
     def usec(self) -> int:
         return int(self.link.clock() * 1e6)
 
-    def build(self, msgid: int):
-        """The message with this id, or None if not available now (unknown id, home unset)."""
-        b = self.builders.get(msgid)
-        return b() if b is not None else None
-
     # messages
-    def heartbeat(self):
+    def heartbeat_fields(self) -> tuple:
         ap = self.link.ap
-        return mav.MAVLink_heartbeat_message(ap.mav_type, mav.MAV_AUTOPILOT_ARDUPILOTMEGA, ap.base_mode(),
-                                             ap.mode, ap.system_status(), 3)
+        return (ap.mav_type, mav.MAV_AUTOPILOT_ARDUPILOTMEGA, ap.base_mode(),
+                ap.mode, ap.system_status(), 3)
 
-    def sys_status(self):
+    def sys_status_fields(self) -> tuple:
         ap = self.link.ap
         health = SENSORS_PRESENT & ~(S.MAV_SYS_STATUS_PREARM_CHECK)
         if not ap.est_ok:
@@ -134,97 +173,88 @@ class Telemetry:
             health &= ~S.MAV_SYS_STATUS_SENSOR_BATTERY
         elif b.failsafe:
             health &= ~S.MAV_SYS_STATUS_SENSOR_BATTERY
-        return mav.MAVLink_sys_status_message(
-            present, enabled, health, 100, 0 if b.voltage is None else _i(b.voltage * 1000, 0, 65535),
-            -1 if b.current is None else _i(b.current * 100, -1, 32767),
-            -1 if b.remaining_pct is None else b.remaining_pct, 0, 0, 0, 0, 0, 0, 0, 0, 0)
+        return (present, enabled, health, 100, 0 if b.voltage is None else _i(b.voltage * 1000, 0, 65535),
+                -1 if b.current is None else _i(b.current * 100, -1, 32767),
+                -1 if b.remaining_pct is None else b.remaining_pct, 0, 0, 0, 0, 0, 0, 0, 0, 0)
 
-    def gps_raw_int(self):
+    def gps_raw_int_fields(self) -> tuple:
         ap = self.link.ap
         lat, lon, alt = ap.lla()
         ok = ap.est_ok
-        gs = float(np.hypot(ap.vel[0], ap.vel[1]))
-        cog = math.degrees(math.atan2(ap.vel[1], ap.vel[0])) % 360.0 if gs > 0.2 else 0.0
-        return mav.MAVLink_gps_raw_int_message(
-            self.usec(), mav.GPS_FIX_TYPE_3D_FIX if ok else mav.GPS_FIX_TYPE_NO_FIX,
-            _i(lat * 1e7, -2**31, 2**31 - 1) if ok else 0, _i(lon * 1e7, -2**31, 2**31 - 1) if ok else 0,
-            _i(alt * 1000, -2**31, 2**31 - 1) if ok else 0, 121 if ok else 65535, 200 if ok else 65535,
-            _i(gs * 100, 0, 65534), _i(cog * 100, 0, 35999), 10 if ok else 0,
-            _i(alt * 1000, -2**31, 2**31 - 1), 300, 500, 100, 0, 0)
+        vx, vy, _ = ap.vel.tolist()
+        gs = float(np.hypot(vx, vy))
+        cog = math.degrees(math.atan2(vy, vx)) % 360.0 if gs > 0.2 else 0.0
+        return (self.usec(), mav.GPS_FIX_TYPE_3D_FIX if ok else mav.GPS_FIX_TYPE_NO_FIX,
+                _i(lat * 1e7, -2**31, 2**31 - 1) if ok else 0, _i(lon * 1e7, -2**31, 2**31 - 1) if ok else 0,
+                _i(alt * 1000, -2**31, 2**31 - 1) if ok else 0, 121 if ok else 65535, 200 if ok else 65535,
+                _i(gs * 100, 0, 65534), _i(cog * 100, 0, 35999), 10 if ok else 0,
+                _i(alt * 1000, -2**31, 2**31 - 1), 300, 500, 100, 0, 0)
 
-    def global_position_int(self):
+    def global_position_int_fields(self) -> tuple:
         ap = self.link.ap
         lat, lon, alt = ap.lla()
         home_alt = ap.home_lla()[2]
         hdg = math.degrees(ap.yaw) % 360.0
-        return mav.MAVLink_global_position_int_message(
-            self.boot_ms(), _i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1),
-            _i(alt * 1000, -2**31, 2**31 - 1), _i((alt - home_alt) * 1000, -2**31, 2**31 - 1),
-            _i(ap.vel[0] * 100, -32768, 32767), _i(ap.vel[1] * 100, -32768, 32767),
-            _i(ap.vel[2] * 100, -32768, 32767), _i(hdg * 100, 0, 35999))
+        vx, vy, vz = ap.vel.tolist()
+        return (self.boot_ms(), _i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1),
+                _i(alt * 1000, -2**31, 2**31 - 1), _i((alt - home_alt) * 1000, -2**31, 2**31 - 1),
+                _i(vx * 100, -32768, 32767), _i(vy * 100, -32768, 32767),
+                _i(vz * 100, -32768, 32767), _i(hdg * 100, 0, 35999))
 
-    def local_position_ned(self):
+    def local_position_ned_fields(self) -> tuple | None:
         # NED from this vehicle's EKF origin; none before it is set (ArduPilot has no local
         # position then either)
         ap = self.link.ap
         if not ap.local_origin.is_set:
             return None
-        p, v = ap.local_origin.to_local(ap.pos), ap.vel
-        return mav.MAVLink_local_position_ned_message(self.boot_ms(), float(p[0]), float(p[1]), float(p[2]),
-                                                      float(v[0]), float(v[1]), float(v[2]))
+        return (self.boot_ms(), *ap.local_origin.to_local(ap.pos).tolist(), *ap.vel.tolist())
 
-    def attitude(self):
+    def attitude_fields(self) -> tuple:
         ap = self.link.ap
-        r, p, y = euler_from_quaternion(ap.quat)
-        w = ap.rates
-        return mav.MAVLink_attitude_message(self.boot_ms(), r, p, y, float(w[0]), float(w[1]), float(w[2]))
+        return (self.boot_ms(), *ap.euler, *ap.rates.tolist())
 
-    def attitude_quaternion(self):
+    def attitude_quaternion_fields(self) -> tuple:
         ap = self.link.ap
-        x, y, z, w = (float(v) for v in ap.quat)
-        r = ap.rates
-        return mav.MAVLink_attitude_quaternion_message(self.boot_ms(), w, x, y, z, float(r[0]), float(r[1]),
-                                                       float(r[2]), [0.0, 0.0, 0.0, 0.0])
+        x, y, z, w = ap.quat.tolist()
+        return (self.boot_ms(), w, x, y, z, *ap.rates.tolist(), [0.0, 0.0, 0.0, 0.0])
 
-    def vfr_hud(self):
+    def vfr_hud_fields(self) -> tuple:
         ap = self.link.ap
-        gs = float(np.hypot(ap.vel[0], ap.vel[1]))
+        vx, vy, vz = ap.vel.tolist()
+        gs = float(np.hypot(vx, vy))
         thr = 0 if not ap.armed else (15 if ap.on_ground else 50)
-        return mav.MAVLink_vfr_hud_message(gs, gs, _i(math.degrees(ap.yaw) % 360.0, 0, 359), thr,
-                                           float(ap.lla()[2]), float(-ap.vel[2]))
+        return (gs, gs, _i(math.degrees(ap.yaw) % 360.0, 0, 359), thr, float(ap.lla()[2]), -vz)
 
-    def home_position(self):
+    def home_position_fields(self) -> tuple | None:
         ap = self.link.ap
         if ap.home is None:
             return None
         lat, lon, alt = ap.home_lla()
         h = ap.local_origin.to_local(ap.home)       # x, y, z: home in the local (EKF origin) frame
-        return mav.MAVLink_home_position_message(
-            _i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1), _i(alt * 1000, -2**31, 2**31 - 1),
-            float(h[0]), float(h[1]), float(h[2]), [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0, self.usec())
+        return (_i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1), _i(alt * 1000, -2**31, 2**31 - 1),
+                float(h[0]), float(h[1]), float(h[2]), [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0, self.usec())
 
-    def gps_global_origin(self):
+    def gps_global_origin_fields(self) -> tuple | None:
         """Where the vehicle's local NED (0, 0, 0) is; None until the EKF origin is set."""
         o = self.link.ap.ekf_origin()
         if o is None:
             return None
         lat, lon, alt = o
-        return mav.MAVLink_gps_global_origin_message(
-            _i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1),
-            _i(alt * 1000, -2**31, 2**31 - 1), self.usec())
+        return (_i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1),
+                _i(alt * 1000, -2**31, 2**31 - 1), self.usec())
 
-    def extended_sys_state(self):
-        return mav.MAVLink_extended_sys_state_message(mav.MAV_VTOL_STATE_UNDEFINED, self.link.ap.landed_state())
+    def extended_sys_state_fields(self) -> tuple:
+        return (mav.MAV_VTOL_STATE_UNDEFINED, self.link.ap.landed_state())
 
-    def system_time(self):
+    def system_time_fields(self) -> tuple:
         # one clock reading for both fields: time_unix_usec - time_boot_ms * 1000 is then the
         # world's start in unix time (to the ms truncation of time_boot_ms), the offset a
         # bridge uses to put vehicles of different worlds/processes on one timeline
         t = self.link.clock()
-        return mav.MAVLink_system_time_message(int(self.link.unix_start_us + int(t * 1e6)),
-                                               int(t * 1000.0) & 0xFFFFFFFF)
+        return (int(self.link.unix_start_us + int(t * 1e6)),
+                int(t * 1000.0) & 0xFFFFFFFF)
 
-    def battery_status(self):
+    def battery_status_fields(self) -> tuple | None:
         """As ArduPilot's send_battery_status: no cell voltages, so voltages[0] is the pack
         (mV), the rest UINT16_MAX; energy in hJ; -1 where the monitor cannot measure;
         charge_state from the battery failsafe. None with BATT_MONITOR 0 (no battery)."""
@@ -234,17 +264,16 @@ class Telemetry:
             return None
         state = {0: mav.MAV_BATTERY_CHARGE_STATE_OK, 1: mav.MAV_BATTERY_CHARGE_STATE_LOW,
                  2: mav.MAV_BATTERY_CHARGE_STATE_CRITICAL}[r.failsafe]
-        return mav.MAVLink_battery_status_message(
-            0, mav.MAV_BATTERY_FUNCTION_ALL, mav.MAV_BATTERY_TYPE_LIPO, 32767,
-            [_i(r.voltage * 1000, 0, 65534)] + [65535] * 9,
-            -1 if r.current is None else _i(r.current * 100, -1, 32767),
-            -1 if r.consumed_mah is None else _i(r.consumed_mah, -1, 2**31 - 1),
-            -1 if r.consumed_wh is None else _i(r.consumed_wh * 36, -1, 2**31 - 1),
-            -1 if r.remaining_pct is None else r.remaining_pct,
-            0 if r.time_remaining is None else _i(r.time_remaining, 0, 2**31 - 1),
-            state, [0, 0, 0, 0], 0, 0)
+        return (0, mav.MAV_BATTERY_FUNCTION_ALL, mav.MAV_BATTERY_TYPE_LIPO, 32767,
+                [_i(r.voltage * 1000, 0, 65534)] + [65535] * 9,
+                -1 if r.current is None else _i(r.current * 100, -1, 32767),
+                -1 if r.consumed_mah is None else _i(r.consumed_mah, -1, 2**31 - 1),
+                -1 if r.consumed_wh is None else _i(r.consumed_wh * 36, -1, 2**31 - 1),
+                -1 if r.remaining_pct is None else r.remaining_pct,
+                0 if r.time_remaining is None else _i(r.time_remaining, 0, 2**31 - 1),
+                state, [0, 0, 0, 0], 0, 0)
 
-    def position_target_local_ned(self):
+    def position_target_local_ned_fields(self) -> tuple | None:
         ap = self.link.ap
         t = ap.echo
         if t is None:
@@ -252,29 +281,19 @@ class Telemetry:
         p = ap.local_origin.to_local(t.pos) if t.pos is not None else (0.0, 0.0, 0.0)
         v = t.vel if t.vel is not None else (0.0, 0.0, 0.0)
         a = t.acc if t.acc is not None else (0.0, 0.0, 0.0)
-        return mav.MAVLink_position_target_local_ned_message(
-            self.boot_ms(), mav.MAV_FRAME_LOCAL_NED, t.type_mask, float(p[0]), float(p[1]), float(p[2]),
-            float(v[0]), float(v[1]), float(v[2]), float(a[0]), float(a[1]), float(a[2]),
-            float(t.yaw or 0.0), float(t.yaw_rate or 0.0))
+        return (self.boot_ms(), mav.MAV_FRAME_LOCAL_NED, t.type_mask, float(p[0]), float(p[1]), float(p[2]),
+                float(v[0]), float(v[1]), float(v[2]), float(a[0]), float(a[1]), float(a[2]),
+                float(t.yaw or 0.0), float(t.yaw_rate or 0.0))
 
-    def sim_state(self):
+    def sim_state_fields(self) -> tuple:
         ap = self.link.ap
-        tr = ap.fleet.truth(ap.i)
-        pos = np.asarray(getattr(tr, "pos", ap.pos), float)
-        vel = np.asarray(getattr(tr, "vel", ap.vel), float)
-        q = np.asarray(getattr(tr, "quat", ap.quat), float)
-        w = np.asarray(getattr(tr, "rates", ap.rates), float)
-        acc = np.asarray(getattr(tr, "acc", np.zeros(3)), float)
-        r, p, y = euler_from_quaternion(q)
-        lat, lon, alt = geo.ned_to_lla(ap.origin, pos)
-        return mav.MAVLink_sim_state_message(
-            float(q[3]), float(q[0]), float(q[1]), float(q[2]), r, p, y,
-            float(acc[0]), float(acc[1]), float(acc[2]), float(w[0]), float(w[1]), float(w[2]),
-            lat, lon, alt, 0.0, 0.0, float(vel[0]), float(vel[1]), float(vel[2]),
-            _i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1))
+        px, py, pz, vx, vy, vz, qx, qy, qz, qw, wx, wy, wz, ax, ay, az = ap.fleet.truth_row(ap.i)
+        r, p, y = euler_from_quaternion((qx, qy, qz, qw))
+        lat, lon, alt = geo.ned_to_lla(ap.origin, (px, py, pz))
+        return (qw, qx, qy, qz, r, p, y, ax, ay, az, wx, wy, wz, lat, lon, alt, 0.0, 0.0, vx, vy, vz,
+                _i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1))
 
-    def autopilot_version(self):
+    def autopilot_version_fields(self) -> tuple:
         ap = self.link.ap
-        return mav.MAVLink_autopilot_version_message(
-            CAPABILITIES, FLIGHT_SW_VERSION, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0,
-            0x746C0000 + ap.sysid, [0] * 18)
+        return (CAPABILITIES, FLIGHT_SW_VERSION, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0,
+                0x746C0000 + ap.sysid, [0] * 18)

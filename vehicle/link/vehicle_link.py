@@ -36,6 +36,7 @@ from gcs.mavstr import mav_str
 from gcs.signing import SIGNING_EPOCH, UNSIGNED, SignatureCheck
 from vehicle.link import ftp
 from vehicle.link.endpoints import Channel, Endpoint, make_endpoint
+from vehicle.link.framing import Framer
 from vehicle.link.mission_link import MISSION_MESSAGES, MissionLink
 from vehicle.link.paced_queue import PacedQueue
 from vehicle.link.telemetry import DATA_STREAMS, STREAM_GROUPS, Telemetry
@@ -84,6 +85,7 @@ class VehicleLink:
         self.specs = list(endpoints)
         self.endpoints: list[Endpoint] = [make_endpoint(s, self.on_data) for s in endpoints]
         self.mav = mav.MAVLink(_Out(), srcSystem=ap.sysid, srcComponent=COMP_ID)
+        self.framer = Framer(self.mav)         # streams: packed without message objects
         self.udp_parser = self._parser()
         self.telemetry = Telemetry(self)
         self.stats: Counter = Counter()
@@ -178,9 +180,9 @@ class VehicleLink:
             for msgid, interval in self.schedule.items():
                 nd = due[msgid]
                 if t + 1e-9 >= nd:
-                    msg = self.telemetry.build(msgid)
-                    if msg is not None:
-                        batch.append(msg.pack(self.mav))
+                    buf = self.telemetry.frame(msgid)
+                    if buf is not None:
+                        batch.append(buf)
                         self.mav.seq = (self.mav.seq + 1) % 256
                     nd += interval
                     nd = due[msgid] = nd if nd > t else t + interval

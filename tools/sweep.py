@@ -1,0 +1,343 @@
+"""Sweep a mission over seeds, wind, tower-link loss, follow frame, speed limits, any scenario value.
+
+Each run is `towerlink fly --lockstep --speedup max --seed S ...` (the same figures at any speed
+and load) in its own processes and free ports, as a Ray task (num_cpus=1): local by default
+with no set-up, on a cluster with --address. Needs the sweep extra: pip install 'towerlink[sweep]'.
+
+  towerlink sweep --seeds 1-20                                   # the lab mission, 20 seeds
+  towerlink sweep --set follow_frame=drone,drone_yaw --set tower_loss=0,0.2 --seeds 1-3
+  towerlink sweep --grid examples/sweep/frames_loss.toml --out sweeps/frames
+  towerlink sweep --set WPNAV_SPEED=300,500,800 --set wind=0,8 --seeds 1-5
+  towerlink sweep --set mission.altitude=6,12 --address auto     # on a running Ray cluster
+  towerlink sweep --resume --out sweeps/frames                   # finish an interrupted sweep
+
+Factors (--set NAME=V1,V2,... adds a grid factor; a sweep file gives [grid] and [[runs]]):
+  seed, wind (SPEED or [SPEED,DIR,TURB]), tower_loss (0..1), follow_frame (drone|drone_yaw),
+  finish (land|rtl|none), any vehicle parameter by name (WPNAV_SPEED=300: cm/s), any scenario
+  value by dotted key (mission.altitude=12). The sweep file format: tools/sweep_grid.py.
+  Everything is checked before Ray starts.
+
+Output (--out DIR, default sweeps/<timestamp>):
+  DIR/runs/<run-id>/     each run's fly folder (summary.json, tlogs, tracks.png) and row.json
+  DIR/results.csv        one row per run: run_id, the factors, pass, reason, wall_s, the key
+  DIR/results.parquet    figures, then every number of summary.json flattened (dotted names)
+  DIR/sweep.png          follow error, wobble, reach-time ratios and failure rate by factor
+  DIR/effects.txt        each factor's effect: per level mean ± std and pass rate (also printed)
+  DIR/sweep.json         the plan: scenario, options, every run's id and factors
+
+Run ids are hashes of the scenario and the factors: rerunning the same sweep into the same
+DIR (or --resume) does not redo finished runs. A run that fails or times out is a row with
+pass False and its reason. Ctrl-C stops the running flights cleanly and writes the table of
+the finished ones. Exit status 0 when every run has a row (failed missions are results), 2
+for a bad plan or a missing Ray, 130 when interrupted.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import os
+import sys
+import time
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from tools.sweep_grid import Plan, Run, SweepError
+
+INSTALL_HINT = ("towerlink sweep needs Ray and pyarrow, the sweep extra: "
+                "pip install 'towerlink[sweep]' (in this checkout: pip install -e '.[sweep]', or make sweep)")
+PROJECT_ROOT = str(Path(__file__).resolve().parent.parent)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scenario", nargs="?", default=None,
+                        help="scenario TOML or a shipped one by name (default: the sweep file's, else the lab's)")
+    parser.add_argument("--grid", metavar="FILE.toml", help="sweep file: [grid] factor = [values], [[runs]], "
+                        "seeds, timeout (see examples/sweep/)")
+    parser.add_argument("--set", dest="sets", action="append", default=[], metavar="FACTOR=V1,V2,...",
+                        help="sweep a factor over these values (repeatable; replaces the file's)")
+    parser.add_argument("--seeds", metavar="SPEC", help="the seeds, e.g. 1-20 or 1,3,5 (default 1)")
+    parser.add_argument("--out", metavar="DIR", help="sweep folder (default sweeps/<timestamp>)")
+    parser.add_argument("--address", metavar="ray://HOST:10001|auto",
+                        help="a Ray cluster to run on (default: a local Ray started for this sweep)")
+    parser.add_argument("--parallel", type=int, default=None, metavar="N",
+                        help="runs at once (default: the CPUs Ray has; each run is one CPU)")
+    parser.add_argument("--speedup", choices=("max",), default="max",
+                        help="every run flies in lockstep at --speedup max (the only choice: the figures "
+                             "do not depend on the speed)")
+    parser.add_argument("--timeout", type=float, default=None, metavar="S",
+                        help="wall seconds per run before it counts as failed (default 600)")
+    parser.add_argument("--goal-timeout", type=float, default=None, metavar="S",
+                        help="wall seconds per goal (fly --goal-timeout)")
+    parser.add_argument("--resume", action="store_true",
+                        help="continue the sweep in --out DIR from its sweep.json (no grid needed); "
+                             "finished runs are kept")
+    parser.add_argument("--dry-run", action="store_true", help="check the plan and list the runs; start nothing")
+
+
+# ----------------------------------------------------------------------------- the plan
+
+
+def build(args: argparse.Namespace) -> tuple[Path | None, dict, list[Run], Plan]:
+    """Scenario path, its data, the runs and the plan; SweepError / ScenarioError when bad."""
+    from gcs.scenario import ScenarioError, _build, scenario_path
+    from tools import sweep_grid as g
+    if args.resume:
+        if not args.out:
+            raise SweepError("--resume continues a sweep: give its folder with --out DIR")
+        saved = _read_json(Path(args.out) / "sweep.json")
+        if saved is None:
+            raise SweepError(f"--resume: {Path(args.out) / 'sweep.json'} is missing or damaged")
+        plan = Plan(grid=saved["plan"]["grid"], runs=saved["plan"]["runs"], scenario=saved["plan"]["scenario"],
+                    timeout=saved["plan"]["timeout"], goal_timeout=saved["plan"]["goal_timeout"])
+    elif args.grid:
+        try:
+            text = Path(args.grid).read_text()
+        except OSError as exc:
+            raise SweepError(f"--grid {args.grid}: {exc.strerror or exc}") from None
+        plan = g.plan_from_toml(text, where=args.grid)
+    else:
+        plan = Plan()
+    g.apply_cli(plan, args.sets, args.seeds)
+    if args.scenario:
+        plan.scenario = args.scenario
+    if args.timeout is not None:
+        plan.timeout = args.timeout
+    if args.goal_timeout is not None:
+        plan.goal_timeout = args.goal_timeout
+    for key in ("timeout", "goal_timeout"):
+        v = getattr(plan, key)
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise SweepError(f"--{key.replace('_', '-')} must be > 0 seconds")
+    path = scenario_path(plan.scenario).resolve() if plan.scenario else scenario_path(None).resolve()
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise ScenarioError(f"{path}: no such scenario file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+    _build(data, path)          # the scenario itself is sound
+    runs = g.expand(plan, data, g.scenario_digest(path), validate_scenario=lambda d: _build(d, path))
+    if not runs:
+        raise SweepError("the plan has no runs")
+    return path, data, runs, plan
+
+
+def _read_json(p: Path) -> dict | None:
+    from tools.sweep_run import read_json
+    return read_json(p)
+
+
+def run_specs(runs: list[Run], scenario: Path, data: dict, plan: Plan, out: Path) -> list[dict[str, Any]]:
+    """What each Ray task needs: fly's arguments, the run folder, its scenario copy."""
+    from tools import sweep_grid as g
+    specs = []
+    timeout = plan.timeout or 600.0
+    for r in runs:
+        run_dir = (out / "runs" / r.run_id).resolve()
+        copy = g.scenario_copy(data, r.factors)
+        flies = str(run_dir / "scenario.toml") if copy is not None else str(scenario)
+        specs.append({"run_id": r.run_id, "factors": r.factors, "run_dir": str(run_dir),
+                      "argv": g.fly_args(r.factors, flies, str(run_dir), timeout=timeout,
+                                         goal_timeout=plan.goal_timeout),
+                      "scenario_toml": g.to_toml(copy) if copy is not None else None,
+                      "timeout": timeout, "root": PROJECT_ROOT})
+    return specs
+
+
+# ----------------------------------------------------------------------------- Ray
+
+
+def start_ray(address: str | None, parallel: int | None):
+    """ray.init, quiet: no dashboard, a bounded object store, no usage stats, worker logs in
+    Ray's own folder (each run keeps its own logs in its folder)."""
+    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+    os.environ.setdefault("RAY_DEDUP_LOGS", "0")
+    # local workers inherit the driver's environment: they import this checkout's tools
+    os.environ["PYTHONPATH"] = os.pathsep.join(
+        [PROJECT_ROOT, *[p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p and p != PROJECT_ROOT]])
+    import ray
+    kw: dict[str, Any] = dict(include_dashboard=False, log_to_driver=False, logging_level=logging.ERROR,
+                              configure_logging=True)
+    if address:
+        ray.init(address=address, **kw)
+    else:
+        ray.init(num_cpus=parallel or os.cpu_count() or 1, object_store_memory=128 * 1024 * 1024, **kw)
+    return ray
+
+
+def _fmt_s(s: float) -> str:
+    s = max(0, int(round(s)))
+    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
+
+
+def execute(ray, specs: list[dict], parallel: int, on_row) -> bool:
+    """Run the specs as Ray tasks, at most `parallel` at once; on_row(spec, row, summary) as each
+    ends. Returns False when interrupted (Ctrl-C): running flights are cancelled and stopped."""
+    from tools.sweep_run import run_one
+    task = ray.remote(num_cpus=1, max_retries=0)(run_one)
+    todo = list(specs)
+    pending: dict[Any, dict] = {}
+    try:
+        while todo or pending:
+            while todo and len(pending) < parallel:
+                spec = todo.pop(0)
+                pending[task.remote(spec)] = spec
+            done, _ = ray.wait(list(pending), num_returns=1, timeout=1.0)
+            for ref in done:
+                spec = pending.pop(ref)
+                try:
+                    res = ray.get(ref)
+                    row, summary = res["row"], res["summary"]
+                except Exception as exc:  # noqa: BLE001 - a lost worker / task is a failed row
+                    from tools.sweep_table import make_row
+                    msg = str(exc).strip().splitlines()
+                    row = make_row(spec["run_id"], spec["factors"], None, wall_s=None,
+                                   reason=f"Ray task failed: {type(exc).__name__}: {msg[-1] if msg else ''}")
+                    summary = None
+                on_row(spec, row, summary)
+        return True
+    except KeyboardInterrupt:
+        print(f"\n[sweep] interrupted: stopping {len(pending)} running flight(s)...", flush=True)
+        for ref in pending:
+            try:
+                ray.cancel(ref)         # KeyboardInterrupt in the task: it stops its fly (SIGINT)
+            except Exception:  # noqa: BLE001
+                pass
+        deadline = time.monotonic() + 45.0
+        left = list(pending)
+        while left and time.monotonic() < deadline:
+            try:
+                _done, left = ray.wait(left, num_returns=len(left), timeout=1.0)
+            except KeyboardInterrupt:
+                break
+        return False
+
+
+# ----------------------------------------------------------------------------- output
+
+
+def write_outputs(out: Path, rows: list[dict], runs: list[Run], varying: list[str]) -> list[str]:
+    """results.csv, results.parquet, sweep.png, effects.txt (each written atomically)."""
+    import csv
+    import io
+    from tools import sweep_table as t
+    from tools.sweep_run import write_atomic
+    factor_names = list(dict.fromkeys(k for r in runs for k in r.factors))
+    cols = t.columns(rows, factor_names)
+    norm = t.normalise(rows, cols)
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=cols, lineterminator="\n")
+    w.writeheader()
+    for r in norm:
+        w.writerow({k: ("" if v is None else v) for k, v in r.items()})
+    write_atomic(out / "results.csv", buf.getvalue())
+    files = ["results.csv"]
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    table = pa.Table.from_pylist(norm)
+    tmp = out / ".results.parquet.tmp"
+    pq.write_table(table, tmp)
+    os.replace(tmp, out / "results.parquet")
+    files.append("results.parquet")
+    eff_factors = varying or ["seed"]
+    text = t.format_effects(t.effects(rows, eff_factors))
+    write_atomic(out / "effects.txt", text + "\n")
+    files.append("effects.txt")
+    try:
+        from tools.sweep_plots import plot_sweep
+        plot_sweep(rows, eff_factors, out / "sweep.png")
+        files.append("sweep.png")
+    except Exception as exc:  # noqa: BLE001 - a plot failure must not hide the table
+        print(f"[sweep] plot failed: {exc}", file=sys.stderr)
+    return files
+
+
+def run(args: argparse.Namespace) -> int:
+    from gcs.scenario import ScenarioError
+    from tools import sweep_grid as g
+    from tools import sweep_table as t
+    from tools.sweep_run import finished, write_atomic
+    try:
+        scenario, data, runs, plan = build(args)
+        if args.parallel is not None and args.parallel < 1:
+            raise SweepError("--parallel must be >= 1")
+    except (SweepError, ScenarioError) as exc:
+        print(f"towerlink sweep: {exc}", file=sys.stderr)
+        return 2
+    varying = g.varying_factors(runs)
+    out = Path(args.out) if args.out else Path("sweeps") / time.strftime("%Y%m%d-%H%M%S")
+    if args.dry_run:
+        for r in runs:
+            print(f"{r.run_id}  {r.label()}")
+        print(f"{len(runs)} runs of {scenario.name}; varying: {', '.join(varying) or 'nothing'}")
+        return 0
+    try:
+        import pyarrow  # noqa: F401
+        import ray  # noqa: F401
+    except ImportError:
+        print(f"towerlink sweep: {INSTALL_HINT}", file=sys.stderr)
+        return 2
+    (out / "runs").mkdir(parents=True, exist_ok=True)
+    specs = run_specs(runs, scenario, data, plan, out)
+    write_atomic(out / "sweep.json", json.dumps({
+        "scenario": str(scenario),
+        "plan": {"grid": plan.grid, "runs": plan.runs, "scenario": plan.scenario, "timeout": plan.timeout,
+                 "goal_timeout": plan.goal_timeout},
+        "runs": [{"run_id": r.run_id, "factors": r.factors} for r in runs]}, indent=1))
+    rows: dict[str, dict] = {}
+    for spec in specs:          # finished earlier: re-read (a newer table code re-flattens)
+        row = finished(Path(spec["run_dir"]))
+        if row is not None:
+            summary = _read_json(Path(spec["run_dir"]) / "summary.json")
+            rows[spec["run_id"]] = t.make_row(spec["run_id"], spec["factors"], summary, wall_s=row.get("wall_s"),
+                                              reason=row.get("reason") or None) if summary else row
+    resumed = len(rows)
+    todo = [s for s in specs if s["run_id"] not in rows]
+    total = len(specs)
+    print(f"towerlink sweep: {total} runs of {scenario.name} ({len(todo)} to fly, {resumed} already finished) "
+          f"varying {', '.join(varying) or 'nothing'}; folder {out}", flush=True)
+    t0 = time.monotonic()
+    ok = True
+    if todo:
+        ray = start_ray(args.address, args.parallel)
+        try:
+            cpus = int(ray.available_resources().get("CPU", 1)) or 1
+            parallel = min(args.parallel or cpus, len(todo))
+            print(f"towerlink sweep: Ray {ray.__version__} "
+                  f"{'at ' + args.address if args.address else 'local'}, {parallel} run(s) at once", flush=True)
+            done_now = 0
+
+            def on_row(spec, row, summary):
+                nonlocal done_now
+                done_now += 1
+                rows[spec["run_id"]] = row
+                if summary is not None and not (Path(spec["run_dir"]) / "summary.json").exists():
+                    # a cluster worker's folder is on its own host: keep the summary and row here
+                    Path(spec["run_dir"]).mkdir(parents=True, exist_ok=True)
+                    write_atomic(Path(spec["run_dir"]) / "summary.json", json.dumps(summary, indent=1, default=str))
+                    write_atomic(Path(spec["run_dir"]) / "row.json", json.dumps(row, indent=1, default=str))
+                el = time.monotonic() - t0
+                failed = sum(not r.get("pass") for r in rows.values())
+                eta = el / done_now * (len(todo) - done_now)
+                res = "pass" if row.get("pass") else f"FAIL ({row.get('reason')})"
+                took = f", {row['wall_s']:.1f} s" if isinstance(row.get("wall_s"), (int, float)) else ""
+                print(f"[sweep] {len(rows)}/{total} done, {failed} failed, elapsed {_fmt_s(el)}, "
+                      f"ETA {_fmt_s(eta)} | {spec['run_id']} {g.format_factors(spec['factors'])}: {res}{took}",
+                      flush=True)
+
+            ok = execute(ray, todo, parallel, on_row)
+        finally:
+            ray.shutdown()
+    wall = time.monotonic() - t0
+    ordered = [rows[s["run_id"]] for s in specs if s["run_id"] in rows]
+    if ordered:
+        files = write_outputs(out, ordered, [r for r in runs if r.run_id in rows], varying)
+        print("\n" + (out / "effects.txt").read_text().rstrip())
+        print(f"\n{out}: {' '.join(files)}")
+    print(f"towerlink sweep: {t.summary_line(ordered, wall, skipped=resumed)}"
+          f"{'' if ok else f'; interrupted, {total - len(ordered)} run(s) left (rerun with --resume --out {out})'}",
+          flush=True)
+    return 0 if ok else 130

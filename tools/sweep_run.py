@@ -1,0 +1,140 @@
+"""One run of a sweep: `towerlink fly` in its own processes, its row written atomically (no Ray here).
+
+`run_one(spec)` is what a Ray task executes (tools/sweep.py wraps it in ray.remote); it never
+raises for a failed mission, a crashed fly or a timeout: those are rows with pass False and a
+reason. Only a cancellation (KeyboardInterrupt: Ctrl-C on the sweep, ray.cancel) propagates,
+after fly and everything it started have been stopped.
+
+A run folder is finished when its row.json (written last, atomically) and summary.json are
+there; `finished(run_dir)` is how a rerun knows not to redo it.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+ROW_FILE = "row.json"
+GRACE_S = 60.0          # beyond fly's own --timeout: fly stops itself and summarises first
+
+
+def write_atomic(path: Path, data: bytes | str) -> None:
+    """Write a file whole or not at all (a temporary beside it, then rename)."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    with open(tmp, "wb") as f:
+        f.write(data.encode() if isinstance(data, str) else data)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def read_json(path: Path) -> dict | None:
+    """A JSON object from a file, or None when it is missing or damaged."""
+    try:
+        d = json.loads(Path(path).read_text())
+    except (OSError, ValueError):
+        return None
+    return d if isinstance(d, dict) else None
+
+
+def finished(run_dir: Path) -> dict | None:
+    """The row of a finished run (row.json and summary.json complete), else None."""
+    row = read_json(Path(run_dir) / ROW_FILE)
+    if row is None or "pass" not in row:
+        return None
+    summary = read_json(Path(run_dir) / "summary.json")
+    if summary is None or "ok" not in summary:
+        # a run that never got as far as a summary (fly crashed or hung) has a row of its
+        # own reason; keep it only when it says so
+        return row if row.get("reason") and not row.get("pass") else None
+    return row
+
+
+def _fly_reason(log: Path) -> str | None:
+    """fly's own last word on a failure ('towerlink fly: timed out after 300 s wall; ...')."""
+    try:
+        lines = log.read_text(errors="replace").splitlines()
+    except OSError:
+        return None
+    for line in reversed(lines):
+        if line.startswith("towerlink fly: ") and "run folder" not in line and "(ports" not in line:
+            return line[len("towerlink fly: "):].removesuffix("; all processes stopped")
+    tail = [ln for ln in lines if ln.strip()][-1:]
+    return tail[0][:200] if tail else None
+
+
+def _die_with_parent() -> None:
+    """In the child: SIGTERM when the Ray worker that started it dies (Linux prctl)."""
+    try:
+        import ctypes
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)     # PR_SET_PDEATHSIG
+    except Exception:  # noqa: BLE001 - best effort; fly is also stopped by cancel
+        pass
+
+
+def _stop(p: subprocess.Popen) -> None:
+    """Stop fly as Ctrl-C does (it stops its processes and summarises), then for good."""
+    for sig, wait in ((signal.SIGINT, 30.0), (signal.SIGKILL, 10.0)):
+        if p.poll() is not None:
+            return
+        try:
+            os.killpg(p.pid, sig)
+        except (ProcessLookupError, PermissionError):
+            return
+        try:
+            p.wait(wait)
+        except subprocess.TimeoutExpired:
+            continue
+
+
+def run_one(spec: dict[str, Any]) -> dict[str, Any]:
+    """Fly one run. spec: run_id, factors, run_dir, argv (fly's arguments), timeout (s),
+    scenario_toml (the run's own scenario copy, or None), root (the project, for PYTHONPATH).
+    Returns {"row": ..., "summary": ...}."""
+    from tools.sweep_table import make_row
+    run_dir = Path(spec["run_dir"])
+    if run_dir.exists():            # an unfinished earlier attempt: start cleanly
+        shutil.rmtree(run_dir, ignore_errors=True)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    if spec.get("scenario_toml"):
+        (run_dir / "scenario.toml").write_text(spec["scenario_toml"])
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    root = spec.get("root")
+    if root:
+        env["PYTHONPATH"] = os.pathsep.join([root, *[p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p]])
+    cmd = [sys.executable, "-m", "tools.cli", *spec["argv"]]
+    log = run_dir / "fly.log"
+    reason = None
+    t0 = time.monotonic()
+    with open(log, "w") as out:
+        out.write(f"$ {' '.join(cmd)}\n")
+        out.flush()
+        p = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT, cwd=root or None, env=env,
+                             start_new_session=True, preexec_fn=_die_with_parent)
+        try:
+            rc = p.wait(float(spec["timeout"]) + GRACE_S)
+        except subprocess.TimeoutExpired:
+            _stop(p)
+            rc = p.returncode
+            reason = f"timed out: fly did not end within {float(spec['timeout']) + GRACE_S:g} s wall"
+        except BaseException:           # cancelled (KeyboardInterrupt from ray.cancel, Ctrl-C)
+            _stop(p)
+            raise
+    wall = time.monotonic() - t0
+    summary = read_json(run_dir / "summary.json")
+    if reason is None and (summary is None or not summary.get("ok") or rc != 0):
+        said = _fly_reason(log)
+        if summary is None:
+            reason = f"fly exited with status {rc}" + (f": {said}" if said else "") + " (no summary.json)"
+        elif rc not in (0, 1) or (said and "could not summarise" not in said and not summary.get("ok")):
+            reason = said if said else f"fly exited with status {rc}"
+    row = make_row(spec["run_id"], spec["factors"], summary, wall_s=round(wall, 3), reason=reason)
+    write_atomic(run_dir / ROW_FILE, json.dumps(row, indent=1, default=str))
+    return {"row": row, "summary": summary}
