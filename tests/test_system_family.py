@@ -13,8 +13,7 @@ import sys
 import numpy as np
 import pytest
 
-from system_support import finish, launched
-from test_system_lockstep import figures
+from system_support import figures, finish, launched
 
 pytestmark = pytest.mark.slow
 
