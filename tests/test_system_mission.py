@@ -44,8 +44,11 @@ def third_party_look(port: int) -> dict:
     from pymavlink import mavutil
     m = mavutil.mavlink_connection(f"udpout:127.0.0.1:{port}", source_system=200, dialect="ardupilotmega")
     try:
-        m.mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GCS, mavutil.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
-        hb = m.recv_match(type="HEARTBEAT", blocking=True, timeout=30)
+        hb, end = None, time.monotonic() + 60.0
+        while hb is None and time.monotonic() < end:
+            # a GCS heartbeat a second, as scripts do: the world may not be listening yet
+            m.mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GCS, mavutil.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+            hb = m.recv_match(type="HEARTBEAT", blocking=True, timeout=1)
         m.mav.param_request_read_send(1, 1, b"WPNAV_SPEED", -1)
         pv = m.recv_match(type="PARAM_VALUE", blocking=True, timeout=30)
         types: set[str] = set()
