@@ -49,8 +49,11 @@ def third_party_look(port: int) -> dict:
             # a GCS heartbeat a second, as scripts do: the world may not be listening yet
             m.mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GCS, mavutil.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
             hb = m.recv_match(type="HEARTBEAT", blocking=True, timeout=1)
-        m.mav.param_request_read_send(1, 1, b"WPNAV_SPEED", -1)
-        pv = m.recv_match(type="PARAM_VALUE", blocking=True, timeout=30)
+        pv, end = None, time.monotonic() + 30.0
+        while pv is None and time.monotonic() < end:
+            m.mav.param_request_read_send(1, 1, b"WPNAV_SPEED", -1)
+            pv = m.recv_match(type="PARAM_VALUE", condition="PARAM_VALUE.param_id=='WPNAV_SPEED'",
+                              blocking=True, timeout=1)
         types: set[str] = set()
         n, end = 0, time.monotonic() + 20.0
         while n < 300 and time.monotonic() < end:      # its next 300 messages
