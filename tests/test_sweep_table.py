@@ -135,6 +135,30 @@ def test_a_run_that_hangs_is_stopped_and_is_a_timed_out_row(tmp_path, monkeypatc
     assert "sitl" in log
 
 
+def test_stopping_a_run_also_stops_what_it_started_in_sessions_of_its_own(tmp_path):
+    # as fly starts the world, bridge and tower: a child in its own session, which a signal to
+    # the parent's group does not reach; the parent exits on SIGINT and leaves it behind
+    script = tmp_path / "parent.py"
+    script.write_text(
+        "import subprocess, sys, time\n"
+        "c = subprocess.Popen([sys.executable, '-c', 'import time; time.sleep(120)'], start_new_session=True)\n"
+        "print(c.pid, flush=True)\n"
+        "time.sleep(120)\n")
+    p = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True, start_new_session=True)
+    child = int(p.stdout.readline())
+    try:
+        assert sweep_run._alive(child)
+        sweep_run._stop(p, grace=5.0)
+        assert p.poll() is not None and not sweep_run._alive(child)
+    finally:
+        for pid in (p.pid, child):
+            try:
+                os.kill(pid, 9)
+            except ProcessLookupError:
+                pass
+        p.wait(5)
+
+
 def test_finished_needs_a_complete_row_and_summary(tmp_path):
     d = tmp_path / "r"
     d.mkdir()

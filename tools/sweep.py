@@ -206,7 +206,7 @@ def execute(ray, specs: list[dict], parallel: int, on_row) -> bool:
                 ray.cancel(ref)         # KeyboardInterrupt in the task: it stops its fly (SIGINT)
             except Exception:  # noqa: BLE001
                 pass
-        deadline = time.monotonic() + 45.0
+        deadline = time.monotonic() + 60.0
         left = list(pending)
         while left and time.monotonic() < deadline:
             try:
