@@ -155,6 +155,8 @@ def run_one(spec: dict[str, Any]) -> dict[str, Any]:
         (run_dir / "scenario.toml").write_text(spec["scenario_toml"])
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     root = spec.get("root")
+    if root and not Path(root, "tools", "cli.py").exists():
+        root = None             # another host (a cluster node): its own installed towerlink
     if root:
         env["PYTHONPATH"] = os.pathsep.join([root, *[p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p]])
     cmd = [sys.executable, "-m", "tools.cli", *spec["argv"]]
