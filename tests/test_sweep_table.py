@@ -208,3 +208,11 @@ def test_sweep_dry_run_lists_the_runs():
     lines = p.stdout.splitlines()
     assert lines[-1] == "12 runs of default.toml; varying: follow_frame, tower_loss, seed"
     assert len({ln.split()[0] for ln in lines[:-1]}) == 12
+
+
+def test_only_the_sweep_cli_imports_ray():
+    import re
+    pattern = re.compile(r"^\s*(import ray\b|from ray\b)", re.M)
+    users = sorted(str(p.relative_to(ROOT)) for d in ("gcs", "vehicle", "bridge", "tools", "examples")
+                   for p in (ROOT / d).rglob("*.py") if pattern.search(p.read_text(errors="replace")))
+    assert users == ["tools/sweep.py"]
