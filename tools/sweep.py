@@ -356,7 +356,7 @@ def run(args: argparse.Namespace) -> int:
         "scenario": str(scenario),
         "plan": {"grid": plan.grid, "runs": plan.runs, "scenario": plan.scenario, "timeout": plan.timeout,
                  "goal_timeout": plan.goal_timeout},
-        "runs": [{"run_id": r.run_id, "factors": r.factors} for r in runs]}, indent=1))
+        "runs": [{"run_id": r.run_id, "factors": r.factors} for r in runs]}, indent=1, default=str))
     rows: dict[str, dict] = {}
     for spec in specs:          # finished earlier: re-read (a newer table code re-flattens)
         row = finished(Path(spec["run_dir"]))
