@@ -5,12 +5,13 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 
-.PHONY: demo test bench venv clean help
+.PHONY: demo test bench sweep venv clean help
 
 help:
 	@echo "make demo   - fly the default tower -> bridge -> drone -> rover scenario"
 	@echo "make test   - run the test suite"
 	@echo "make bench  - run the benchmarks (peers side by side)"
+	@echo "make sweep  - install Ray (the sweep extra) and run the example sweep (examples/sweep)"
 
 # setuptools warns that folders named like the packages shadow them: for this checkout's
 # editable install that is the point, so the first command a person runs stays quiet
@@ -23,18 +24,29 @@ $(STAMP): pyproject.toml
 	rm -f $(VENV)/.installed-*
 	touch $@
 
+# the test suite also runs the Ray sweep test: test and sweep add the sweep extra (Ray, pyarrow);
+# make demo does not need it
+SWEEP_STAMP := $(VENV)/.installed-sweep-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
+$(SWEEP_STAMP): $(STAMP)
+	$(QUIET_EDITABLE) $(BIN)/python -m pip install -q -e '.[test,plot,sweep]'
+	rm -f $(VENV)/.installed-sweep-*
+	touch $@
+
 venv: $(STAMP)
 
 demo: $(STAMP)
 	$(BIN)/towerlink fly
 
-test: $(STAMP)
+test: $(SWEEP_STAMP)
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile -m "not slow"
 	$(BIN)/python -m pytest -q -m slow
 
 bench: $(STAMP)
 	$(QUIET_EDITABLE) $(BIN)/python -m pip install -q -e '.[test,plot,bench]'
 	$(BIN)/towerlink bench
+
+sweep: $(SWEEP_STAMP)
+	$(BIN)/towerlink sweep --grid examples/sweep/frames_loss.toml --out sweeps/frames_loss
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache .hypothesis

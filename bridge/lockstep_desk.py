@@ -39,6 +39,7 @@ class LockstepDesk:
         self.on_barrier = on_barrier        # (t seconds) -> None: the sim-time upkeep
         self.log = log
         self.ticks: dict[str, int] = {}     # vehicle link name -> newest TICK, us
+        self._at: dict[int, int] = {}       # TICK time, us -> how many links' newest it is
         self.barrier_usec = -1
         self.period_usec = 0
         self.tower_joined = False
@@ -71,12 +72,22 @@ class LockstepDesk:
             return
         if v.name not in self.ticks:
             self.log(f"lockstep: {v.name} link ticks (every {msg.period_usec / 1e3:g} ms sim)")
-        self.ticks[v.name] = max(self.ticks.get(v.name, -1), msg.time_usec)
+        old = self.ticks.get(v.name)
+        new = msg.time_usec if old is None else max(old, msg.time_usec)
+        self.ticks[v.name] = new
+        if new != old:          # how many links stand at each TICK: the barrier is the lowest
+            if old is not None:
+                self._at[old] -= 1
+                if not self._at[old]:
+                    del self._at[old]
+            self._at[new] = self._at.get(new, 0) + 1
         self.tick_wall[v.name] = self.wall()
         self.period_usec = msg.period_usec
         if len(self.ticks) < len(self.vehicles):
             return
-        barrier = min(self.ticks.values())
+        # min over the few TICK times links stand at (a frame or two apart), not over every
+        # link: with 100 vehicle links a min per TICK made each frame O(links**2)
+        barrier = min(self._at)
         if barrier <= self.barrier_usec:
             return
         self.barrier_usec = barrier

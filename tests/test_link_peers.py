@@ -175,3 +175,21 @@ def test_sitl_help_states_the_peer_rules():
     out = subprocess.run([sys.executable, "-m", "tools.cli", "sitl", "--help"], capture_output=True,
                          text=True, timeout=30).stdout
     assert "silent for 30 s" in out and "64 peers" in out
+
+
+def test_no_streams_are_built_until_a_peer_is_heard(world):
+    """Nobody to hear (a udpin without peers): the link builds no telemetry, so a big world of
+    idle endpoints costs little; the first valid packet starts the streams."""
+    w, dst, ep = world
+    link = w.vehicles[0].link
+    built: list[int] = []
+    frame = link.telemetry.frame
+    link.telemetry.frame = lambda msgid: built.append(msgid) or frame(msgid)
+    t0 = w.t
+    wait_until(lambda: w.t > t0 + 1.5, 10, "a sim second and a half")
+    assert built == [] and len(ep.peers) == 0
+    gcs = _sock()
+    gcs.sendto(_heartbeat(_encoder()), dst)
+    wait_until(lambda: _got(gcs), 5, "telemetry once a peer is heard")
+    assert mav.MAVLINK_MSG_ID_ATTITUDE in built
+    wait_until(lambda: mav.MAVLINK_MSG_ID_HEARTBEAT in built, 5, "the 1 Hz HEARTBEAT too")

@@ -300,3 +300,23 @@ def test_bench_counts_messages_per_coalesced_datagram():
     assert m1[0] == 0xFE
     assert messages_in(_packet(1) + own + m1 + _packet(2)) == 3
     assert messages_in(own) == 0 and messages_in(b"") == 0
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 5), st.integers(0, 3)), min_size=1, max_size=80))
+def test_bridge_barrier_is_the_lowest_newest_tick_over_every_link(steps):
+    """The desk's counted barrier equals min(newest TICK per link), TICKs in any order."""
+    from bridge.lockstep_desk import LockstepDesk
+    links = 6
+    vehicles = {s: SimpleNamespace(name=f"v{s}", sysid=s, link=SimpleNamespace(send=lambda d: None))
+                for s in range(links)}
+    barriers = []
+    desk = LockstepDesk(vehicles, lambda m: m, lambda m: None, barriers.append, lambda line: None, lambda: 0.0)
+    newest: dict[int, int] = {}
+    for link, frame in steps:
+        t = frame * 40000
+        desk.on_vehicle(vehicles[link], tl.MAVLink_towerlink_lockstep_message(t, 0, tl.TOWERLINK_LOCKSTEP_KIND_TICK, 0, 40000))
+        newest[link] = max(newest.get(link, -1), t)
+        if len(newest) == links:
+            assert desk.barrier_usec == min(newest.values())
+    assert barriers == sorted(set(barriers))          # each barrier once, in order

@@ -22,7 +22,8 @@ Output (--out DIR, default sweeps/<timestamp>):
   DIR/results.csv        one row per run: run_id, the factors, pass, reason, wall_s, the key
   DIR/results.parquet    figures, then every number of summary.json flattened (dotted names)
   DIR/sweep.png          follow error, wobble, reach-time ratios and failure rate by factor
-  DIR/effects.txt        each factor's effect: per level mean ± std and pass rate (also printed)
+  DIR/effects.txt        each factor's effect (seeds are repeats): per level mean ± std of the
+                         follow error, wobble and reach-time ratio, and the pass rate (also printed)
   DIR/sweep.json         the plan: scenario, options, every run's id and factors
 
 Run ids are hashes of the scenario and the factors: rerunning the same sweep into the same
@@ -38,6 +39,7 @@ import json
 import logging
 import math
 import os
+import signal
 import sys
 import time
 import tomllib
@@ -61,7 +63,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seeds", metavar="SPEC", help="the seeds, e.g. 1-20 or 1,3,5 (default 1)")
     parser.add_argument("--out", metavar="DIR", help="sweep folder (default sweeps/<timestamp>)")
     parser.add_argument("--address", metavar="ray://HOST:10001|auto",
-                        help="a Ray cluster to run on (default: a local Ray started for this sweep)")
+                        help="a Ray cluster to run on (default: a local Ray started for this sweep); every "
+                             "node needs towerlink installed, and DIR is best on a shared file system (else "
+                             "each run's folder stays on its node; summary.json and row.json come back here)")
     parser.add_argument("--parallel", type=int, default=None, metavar="N",
                         help="runs at once (default: the CPUs Ray has; each run is one CPU)")
     parser.add_argument("--speedup", choices=("max",), default="max",
@@ -159,12 +163,12 @@ def start_ray(address: str | None, parallel: int | None):
     os.environ["PYTHONPATH"] = os.pathsep.join(
         [PROJECT_ROOT, *[p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p and p != PROJECT_ROOT]])
     import ray
-    kw: dict[str, Any] = dict(include_dashboard=False, log_to_driver=False, logging_level=logging.ERROR,
-                              configure_logging=True)
-    if address:
-        ray.init(address=address, **kw)
+    quiet: dict[str, Any] = dict(log_to_driver=False, logging_level=logging.ERROR)
+    if address:     # a cluster (ray://HOST:10001 through Ray Client, or auto): it has its own settings
+        ray.init(address=address, **quiet)
     else:
-        ray.init(num_cpus=parallel or os.cpu_count() or 1, object_store_memory=128 * 1024 * 1024, **kw)
+        ray.init(num_cpus=parallel or os.cpu_count() or 1, object_store_memory=128 * 1024 * 1024,
+                 include_dashboard=False, **quiet)
     return ray
 
 
@@ -173,15 +177,33 @@ def _fmt_s(s: float) -> str:
     return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
 
 
-def execute(ray, specs: list[dict], parallel: int, on_row) -> bool:
+class Interrupt:
+    """SIGINT / SIGTERM handler: remembers the request and raises KeyboardInterrupt. Ray's own
+    code may swallow the KeyboardInterrupt (during ray.init), so the loop also checks `hit`."""
+
+    def __init__(self) -> None:
+        self.hit = False
+
+    def __call__(self, signum, frame) -> None:
+        self.hit = True
+        raise KeyboardInterrupt
+
+    def check(self) -> None:
+        if self.hit:
+            raise KeyboardInterrupt
+
+
+def execute(ray, specs: list[dict], parallel: int, on_row, stop: Interrupt | None = None) -> bool:
     """Run the specs as Ray tasks, at most `parallel` at once; on_row(spec, row, summary) as each
     ends. Returns False when interrupted (Ctrl-C): running flights are cancelled and stopped."""
     from tools.sweep_run import run_one
     task = ray.remote(num_cpus=1, max_retries=0)(run_one)
     todo = list(specs)
     pending: dict[Any, dict] = {}
+    stop = stop or Interrupt()
     try:
         while todo or pending:
+            stop.check()
             while todo and len(pending) < parallel:
                 spec = todo.pop(0)
                 pending[task.remote(spec)] = spec
@@ -206,7 +228,7 @@ def execute(ray, specs: list[dict], parallel: int, on_row) -> bool:
                 ray.cancel(ref)         # KeyboardInterrupt in the task: it stops its fly (SIGINT)
             except Exception:  # noqa: BLE001
                 pass
-        deadline = time.monotonic() + 45.0
+        deadline = time.monotonic() + 60.0
         left = list(pending)
         while left and time.monotonic() < deadline:
             try:
@@ -242,7 +264,9 @@ def write_outputs(out: Path, rows: list[dict], runs: list[Run], varying: list[st
     pq.write_table(table, tmp)
     os.replace(tmp, out / "results.parquet")
     files.append("results.parquet")
-    eff_factors = varying or ["seed"]
+    # seeds are repeats, not a factor: the effects of the others, or all runs together
+    eff_factors = [f for f in varying if f != "seed"] or ["all"]
+    rows = [dict(r, all="all runs") for r in rows] if eff_factors == ["all"] else rows
     text = t.format_effects(t.effects(rows, eff_factors))
     write_atomic(out / "effects.txt", text + "\n")
     files.append("effects.txt")
@@ -253,6 +277,52 @@ def write_outputs(out: Path, rows: list[dict], runs: list[Run], varying: list[st
     except Exception as exc:  # noqa: BLE001 - a plot failure must not hide the table
         print(f"[sweep] plot failed: {exc}", file=sys.stderr)
     return files
+
+
+def _fly_all(args, todo: list[dict], rows: dict[str, dict], total: int, t0: float, stop: Interrupt) -> bool:
+    """Start Ray, fly the runs, shut Ray down; False when interrupted."""
+    from tools import sweep_grid as g
+    from tools.sweep_run import write_atomic
+    try:
+        ray = start_ray(args.address, args.parallel)
+    except KeyboardInterrupt:
+        stop.hit = True
+        ray = None
+    try:
+        if ray is None or stop.hit:
+            print("\n[sweep] interrupted while Ray was starting", flush=True)
+            return False
+        cpus = int(ray.available_resources().get("CPU", 1)) or 1
+        parallel = min(args.parallel or cpus, len(todo))
+        print(f"towerlink sweep: Ray {ray.__version__} "
+              f"{'at ' + args.address if args.address else 'local'}, {parallel} run(s) at once", flush=True)
+        done_now = 0
+
+        def on_row(spec, row, summary):
+            nonlocal done_now
+            done_now += 1
+            rows[spec["run_id"]] = row
+            if summary is not None and not (Path(spec["run_dir"]) / "summary.json").exists():
+                # a cluster worker's folder is on its own host: keep the summary and row here
+                Path(spec["run_dir"]).mkdir(parents=True, exist_ok=True)
+                write_atomic(Path(spec["run_dir"]) / "summary.json", json.dumps(summary, indent=1, default=str))
+                write_atomic(Path(spec["run_dir"]) / "row.json", json.dumps(row, indent=1, default=str))
+            el = time.monotonic() - t0
+            failed = sum(not r.get("pass") for r in rows.values())
+            eta = el / done_now * (len(todo) - done_now)
+            res = "pass" if row.get("pass") else f"FAIL ({row.get('reason')})"
+            took = f", {row['wall_s']:.1f} s" if isinstance(row.get("wall_s"), (int, float)) else ""
+            print(f"[sweep] {len(rows)}/{total} done, {failed} failed, elapsed {_fmt_s(el)}, "
+                  f"ETA {_fmt_s(eta)} | {spec['run_id']} {g.format_factors(spec['factors'])}: {res}{took}",
+                  flush=True)
+
+        return execute(ray, todo, parallel, on_row, stop)
+    finally:
+        if ray is not None:
+            try:
+                ray.shutdown()
+            except KeyboardInterrupt:
+                pass
 
 
 def run(args: argparse.Namespace) -> int:
@@ -286,7 +356,7 @@ def run(args: argparse.Namespace) -> int:
         "scenario": str(scenario),
         "plan": {"grid": plan.grid, "runs": plan.runs, "scenario": plan.scenario, "timeout": plan.timeout,
                  "goal_timeout": plan.goal_timeout},
-        "runs": [{"run_id": r.run_id, "factors": r.factors} for r in runs]}, indent=1))
+        "runs": [{"run_id": r.run_id, "factors": r.factors} for r in runs]}, indent=1, default=str))
     rows: dict[str, dict] = {}
     for spec in specs:          # finished earlier: re-read (a newer table code re-flattens)
         row = finished(Path(spec["run_dir"]))
@@ -301,36 +371,13 @@ def run(args: argparse.Namespace) -> int:
           f"varying {', '.join(varying) or 'nothing'}; folder {out}", flush=True)
     t0 = time.monotonic()
     ok = True
-    if todo:
-        ray = start_ray(args.address, args.parallel)
-        try:
-            cpus = int(ray.available_resources().get("CPU", 1)) or 1
-            parallel = min(args.parallel or cpus, len(todo))
-            print(f"towerlink sweep: Ray {ray.__version__} "
-                  f"{'at ' + args.address if args.address else 'local'}, {parallel} run(s) at once", flush=True)
-            done_now = 0
-
-            def on_row(spec, row, summary):
-                nonlocal done_now
-                done_now += 1
-                rows[spec["run_id"]] = row
-                if summary is not None and not (Path(spec["run_dir"]) / "summary.json").exists():
-                    # a cluster worker's folder is on its own host: keep the summary and row here
-                    Path(spec["run_dir"]).mkdir(parents=True, exist_ok=True)
-                    write_atomic(Path(spec["run_dir"]) / "summary.json", json.dumps(summary, indent=1, default=str))
-                    write_atomic(Path(spec["run_dir"]) / "row.json", json.dumps(row, indent=1, default=str))
-                el = time.monotonic() - t0
-                failed = sum(not r.get("pass") for r in rows.values())
-                eta = el / done_now * (len(todo) - done_now)
-                res = "pass" if row.get("pass") else f"FAIL ({row.get('reason')})"
-                took = f", {row['wall_s']:.1f} s" if isinstance(row.get("wall_s"), (int, float)) else ""
-                print(f"[sweep] {len(rows)}/{total} done, {failed} failed, elapsed {_fmt_s(el)}, "
-                      f"ETA {_fmt_s(eta)} | {spec['run_id']} {g.format_factors(spec['factors'])}: {res}{took}",
-                      flush=True)
-
-            ok = execute(ray, todo, parallel, on_row)
-        finally:
-            ray.shutdown()
+    stop = Interrupt()
+    old_handlers = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        ok = _fly_all(args, todo, rows, total, t0, stop) if todo else True
+    finally:
+        for sig, h in old_handlers.items():
+            signal.signal(sig, h)
     wall = time.monotonic() - t0
     ordered = [rows[s["run_id"]] for s in specs if s["run_id"] in rows]
     if ordered:

@@ -79,19 +79,67 @@ def _die_with_parent() -> None:
         pass
 
 
-def _stop(p: subprocess.Popen) -> None:
-    """Stop fly as Ctrl-C does (it stops its processes and summarises), then for good."""
-    for sig, wait in ((signal.SIGINT, 30.0), (signal.SIGKILL, 10.0)):
-        if p.poll() is not None:
-            return
-        try:
-            os.killpg(p.pid, sig)
-        except (ProcessLookupError, PermissionError):
-            return
-        try:
-            p.wait(wait)
-        except subprocess.TimeoutExpired:
+def _descendants(pid: int) -> list[int]:
+    """Every process below `pid` (Linux /proc): fly starts the world, the bridge and the tower in
+    sessions of their own, so a signal to fly's group does not reach them."""
+    children: dict[int, list[int]] = {}
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
             continue
+        try:
+            with open(f"/proc/{entry}/stat") as f:
+                ppid = int(f.read().rsplit(")", 1)[1].split()[1])
+        except (OSError, ValueError, IndexError):
+            continue
+        children.setdefault(ppid, []).append(int(entry))
+    out, todo = [], [pid]
+    while todo:
+        for c in children.get(todo.pop(), []):
+            out.append(c)
+            todo.append(c)
+    return out
+
+
+def _signal(pids: list[int], sig: int) -> None:
+    for pid in pids:
+        try:
+            os.kill(pid, sig)
+        except (ProcessLookupError, PermissionError):
+            pass
+
+
+def _stop(p: subprocess.Popen, grace: float = 20.0) -> None:
+    """Stop fly as Ctrl-C does (it stops its processes and summarises); whatever it started and
+    left behind is then stopped too (SIGTERM, then SIGKILL)."""
+    below = _descendants(p.pid)
+    if p.poll() is None:
+        try:
+            os.killpg(p.pid, signal.SIGINT)
+        except (ProcessLookupError, PermissionError):
+            pass
+        try:
+            p.wait(grace)
+        except subprocess.TimeoutExpired:
+            try:
+                os.killpg(p.pid, signal.SIGKILL)
+            except (ProcessLookupError, PermissionError):
+                pass
+            p.wait(10)
+    left = [q for q in below if _alive(q)]
+    _signal(left, signal.SIGTERM)
+    deadline = time.monotonic() + 5.0
+    while left and time.monotonic() < deadline:
+        time.sleep(0.1)
+        left = [q for q in left if _alive(q)]
+    _signal(left, signal.SIGKILL)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"     # a zombie has already stopped
+    except (OSError, IndexError):
+        return False
 
 
 def run_one(spec: dict[str, Any]) -> dict[str, Any]:
@@ -107,6 +155,8 @@ def run_one(spec: dict[str, Any]) -> dict[str, Any]:
         (run_dir / "scenario.toml").write_text(spec["scenario_toml"])
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     root = spec.get("root")
+    if root and not Path(root, "tools", "cli.py").exists():
+        root = None             # another host (a cluster node): its own installed towerlink
     if root:
         env["PYTHONPATH"] = os.pathsep.join([root, *[p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p]])
     cmd = [sys.executable, "-m", "tools.cli", *spec["argv"]]

@@ -58,6 +58,11 @@ class Endpoint:
 
     async def start(self) -> None: ...
     def send(self, buf: bytes) -> None: ...
+
+    def listened(self) -> bool:
+        """False when nobody can receive what send() would send now (a udpin with no peer, a
+        TCP server with no client): the link then builds no streams for it."""
+        return True
     def close(self) -> None: ...
 
 
@@ -125,6 +130,9 @@ class UdpIn(Endpoint):
             return
         self.next_expiry = now + min(1.0, self.peer_timeout / 4)
         self._closed(self.peers.expire(now))
+
+    def listened(self) -> bool:
+        return self.transport is not None and len(self.peers) > 0
 
     def send(self, buf: bytes) -> None:
         if self.transport is None:
@@ -224,6 +232,9 @@ class TcpIn(Endpoint):
             w.close()
             return
         w.write(buf)
+
+    def listened(self) -> bool:
+        return bool(self.clients)
 
     def send(self, buf: bytes) -> None:
         for w in list(self.clients):

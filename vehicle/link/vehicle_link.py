@@ -177,10 +177,13 @@ class VehicleLink:
         batch = []
         if t + 1e-9 >= self.next_any:      # most ticks nothing is due: skip the scan (1,000 vehicles)
             first = math.inf
+            # streams nobody can hear (no udpin peer, no TCP client yet) are not built: their
+            # schedule runs on, the sequence number waits for a listener
+            heard = any(ep.listened() for ep in self.endpoints)
             for msgid, interval in self.schedule.items():
                 nd = due[msgid]
                 if t + 1e-9 >= nd:
-                    buf = self.telemetry.frame(msgid)
+                    buf = self.telemetry.frame(msgid) if heard else None
                     if buf is not None:
                         batch.append(buf)
                         self.mav.seq = (self.mav.seq + 1) % 256

@@ -1,0 +1,218 @@
+"""The sweep's table (flatten, rows, columns, effects), one run's runner without Ray, and the CLI's
+refusals (a bad plan, no Ray) — all fast."""
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from tools import sweep_run
+from tools import sweep_table as t
+
+ROOT = Path(__file__).resolve().parent.parent
+
+SUMMARY = {
+    "ok": True, "scenario": "lab", "goals_reached": 2, "goals_total": 2,
+    "goals": [{"index": 1, "tower": [1.0, 2.0], "ratio": 0.95, "reached": True, "error": None},
+              {"index": 2, "tower": [3.0, 4.0], "ratio": 1.25, "reached": True, "error": None}],
+    "follow_error": {"rms": 0.5, "max": 0.9, "n": 300, "by": "bridge tf follow (sysid 2)"},
+    "wobble": {"drone": {"rms": 1.4, "max": 3.0, "n": 100}, "drone_yaw": {"rms": 0.0, "max": 0.0, "n": 100},
+               "follow_frame": "drone", "ratio_rms": math.inf},
+    "mission_window_sim": [10.0, 40.5], "speedup": "max", "achieved_speedup": 4.2, "seed": 3,
+    "ports": {"drone": 20001}, "tower_error": None,
+}
+
+
+def test_flatten_keeps_every_finite_number_with_dotted_names():
+    f = t.flatten(SUMMARY)
+    assert f["follow_error.rms"] == 0.5 and f["goals.1.ratio"] == 1.25 and f["goals.0.tower.1"] == 2.0
+    assert f["ok"] == 1.0 and f["goals.0.reached"] == 1.0 and f["mission_window_sim.1"] == 40.5
+    assert "wobble.ratio_rms" not in f            # inf is not a figure
+    assert "achieved_speedup" not in f            # the wall clock, not the mission
+    assert not any(k.startswith("ports") for k in f) and "speedup" not in f and "scenario" not in f
+
+
+@given(st.recursive(st.one_of(st.none(), st.booleans(), st.integers(), st.floats(), st.text(max_size=4)),
+                    lambda c: st.one_of(st.lists(c, max_size=3), st.dictionaries(st.text(min_size=1, max_size=3), c,
+                                                                                  max_size=3)), max_leaves=15))
+def test_flatten_gives_only_finite_floats(d):
+    f = t.flatten({"x": d})
+    assert all(isinstance(v, float) and math.isfinite(v) for v in f.values())
+    assert all(k == "x" or k.startswith("x.") for k in f)
+
+
+def test_key_figures_use_the_frame_the_rover_followed():
+    k = t.key_figures(SUMMARY)
+    assert k == {"follow_rms": 0.5, "wobble_rms": 1.4, "ratio_mean": pytest.approx(1.1), "ratio_max": 1.25,
+                 "mission_s": 30.5}
+    yaw = dict(SUMMARY, wobble=dict(SUMMARY["wobble"], follow_frame="drone_yaw"))
+    assert t.key_figures(yaw)["wobble_rms"] == 0.0
+    assert t.key_figures({}) == dict.fromkeys(t.KEY_FIGURES)
+
+
+def test_rows_pass_and_fail_with_their_reason():
+    ok = t.make_row("r1", {"seed": 3, "wind": [8.0, 270.0, 1.0]}, SUMMARY, wall_s=9.5)
+    assert (ok["pass"], ok["reason"], ok["seed"], ok["wind"], ok["follow_rms"]) == (True, "", 3, "[8.0,270.0,1.0]", 0.5)
+    missed = dict(SUMMARY, ok=False, goals_reached=1)
+    assert t.make_row("r2", {}, missed, wall_s=1.0)["reason"] == "1/2 goals reached"
+    tower = dict(SUMMARY, ok=False, tower_error="goal 2 not reached in 120 s")
+    assert t.make_row("r3", {}, tower, wall_s=1.0)["reason"] == "goal 2 not reached in 120 s"
+    timed = t.make_row("r4", {"seed": 1}, SUMMARY, wall_s=700.0, reason="timed out after 600 s wall")
+    assert (timed["pass"], timed["reason"]) == (False, "timed out after 600 s wall")
+    none = t.make_row("r5", {"seed": 1}, None, wall_s=None, reason="fly exited with status 2")
+    assert none["pass"] is False and none["follow_rms"] is None
+
+
+def test_columns_and_normalise_give_one_type_per_column():
+    rows = [t.make_row("a", {"seed": 1, "x": 0.1}, SUMMARY, wall_s=1.0),
+            t.make_row("b", {"seed": 2, "x": "big"}, None, wall_s=None, reason="crashed"),
+            t.make_row("c", {"seed": 3, "x": 2}, dict(SUMMARY, extra={"n": 4}), wall_s=2)]
+    cols = t.columns(rows, ["seed", "x"])
+    assert cols[:7] == ["run_id", "seed", "x", "pass", "reason", "wall_s", "follow_rms"]
+    assert "extra.n" in cols and len(cols) == len(set(cols))
+    norm = t.normalise(rows, cols)
+    assert [r["seed"] for r in norm] == [1, 2, 3]                    # all ints stay ints
+    assert [r["x"] for r in norm] == ["0.1", "big", "2"]             # mixed: text
+    assert [r["wall_s"] for r in norm] == [1.0, None, 2.0]           # numbers: floats
+    assert norm[1]["extra.n"] is None and norm[2]["extra.n"] == 4.0
+    import pyarrow as pa
+    pytest.importorskip("pyarrow")
+    table = pa.Table.from_pylist(norm)
+    assert table.schema.field("seed").type == pa.int64() and table.schema.field("x").type == pa.string()
+
+
+def test_effects_per_level_mean_std_and_pass_rate():
+    def row(level, fe, ok):
+        return {"f": level, "pass": ok, "follow_rms": fe, "wobble_rms": None, "ratio_mean": 1.0}
+    rows = [row(0.2, 1.0, True), row(0.0, 0.5, True), row(0.2, 3.0, False), row(0.0, 0.7, True)]
+    eff = t.effects(rows, ["f"])
+    assert [e["level"] for e in eff] == [0.0, 0.2]                   # numeric levels sorted
+    lo, hi = eff
+    assert (lo["runs"], lo["pass_rate"], hi["pass_rate"]) == (2, 1.0, 0.5)
+    assert lo["follow_rms_mean"] == pytest.approx(0.6) and lo["follow_rms_std"] == pytest.approx(math.sqrt(0.02))
+    assert hi["follow_rms_mean"] == 2.0 and lo["wobble_rms_mean"] is None
+    text = t.format_effects(eff)
+    assert "0.600 ± 0.141" in text and "50%" in text and text.splitlines()[0].startswith("factor")
+
+
+def test_summary_line():
+    rows = [{"pass": True}, {"pass": False}, {"pass": True}]
+    assert t.summary_line(rows, 60.0, skipped=1) == "3 runs (1 resumed), 1 failed, 60 s wall, 2.0 runs/min"
+
+
+# ----------------------------------------------------------------------------- one run, no Ray
+
+
+def spec(tmp_path, argv, timeout=30.0):
+    return {"run_id": "rtest", "factors": {"seed": 1}, "run_dir": str(tmp_path / "runs" / "rtest"),
+            "argv": argv, "timeout": timeout, "scenario_toml": None, "root": str(ROOT)}
+
+
+def test_a_fly_that_refuses_is_a_failed_row_with_flys_reason(tmp_path):
+    res = sweep_run.run_one(spec(tmp_path, ["fly", str(tmp_path / "missing.toml"), "--lockstep", "-q",
+                                            "--out", str(tmp_path / "runs" / "rtest")]))
+    row = res["row"]
+    assert row["pass"] is False and "no such scenario file" in row["reason"] and "status 2" in row["reason"]
+    saved = json.loads((tmp_path / "runs" / "rtest" / "row.json").read_text())
+    assert saved["reason"] == row["reason"]
+    assert sweep_run.finished(tmp_path / "runs" / "rtest")["reason"] == row["reason"]
+
+
+def test_a_run_that_hangs_is_stopped_and_is_a_timed_out_row(tmp_path, monkeypatch):
+    monkeypatch.setattr(sweep_run, "GRACE_S", 0.5)
+    # a world with no ports runs until it is told to stop
+    res = sweep_run.run_one(spec(tmp_path, ["sitl", "--no-save", "--tcp-base", "0", "--udp-base", "0",
+                                            "--drones", "1", "--rovers", "0"], timeout=0.5))
+    assert res["row"]["pass"] is False and res["row"]["reason"].startswith("timed out")
+    log = (tmp_path / "runs" / "rtest" / "fly.log").read_text()
+    assert "sitl" in log
+
+
+def test_stopping_a_run_also_stops_what_it_started_in_sessions_of_its_own(tmp_path):
+    # as fly starts the world, bridge and tower: a child in its own session, which a signal to
+    # the parent's group does not reach; the parent exits on SIGINT and leaves it behind
+    script = tmp_path / "parent.py"
+    script.write_text(
+        "import subprocess, sys, time\n"
+        "c = subprocess.Popen([sys.executable, '-c', 'import time; time.sleep(120)'], start_new_session=True)\n"
+        "print(c.pid, flush=True)\n"
+        "time.sleep(120)\n")
+    p = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True, start_new_session=True)
+    child = int(p.stdout.readline())
+    try:
+        assert sweep_run._alive(child)
+        sweep_run._stop(p, grace=5.0)
+        assert p.poll() is not None and not sweep_run._alive(child)
+    finally:
+        for pid in (p.pid, child):
+            try:
+                os.kill(pid, 9)
+            except ProcessLookupError:
+                pass
+        p.wait(5)
+
+
+def test_finished_needs_a_complete_row_and_summary(tmp_path):
+    d = tmp_path / "r"
+    d.mkdir()
+    assert sweep_run.finished(d) is None
+    (d / "summary.json").write_text(json.dumps(SUMMARY))
+    assert sweep_run.finished(d) is None                         # no row: the run was cut short
+    (d / "row.json").write_text('{"pass": tr')                    # damaged
+    assert sweep_run.finished(d) is None
+    sweep_run.write_atomic(d / "row.json", json.dumps({"pass": True, "reason": ""}))
+    assert sweep_run.finished(d) == {"pass": True, "reason": ""}
+    (d / "summary.json").write_text("{")                          # summary damaged, row says pass
+    assert sweep_run.finished(d) is None
+    assert not [p for p in d.iterdir() if p.name.endswith(".tmp")]
+
+
+# ----------------------------------------------------------------------------- the CLI's refusals
+
+
+def towerlink(*args, env_extra=None):
+    env = {**os.environ, "PYTHONPATH": str(ROOT), **(env_extra or {})}
+    return subprocess.run([sys.executable, "-m", "tools.cli", *args], capture_output=True, text=True,
+                          cwd=ROOT, env=env, timeout=60)
+
+
+def test_sweep_without_ray_says_how_to_install_it(tmp_path):
+    fake = tmp_path / "no_ray" / "ray"
+    fake.mkdir(parents=True)
+    (fake / "__init__.py").write_text("raise ImportError('No module named ray')\n")
+    env = {"PYTHONPATH": f"{fake.parent}{os.pathsep}{ROOT}"}
+    p = towerlink("sweep", "--seeds", "1", "--out", str(tmp_path / "s"), env_extra=env)
+    assert p.returncode == 2
+    assert "pip install 'towerlink[sweep]'" in p.stderr and "Traceback" not in p.stderr
+    assert not (tmp_path / "s").exists()
+
+
+def test_sweep_refuses_a_bad_plan_before_anything_starts(tmp_path):
+    p = towerlink("sweep", "--set", "tower_loss=0,2", "--out", str(tmp_path / "s"))
+    assert p.returncode == 2 and "tower_loss: 2 is outside 0 <= loss < 1" in p.stderr
+    assert "Traceback" not in p.stderr and not (tmp_path / "s").exists()
+    p = towerlink("sweep", "--resume", "--out", str(tmp_path / "nothing"))
+    assert p.returncode == 2 and "sweep.json is missing" in p.stderr
+
+
+def test_sweep_dry_run_lists_the_runs():
+    p = towerlink("sweep", "--dry-run", "--grid", "examples/sweep/frames_loss.toml")
+    assert p.returncode == 0, p.stderr
+    lines = p.stdout.splitlines()
+    assert lines[-1] == "12 runs of default.toml; varying: follow_frame, tower_loss, seed"
+    assert len({ln.split()[0] for ln in lines[:-1]}) == 12
+
+
+def test_only_the_sweep_cli_imports_ray():
+    import re
+    pattern = re.compile(r"^\s*(import ray\b|from ray\b)", re.M)
+    users = sorted(str(p.relative_to(ROOT)) for d in ("gcs", "vehicle", "bridge", "tools", "examples")
+                   for p in (ROOT / d).rglob("*.py") if pattern.search(p.read_text(errors="replace")))
+    assert users == ["tools/sweep.py"]
