@@ -47,6 +47,11 @@ class Follower:
         self.ticks = 0
         self.last_goal: tuple[float, float] | None = None
         self.mode_wanted: int | None = None
+        # with --lockstep the rover's mode and arm commands go out only at the barrier (check):
+        # a drone sample is handled mid-frame, when the rover's own packets of that frame may
+        # or may not have been read yet (arrival order across links), so the rover's state it
+        # sees, and what it would command, would depend on the machine
+        self.at_barriers = bool(getattr(cfg, "lockstep", False))
         self._last_mode_cmd = -1e9
         self._last_arm_cmd = -1e9
 
@@ -88,7 +93,7 @@ class Follower:
             float(lx), float(ly), 0.0, float(lvx), float(lvy), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)))
         self.ticks += 1
         self.last_goal = (gx, gy)
-        out += self._want_mode(ROVER_GUIDED, rover)
+        out += self._want_mode(ROVER_GUIDED, rover, send=not self.at_barriers)
         rp = rover.position or (math.nan, math.nan)
         if self.status:
             out.append(("gcs", tl.MAVLink_towerlink_follow_status_message(
@@ -111,11 +116,11 @@ class Follower:
             return self._ensure_mode(self.mode_wanted, rover)
         return []
 
-    def _want_mode(self, mode: int, rover) -> list[tuple]:
+    def _want_mode(self, mode: int, rover, send: bool = True) -> list[tuple]:
         if self.mode_wanted != mode:
             self.mode_wanted = mode
             self._last_mode_cmd = -1e9
-        return self._ensure_mode(mode, rover)
+        return self._ensure_mode(mode, rover) if send else []
 
     def _ensure_mode(self, mode: int, rover) -> list[tuple]:
         if rover.last_heartbeat_wall is None:

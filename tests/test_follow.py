@@ -162,3 +162,31 @@ def test_follow_timeout_holds_then_resumes(world):
         wait_until(lambda: rover.mode == 15, 5, "GUIDED again")
         wait_until(lambda: len(rover.of_type("SET_POSITION_TARGET_LOCAL_NED")) > n, 5, "goals again")
         assert not bridge.follower.supervisor.holding
+
+
+@pytest.mark.parametrize("lockstep", [False, True])
+def test_in_lockstep_the_rovers_mode_and_arm_go_out_only_at_the_barrier(lockstep):
+    # a drone sample is handled mid-frame, before or after the rover's own packets of that frame
+    # (arrival order across links); with lockstep what the follower commands the rover besides
+    # its setpoint must wait for the barrier, when the rover's state up to t is all read
+    from types import SimpleNamespace
+
+    from bridge.follower import Follower
+    from gcs.frames import Buffer, TransformStamped
+    from gcs.modes import ROVER_GUIDED
+    cfg = bridge_config(free_ports(1)[0], lockstep=lockstep)
+    buf = Buffer()
+    for parent, child in (("world", "drone"), ("world", "drone_yaw"), ("rover_origin", "world")):
+        buf.set_transform_static(TransformStamped(parent, child, 0.0, Transform((1.0, 2.0, -9.0))))
+    f = Follower(cfg, buf, lambda: 5.0, lambda line: None, lambda key, line: None)
+    rover = SimpleNamespace(name="rover", sysid=2, custom_mode=4, armed=False, last_heartbeat_wall=1.0,
+                            position=None)
+    sample = [(d, m.get_type()) for d, m in f.on_drone_sample(5.0, (0.0, 0.0, 0.0), False, rover)]
+    assert ("rover", "SET_POSITION_TARGET_LOCAL_NED") in sample
+    commands = [m.command for d, m in f.check(rover, 5.0, 1.0) if m.get_type() == "COMMAND_LONG"]
+    if lockstep:
+        assert [t for _, t in sample if t == "COMMAND_LONG"] == []
+        assert commands == [tl.MAV_CMD_DO_SET_MODE, tl.MAV_CMD_COMPONENT_ARM_DISARM]   # at the barrier
+    else:
+        assert [t for _, t in sample].count("COMMAND_LONG") == 2 and commands == []   # sent at once
+    assert f.mode_wanted == ROVER_GUIDED
