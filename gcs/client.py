@@ -49,7 +49,7 @@ RESULT_NAMES = {
 # a late packet: its clock is followed from there.
 REBOOT_JUMP_MS = 5000
 LOCKSTEP_TIMEOUT = 15.0      # wall s a lockstep client waits for the world's next TICK
-LS_JOIN, LS_ACK, LS_TICK, LS_LEAVE, LS_TOWER = 1, 2, 3, 4, 2   # TOWERLINK_LOCKSTEP kind / participant
+LS_JOIN, LS_ACK, LS_TICK, LS_LEAVE, LS_TOWER, LS_OTHER = 1, 2, 3, 4, 2, 3   # TOWERLINK_LOCKSTEP kind / participant
 
 # Position-only SET_POSITION_TARGET_LOCAL_NED: ignore velocity, acceleration, yaw, yaw rate.
 MASK_POS_ONLY = 0b0000_1101_1111_1000
@@ -240,8 +240,12 @@ class Client:
 
     def __init__(self, master: Any, *, log: Callable[[str], None] | None = None,
                  heartbeat_interval: float = 1.0, tlog: str | None = None,
-                 lockstep: bool = False, lockstep_timeout: float = LOCKSTEP_TIMEOUT) -> None:
+                 lockstep: bool = False, lockstep_timeout: float = LOCKSTEP_TIMEOUT,
+                 lockstep_target: int = 0) -> None:
         self.master = master
+        # 0: a participant for every vehicle (through the bridge); a sysid: for that vehicle
+        # alone, on its own endpoint (the van's driver)
+        self.lockstep_target = lockstep_target
         # whole-system lockstep (issue 11): the world's TICKs are this client's clock
         self.lockstep = lockstep
         self.lockstep_timeout = lockstep_timeout   # wall s without a TICK: ClientTimeout
@@ -276,6 +280,11 @@ class Client:
             return (self.tick_usec or 0) / 1e6
         return time.monotonic()
 
+    def clock(self) -> float:
+        """The clock a program's own deadlines and resends should run on (s): wall, or with
+        lockstep the sim time of the newest TICK (so they count sim time, as the client's do)."""
+        return self._now()
+
     def _stamp(self) -> float:
         """When a received message is noted: with lockstep, just after the newest TICK (it
         arrived after the program acted on that TICK), so `stamp > t0` means "after the call"."""
@@ -287,20 +296,27 @@ class Client:
     def connect(cls, conn: str = "udpout:127.0.0.1:14600", *, source_system: int = 255,
                 source_component: int = 190, log: Callable[[str], None] | None = None,
                 tlog: str | None = None, factory: Callable[..., Any] | None = None,
-                lockstep: bool = False) -> "Client":
+                lockstep: bool = False, lockstep_target: int = 0) -> "Client":
         """Open `conn` (pymavlink spelling: udpout:H:P, udpin:H:P, tcp:H:P) as a GCS.
 
         lockstep: join the world's lockstep through the bridge (TOWERLINK_LOCKSTEP, so the
-        connection speaks the towerlink dialect)."""
+        connection speaks the towerlink dialect); lockstep_target: the sysid of the one vehicle
+        this client drives on that vehicle's own endpoint (0: every vehicle, through the bridge).
+        Several lockstep clients of one program need a source_component each (the world tells
+        participants apart by sysid and compid)."""
         if factory is None and lockstep:
             factory = _dialect_factory
         try:
             master = (factory or _default_factory)(conn, source_system, source_component)
         except OSError as exc:
             raise ClientError(f"cannot open {conn}: {exc}") from exc
-        return cls(master, log=log, tlog=tlog, lockstep=lockstep)
+        return cls(master, log=log, tlog=tlog, lockstep=lockstep, lockstep_target=lockstep_target)
 
     def close(self) -> None:
+        """Close the link (with lockstep after a LEAVE); a second call does nothing."""
+        if getattr(self, "_closed", False):
+            return
+        self._closed = True
         if self.lockstep:
             self._lockstep_send(LS_LEAVE, self.tick_usec or 0)
         try:
@@ -358,7 +374,8 @@ class Client:
     def _lockstep_send(self, kind: int, t_usec: int) -> None:
         send = getattr(self.mav, "towerlink_lockstep_send", None)
         if send is not None:
-            self._send(lambda: send(t_usec, 0, kind, LS_TOWER, 0))
+            who = LS_TOWER if not self.lockstep_target else LS_OTHER
+            self._send(lambda: send(t_usec, self.lockstep_target, kind, who, 0))
 
     def _join(self) -> None:
         self._last_join = time.monotonic()

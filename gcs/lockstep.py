@@ -18,6 +18,7 @@ target_system u8, kind u8, participant u8.
 """
 from __future__ import annotations
 
+import hashlib
 import struct
 from dataclasses import dataclass
 
@@ -51,19 +52,28 @@ class Lockstep:
 
 
 def pack(kind: int, time_usec: int, *, participant: int = WORLD, target_system: int = 0,
-         period_usec: int = 0, sysid: int = 1, compid: int = 1, seq: int = 0) -> bytes:
-    """One unsigned MAVLink 2 frame of TOWERLINK_LOCKSTEP (trailing zero bytes trimmed)."""
+         period_usec: int = 0, sysid: int = 1, compid: int = 1, seq: int = 0,
+         signing: tuple[bytes, int, int] | None = None) -> bytes:
+    """One MAVLink 2 frame of TOWERLINK_LOCKSTEP (trailing zero bytes trimmed).
+
+    signing: (secret key, link_id, timestamp in 10 us units since 2015) signs the frame as
+    MAVLink 2 does (gcs.signing checks it); None: unsigned."""
     payload = _PAYLOAD.pack(int(time_usec) & 0xFFFFFFFFFFFFFFFF, int(period_usec) & 0xFFFFFFFF,
                             target_system & 0xFF, kind & 0xFF, participant & 0xFF)
     n = len(payload)
     while n > 1 and payload[n - 1] == 0:
         n -= 1
     payload = payload[:n]
-    header = struct.pack("<BBBBBBBHB", _STX2, n, 0, 0, seq & 0xFF, sysid & 0xFF, compid & 0xFF,
-                         MSG_ID & 0xFFFF, MSG_ID >> 16)
+    header = struct.pack("<BBBBBBBHB", _STX2, n, 1 if signing else 0, 0, seq & 0xFF, sysid & 0xFF,
+                         compid & 0xFF, MSG_ID & 0xFFFF, MSG_ID >> 16)
     crc = x25crc(header[1:] + payload)
     crc.accumulate(bytes((CRC_EXTRA,)))
-    return header + payload + struct.pack("<H", crc.crc)
+    frame = header + payload + struct.pack("<H", crc.crc)
+    if signing is None:
+        return frame
+    key, link_id, timestamp = signing
+    tail = bytes((link_id & 0xFF,)) + struct.pack("<Q", timestamp)[:6]
+    return frame + tail + hashlib.sha256(bytes(key) + frame + tail).digest()[:6]
 
 
 def is_lockstep(data: bytes) -> bool:
@@ -84,8 +94,8 @@ def unpack(data: bytes) -> tuple[Lockstep | None, bytes]:
     """The first frame of `data` if it is a valid TOWERLINK_LOCKSTEP, and the bytes after it.
 
     Returns (None, data) for anything else (another message, a bad CRC, a short frame):
-    the caller hands those bytes on unchanged. Signed frames are read (the signature is
-    not checked: lockstep is for one machine's or one lab's own processes)."""
+    the caller hands those bytes on unchanged. Signed frames are read; the signature is
+    the receiver's to check (gcs.signing on ``data[:len(data) - len(rest)]``)."""
     if not is_lockstep(data):
         return None, data
     n, incompat = data[1], data[2]

@@ -266,11 +266,12 @@ class Mission:
         """wait_reached for a goal in a moving frame: judged against its world point at its stamp."""
         from gcs.client import GoalTimeout, Reached
         c, st = self.c, self.c.system(self.sysid)
-        end = time.monotonic() + self.goal_timeout
-        last_resend = time.monotonic()
+        # the client's clock: sim time with --lockstep, so deadline and resends are the data's
+        end = c.clock() + self.goal_timeout
+        last_resend = c.clock()
         last_seen, dist = None, None
         while True:
-            now = time.monotonic()
+            now = c.clock()
             if g.world is None:
                 g.world = self.frames.world_point(self.frame, g.goal, g.sent_sim)
             p = st.position

@@ -182,13 +182,14 @@ def test_fly_family_command_lines_give_every_vehicle_its_port_and_the_bridge_eac
         assert f"{sysid - 1}=udpin:127.0.0.1:{port}" in eps      # world vehicle index = sysid - 1
         assert f"{sysid}=udpout:127.0.0.1:{port}" in vehicles
     assert "--drone" not in bridge and "--rover" not in bridge
+    assert "--lockstep" not in sitl and "--lockstep" not in bridge
     # lockstep: the world waits for two participants, the bridge and the family's one tower link
     locked = Launch(tmp_path / "l", scenario="family", lockstep=True)
     sitl = locked.sitl_cmd()
     assert sitl[sitl.index("--lockstep") + 1] == "2"
     assert "--lockstep" in locked.bridge_cmd() and "--lockstep" in locked.tower_cmd()
-    with pytest.raises(ValueError, match="not the tower on a van"):
-        Launch(tmp_path / "v", scenario="van", lockstep=True)
+    van = Launch(tmp_path / "v", scenario="van", lockstep=True).sitl_cmd()
+    assert van[van.index("--lockstep") + 1] == "3"           # bridge, the tower link, the van's driver
 
 
 def test_fly_van_route_is_a_looped_mission_on_the_van(tmp_path):

@@ -80,6 +80,26 @@ def test_gate_starts_when_the_expected_participants_joined_on_every_vehicle():
     assert g.channels(0) == ["a"] and g.channels(1) == ["b"]    # one TICK per channel
 
 
+def test_a_join_naming_one_vehicle_counts_for_that_vehicle_alone():
+    # the van's driver talks to the van's own endpoint only: its JOIN names the van (sysid 3)
+    g = LockstepGate(vehicles=3, expect=2, timeout=10.0)
+    for i, ch in enumerate("abc"):
+        g.on_message(msg(L.JOIN), i, ch, 0.0)                     # the bridge, on every vehicle
+    van = L.Lockstep(0, L.JOIN, L.OTHER, 3, 0, 255, 200)
+    g.on_message(L.Lockstep(0, L.JOIN, L.OTHER, 0, 0, 255, 201), 2, "v", 0.1)   # names none
+    assert not g.started(0.2)                   # a one-link participant naming no vehicle is not full
+    g.on_message(van, 2, "v", 0.3)
+    assert g.started(0.3)
+    assert g.channels(2) == ["c", "v"] and g.channels(0) == ["a"]
+    g.on_message(msg(L.ACK, 40000), 0, "a", 0.4)
+    g.on_message(msg(L.ACK, 40000), 1, "b", 0.4)
+    g.on_message(msg(L.ACK, 40000), 2, "c", 0.4)
+    g.on_message(L.Lockstep(40000, L.ACK, L.OTHER, 0, 0, 255, 201), 2, "v", 0.4)
+    assert not g.passed(40000)                  # the van's driver owes its ACK on the van's link
+    g.on_message(L.Lockstep(40000, L.ACK, L.OTHER, 3, 0, 255, 200), 2, "v", 0.5)
+    assert g.passed(40000)
+
+
 def test_gate_starts_anyway_after_the_timeout_with_whoever_joined():
     g = LockstepGate(vehicles=2, expect=2, timeout=5.0)
     g.on_message(msg(L.JOIN), 0, "a", 100.0)
@@ -445,3 +465,122 @@ def test_bridge_desk_barrier_needs_a_tick_on_every_vehicle_link_then_upkeep_ack_
     wall[0] = 2.5
     desk.upkeep(2.5)                            # no TICK for over a second: JOIN again
     assert [(d, m.kind) for d, m in sent] == [("drone", L.JOIN), ("rover", L.JOIN)]
+
+
+# ----------------------------------------------------------------------------- a world in several processes
+
+
+def test_a_world_in_two_worker_processes_steps_as_one_under_one_participant(processes):
+    """`sitl --workers 2 --lockstep 1 --speedup max`: a participant that acts as the bridge
+    does (ACK t on every link once TICK(t) came on all of them) holds both workers together;
+    a worker whose link is not ACKed stays at its TICK while the other may go one frame on."""
+    ports = [free_port(), free_port()]
+    proc = processes.start(["towerlink", "sitl", "--drones", "1", "--rovers", "1", "--workers", "2",
+                            "--lockstep", "1", "--speedup", "max", "--no-save", "--tcp-base", "0",
+                            "--udp-base", "0", "--lockstep-timeout", "30",
+                            *(a for i, p in enumerate(ports) for a in ("--endpoint", f"{i}=udpin:127.0.0.1:{p}"))])
+    links = [Participant(p) for p in ports]
+    try:
+        for link in links:
+            link.sock.settimeout(0.3)
+
+        def joined_tick(link) -> int:
+            while True:                     # JOIN until the worker's endpoint is up and ticks
+                link.send(L.JOIN)
+                try:
+                    return link.next_tick()
+                except socket.timeout:
+                    assert proc.poll() is None, proc.stdout.read()
+        assert [joined_tick(link) for link in links] == [0, 0]
+        for link in links:
+            link.sock.settimeout(10.0)
+        t = 0
+        stamped = [0, 0]
+        for _ in range(50):                 # the bridge's barrier: both at t, then ACK both
+            for link in links:
+                link.send(L.ACK, t)
+            seen = [link.messages_until_tick() for link in links]
+            assert [tick for _, tick in seen] == [t + 40000] * 2
+            for i, (msgs, _) in enumerate(seen):   # nothing a worker sent before TICK(t') is later than t'
+                stamps = [m.time_boot_ms for m in msgs if hasattr(m, "time_boot_ms")]
+                assert all(s <= (t + 40000) // 1000 for s in stamps)
+                stamped[i] += len(stamps)
+            t += 40000
+        assert min(stamped) > 10            # both workers' vehicles did talk, on their own clocks
+        links[0].send(L.ACK, t)             # only worker 0's link: it goes on one frame, no further
+        msgs0, tick0 = links[0].messages_until_tick()
+        assert tick0 == t + 40000
+        links[1].sock.settimeout(0.5)
+        late = []
+        with pytest.raises(socket.timeout):
+            while True:                     # worker 1 stays held at t: nothing newer comes
+                data, _ = links[1].sock.recvfrom(65535)
+                late += [m for m in links[1].parser.parse_buffer(data) or []
+                         if getattr(m, "time_boot_ms", 0) > t // 1000]
+        assert late == []
+        assert proc.poll() is None
+    finally:
+        for link in links:
+            link.close()
+
+
+def test_with_a_signing_key_only_a_signed_join_counts_and_the_ticks_are_signed():
+    from gcs.signing import SignatureCheck, key_from_text, signing_timestamp
+    key = key_from_text("lockstep secret")
+    port = free_port()
+    w = World(WorldConfig(drones=1, rovers=0, state_dir=None, tcp_base=None, udp_base=None, speedup=math.inf,
+                          endpoints={0: [f"udpin:127.0.0.1:{port}"]}, lockstep=1, lockstep_period=0.04,
+                          lockstep_timeout=30.0, signing_key=key))
+    w.start_thread()
+    forger, signer = Participant(port, sysid=251), Participant(port, sysid=250)
+    try:
+        # unsigned, and signed with another key: neither joins, both are counted as the link counts
+        forger.sock.sendto(L.pack(L.JOIN, 0, participant=L.BRIDGE, sysid=251, compid=191), forger.addr)
+        forger.sock.sendto(L.pack(L.JOIN, 0, participant=L.BRIDGE, sysid=251, compid=191,
+                                  signing=(key_from_text("wrong"), 0, signing_timestamp())), forger.addr)
+        stats = w.vehicles[0].link.stats
+        wait_until(lambda: stats["unsigned"] >= 1 and stats["bad_signature"] >= 1, 5.0, "both refused")
+        assert w.lockstep.gate.participants == {} and w.steps == 0
+        signer.sock.sendto(L.pack(L.JOIN, 0, participant=L.BRIDGE, sysid=250, compid=191,
+                                  signing=(key, 0, signing_timestamp())), signer.addr)
+        while True:
+            data, _ = signer.sock.recvfrom(65535)
+            m, rest = L.unpack(data)
+            if m is not None and m.kind == L.TICK:
+                break
+        assert m.time_usec == 0 and set(w.lockstep.gate.participants) == {(250, 191)}
+        tick = data[:len(data) - len(rest)]
+        assert tick[2] & 1 and SignatureCheck(key).check(tick, 1, 1) is None   # signed with the key
+    finally:
+        forger.close()
+        signer.close()
+        w.stop()
+
+
+def test_a_lockstep_client_at_t0_does_not_take_no_heartbeat_for_one():
+    # the van's driver asked for AUTO before the van's first heartbeat and got the copter's
+    # mode number: with lockstep the clock starts at 0, and "no heartbeat" compared as t = 0
+    from gcs.client import Client, ClientError
+    port = free_port()
+    world = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    world.bind(("127.0.0.1", port))
+    world.settimeout(5.0)
+    c = Client.connect(f"udpout:127.0.0.1:{port}", lockstep=True, lockstep_target=3, source_component=200)
+    c.lockstep_timeout = 0.5
+    try:
+        parser = tl.MAVLink(None)
+        while True:
+            data, addr = world.recvfrom(65535)
+            ms = [m for m in parser.parse_buffer(data) or [] if m.get_type() == "TOWERLINK_LOCKSTEP"]
+            if ms:
+                break
+        assert (ms[0].kind, ms[0].target_system, ms[0].participant) == (L.JOIN, 3, L.OTHER)
+        world.sendto(L.pack(L.TICK, 0, sysid=3), addr)
+        c.poll(0.0)
+        assert c.tick_usec == 0
+        with pytest.raises(ClientError):        # no TICK, no heartbeat: it waits, then times out
+            c.wait_heartbeat(3, timeout=1.0)
+        assert c.system(3).mav_type is None
+    finally:
+        c.close()
+        world.close()

@@ -40,3 +40,29 @@ def test_drops_about_the_asked_fraction_each_way_and_is_replayable():
             upstream.close()
             client.close()
     assert counts[0] == counts[1]        # same seed, same packets: the same losses
+
+
+def test_spared_datagrams_always_pass_and_draw_nothing_from_the_seeded_rng():
+    # `towerlink fly --tower-loss` in lockstep spares TOWERLINK_LOCKSTEP (a lost ACK would hold the world)
+    from gcs import lockstep as L
+    upstream = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    upstream.bind(("127.0.0.1", 0))
+    upstream.settimeout(2)
+    client = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    proxy = LossProxy(free_port(), upstream.getsockname(), loss=0.9, seed=4, spare=L.is_lockstep)
+    proxy.start()
+    try:
+        front = ("127.0.0.1", proxy.front.getsockname()[1])
+        acks = [L.pack(L.ACK, k * 40000, participant=L.TOWER, sysid=255, compid=190) for k in range(50)]
+        for ack in acks:
+            client.sendto(ack, front)
+        assert [upstream.recv(100) for _ in acks] == acks        # all of them, in order
+        assert proxy.dropped["up"] == 0
+        rng = proxy.rng.getstate()
+        client.sendto(b"radio traffic", front)
+        wait_until(lambda: proxy.passed["up"] + proxy.dropped["up"] == 1, 5, "the proxy handling it")
+        assert proxy.rng.getstate() != rng                     # ordinary datagrams still draw
+    finally:
+        proxy.stop()
+        upstream.close()
+        client.close()

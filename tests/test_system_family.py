@@ -1,26 +1,53 @@
 """Issue 12 on the full system: the tower's family of drones, and the tower on the van.
 
 Each test flies one shipped scenario with `towerlink fly` (world, bridge, tower and the
-van's driver as processes on loopback) and reads what the run wrote.
+van's driver as processes on loopback, in lockstep: issue 11) and reads what the run wrote.
 """
 from __future__ import annotations
 
 import json
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
 
-from system_support import finish, launched
+from system_support import figures, finish, launched
 
 pytestmark = pytest.mark.slow
 
 
-def test_family_every_drone_reaches_every_goal_and_each_rover_follows_its_own(tmp_path):
-    # 2x, as the lab's checkpoint test: bridge and tower are not in lockstep with the world
-    # yet (issue 11), so on a loaded machine their lag grows with the speedup
-    with launched(tmp_path, scenario="family", speedup=2.0, finish="land") as launch:
-        s = finish(launch, timeout=240)
+@pytest.fixture(scope="module")
+def family_max(tmp_path_factory):
+    """The family in lockstep at --speedup max: (run folder, summary)."""
+    run_dir = tmp_path_factory.mktemp("family_max")
+    with launched(run_dir, scenario="family", speedup=float("inf"), finish="land", lockstep=True) as launch:
+        s = finish(launch, timeout=300)
+    return run_dir, s
+
+
+def test_family_in_lockstep_gives_the_same_figures_at_4x_under_load_as_at_max(family_max, tmp_path):
+    # issue 11 for the family: four participants (the bridge and the tower's three drone
+    # connections); a CPU-burning process beside the slower run is the machine's other work
+    burner = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        with launched(tmp_path, scenario="family", speedup=4.0, finish="land", lockstep=True) as launch:
+            finish(launch, timeout=300)
+    finally:
+        burner.kill()
+        burner.wait(5)
+    slow = json.loads((tmp_path / "summary.json").read_text())
+    fast = json.loads((family_max[0] / "summary.json").read_text())
+    assert slow["ok"] and fast["ok"] and slow["speedup"] == 4.0 and fast["speedup"] == "max"
+    a, b = figures(slow), figures(fast)
+    assert len(a) > 60 and "vehicles[3].follow_rms" in a and "separation.closest_m" in a
+    diff = {k: (a.get(k), b.get(k)) for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)}
+    assert diff == {}, f"family figures that differ between 4x (loaded) and max: {diff}"
+
+
+def test_family_every_drone_reaches_every_goal_and_each_rover_follows_its_own(family_max):
+    tmp_path, s = family_max
     tower = json.loads((tmp_path / "tower.json").read_text())
     assert [d["name"] for d in tower["drones"]] == ["drone1", "drone2", "drone3"]
     for d in tower["drones"]:
@@ -54,8 +81,10 @@ def test_family_every_drone_reaches_every_goal_and_each_rover_follows_its_own(tm
 
 
 def test_van_goals_resolved_at_their_stamp_and_the_time_travel_figure_shown(tmp_path):
-    with launched(tmp_path, scenario="van", speedup=4.0, finish="land") as launch:
+    # lockstep at max: the van's driver is a participant for the van alone (issue 11)
+    with launched(tmp_path, scenario="van", speedup=float("inf"), finish="land", lockstep=True) as launch:
         s = finish(launch, timeout=200)
+    assert "lockstep: other (sysid 255, compid 200) joined" in (tmp_path / "sitl.log").read_text()
     tower = json.loads((tmp_path / "tower.json").read_text())
     (drone,) = tower["drones"]
     goals = drone["goals"]

@@ -8,6 +8,7 @@ then a 30 m leg (long enough for the drone's 5 m/s cruise at 9 m), then a 10 m l
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -20,19 +21,50 @@ pytestmark = pytest.mark.slow
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     run_dir = tmp_path_factory.mktemp("mission")
-    # 2x, not the default 5x: the bridge and tower are not in lockstep with the world yet
-    # (issue 11), so on a loaded 2-core CI machine their wall-clock lag becomes speedup
-    # times as much sim lag and the rover's follow error grew past 1 m at 5x (CI: 1.03 m).
+    # in lockstep (issue 11), as `towerlink fly` by default, at max: the world waits for the
+    # bridge and the tower, so a loaded CI machine cannot turn their wall-clock lag into sim
+    # lag (free-running at 5x the rover's follow error once grew past 1 m on CI: 1.03 m)
     with launched(run_dir, goals=tower_goals(MISSION_WORLD), follow_frame="drone_yaw",
-                  finish="land", speedup=2.0, view_port=0) as launch:
+                  finish="land", speedup=float("inf"), lockstep=True, view_port=0) as launch:
         # a Foxglove client watches the whole flight live (`towerlink fly --view`)
         from tools.foxglove_client import FoxgloveClient
         live = FoxgloveClient(launch.view.url, ("/tf", "/tf_static", "/vehicles", "/goals"))
         try:
+            third = third_party_look(launch.ports["drone"])
             s = finish(launch, timeout=150)
         finally:
             live.stop()
+    live.third_party = third
     return run_dir, s, live
+
+
+def third_party_look(port: int) -> dict:
+    """A pymavlink script, as its users write one, on the drone's endpoint during the lockstep
+    flight: what it saw (message types, a parameter read back)."""
+    from pymavlink import mavutil
+    m = mavutil.mavlink_connection(f"udpout:127.0.0.1:{port}", source_system=200, dialect="ardupilotmega")
+    try:
+        hb, end = None, time.monotonic() + 60.0
+        while hb is None and time.monotonic() < end:
+            # a GCS heartbeat a second, as scripts do: the world may not be listening yet
+            m.mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GCS, mavutil.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+            hb = m.recv_match(type="HEARTBEAT", blocking=True, timeout=1)
+        pv, end = None, time.monotonic() + 30.0
+        while pv is None and time.monotonic() < end:
+            m.mav.param_request_read_send(1, 1, b"WPNAV_SPEED", -1)
+            pv = m.recv_match(type="PARAM_VALUE", condition="PARAM_VALUE.param_id=='WPNAV_SPEED'",
+                              blocking=True, timeout=1)
+        types: set[str] = set()
+        n, end = 0, time.monotonic() + 20.0
+        while n < 300 and time.monotonic() < end:      # its next 300 messages
+            msg = m.recv_match(blocking=True, timeout=1)
+            if msg is not None:
+                n += 1
+                types.add(msg.get_type())
+        return {"heartbeat": hb is not None and hb.get_srcSystem() == 1,
+                "param": (pv.param_id, pv.param_value) if pv is not None else None, "types": types}
+    finally:
+        m.close()
 
 
 def test_checkpoint1_goals_sent_in_tower_frame_are_reached(run):
@@ -145,3 +177,12 @@ def test_run_mcap_holds_every_channel_monotonic_and_tf_echo_reads_it_like_the_tl
         assert main(["tf-echo", "tower", "drone", "--tlog", str(run_dir / src), "--time", f"{t:.3f}"]) == 0
         outs.append(capsys.readouterr().out)
     assert outs[0] == outs[1] and "Translation" in outs[0]
+
+
+def test_a_third_party_pymavlink_script_sees_an_ordinary_vehicle_in_the_lockstep_flight(run):
+    _run_dir, _s, live = run
+    t = live.third_party
+    assert t["heartbeat"]
+    assert t["param"] is not None and t["param"][0] == "WPNAV_SPEED"
+    assert {"HEARTBEAT", "ATTITUDE", "GLOBAL_POSITION_INT"} <= t["types"]
+    assert not any(x.startswith("TOWERLINK") or x == "UNKNOWN_43005" for x in t["types"]), t["types"]

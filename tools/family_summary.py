@@ -99,8 +99,14 @@ def summarize_family(run_dir: str | os.PathLike, *, tower: dict | None = None,
                           "error": g.get("error")})
     pairs = {r: d for d, r in sc.pairs}
     names = {s: n for n, s, _k in sc.vehicles}
+    # paths, heights and the separation are the flight's: up to the tower's end (sim), not
+    # whatever the world ran on (free of the tower, on the wall clock) until it was stopped
+    ends = [d.get("end_sim") for d in tower.get("drones", []) if d.get("end_sim") is not None]
+    t_end = max(ends) if ends else None
+    flown = {s: (tr.window(None, t_end) if tr is not None and t_end is not None and len(tr) else tr)
+             for s, tr in tracks.items()}
     for name, sysid, kind in sc.vehicles:
-        tr = tracks.get(sysid)
+        tr = flown.get(sysid)
         row: dict[str, Any] = {"name": name, "sysid": sysid, "kind": kind,
                                "path_m": _path_len(tr) if tr is not None else None,
                                "max_height_m": max(0.0, float(-(tr.xyz[:, 2] - tr.xyz[0, 2]).min()))
@@ -125,7 +131,7 @@ def summarize_family(run_dir: str | os.PathLike, *, tower: dict | None = None,
         elif sc.van is not None and sysid == sc.van.sysid:
             row["role"] = f"van, carries the tower, {sc.van.speed:g} m/s route"
         vehicles.append(row)
-    drone_tracks = {d.name: tracks[d.sysid] for d in sc.drones if tracks.get(d.sysid) is not None}
+    drone_tracks = {d.name: flown[d.sysid] for d in sc.drones if flown.get(d.sysid) is not None}
     sep = {"source": source, "minimum_m": sc.min_separation, **closest_approach(drone_tracks),
            "tower_watch": tower.get("separation")}
     reached = sum(g["reached"] for g in goals)

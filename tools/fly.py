@@ -43,8 +43,8 @@ frame on every follow tick, whichever one it steers by).
 With --world-host ADDR the world runs on another host (tools/hosts.py), the bridge and the
 tower here; it listens on 0.0.0.0 there and pushes telemetry to this host:
 
-  towerlink fly --lockstep --world-host 10.0.0.2 --world-cmd-prefix "ssh -tt sim-box"
-  towerlink fly --lockstep --world-host 10.211.0.1 --world-cmd-prefix "ip netns exec simA"
+  towerlink fly --world-host 10.0.0.2 --world-cmd-prefix "ssh -tt sim-box"
+  towerlink fly --world-host 10.211.0.1 --world-cmd-prefix "ip netns exec simA"
 
 A family or van scenario (`towerlink fly family`, `towerlink fly van`; shipped
 scenarios are named without .toml): the world starts every vehicle the scenario lists
@@ -54,15 +54,18 @@ once. A van gets its route as a mission (van.waypoints: DO_CHANGE_SPEED, the rou
 DO_JUMP back, forever) and a driver on a port of its own puts it in AUTO and arms it
 (van.log). The summary then has a row per vehicle, a row per goal of every drone (with
 the time-travel figure when the tower rides the van) and the closest approach of two
-airborne drones; tracks.png draws every vehicle. `towerlink fly family100 --lockstep --speedup
+airborne drones; tracks.png draws every vehicle. `towerlink fly family100 --speedup
 max` flies 100 drones (gcs/family_plan.py: own lanes, two altitude layers, no rovers; the summary
-then counts per layer); a family flies in lockstep too (not the van).
+then counts per layer).
 
-With --lockstep (issue 11) the world waits for the bridge and the tower (TOWERLINK_LOCKSTEP),
-so a seed gives the same summary figures at any --speedup (max: as fast as the machine allows)
-and under any CPU load:
+Lockstep (issue 11) is the default: the world waits for the bridge, the tower (a family's
+one shared link) and the van's driver (TOWERLINK_LOCKSTEP), so a seed gives the
+same summary figures at any --speedup (max: as fast as the machine allows) and under any CPU
+load. --no-lockstep runs the old free-running world (figures then depend on the machine):
 
-  towerlink fly --lockstep --speedup max
+  towerlink fly --speedup max            # lockstep, as fast as the machine allows
+  towerlink fly family --speedup max
+  towerlink fly --no-lockstep            # free-running world
 
 Exit status 0 iff the tower reached every goal.
 """
@@ -303,9 +306,6 @@ class Launch:
         self.scenario = str(scenario_path(scenario).resolve()) if scenario else None
         self.sc = load_scenario(self.scenario)
         self.family = self.sc.is_family
-        if self.family and lockstep and self.sc.van is not None:
-            # the van's driver is a third client of the world, not a lockstep participant
-            raise ValueError(f"--lockstep flies a family, not the tower on a van (scenario {self.sc.name!r})")
         self.speedup = speedup          # float('inf'): --speedup max
         self.lockstep = lockstep        # issue 11: world, bridge and tower in lockstep
         self.seed = seed
@@ -408,8 +408,9 @@ class Launch:
                             "--tcp-base", "0", "--udp-base", "0",
                             "--home=" + ",".join(f"{v:.10g}" for v in SITL_HOME),   # "=": it starts with "-"
                             "--out", f"udpout:{out}:{self.ports['vehicles']}", *self._scenario_wind())
-        if self.lockstep:                  # the bridge and the family's one tower link (gcs.tower_link)
-            cmd += ["--lockstep", "2"]
+        if self.lockstep:
+            # the bridge, the family's one tower link (gcs.tower_link) and the van's driver
+            cmd += ["--lockstep", str(2 + (sc.van is not None))]
         for _name, sysid, _kind in sc.vehicles:
             cmd += ["--endpoint", f"{sysid - 1}=udpin:{h}:{self.ports[f'vehicle{sysid}']}"]
         if sc.van is not None:
@@ -442,7 +443,11 @@ class Launch:
                 f.write(f"van: {msg}\n")
                 f.flush()
             try:
-                with Client.connect(f"udpout:{self.world_addr}:{self.ports['van_driver']}", log=log) as c:
+                # with lockstep a participant for the van alone, on the van's own endpoint
+                # (compid 200: the world tells it from the tower's link)
+                with Client.connect(f"udpout:{self.world_addr}:{self.ports['van_driver']}", log=log,
+                                    source_component=200, lockstep=self.lockstep,
+                                    lockstep_target=van.sysid) as c:
                     c.wait_heartbeat(van.sysid, timeout=60)
                     c.set_mode("AUTO", van.sysid, timeout=30)
                     c.arm(van.sysid, timeout=60)
@@ -547,8 +552,10 @@ class Launch:
             self._start(f"node-{path.stem}", self.node_cmd(path))
         if self.tower_loss > 0:
             from tools.loss_proxy import LossProxy
+            from gcs.lockstep import is_lockstep
             self.proxy = LossProxy(self.ports["proxy"], (self.host, self.ports["tower"]),
-                                   loss=self.tower_loss, seed=self.loss_seed, host=self.host)
+                                   loss=self.tower_loss, seed=self.loss_seed, host=self.host,
+                                   spare=is_lockstep if self.lockstep else None)
             self.proxy.start()
         self._start("tower", self.tower_cmd())
         self.write_meta()
@@ -654,7 +661,10 @@ class Launch:
         """Stop everything this launch started (tower first, world last); idempotent."""
         order = [("tower", signal.SIGINT), *((f"node-{p.stem}", signal.SIGTERM) for p in self.nodes),
                  ("bridge", signal.SIGTERM), ("sitl", signal.SIGTERM)]
+        self._van_stop.set()
         for name, sig in order:
+            if name == "bridge" and self.van_driver is not None:
+                self.van_driver.join(3.0)   # it leaves the lockstep at its next TICK: the world still runs
             p = self.procs.get(name)
             if p is None:
                 continue
@@ -771,10 +781,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "a moving van); default: the lab scenario")
     parser.add_argument("--speedup", type=speedup_type, default=5.0, metavar="N|max",
                         help="at most N sim seconds per wall second (default 5; the machine may deliver less); "
-                             "'max': as fast as the machine allows (use with --lockstep)")
-    parser.add_argument("--lockstep", action="store_true",
-                        help="whole-system lockstep (issue 11): the world waits for the bridge and the tower "
-                             "(TOWERLINK_LOCKSTEP), so a seed gives the same figures at any speed and load")
+                             "'max': as fast as the machine and the lockstep participants allow")
+    parser.add_argument("--lockstep", action=argparse.BooleanOptionalAction, default=True,
+                        help="whole-system lockstep (issue 11; the default): the world waits for the bridge, "
+                             "the tower and the van's driver (TOWERLINK_LOCKSTEP), so a seed gives the same "
+                             "figures at any --speedup and load. --no-lockstep: the old free-running world; "
+                             "the bridge and the tower then lag it by their wall-clock time times the speedup, "
+                             "and the figures depend on the machine. Third-party clients see an ordinary "
+                             "vehicle either way")
     parser.add_argument("--follow-frame", choices=("drone", "drone_yaw"), default=None,
                         help="frame the rover's goal is written in (default: the scenario's)")
     parser.add_argument("--seed", type=int, default=1, help="the world's noise seed (default 1)")

@@ -9,6 +9,9 @@ Datagrams from the client side (whoever writes to listen_port; the latest writer
 is the client) go to `upstream`; datagrams from upstream go back to the client.
 Each datagram in each direction is dropped with probability `loss`, from a seeded
 RNG, so a failing run can be replayed. Counters: passed/dropped per direction.
+`spare(datagram) -> bool` names datagrams never dropped (nor drawn for): `towerlink fly`
+spares TOWERLINK_LOCKSTEP in lockstep, the simulator's clock rather than radio traffic (a
+lost ACK or TICK would hold the world until the tower is dropped).
 
 As a command: python -m tools.loss_proxy LISTEN_PORT UPSTREAM_PORT [--loss 0.2] [--seed 1]
 """
@@ -23,11 +26,12 @@ import threading
 
 class LossProxy(threading.Thread):
     def __init__(self, listen_port: int, upstream: tuple[str, int], loss: float = 0.2,
-                 seed: int = 1, host: str = "127.0.0.1") -> None:
+                 seed: int = 1, host: str = "127.0.0.1", spare=None) -> None:
         super().__init__(daemon=True, name=f"loss-proxy:{listen_port}")
         if not 0.0 <= loss < 1.0:
             raise ValueError("loss must be in [0, 1)")
         self.loss = loss
+        self.spare = spare
         self.rng = random.Random(seed)
         self.upstream = upstream
         self.front = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -39,7 +43,9 @@ class LossProxy(threading.Thread):
         self.dropped = {"up": 0, "down": 0}
         self._halt = threading.Event()
 
-    def _drop(self, way: str) -> bool:
+    def _drop(self, way: str, data: bytes = b"") -> bool:
+        if self.spare is not None and self.spare(data):
+            return False
         if self.rng.random() < self.loss:
             self.dropped[way] += 1
             return True
@@ -59,9 +65,9 @@ class LossProxy(threading.Thread):
                         continue
                     if key.data == "up":
                         self.client = addr
-                        if not self._drop("up"):
+                        if not self._drop("up", data):
                             self._sendto(self.back, data, self.upstream)
-                    elif self.client is not None and not self._drop("down"):
+                    elif self.client is not None and not self._drop("down", data):
                         self._sendto(self.front, data, self.client)
         finally:
             sel.close()

@@ -50,6 +50,9 @@ bridge --lockstep, towerlink tower --lockstep through it) and never steps past a
 TICK until each has ACKed it; one silent for --lockstep-timeout wall seconds is dropped. Other
 clients see an ordinary vehicle. --speedup max then runs as fast as the slowest participant allows:
   towerlink sitl --lockstep 2 --speedup max
+With --workers K every worker holds for the same participants at the same TICKs (a bridge ACKs a
+TICK only once it came on all its vehicle links), so the K processes step as one world; a
+participant driving one vehicle on that vehicle's own endpoint names it in its JOIN.
 
 Missions, fences and rally points uploaded by a GCS are saved beside the parameters
 (STATE_DIR/drone<j>.missions.json) and loaded on the next start. --mission I=FILE loads a
@@ -187,7 +190,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "unless --no-save")
     p.add_argument("--workers", type=int, default=1, metavar="K",
                    help="run the world in K processes (one core each; default 1): worker w runs vehicles "
-                        "w*N/K..(w+1)*N/K-1 on the same plan and ports, all starting at one instant")
+                        "w*N/K..(w+1)*N/K-1 on the same plan and ports, all starting at one instant; "
+                        "with --lockstep all held at the same TICKs")
     p.add_argument("--signing-key", metavar="PASSPHRASE|HEX64",
                    help="MAVLink 2 signing: 64 hex digits, or a passphrase hashed with SHA-256 "
                         "(as MAVProxy's 'signing setup'); unsigned packets are then dropped")
@@ -227,11 +231,12 @@ def run(args: argparse.Namespace) -> int:
     if args.workers < 1:
         print("towerlink sitl: --workers must be >= 1", file=sys.stderr)
         return 2
-    if args.workers > 1 and (args.lockstep or math.isinf(args.speedup)):
-        # each worker paces itself to the wall clock from one shared t = 0; an unpaced or
-        # lockstepped clock would be one per process, so they would not be one world
-        print("towerlink sitl: --workers needs a finite --speedup and no --lockstep "
-              "(each worker paces itself to the wall clock)", file=sys.stderr)
+    if args.workers > 1 and math.isinf(args.speedup) and not args.lockstep:
+        # each worker paces itself to the wall clock from one shared t = 0; unpaced and
+        # unlocked, each would run at its own CPU's pace and they would not be one world.
+        # With --lockstep the participants hold every worker at the same TICKs instead.
+        print("towerlink sitl: --workers needs a finite --speedup, or --lockstep "
+              "(each worker paces itself to the wall clock, or is held by the participants)", file=sys.stderr)
         return 2
     from vehicle.autopilot.params import ParamFileError
     from vehicle.network_plan import PlanError

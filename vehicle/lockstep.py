@@ -5,7 +5,8 @@ Pure: no sockets, no clocks of its own (wall times are passed in). The world
 vehicle index whose endpoint it arrived on and the reply channel, and asks it:
 
 * ``started(wall)``: may the world leave t = 0? When ``expect`` participants have joined on
-  every vehicle (so the run starts at the same sim time whatever the machine), or when
+  every vehicle, or on the one vehicle their JOIN named (target_system: a driver of one
+  vehicle on that vehicle's own link, such as the van's; 0 = every vehicle) (so the run starts at the same sim time whatever the machine), or when
   ``timeout`` wall seconds passed since the first JOIN (then it starts with whoever is there);
 * ``passed(t_usec)``: has every registered participant acknowledged sim time t on every
   vehicle link it joined on? Per link, because UDP keeps order only per socket pair: a
@@ -35,6 +36,7 @@ class Participant:
     heard: float                                           # wall s, last message from it
     acked: dict[int, int] = field(default_factory=dict)     # vehicle index -> newest ACK, us
     channels: dict[int, object] = field(default_factory=dict)  # vehicle index -> reply channel
+    only: int = 0                                          # sysid its JOIN named (0: every vehicle)
 
     @property
     def name(self) -> str:
@@ -69,7 +71,8 @@ class LockstepGate:
             return None
         line = None
         if p is None:
-            p = self.participants[key] = Participant(m.sysid, m.compid, m.participant, wall)
+            p = self.participants[key] = Participant(m.sysid, m.compid, m.participant, wall,
+                                                     only=m.target_system)
             if self.first_join is None:
                 self.first_join = wall
             line = f"lockstep: {p.name} joined"
@@ -83,7 +86,7 @@ class LockstepGate:
 
     def started(self, wall: float) -> bool:
         if not self.is_started:
-            full = [p for p in self.participants.values() if len(p.channels) >= self.vehicles]
+            full = [p for p in self.participants.values() if p.only or len(p.channels) >= self.vehicles]
             if len(full) >= self.expect or (self.first_join is not None and wall - self.first_join >= self.timeout):
                 self.is_started = True
         return self.is_started

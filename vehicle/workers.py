@@ -12,9 +12,15 @@ behind count). Workers are forked (they start with the parent's imports); they s
 SIGTERM/SIGINT, when the parent goes away, or when told to; the parent stops when a worker
 dies. Each prints its own stats line at exit.
 
+With --lockstep N (issue 11) each worker runs its own gate (vehicle/lockstep.py) for its own
+vehicles and waits at t = 0 for the same N participants, which join every vehicle link. Then
+the wall instant does not matter: a participant ACKs TICK(t) only when TICK(t) came on all its
+links (bridge.lockstep_desk's barrier), so no worker passes t before every worker reached it
+and the processes step as one world, at --speedup N or max.
+
 Not shared: world-wide state changed at run time (a PARAM_SET of SIM_WIND_* moves the air
 of the worker that received it only; --wind at start is every worker's). Refused by the CLI:
---workers with --lockstep or --speedup max (those clocks are one process's).
+--workers with --speedup max without --lockstep (each worker would run at its own CPU's pace).
 """
 from __future__ import annotations
 

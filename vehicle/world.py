@@ -315,7 +315,8 @@ class World:
         if lock is not None:
             await lock.start(self._stop)
         wall0, sim0 = time.monotonic(), self.t
-        if self.cfg.start_at is not None and self.steps == 0:
+        if self.cfg.start_at is not None and self.steps == 0 and lock is None:
+            # (with lockstep the participants' JOINs are the shared start, not a wall instant)
             # a shared start: every worker's sim t = 0 is the same wall instant
             wall0 += self.cfg.start_at - time.time()
             await asyncio.sleep(max(0.0, wall0 - time.monotonic()))

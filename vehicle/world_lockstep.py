@@ -10,7 +10,8 @@ participant has not ACKed that TICK yet, else the next (held until then). So eac
 effect at a sim time fixed by the data it reacts to, never by when the machine delivered
 it. Anyone else's packets are handled on arrival: third-party clients see an ordinary
 vehicle, and never a TOWERLINK_LOCKSTEP (TICKs go only to the addresses participants
-joined from).
+joined from). With --signing-key a TOWERLINK_LOCKSTEP must be signed with the key (else it
+is dropped and counted as the link counts any unsigned packet) and the TICKs are signed.
 """
 from __future__ import annotations
 
@@ -55,7 +56,10 @@ class WorldLockstep:
                     self.held.append((inner, data, channel))
                     return True
                 return inner(data, channel)
-            if m.target_system in (0, v.sysid):
+            frame = data[:len(data) - len(rest)]
+            if v.link.signing_key and not v.link.signature_ok(frame, m.sysid, m.compid):
+                pass                # with --signing-key a participant must sign (counted by the link)
+            elif m.target_system in (0, v.sysid):
                 now = None
                 if self.gate.is_started and self.ticked_steps >= 0:
                     now = int(round(self.ticked_steps * self.world.dt * 1e6))
@@ -91,7 +95,17 @@ class WorldLockstep:
         for v in self.world.vehicles:
             for ch in self.gate.channels(v.index):
                 ch.send(wire.pack(wire.TICK, t, participant=wire.WORLD, target_system=0,
-                                  period_usec=period, sysid=v.sysid, compid=1))
+                                  period_usec=period, sysid=v.sysid, compid=1, signing=self._signing(v)))
+
+    @staticmethod
+    def _signing(v) -> tuple | None:
+        """With --signing-key: sign as the vehicle's own stream (its link's signing timestamp,
+        which then moves on, so the receiver sees it grow), else None."""
+        if not v.link.signing_key:
+            return None
+        sig = v.link.mav.signing
+        ts, sig.timestamp = sig.timestamp, sig.timestamp + 1
+        return v.link.signing_key, sig.link_id, ts
 
     async def _until(self, done, stop: asyncio.Event, every=None) -> None:
         while not done() and not stop.is_set():

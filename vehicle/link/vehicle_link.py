@@ -331,7 +331,12 @@ class VehicleLink:
     def _signature_ok(self, m) -> bool:
         """MAVLink 2 signing (gcs.signing): unsigned, badly signed, replayed and stale
         packets are counted and dropped."""
-        why = self._sign_check.check(m.get_msgbuf(), m.get_srcSystem(), m.get_srcComponent())
+        return self.signature_ok(m.get_msgbuf(), m.get_srcSystem(), m.get_srcComponent())
+
+    def signature_ok(self, buf: bytes, sysid: int, compid: int) -> bool:
+        """The check on one raw frame (also the world's TOWERLINK_LOCKSTEP, read before this
+        link): unsigned or badly signed frames are counted here and refused."""
+        why = self._sign_check.check(buf, sysid, compid)
         if why is None:
             return True
         self.stats["unsigned" if why == UNSIGNED else "bad_signature"] += 1
