@@ -317,17 +317,27 @@ def bridge_rate(bridge: tuple, frames: list[bytes], seconds: float) -> tuple[flo
     return _measure_rate(proc, link_addr, tower, frames, seconds)
 
 
+def mavproxy_exe() -> str | None:
+    """MAVProxy's script beside this Python (or on PATH); None when it is not installed."""
+    exe = shutil.which("mavproxy.py") or os.path.join(os.path.dirname(sys.executable), "mavproxy.py")
+    return exe if os.path.exists(exe) else None
+
+
+def mavproxy_router_args(master_port: int, out_port: int, state_dir: str) -> list[str]:
+    """MAVProxy as a plain router, the peer of the bridge: udpin master on loopback, one udpout."""
+    return [sys.executable, mavproxy_exe() or "mavproxy.py", f"--master=udpin:127.0.0.1:{master_port}",
+            f"--out=udpout:127.0.0.1:{out_port}", "--daemon", "--non-interactive",
+            "--state-basedir", state_dir, "--no-state"]
+
+
 def mavproxy_rate(frames: list[bytes], seconds: float, cpu: int) -> tuple[float, float, float] | None:
     """The same traffic through MAVProxy (--master udpin, --out udpout); None if absent."""
-    exe = shutil.which("mavproxy.py") or os.path.join(os.path.dirname(sys.executable), "mavproxy.py")
-    if not os.path.exists(exe):
+    if mavproxy_exe() is None:
         return None
     sink = _udp()
     mport = _free_port()
     with tempfile.TemporaryDirectory() as tmp:
-        args = [sys.executable, exe, f"--master=udpin:127.0.0.1:{mport}",
-                f"--out=udpout:127.0.0.1:{sink.getsockname()[1]}", "--daemon", "--non-interactive",
-                "--state-basedir", tmp, "--no-state"]
+        args = mavproxy_router_args(mport, sink.getsockname()[1], tmp)
         try:
             with _pinned_process(args, cpu, cwd=tmp) as proc:
                 probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)

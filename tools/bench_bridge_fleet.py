@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import multiprocessing as mp
 import os
-import shutil
 import socket
 import sys
 import tempfile
@@ -33,7 +32,8 @@ import time
 from contextlib import contextmanager
 
 from gcs.dialect import towerlink as tl
-from tools.bench_bridge import _free_port, _pinned_process, _udp, latency, messages_in
+from tools.bench_bridge import (_free_port, _pinned_process, _udp, latency, mavproxy_exe, mavproxy_router_args,
+                                messages_in)
 
 SOURCE_NOTE = ("1,000 vehicles' telemetry: a fake source (not a world: 1,000 simulated vehicles do not fit on "
                "2 cores beside the bridge) replays ArduPilot's default stream rates, 4 networks x 250 "
@@ -230,15 +230,12 @@ def _hello_tower(tower: socket.socket, addr: tuple, proc) -> None:
 
 def mavproxy_under_fleet(cpu: int, samples: int, rounds) -> dict | None:
     """MAVProxy (--master udpin <- every network, --out udpout -> tower) under the same load."""
-    exe = shutil.which("mavproxy.py") or os.path.join(os.path.dirname(sys.executable), "mavproxy.py")
-    if not os.path.exists(exe):
+    if mavproxy_exe() is None:
         return None
     tower, drone = _udp(), _udp()
     mport = _free_port()
     with tempfile.TemporaryDirectory() as tmp:
-        args = [sys.executable, exe, f"--master=udpin:127.0.0.1:{mport}",
-                f"--out=udpout:127.0.0.1:{tower.getsockname()[1]}", "--daemon", "--non-interactive",
-                "--state-basedir", tmp, "--no-state"]
+        args = mavproxy_router_args(mport, tower.getsockname()[1], tmp)
         try:
             with _pinned_process(args, cpu, cwd=tmp) as proc:
                 hb = bytes(tl.MAVLink_heartbeat_message(tl.MAV_TYPE_QUADROTOR, tl.MAV_AUTOPILOT_ARDUPILOTMEGA,

@@ -58,13 +58,13 @@ class MessageLayout:
         self.order = tuple(names.index(n) for n in cls.ordered_fieldnames)
         # constructor order -> wire order, in C (itemgetter of one index gives no tuple)
         self.wire_order = itemgetter(*self.order) if len(self.order) > 1 else (lambda v: (v[0],))
-        # numeric arrays are flattened into the struct; char[] is one 's' item
         types = dict(zip(names, cls.fieldtypes))     # fieldtypes follow constructor order
         # where a message object keeps each field as sent (char[] raw, as pymavlink's pack)
         self.attrs = tuple(f"_{n}_raw" if types[n] == "char" else n for n in names)
         # the constructor's defaults (extension fields): a shorter tuple is padded with them
         params = list(inspect.signature(cls.__init__).parameters.values())[1:]
         self.defaults = tuple(p.default for p in params)
+        # numeric arrays are flattened into the struct; char[] is one 's' item
         self.arrays = any(n > 0 and types[f] != "char" for n, f in zip(cls.array_lengths, cls.ordered_fieldnames))
 
     def payload(self, values: Sequence) -> bytes:
@@ -125,7 +125,7 @@ class Framer:
         return buf
 
     def frame_message(self, msg) -> bytes:
-        """A pymavlink message object framed the same way (for builders that give objects)."""
+        """A pymavlink message object framed the same way (what `msg.pack(mav)` gives)."""
         msgid = msg.get_msgId()          # not msg.id: BATTERY_STATUS has a field "id"
         lay = _LAYOUTS.get(msgid) or layout(msgid)
         return self.frame_payload(lay, lay.payload([getattr(msg, a) for a in lay.attrs]))

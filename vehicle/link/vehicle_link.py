@@ -7,6 +7,10 @@ frames, unknown message ids, messages for another system, and (when signing is o
 or badly signed packets. Counters also go out once a second as NAMED_VALUE_INT
 once non-zero (names in STAT_NAMES).
 
+Streams are framed without message objects (vehicle/link/framing.py, byte for byte what
+pymavlink packs) and only while an endpoint has someone to hear them (a udpin peer, a TCP
+client, a udpout target); replies and STATUSTEXT are pymavlink messages packed by pymavlink.
+
 Every COMMAND_LONG / COMMAND_INT for us gets exactly one COMMAND_ACK on the channel it came
 from; replies (PARAM_VALUE for reads/lists, TIMESYNC, requested messages) go back there too;
 streams, STATUSTEXT and PARAM_VALUE after a PARAM_SET go to every endpoint.
