@@ -292,13 +292,8 @@ def _run(args) -> int:
     bridge.log(f"tower {cfg.tower} ({cfg.tower_frame} frame); {served}; "
                f"outs {cfg.outs or '-'}; follow {'off' if not cfg.follow else cfg.follow_frame} "
                f"offset {cfg.follow_offset}; frames {[ts.child_frame_id for ts in cfg.statics]}")
-    import gc
-    # a router allocates a Packet per datagram (66,000 /s with 1,000 vehicles): the default
-    # gen-0 threshold (700) ran a collection every ~10 ms, and the older generations' passes
-    # over everything the bridge holds (the frame buffer) held a tower goal for milliseconds.
-    # Packets form no cycles; what is built at start is frozen out of the collector's walk.
-    gc.freeze()
-    gc.set_threshold(50_000, 20, 100)
+    from gcs.collector import tune_for_long_run
+    tune_for_long_run()       # a Packet per datagram, 66,000 /s with 1,000 vehicles (gcs/collector.py)
     try:
         bridge.run(args.duration)
     finally:

@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 # gcs modules the simulated vehicle may use: pure libraries, no sockets of their own.
 VEHICLE_MAY_USE = ("gcs.frames", "gcs.geo", "gcs.modes", "gcs.mavstr", "gcs.endpoints", "gcs.wpl", "gcs.peers",
-                   "gcs.lockstep",
+                   "gcs.lockstep", "gcs.collector",
                    "gcs.signing")
 GCS_PROGRAMS = ("gcs.client", "gcs.tower", "gcs.tower_family", "gcs.tower_link")
 

@@ -223,7 +223,7 @@ def world_bench(drones: int, rovers: int, seconds: float, workers: int = 2) -> t
             ["CPU of the world processes (process s / wall s)", f"{cpu:.2f} cores", "<= 2 cores",
              "met" if cpu <= 2.0 else "MISSED"],
             ["world processes (--workers)", f"{workers}", "<= 2 cores", "-"],
-            ["sim s per wall s, slowest vehicle (SYSTEM_TIME)", f"{rt:.2f}", "1.00", "met" if rt >= 0.98 else "MISSED"],
+            ["sim s per wall s, slowest vehicle (SYSTEM_TIME)", f"{rt:.2f}", "1.00", "met" if rt >= 0.995 else "MISSED"],   # a paced 100-vehicle world reads 1.00
             ["sim s per wall s, median vehicle", f"{rt_med:.2f}", "", "-"],
             ["vehicles with a measurable sim clock in the window", f"{len(rts)}", f"{n}", "-"],
             ["CPU per sim s (cores needed at real time)",

@@ -68,6 +68,7 @@ import os
 import signal
 import sys
 
+from gcs.collector import tune_for_long_run
 from gcs.lockstep import speedup_type
 from gcs.signing import key_from_text as signing_key
 from vehicle.world import DEFAULT_HOME, DEFAULT_STATE_DIR, PLAN_FILE, World, WorldConfig
@@ -264,6 +265,7 @@ def run(args: argparse.Namespace) -> int:
             loop.add_signal_handler(sig, world.request_stop)
         await world.run(started=lambda: print(world.banner(), flush=True))
 
+    tune_for_long_run()         # the vehicles are built; their messages form no cycles
     try:
         asyncio.run(main())
     except OSError as e:

@@ -32,6 +32,7 @@ import threading
 import time
 from dataclasses import replace
 
+from gcs.collector import tune_for_long_run
 from vehicle.world import World, WorldConfig
 
 READY_TIMEOUT = 300.0     # wall s for a worker to build its share
@@ -72,6 +73,7 @@ def _child(cfg: WorldConfig, conn) -> None:
             loop.add_signal_handler(sig, world.request_stop)
         threading.Thread(target=watch_parent, daemon=True).start()
         await world.run()
+    tune_for_long_run()                  # this share's vehicles are built (gcs/collector.py)
     try:
         asyncio.run(main())
     except OSError as e:                 # a port taken after the plan was made
@@ -128,6 +130,7 @@ def run(cfg: WorldConfig, k: int, out=print, on_world=None) -> int:
                 await world.run(started=lambda: out(world.banner(len(parts))))
             finally:
                 task.cancel()
+        tune_for_long_run()
         asyncio.run(main())
         out(world.stats_line())
         return 1 if failed else 0
