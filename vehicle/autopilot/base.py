@@ -39,6 +39,7 @@ UNSUPPORTED = mav.MAV_RESULT_UNSUPPORTED
 TEMPORARILY_REJECTED = mav.MAV_RESULT_TEMPORARILY_REJECTED
 
 FORCE_MAGIC = 21196      # ArduPilot's param2 to force arm / disarm
+BATTERY_PERIOD = 0.1     # s: ArduPilot reads its battery monitor at 10 Hz
 
 SEV_INFO = mav.MAV_SEVERITY_INFO
 SEV_NOTICE = mav.MAV_SEVERITY_NOTICE
@@ -98,6 +99,7 @@ class Autopilot:
         self.gcs_failsafe = False
         self.speed_override: float | None = None     # DO_CHANGE_SPEED (m/s)
         self.battery = Battery()                     # the pack and AP_BattMonitor (battery.py)
+        self._battery_due = 0.0                      # sim s since the monitor was last read
         self.batt_fs_priority: int | None = None     # priority of the battery action taken
         self.arm_time = 0.0
         # missions, fence and rally points; the link fills the store, the runner flies it
@@ -221,6 +223,12 @@ class Autopilot:
         """Drain the pack by what the vehicle draws; on a new failsafe level say so in
         AP_BattMonitor's words and act as the vehicle's handle_battery_failsafe, if the
         action ranks at or above the one already taken (ArduPilot's priority list)."""
+        # ArduCopter (update_batt_compass) and ArduRover (AP_BattMonitor::read) read the monitor at
+        # 10 Hz; the load drawn at the reading stands for the 0.1 s since the last one
+        self._battery_due += dt
+        if self._battery_due < BATTERY_PERIOD - 1e-9 and dt > 0:
+            return
+        dt, self._battery_due = self._battery_due, 0.0
         b = self.battery
         level = b.update(t, dt, self.electrical_load() if self.armed else 0.0, self.armed, self.params.values)
         if not level:
