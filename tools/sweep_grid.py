@@ -439,7 +439,7 @@ def fly_args(factors: Mapping[str, Any], scenario: str | None, run_dir: str, *,
 # ----------------------------------------------------------------------------- TOML out
 
 
-_BARE = re.compile(r"^[A-Za-z0-9_-]+$")
+_BARE = re.compile(r"[A-Za-z0-9_-]+")
 
 
 def to_toml(data: Mapping[str, Any]) -> str:
@@ -449,7 +449,7 @@ def to_toml(data: Mapping[str, Any]) -> str:
 
 
 def _key(k: str) -> str:
-    return k if _BARE.match(k) else _toml_str(k)
+    return k if _BARE.fullmatch(k) else _toml_str(k)    # fullmatch: "$" also matches before a final "\n"
 
 
 def _toml_str(s: str) -> str:
