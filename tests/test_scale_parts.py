@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import select
 import socket
 import threading
 import time
@@ -158,7 +159,7 @@ class _FakeMaster:
                     return self.inbox.pop(0)
             if not blocking or time.monotonic() >= end:
                 return None
-            time.sleep(0.002)
+            time.sleep(0.002)                # poll: the fake's inbox, as recv_match(blocking) does
 
     def close(self):
         pass
@@ -179,7 +180,7 @@ def test_shared_link_acks_a_tick_only_after_every_mission_thread_acted_on_it():
             while len(seen[name]) < 3:
                 c.poll(0.05)
                 seen[name].append(c.tick_usec)
-                time.sleep(work)                # acting on the TICK (slow for "b")
+                time.sleep(work)                # simulated work acting on the TICK (slow for "b"), not a wait
                 events.append((name, c.tick_usec))
         finally:
             c.leave()
@@ -251,6 +252,10 @@ def test_queued_packets_leave_in_order_in_datagrams_of_at_most_1400_bytes():
         rx.close()
 
 
+def _readable(sock) -> bool:
+    return bool(select.select([sock], [], [], 0)[0])
+
+
 def test_a_tower_goal_is_handled_before_a_burst_of_telemetry_and_between_its_batches():
     from bridge import loop as bl
     from bridge.config import BridgeConfig
@@ -273,13 +278,14 @@ def test_a_tower_goal_is_handled_before_a_burst_of_telemetry_and_between_its_bat
             order.extend(link.name for _p in pkts)
             if link.name == "drone1" and order.count("drone1") == bl.VEHICLE_BATCH:
                 tower.sendto(_packet(255, 2), ("127.0.0.1", tport))       # arrives mid-burst
-                time.sleep(0.01)
+                wait_until(lambda: _readable(b.tower.sock), 2, "the mid-burst goal at the bridge")
             handled(link, pkts)
         b._handle = record
         for k in range(100):
             vsock.sendto(_packet(1 + k % 50, k), link_addr)
         tower.sendto(_packet(255, 1), ("127.0.0.1", tport))
-        time.sleep(0.05)                                   # let loopback deliver both (setup, not a wait)
+        wait_until(lambda: _readable(b.tower.sock) and _readable(b.vehicles[1].link.sock), 2,
+                   "the goal and the burst at the bridge")
         b.run_once(0.5)
         assert order[0] == "tower"                         # the tower's first, though both were ready
         second = order.index("tower", 1)
