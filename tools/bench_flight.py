@@ -70,16 +70,22 @@ def rotorpy_drone() -> tuple[float | None, str]:
     return DT / per, "Multirotor + SE3Control, defaults"
 
 
-def batched(n: int = 1000) -> float:
-    home = np.column_stack([np.arange(n) % 40 * 5.0, np.arange(n) // 40 * 5.0, np.zeros(n)])
+def airborne_fleet(n: int, side: int = 40) -> CopterFleet:
+    """n drones on truth (no estimator) on a grid `side` wide, 5 m apart, armed and 200 steps into
+    a move to (3, -2, -8) m NED from home: airborne, mid-manoeuvre, ready to be timed."""
+    home = np.column_stack([np.arange(n) % side * 5.0, np.arange(n) // side * 5.0, np.zeros(n)])
     f = CopterFleet(n, seed=0, home=home, estimator=False)
     for i in range(n):
         f.set_armed(i, True)
         f.set_setpoint(i, Setpoint(pos=home[i] + [3.0, -2.0, -8.0]))
-    for _ in range(200):                     # airborne, mid-manoeuvre
+    for _ in range(200):
         f.step(DT)
-    per = _time_steps(lambda: f.step(DT), 200)
-    return per
+    return f
+
+
+def batched(n: int = 1000) -> float:
+    f = airborne_fleet(n)
+    return _time_steps(lambda: f.step(DT), 200)
 
 
 def quality(seed: int = 1, d: float = 20.0) -> tuple[float, float, float, float]:

@@ -31,7 +31,6 @@ import tempfile
 import threading
 import time
 
-import numpy as np
 
 from tools.benchtable import machine, table
 
@@ -242,16 +241,8 @@ def world_bench(drones: int, rovers: int, seconds: float, workers: int = 2) -> t
 
 
 def _fleet(n: int):
-    from vehicle.fleet import CopterFleet, Setpoint
-    side = int(math.ceil(math.sqrt(n)))
-    home = np.column_stack([np.arange(n) % side * 5.0, np.arange(n) // side * 5.0, np.zeros(n)])
-    f = CopterFleet(n, seed=0, home=home, estimator=False)
-    for i in range(n):
-        f.set_armed(i, True)
-        f.set_setpoint(i, Setpoint(pos=home[i] + [3.0, -2.0, -8.0]))
-    for _ in range(200):                     # airborne, mid-manoeuvre
-        f.step(DT)
-    return f
+    from tools.bench_flight import airborne_fleet
+    return airborne_fleet(n, side=int(math.ceil(math.sqrt(n))))
 
 
 def _cpu_per_step(f, steps: int = 200, repeat: int = 5) -> tuple[float, float]:
