@@ -31,7 +31,6 @@ import tempfile
 import threading
 import time
 
-
 from tools.benchtable import machine, table
 
 DT = 1.0 / 400.0
