@@ -252,6 +252,7 @@ class Client:
         self.tick_usec: int | None = None         # newest TICK handled (sim us)
         self._ack_due: int | None = None          # TICK handled, ACK not yet sent
         self._acked = -1                          # newest TICK ACKed (sim us)
+        self._closed = False
         self._last_join = -1e9
         self._last_tick_wall = -1e9
         self.mav = master.mav
@@ -314,7 +315,7 @@ class Client:
 
     def close(self) -> None:
         """Close the link (with lockstep after a LEAVE); a second call does nothing."""
-        if getattr(self, "_closed", False):
+        if self._closed:
             return
         self._closed = True
         if self.lockstep:
