@@ -24,9 +24,11 @@ def world():
 def test_heartbeat_command_ack_param_pass_through(world):
     bridge, tower, drone, rover = world
     drone.heartbeat()
+    rover.heartbeat()
     hb = tower.wait("HEARTBEAT", lambda m: m.get_srcSystem() == 1)
     assert hb.get_srcComponent() == 1 and hb.type == tl.MAV_TYPE_QUADROTOR
-    tower.wait("HEARTBEAT", lambda m: m.get_srcSystem() == 2)
+    hb = tower.wait("HEARTBEAT", lambda m: m.get_srcSystem() == 2)
+    assert hb.type == tl.MAV_TYPE_GROUND_ROVER
     # tower heartbeat (broadcast) reaches both vehicles with the tower's ids
     tower.mav.heartbeat_send(tl.MAV_TYPE_GCS, tl.MAV_AUTOPILOT_INVALID, 0, 0, 0)
     for v in (drone, rover):
