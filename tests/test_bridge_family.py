@@ -14,7 +14,7 @@ from gcs.dialect import towerlink as tl
 from gcs.frames import Transform
 from gcs.scenario import parse_static_transform
 from bridge.config import BridgeConfig
-from bridge_fakes import Endpoint, FakeVehicle, running_bridge, sync
+from bridge_fakes import Endpoint, FakeVehicle, running_bridge, sync, wait_origins
 from support import free_ports, wait_until
 
 
@@ -33,8 +33,7 @@ def family(vehicles, pairs=(), statics=(), follow=False):
         tower = Endpoint(255, 190, ports[0], listen=False, name="tower")
         try:
             wait_until(lambda: all(f.peer for f in fakes.values()), 5, "bridge reaching the vehicles")
-            for f in fakes.values():
-                f.heartbeat()
+            wait_origins(bridge, *fakes.values())   # else the first poses have no place in world
             tower.mav.heartbeat_send(tl.MAV_TYPE_GCS, tl.MAV_AUTOPILOT_INVALID, 0, 0, 0)
             wait_until(lambda: bridge.tower.peers, 5, "tower peer known")
             yield bridge, tower, fakes

@@ -88,6 +88,7 @@ from pathlib import Path
 from gcs.geo import lla_to_ned, ned_to_lla
 from gcs.lockstep import speedup_text, speedup_type
 from gcs.mavstr import mav_str
+from tools.procs import die_with_parent
 
 os.environ.setdefault("MAVLINK20", "1")
 
@@ -361,12 +362,12 @@ class Launch:
         env = dict(os.environ, PYTHONUNBUFFERED="1")
         if name == "tower":
             p = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                                 start_new_session=True, env=env, bufsize=1)
+                                 start_new_session=True, env=env, bufsize=1, preexec_fn=die_with_parent())
             threading.Thread(target=self._read_tower, args=(p, log), daemon=True).start()
         else:
             # stdin: none reads it, and a world started through `ssh -tt` would take the terminal raw
             p = subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT, start_new_session=True, env=env,
-                                 stdin=subprocess.DEVNULL)
+                                 stdin=subprocess.DEVNULL, preexec_fn=die_with_parent())
         self.procs[name] = p
         return p
 

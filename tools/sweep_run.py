@@ -20,6 +20,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from tools.procs import die_with_parent
+
 ROW_FILE = "row.json"
 GRACE_S = 60.0          # beyond fly's own --timeout: fly stops itself and summarises first
 
@@ -68,15 +70,6 @@ def _fly_reason(log: Path) -> str | None:
             return line[len("towerlink fly: "):].removesuffix("; all processes stopped")
     tail = [ln for ln in lines if ln.strip()][-1:]
     return tail[0][:200] if tail else None
-
-
-def _die_with_parent() -> None:
-    """In the child: SIGTERM when the Ray worker that started it dies (Linux prctl)."""
-    try:
-        import ctypes
-        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)     # PR_SET_PDEATHSIG
-    except Exception:  # noqa: BLE001 - best effort; fly is also stopped by cancel
-        pass
 
 
 def _descendants(pid: int) -> list[int]:
@@ -167,7 +160,7 @@ def run_one(spec: dict[str, Any]) -> dict[str, Any]:
         out.write(f"$ {' '.join(cmd)}\n")
         out.flush()
         p = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT, cwd=root or None, env=env,
-                             start_new_session=True, preexec_fn=_die_with_parent)
+                             start_new_session=True, preexec_fn=die_with_parent())
         try:
             rc = p.wait(float(spec["timeout"]) + GRACE_S)
         except subprocess.TimeoutExpired:
