@@ -48,7 +48,7 @@ from typing import Any
 
 from tools.sweep_grid import Plan, Run, SweepError
 
-INSTALL_HINT = ("towerlink sweep needs Ray and pyarrow, the sweep extra: "
+INSTALL_HINT = ("towerlink sweep needs Ray, pyarrow and tqdm, the sweep extra: "
                 "pip install 'towerlink[sweep]' (in this checkout: pip install -e '.[sweep]', or make sweep)")
 PROJECT_ROOT = str(Path(__file__).resolve().parent.parent)
 
@@ -172,11 +172,6 @@ def start_ray(address: str | None, parallel: int | None):
     return ray
 
 
-def _fmt_s(s: float) -> str:
-    s = max(0, int(round(s)))
-    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
-
-
 class Interrupt:
     """SIGINT / SIGTERM handler: remembers the request and raises KeyboardInterrupt. Ray's own
     code may swallow the KeyboardInterrupt (during ray.init), so the loop also checks `hit`."""
@@ -193,9 +188,11 @@ class Interrupt:
             raise KeyboardInterrupt
 
 
-def execute(ray, specs: list[dict], parallel: int, on_row, stop: Interrupt | None = None) -> bool:
+def execute(ray, specs: list[dict], parallel: int, on_row, stop: Interrupt | None = None,
+            on_wait=None, say=print) -> bool:
     """Run the specs as Ray tasks, at most `parallel` at once; on_row(spec, row, summary) as each
-    ends. Returns False when interrupted (Ctrl-C): running flights are cancelled and stopped."""
+    ends, on_wait(runs in flight) before each wait (about once a second), say(text) for messages.
+    Returns False when interrupted (Ctrl-C): running flights are cancelled and stopped."""
     from tools.sweep_run import run_one
     task = ray.remote(num_cpus=1, max_retries=0)(run_one)
     todo = list(specs)
@@ -207,6 +204,8 @@ def execute(ray, specs: list[dict], parallel: int, on_row, stop: Interrupt | Non
             while todo and len(pending) < parallel:
                 spec = todo.pop(0)
                 pending[task.remote(spec)] = spec
+            if on_wait is not None:
+                on_wait(len(pending))
             done, _ = ray.wait(list(pending), num_returns=1, timeout=1.0)
             for ref in done:
                 spec = pending.pop(ref)
@@ -222,7 +221,7 @@ def execute(ray, specs: list[dict], parallel: int, on_row, stop: Interrupt | Non
                 on_row(spec, row, summary)
         return True
     except KeyboardInterrupt:
-        print(f"\n[sweep] interrupted: stopping {len(pending)} running flight(s)...", flush=True)
+        say(f"[sweep] interrupted: stopping {len(pending)} running flight(s)...")
         for ref in pending:
             try:
                 ray.cancel(ref)         # KeyboardInterrupt in the task: it stops its fly (SIGINT)
@@ -296,27 +295,21 @@ def _fly_all(args, todo: list[dict], rows: dict[str, dict], total: int, t0: floa
         parallel = min(args.parallel or cpus, len(todo))
         print(f"towerlink sweep: Ray {ray.__version__} "
               f"{'at ' + args.address if args.address else 'local'}, {parallel} run(s) at once", flush=True)
-        done_now = 0
+        from tools.sweep_progress import Progress
+        progress = Progress(total, initial=len(rows), initial_failed=sum(not r.get("pass") for r in rows.values()),
+                            t0=t0)
 
         def on_row(spec, row, summary):
-            nonlocal done_now
-            done_now += 1
             rows[spec["run_id"]] = row
             if summary is not None and not (Path(spec["run_dir"]) / "summary.json").exists():
                 # a cluster worker's folder is on its own host: keep the summary and row here
                 Path(spec["run_dir"]).mkdir(parents=True, exist_ok=True)
                 write_atomic(Path(spec["run_dir"]) / "summary.json", json.dumps(summary, indent=1, default=str))
                 write_atomic(Path(spec["run_dir"]) / "row.json", json.dumps(row, indent=1, default=str))
-            el = time.monotonic() - t0
-            failed = sum(not r.get("pass") for r in rows.values())
-            eta = el / done_now * (len(todo) - done_now)
-            res = "pass" if row.get("pass") else f"FAIL ({row.get('reason')})"
-            took = f", {row['wall_s']:.1f} s" if isinstance(row.get("wall_s"), (int, float)) else ""
-            print(f"[sweep] {len(rows)}/{total} done, {failed} failed, elapsed {_fmt_s(el)}, "
-                  f"ETA {_fmt_s(eta)} | {spec['run_id']} {g.format_factors(spec['factors'])}: {res}{took}",
-                  flush=True)
+            progress.run_done(f"{spec['run_id']} {g.format_factors(spec['factors'])}", row)
 
-        return execute(ray, todo, parallel, on_row, stop)
+        with progress:      # closed on any exit (Ctrl-C too): the terminal is left on a fresh line
+            return execute(ray, todo, parallel, on_row, stop, on_wait=progress.running, say=progress.write)
     finally:
         if ray is not None:
             try:
@@ -347,6 +340,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         import pyarrow  # noqa: F401
         import ray  # noqa: F401
+        import tqdm  # noqa: F401
     except ImportError:
         print(f"towerlink sweep: {INSTALL_HINT}", file=sys.stderr)
         return 2
