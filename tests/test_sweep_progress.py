@@ -4,6 +4,7 @@ A fake clock and a StringIO stand for the wall clock and the terminal: plain lin
 is not a terminal, a bar redrawn in place with each run's line above it when it is."""
 from __future__ import annotations
 
+import argparse
 import io
 import json
 import re
@@ -196,3 +197,32 @@ def test_the_sweep_shows_the_bar_writes_a_cluster_runs_summary_here_and_closes_t
     assert re.fullmatch(r"\[sweep\] 2/4 \|#+ *\| 1 failed, 2 in flight, elapsed 0:0\d, ETA 0:\d\d", shown[3]), \
         shown[3]
     assert len(shown) == 4
+
+
+def test_a_cluster_that_cannot_be_reached_is_exit_2_with_why_not_a_traceback(tmp_path, monkeypatch, capsys):
+    import types
+
+    from tools import sweep
+
+    class AuthenticationError(Exception):
+        pass
+
+    def init(address=None, **_kw):
+        try:
+            raise AuthenticationError("RPC error: InvalidAuthToken: Authentication token is missing or incorrect")
+        except AuthenticationError as exc:
+            raise ConnectionError(f"Failed to connect to Ray cluster at {address}") from exc
+
+    fake = types.ModuleType("ray")
+    fake.init, fake.__version__ = init, "0.fake"
+    monkeypatch.setitem(sys.modules, "ray", fake)
+    parser = argparse.ArgumentParser()
+    sweep.add_arguments(parser)
+    args = parser.parse_args(["--seeds", "1", "--out", str(tmp_path / "s"), "--address", "127.0.0.1:6379"])
+    assert sweep.run(args) == 2
+    err = capsys.readouterr().err
+    assert err.strip().splitlines()[-1] == (
+        "towerlink sweep: cannot connect to the Ray cluster at 127.0.0.1:6379: ConnectionError: Failed to connect to "
+        "Ray cluster at 127.0.0.1:6379; the cluster wants its token: set RAY_AUTH_MODE=token and give the token "
+        "(RAY_AUTH_TOKEN, or the file ~/.ray/auth_token)")
+    assert "Traceback" not in err

@@ -30,7 +30,7 @@ Run ids are hashes of the scenario and the factors: rerunning the same sweep int
 DIR (or --resume) does not redo finished runs. A run that fails or times out is a row with
 pass False and its reason. Ctrl-C stops the running flights cleanly and writes the table of
 the finished ones. Exit status 0 when every run has a row (failed missions are results), 2
-for a bad plan or a missing Ray, 130 when interrupted.
+for a bad plan, a missing Ray or a cluster it cannot reach, 130 when interrupted.
 """
 from __future__ import annotations
 
@@ -62,9 +62,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="sweep a factor over these values (repeatable; replaces the file's)")
     parser.add_argument("--seeds", metavar="SPEC", help="the seeds, e.g. 1-20 or 1,3,5 (default 1)")
     parser.add_argument("--out", metavar="DIR", help="sweep folder (default sweeps/<timestamp>)")
-    parser.add_argument("--address", metavar="ray://HOST:10001|auto",
-                        help="a Ray cluster to run on (default: a local Ray started for this sweep); every "
-                             "node needs towerlink installed, and DIR is best on a shared file system (else "
+    parser.add_argument("--address", metavar="HOST:PORT|auto|ray://HOST:10001",
+                        help="a running Ray cluster to run on (default: a local Ray started for this sweep): "
+                             "HOST:PORT, the head's address that `ray start --head --port PORT` prints (from a "
+                             "node of the cluster); auto, the cluster started on this machine; ray://HOST:10001, "
+                             "Ray Client from outside the cluster. A cluster with token authentication (Ray's "
+                             "default once ~/.ray/auth_token exists) also needs RAY_AUTH_MODE=token and its token "
+                             "(RAY_AUTH_TOKEN, or the file ~/.ray/auth_token) here when the address is given. "
+                             "Every node needs towerlink installed, and DIR is best on a shared file system (else "
                              "each run's folder stays on its node; summary.json and row.json come back here)")
     parser.add_argument("--parallel", type=int, default=None, metavar="N",
                         help="runs at once (default: the CPUs Ray has; each run is one CPU)")
@@ -164,12 +169,28 @@ def start_ray(address: str | None, parallel: int | None):
         [PROJECT_ROOT, *[p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p and p != PROJECT_ROOT]])
     import ray
     quiet: dict[str, Any] = dict(log_to_driver=False, logging_level=logging.ERROR)
-    if address:     # a cluster (ray://HOST:10001 through Ray Client, or auto): it has its own settings
-        ray.init(address=address, **quiet)
+    if address:     # a running cluster (HOST:PORT, auto, ray://HOST:10001): it has its own settings
+        try:
+            ray.init(address=address, **quiet)
+        except KeyboardInterrupt:
+            raise
+        except Exception as exc:  # noqa: BLE001 - Ray raises ConnectionError, RuntimeError, ValueError...
+            raise SweepError(cluster_error(address, exc)) from None
     else:
         ray.init(num_cpus=parallel or os.cpu_count() or 1, object_store_memory=128 * 1024 * 1024,
                  include_dashboard=False, **quiet)
     return ray
+
+
+def cluster_error(address: str, exc: BaseException) -> str:
+    """Why ray.init(address) failed, in one line, with what to do for a cluster that wants a token."""
+    text = " ".join(str(exc).split())
+    cause = " ".join(str(exc.__cause__ or "").split())
+    msg = f"cannot connect to the Ray cluster at {address}: {type(exc).__name__}: {text[:300]}"
+    if "auth" in f"{text} {cause}".lower():
+        msg += ("; the cluster wants its token: set RAY_AUTH_MODE=token and give the token "
+                "(RAY_AUTH_TOKEN, or the file ~/.ray/auth_token)")
+    return msg
 
 
 class Interrupt:
@@ -369,6 +390,9 @@ def run(args: argparse.Namespace) -> int:
     old_handlers = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         ok = _fly_all(args, todo, rows, total, t0, stop) if todo else True
+    except SweepError as exc:       # the cluster could not be reached
+        print(f"towerlink sweep: {exc}", file=sys.stderr)
+        return 2
     finally:
         for sig, h in old_handlers.items():
             signal.signal(sig, h)
