@@ -24,7 +24,7 @@ $(STAMP): pyproject.toml
 	rm -f $(VENV)/.installed-*
 	touch $@
 
-# the test suite also runs the Ray sweep test: test and sweep add the sweep extra (Ray, pyarrow);
+# the test suite also runs the Ray sweep tests: test and sweep add the sweep extra (Ray, pyarrow, tqdm);
 # make demo does not need it
 SWEEP_STAMP := $(VENV)/.installed-sweep-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 $(SWEEP_STAMP): $(STAMP)
