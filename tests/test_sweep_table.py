@@ -159,6 +159,18 @@ def test_stopping_a_run_also_stops_what_it_started_in_sessions_of_its_own(tmp_pa
         p.wait(5)
 
 
+def test_a_failed_missions_reason_is_flys_last_word_not_its_list_of_files(tmp_path):
+    # the tail of a real fly.log (make sweep, tower_loss=0.05 seed=2): the reason was the file list
+    log = tmp_path / "fly.log"
+    log.write_text("   4/4   [ -146.04,   99.50]  [ -4.00,  28.00]    30.0   MISSED    8.50      -        -\n\n"
+                   "hover (no wind): the drone did not hover\n"
+                   "tower: TakeoffError: command MAV_CMD_NAV_TAKEOFF rejected: FAILED\n"
+                   f"run folder {tmp_path}: bridge.log bridge.tlog fly.log summary.json tower.log\n")
+    assert sweep_run._fly_reason(log) == "tower: TakeoffError: command MAV_CMD_NAV_TAKEOFF rejected: FAILED"
+    log.write_text("towerlink fly: timed out after 300 s wall; all processes stopped\nrun folder x: a b\n")
+    assert sweep_run._fly_reason(log) == "timed out after 300 s wall"
+
+
 def test_finished_needs_a_complete_row_and_summary(tmp_path):
     d = tmp_path / "r"
     d.mkdir()

@@ -68,7 +68,8 @@ def _fly_reason(log: Path) -> str | None:
     for line in reversed(lines):
         if line.startswith("towerlink fly: ") and "run folder" not in line and "(ports" not in line:
             return line[len("towerlink fly: "):].removesuffix("; all processes stopped")
-    tail = [ln for ln in lines if ln.strip()][-1:]
+    # else the last line that says something: not fly's closing list of the run folder's files
+    tail = [ln for ln in lines if ln.strip() and not ln.startswith("run folder ")][-1:]
     return tail[0][:200] if tail else None
 
 
