@@ -255,6 +255,8 @@ def execute(ray, specs: list[dict], parallel: int, on_row, stop: Interrupt | Non
                 _done, left = ray.wait(left, num_returns=len(left), timeout=1.0)
             except KeyboardInterrupt:
                 break
+        if on_wait is not None:
+            on_wait(len(left))          # the flights still not stopped (none, normally)
         return False
 
 
