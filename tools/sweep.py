@@ -26,6 +26,9 @@ Output (--out DIR, default sweeps/<timestamp>):
                          follow error, wobble and reach-time ratio, and the pass rate (also printed)
   DIR/sweep.json         the plan: scenario, options, every run's id and factors
 
+Progress: on a terminal a bar (done/total, failed, in flight, elapsed, ETA) under one line per
+finished run; piped or logged, one plain line per finished run with the counts.
+
 Run ids are hashes of the scenario and the factors: rerunning the same sweep into the same
 DIR (or --resume) does not redo finished runs. A run that fails or times out is a row with
 pass False and its reason. Ctrl-C stops the running flights cleanly and writes the table of
