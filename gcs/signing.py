@@ -92,3 +92,32 @@ def key_from_text(text: str | None) -> bytes | None:
         except ValueError:
             pass
     return hashlib.sha256(text.encode()).digest()
+
+
+SIGNING_FLAG = "--signing-key"
+MASK = "***"
+
+
+def masked_argv(argv: list[str]) -> list[str]:
+    """`argv` with every --signing-key value replaced by ***, for logs and run folders.
+
+    Handles the value as the next word, as ``--signing-key=VALUE``, and inside one word that
+    holds a whole shell-quoted command line (a command handed to ssh)."""
+    import re
+    import shlex
+    out: list[str] = []
+    for i, a in enumerate(argv):
+        if i > 0 and argv[i - 1] == SIGNING_FLAG:
+            out.append(MASK)
+        elif a.startswith(SIGNING_FLAG + "="):
+            out.append(SIGNING_FLAG + "=" + MASK)
+        elif SIGNING_FLAG in a and a != SIGNING_FLAG:
+            try:
+                words = shlex.split(a)
+            except ValueError:          # not a command line: hide everything after the flag
+                out.append(re.sub(re.escape(SIGNING_FLAG) + r".*", SIGNING_FLAG + " " + MASK, a, flags=re.S))
+                continue
+            out.append(shlex.join(masked_argv(words)))
+        else:
+            out.append(a)
+    return out
