@@ -12,6 +12,8 @@ packet up to t (the loop handles packets in arrival order). Then, at that barrie
    bridge to the world like any broadcast, on the same socket as its goals, so a goal sent
    before the tower's ACK reaches the vehicle before it).
 
+When the bridge closes it sends LEAVE on every vehicle link.
+
 Until the first TICK arrives on a link the bridge sends JOIN there every JOIN_PERIOD wall s,
 and again when no TICK came for REJOIN_AFTER wall s (the world dropped it, or restarted).
 
@@ -115,6 +117,15 @@ class LockstepDesk:
         elif msg.kind == tl.TOWERLINK_LOCKSTEP_KIND_LEAVE:
             self.tower_joined = False
             self.log("lockstep: the tower left")
+
+    def leave(self) -> None:
+        """LEAVE on every vehicle link: the bridge is going, so the world need not wait out its
+        --lockstep-timeout (a world started by hand, or one a restarted bridge will join again)."""
+        for v in self.vehicles.values():
+            try:
+                v.link.send(self.pack_own(self._message(tl.TOWERLINK_LOCKSTEP_KIND_LEAVE, max(self.barrier_usec, 0), v.sysid)))
+            except OSError:             # a link already gone has no world to tell
+                pass
 
     @staticmethod
     def _message(kind: int, t_usec: int, target: int):

@@ -472,6 +472,8 @@ class Bridge:
         return summary(self)
 
     def close(self) -> None:
+        if self.lockstep is not None:
+            self.lockstep.leave()
         for link in self.links:
             link.close()
         self.sel.close()

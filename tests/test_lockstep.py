@@ -203,11 +203,11 @@ class Participant:
                          self.addr)
 
 
-def start_world(speedup: float = math.inf):
+def start_world(speedup: float = math.inf, timeout: float = 1.0):
     port = free_port()
     w = World(WorldConfig(drones=1, rovers=0, state_dir=None, tcp_base=None, udp_base=None, speedup=speedup,
                           endpoints={0: [f"udpin:127.0.0.1:{port}"]}, lockstep=1, lockstep_period=0.04,
-                          lockstep_timeout=1.0))
+                          lockstep_timeout=timeout))
     w.start_thread()
     return w, Participant(port)
 
@@ -245,6 +245,26 @@ def test_a_silent_participant_is_dropped_and_the_world_goes_on(held_world, capsy
     assert w.lockstep.gate.dropped == 1
     assert "lockstep: bridge (sysid 250, compid 191) silent for 1 s (wall): dropped, the world goes on" \
         in capsys.readouterr().out
+
+
+def test_a_closing_bridge_leaves_and_the_world_goes_on_at_once(capsys):
+    """The bridge says LEAVE when it closes: a world with a 60 s --lockstep-timeout goes on
+    without waiting for it (a world started by hand, the bridge stopped or restarted)."""
+    from bridge_fakes import bridge_config, running_bridge
+    w, p = start_world(timeout=60.0)
+    try:
+        cfg = bridge_config(free_port(), None, None, lockstep=True, follow=False)
+        cfg.drone = f"udpout:127.0.0.1:{p.addr[1]}"
+        with running_bridge(cfg) as bridge:
+            wait_until(lambda: w.t >= 0.4, 10.0, "the world stepping with the bridge acking")
+            assert bridge.lockstep.barriers >= 10
+        t_left = w.t
+        wait_until(lambda: w.t > t_left + 2.0, 10.0, "the world going on after the bridge left")
+        assert w.lockstep.gate.dropped == 0 and not w.lockstep.gate.participants
+        assert "lockstep: bridge (sysid 250, compid 191) left" in capsys.readouterr().out
+    finally:
+        p.close()
+        w.stop()
 
 
 @pytest.mark.parametrize("speedup", [math.inf, 20.0])
@@ -465,6 +485,10 @@ def test_bridge_desk_barrier_needs_a_tick_on_every_vehicle_link_then_upkeep_ack_
     wall[0] = 2.5
     desk.upkeep(2.5)                            # no TICK for over a second: JOIN again
     assert [(d, m.kind) for d, m in sent] == [("drone", L.JOIN), ("rover", L.JOIN)]
+    sent.clear()
+    desk.leave()                                # closing: the world is told, on every link
+    assert [(d, m.kind, m.time_usec, m.target_system) for d, m in sent] == \
+        [("drone", L.LEAVE, 40000, 1), ("rover", L.LEAVE, 40000, 2)]
 
 
 # ----------------------------------------------------------------------------- a world in several processes
