@@ -477,6 +477,8 @@ class Bridge:
         return summary(self)
 
     def close(self) -> None:
+        if self.lockstep is not None:
+            self.lockstep.leave()
         for link in self.links:
             link.close()
         self.sel.close()
@@ -534,5 +536,6 @@ def summary(b: Bridge) -> str:
     if b.lockstep is not None:
         parts.append(f"lockstep: {b.lockstep.barriers} barriers, last at {b.lockstep.sim_now:.3f} s sim; "
                      f"tower {'joined' if b.lockstep.tower_joined else 'not joined'}; "
-                     f"TICKs sent to the tower again {b.lockstep.tick_resends}")
+                     f"TICKs sent to the tower again {b.lockstep.tick_resends}; "
+                     f"the world's TICKs answered again {b.lockstep.tick_resends_seen}")
     return "\n".join(parts)

@@ -35,6 +35,7 @@ def test_same_figures_at_2x_under_load_and_at_max(tmp_path):
         burner.wait(5)
     fast = fly(tmp_path / "max", float("inf"))
     assert slow["ok"] and fast["ok"]
+    assert slow["limits_assumed"] == fast["limits_assumed"] == []     # the limits were read from the drone
     assert slow["speedup"] == 2.0 and fast["speedup"] == "max"
     a, b = figures(slow), figures(fast)
     assert len(a) > 40 and "follow_error.rms" in a and "goals[2].time_to_reach" in a

@@ -165,7 +165,6 @@ class Monitor(threading.Thread):
             p.robust_parsing = True
             self.parsers[name] = p
             self.tlogs[name] = open(run_dir / f"{name}.tlog", "wb")
-        self.peer: dict[str, tuple] = {}
         self.encoder = tl.MAVLink(None, srcSystem=255, srcComponent=158)
         if signing_key:     # vehicles given the key drop unsigned requests (the scoring parameters)
             from gcs.client import SIGNING_LINK_ID
@@ -199,7 +198,6 @@ class Monitor(threading.Thread):
                             break
                         except OSError:
                             break
-                        self.peer[name] = addr
                         self._datagram(name, data, addr)
         finally:
             sel.close()
@@ -266,18 +264,11 @@ class Monitor(threading.Thread):
         return True
 
     def request_params(self, names=SCORING_PARAMS) -> None:
-        """Ask the drone (through the world's push link) for the parameters the scoring needs."""
-        addr = self.peer.get("vehicles")
-        if addr is None:
-            return
+        """Ask the drone (through the world's push link, at the address the drone sends from:
+        every vehicle pushes to this one socket) for the parameters the scoring needs."""
         for n in names:
-            if n in self.params:
-                continue
-            msg = self.tl.MAVLink_param_request_read_message(DRONE, 1, n.encode(), -1)
-            try:
-                self.socks["vehicles"].sendto(msg.pack(self.encoder), addr)
-            except OSError:
-                pass
+            if n not in self.params:
+                self.send_to_vehicle(DRONE, self.tl.MAVLink_param_request_read_message(DRONE, 1, n.encode(), -1))
 
     def snapshot(self) -> dict:
         with self.lock:
