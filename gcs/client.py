@@ -377,6 +377,13 @@ class Client:
         """Packets dropped by the signature check (0 without a signing key)."""
         return sum(self.signing_refused.values())
 
+    def signing_report(self) -> str | None:
+        """'signing: N packet(s) refused (unsigned n, ...)' for a log line; None without a key."""
+        if not self.signed:
+            return None
+        detail = ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in sorted(self.signing_refused.items()))
+        return f"signing: {self.refused} packet(s) refused" + (f" ({detail})" if detail else "")
+
     def close(self) -> None:
         """Close the link (with lockstep after a LEAVE); a second call does nothing."""
         if self._closed:

@@ -1,4 +1,6 @@
-"""MAVLink 2 message signing: the receiver's check, shared by the vehicles and the bridge.
+"""MAVLink 2 message signing: the receiver's check, shared by the vehicles, the bridge and the
+tower's client (gcs.client); the key from text (:func:`key_from_text`); a key hidden in a
+command line before it is logged (:func:`masked_argv`).
 
 A signed MAVLink 2 frame ends with 13 bytes: link_id (1), timestamp (6, little-endian,
 10 us units since 2015-01-01 00:00 UTC) and the first 6 bytes of

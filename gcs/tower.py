@@ -410,6 +410,8 @@ def run(args: argparse.Namespace) -> int:
     if args.result:
         with open(args.result, "w") as f:
             json.dump(result.to_json(), f, indent=2)
+    if client.signing_report():
+        log(client.signing_report())
     reached = sum(g.reached for g in result.goals)
     log(f"{'MISSION OK' if result.ok else 'MISSION FAILED'}: {reached}/{len(goals)} goals reached"
         + (f" ({result.error})" if result.error else ""))

@@ -278,6 +278,8 @@ def run_family(args: argparse.Namespace, sc, *, radius: float, finish: str, fram
         log("interrupted")
     finally:
         c.close()
+    if c.signing_report():
+        log(c.signing_report())
     out = {"ok": all(results.get(d.sysid) is not None and results[d.sysid].ok for d in drones),
            "scenario": sc.name, "frame": frame, "radius": radius, "finish": finish,
            "min_separation": sc.min_separation,

@@ -111,11 +111,16 @@ def test_a_key_of_the_wrong_size_is_a_typed_error():
 # ----------------------------------------------------------------------------- through a signing bridge
 
 
-def test_a_signing_tower_talks_through_a_signing_bridge():
+@pytest.mark.parametrize("shared", [False, True], ids=["Client", "SharedClient"])
+def test_a_signing_tower_talks_through_a_signing_bridge(shared):
+    from gcs.tower_link import SharedClient
     with bridge_with_fakes(rover=False, signing_key=KEY, tower_heartbeat=False) as w:
         bridge, drone = w["bridge"], w["drone"]
         setup_signing(drone.mav, KEY, 0)                  # a vehicle given the key
-        c = Client.connect(f"udpout:127.0.0.1:{bridge.tower.port}", signing_key=KEY)
+        if shared:                                        # the family tower's link, its pump reading
+            c = SharedClient.connect(f"udpout:127.0.0.1:{bridge.tower.port}", signing_key=KEY).start()
+        else:
+            c = Client.connect(f"udpout:127.0.0.1:{bridge.tower.port}", signing_key=KEY)
         got = []
         c.add_listener(got.append)
         try:
