@@ -285,3 +285,20 @@ def test_bridge_vehicle_signing_needs_a_key(capsys):
     from tools.cli import main
     rc = main(["bridge", "--vehicle-signing", "--drone", "udpout:127.0.0.1:9", "--duration", "0.1"])
     assert rc == 2 and "--vehicle-signing needs --signing-key" in capsys.readouterr().err
+
+
+def test_a_world_on_another_host_gets_the_key_and_no_record_shows_it(tmp_path, capsys):
+    from tools.fly import Launch
+    from tools.hosts import WorldHost
+    secret = "remote world secret"
+    ssh = Launch(tmp_path / "ssh", world=WorldHost("10.9.8.1", "10.9.8.2", ("ssh", "-tt", "sim-box")),
+                 signing_key=secret, lockstep=True)
+    remote = shlex.split(ssh.world_cmd()[-1])                        # what the remote shell runs
+    assert remote[remote.index("--signing-key") + 1] == secret
+    ssh.write_meta()
+    assert secret not in (tmp_path / "ssh" / "meta.json").read_text()
+    attach = Launch(tmp_path / "attach", world=WorldHost("10.9.8.1", "10.9.8.2"), signing_key=secret,
+                    lockstep=True)
+    attach.start_world()
+    out = capsys.readouterr().out
+    assert secret not in out and "--signing-key '***'" in out and "put your --signing-key where *** stands" in out
