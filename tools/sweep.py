@@ -26,6 +26,9 @@ Output (--out DIR, default sweeps/<timestamp>):
                          follow error, wobble and reach-time ratio, and the pass rate (also printed)
   DIR/sweep.json         the plan: scenario, options, every run's id and factors
 
+Progress: on a terminal a bar (done/total, failed, flying, elapsed, ETA) with each finished
+run's line above it; elsewhere (CI, a log file) one plain line per finished run.
+
 Run ids are hashes of the scenario and the factors: rerunning the same sweep into the same
 DIR (or --resume) does not redo finished runs. A run that fails or times out is a row with
 pass False and its reason. Ctrl-C stops the running flights cleanly and writes the table of
@@ -44,7 +47,7 @@ import sys
 import time
 import tomllib
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from tools.sweep_grid import Plan, Run, SweepError
 
@@ -172,11 +175,6 @@ def start_ray(address: str | None, parallel: int | None):
     return ray
 
 
-def _fmt_s(s: float) -> str:
-    s = max(0, int(round(s)))
-    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
-
-
 class Interrupt:
     """SIGINT / SIGTERM handler: remembers the request and raises KeyboardInterrupt. Ray's own
     code may swallow the KeyboardInterrupt (during ray.init), so the loop also checks `hit`."""
@@ -193,9 +191,11 @@ class Interrupt:
             raise KeyboardInterrupt
 
 
-def execute(ray, specs: list[dict], parallel: int, on_row, stop: Interrupt | None = None) -> bool:
+def execute(ray, specs: list[dict], parallel: int, on_row, stop: Interrupt | None = None,
+            on_flying: Callable[[int], None] | None = None) -> bool:
     """Run the specs as Ray tasks, at most `parallel` at once; on_row(spec, row, summary) as each
-    ends. Returns False when interrupted (Ctrl-C): running flights are cancelled and stopped."""
+    ends, on_flying(n) with the runs in flight at least once a second. Returns False when
+    interrupted (Ctrl-C): running flights are cancelled and stopped."""
     from tools.sweep_run import run_one
     task = ray.remote(num_cpus=1, max_retries=0)(run_one)
     todo = list(specs)
@@ -207,6 +207,8 @@ def execute(ray, specs: list[dict], parallel: int, on_row, stop: Interrupt | Non
             while todo and len(pending) < parallel:
                 spec = todo.pop(0)
                 pending[task.remote(spec)] = spec
+            if on_flying is not None:       # each second at least: the bar's clock moves on
+                on_flying(len(pending))
             done, _ = ray.wait(list(pending), num_returns=1, timeout=1.0)
             for ref in done:
                 spec = pending.pop(ref)
@@ -279,15 +281,17 @@ def write_outputs(out: Path, rows: list[dict], runs: list[Run], varying: list[st
     return files
 
 
-def _fly_all(args, todo: list[dict], rows: dict[str, dict], total: int, t0: float, stop: Interrupt) -> bool:
+def _fly_all(args, todo: list[dict], rows: dict[str, dict], total: int, stop: Interrupt) -> bool:
     """Start Ray, fly the runs, shut Ray down; False when interrupted."""
     from tools import sweep_grid as g
+    from tools.sweep_progress import Progress
     from tools.sweep_run import write_atomic
     try:
         ray = start_ray(args.address, args.parallel)
     except KeyboardInterrupt:
         stop.hit = True
         ray = None
+    progress = None
     try:
         if ray is None or stop.hit:
             print("\n[sweep] interrupted while Ray was starting", flush=True)
@@ -296,28 +300,22 @@ def _fly_all(args, todo: list[dict], rows: dict[str, dict], total: int, t0: floa
         parallel = min(args.parallel or cpus, len(todo))
         print(f"towerlink sweep: Ray {ray.__version__} "
               f"{'at ' + args.address if args.address else 'local'}, {parallel} run(s) at once", flush=True)
-        done_now = 0
+        progress = Progress(total, done=len(rows), failed=sum(not r.get("pass") for r in rows.values()))
 
         def on_row(spec, row, summary):
-            nonlocal done_now
-            done_now += 1
             rows[spec["run_id"]] = row
             if summary is not None and not (Path(spec["run_dir"]) / "summary.json").exists():
                 # a cluster worker's folder is on its own host: keep the summary and row here
                 Path(spec["run_dir"]).mkdir(parents=True, exist_ok=True)
                 write_atomic(Path(spec["run_dir"]) / "summary.json", json.dumps(summary, indent=1, default=str))
                 write_atomic(Path(spec["run_dir"]) / "row.json", json.dumps(row, indent=1, default=str))
-            el = time.monotonic() - t0
-            failed = sum(not r.get("pass") for r in rows.values())
-            eta = el / done_now * (len(todo) - done_now)
-            res = "pass" if row.get("pass") else f"FAIL ({row.get('reason')})"
-            took = f", {row['wall_s']:.1f} s" if isinstance(row.get("wall_s"), (int, float)) else ""
-            print(f"[sweep] {len(rows)}/{total} done, {failed} failed, elapsed {_fmt_s(el)}, "
-                  f"ETA {_fmt_s(eta)} | {spec['run_id']} {g.format_factors(spec['factors'])}: {res}{took}",
-                  flush=True)
+            progress.finished(f"{spec['run_id']} {g.format_factors(spec['factors'])}", bool(row.get("pass")),
+                              row.get("reason"), row.get("wall_s"))
 
-        return execute(ray, todo, parallel, on_row, stop)
+        return execute(ray, todo, parallel, on_row, stop, on_flying=progress.started)
     finally:
+        if progress is not None:
+            progress.close()
         if ray is not None:
             try:
                 ray.shutdown()
@@ -374,7 +372,7 @@ def run(args: argparse.Namespace) -> int:
     stop = Interrupt()
     old_handlers = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
-        ok = _fly_all(args, todo, rows, total, t0, stop) if todo else True
+        ok = _fly_all(args, todo, rows, total, stop) if todo else True
     finally:
         for sig, h in old_handlers.items():
             signal.signal(sig, h)
