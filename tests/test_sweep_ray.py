@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import csv
 import os
+import shutil
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -61,3 +63,74 @@ def test_two_runs_on_local_ray_same_seed_same_figures_and_a_rerun_resumes(tmp_pa
     assert {rid: (out / "runs" / rid / "row.json").stat().st_mtime_ns for rid in stamps} == stamps
     with open(out / "results.csv") as f:
         assert [r["run_id"] for r in csv.DictReader(f)] == [r["run_id"] for r in rows]
+
+
+def _listening(port: int) -> bool:
+    import socket
+    try:
+        socket.create_connection(("127.0.0.1", port), timeout=0.5).close()
+        return True
+    except OSError:
+        return False
+
+
+def _ray_procs(marker: str) -> list[str]:
+    out = []
+    for pid in filter(str.isdigit, os.listdir("/proc")):
+        try:
+            cmd = Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+        except OSError:
+            continue
+        if marker in cmd:
+            out.append(f"{pid} {cmd[:120]}")
+    return out
+
+
+def test_a_sweep_on_a_running_ray_cluster_by_its_address(tmp_path):
+    """`ray start --head` (token authentication, as Ray sets it up), then `towerlink sweep
+    --address HOST:PORT` as its --help says: the run flies on the cluster's workers, its row
+    comes back, a rerun against the cluster flies nothing; the cluster is stopped after."""
+    import secrets
+    import tempfile
+
+    from support import free_port, wait_until
+    port = free_port()
+    temp = tempfile.mkdtemp(prefix="rc", dir="/tmp")        # short: Ray's unix socket paths
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "RAY_USAGE_STATS_ENABLED": "0",
+           "RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": secrets.token_hex(32)}
+    ray_cli = Path(sys.executable).with_name("ray")
+    head = subprocess.Popen([str(ray_cli), "start", "--head", "--block", "--port", str(port), "--num-cpus", "2",
+                             "--include-dashboard=false", "--disable-usage-stats", "--temp-dir", temp],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT, env=env, cwd=ROOT,
+                            start_new_session=True)
+    try:
+        wait_until(lambda: _listening(port), 60, "the Ray head's GCS port")
+        out = tmp_path / "sweep"
+        args = [sys.executable, "-m", "tools.cli", "sweep", "--set", "mission.goals=[[-131.039, 73.524]]",
+                "--set", "finish=none", "--seeds", "7", "--timeout", "120", "--out", str(out),
+                "--address", f"127.0.0.1:{port}"]
+        p = subprocess.run(args, capture_output=True, text=True, cwd=ROOT, env=env, timeout=240)
+        assert p.returncode == 0, p.stdout + p.stderr
+        assert f"at 127.0.0.1:{port}, 1 run(s) at once" in p.stdout
+        assert "towerlink sweep: 1 runs, 0 failed" in p.stdout
+        with open(out / "results.csv") as f:
+            (row,) = list(csv.DictReader(f))
+        assert row["pass"] == "True" and row["seed"] == "7" and float(row["follow_rms"]) > 0
+        assert (out / "runs" / row["run_id"] / "summary.json").exists()
+        again = subprocess.run(args, capture_output=True, text=True, cwd=ROOT, env=env, timeout=120)
+        assert again.returncode == 0 and "(0 to fly, 1 already finished)" in again.stdout, again.stdout
+    finally:
+        # the whole session: `ray start --block` stops its processes gracefully in about 30 s;
+        # they are this test's alone (their own session, their own --temp-dir), so no grace
+        os.killpg(head.pid, signal.SIGKILL)
+        head.wait(30)
+        wait_until(lambda: not _ray_procs(temp), 30, f"the cluster's processes ({temp}) to end")
+        shutil.rmtree(temp, ignore_errors=True)
+
+
+def test_an_address_where_no_cluster_listens_is_refused_at_once(tmp_path):
+    from support import free_port
+    p = sweep("--seeds", "1", "--out", str(tmp_path / "s"), "--address", f"127.0.0.1:{free_port()}")
+    assert p.returncode == 2
+    assert "cannot join the Ray cluster at 127.0.0.1:" in p.stderr and "nothing accepts a connection" in p.stderr
+    assert "Traceback" not in p.stderr

@@ -43,6 +43,7 @@ import logging
 import math
 import os
 import signal
+import socket
 import sys
 import time
 import tomllib
@@ -65,10 +66,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="sweep a factor over these values (repeatable; replaces the file's)")
     parser.add_argument("--seeds", metavar="SPEC", help="the seeds, e.g. 1-20 or 1,3,5 (default 1)")
     parser.add_argument("--out", metavar="DIR", help="sweep folder (default sweeps/<timestamp>)")
-    parser.add_argument("--address", metavar="ray://HOST:10001|auto",
-                        help="a Ray cluster to run on (default: a local Ray started for this sweep); every "
-                             "node needs towerlink installed, and DIR is best on a shared file system (else "
-                             "each run's folder stays on its node; summary.json and row.json come back here)")
+    parser.add_argument("--address", metavar="HOST:PORT|auto|ray://HOST:10001",
+                        help="a running Ray cluster to run on (default: a local Ray started for this sweep): "
+                             "its head's GCS address as `ray start --head` prints it, auto (the cluster on this "
+                             "machine), or ray:// through Ray Client. Every node needs towerlink installed; DIR "
+                             "is best on a shared file system (else each run's folder stays on its node; "
+                             "summary.json and row.json come back here). A cluster with token authentication "
+                             "(Ray's RAY_AUTH_MODE=token) needs the same in this shell")
     parser.add_argument("--parallel", type=int, default=None, metavar="N",
                         help="runs at once (default: the CPUs Ray has; each run is one CPU)")
     parser.add_argument("--speedup", choices=("max",), default="max",
@@ -157,6 +161,21 @@ def run_specs(runs: list[Run], scenario: Path, data: dict, plan: Plan, out: Path
 # ----------------------------------------------------------------------------- Ray
 
 
+def _check_listening(address: str, timeout: float = 5.0) -> None:
+    """SweepError unless something accepts TCP at a HOST:PORT (or ray://HOST:PORT) address:
+    ray.init retries an address where nothing listens for minutes, saying little."""
+    hostport = address.removeprefix("ray://")
+    host, sep, port = hostport.rpartition(":")
+    if not sep or not port.isdigit():
+        return                  # auto, local: Ray finds the cluster itself
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=timeout).close()
+    except OSError as exc:
+        raise SweepError(f"cannot join the Ray cluster at {address}: nothing accepts a connection there "
+                         f"({exc.strerror or exc}); start one with `ray start --head` and give the address "
+                         "it prints") from None
+
+
 def start_ray(address: str | None, parallel: int | None):
     """ray.init, quiet: no dashboard, a bounded object store, no usage stats, worker logs in
     Ray's own folder (each run keeps its own logs in its folder)."""
@@ -168,7 +187,13 @@ def start_ray(address: str | None, parallel: int | None):
     import ray
     quiet: dict[str, Any] = dict(log_to_driver=False, logging_level=logging.ERROR)
     if address:     # a cluster (ray://HOST:10001 through Ray Client, or auto): it has its own settings
-        ray.init(address=address, **quiet)
+        _check_listening(address)
+        try:
+            ray.init(address=address, **quiet)
+        except (ConnectionError, ray.exceptions.RayError, ValueError) as exc:
+            lines = [ln for ln in str(exc).strip().splitlines() if ln.strip()]
+            raise SweepError(f"cannot join the Ray cluster at {address}: {type(exc).__name__}: "
+                             f"{lines[0] if lines else ''}") from None
     else:
         ray.init(num_cpus=parallel or os.cpu_count() or 1, object_store_memory=128 * 1024 * 1024,
                  include_dashboard=False, **quiet)
@@ -291,6 +316,9 @@ def _fly_all(args, todo: list[dict], rows: dict[str, dict], total: int, stop: In
     except KeyboardInterrupt:
         stop.hit = True
         ray = None
+    except SweepError as exc:
+        print(f"towerlink sweep: {exc}", file=sys.stderr, flush=True)
+        raise
     progress = None
     try:
         if ray is None or stop.hit:
@@ -373,6 +401,8 @@ def run(args: argparse.Namespace) -> int:
     old_handlers = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         ok = _fly_all(args, todo, rows, total, stop) if todo else True
+    except SweepError:          # said already (the cluster could not be joined): nothing flown
+        return 2
     finally:
         for sig, h in old_handlers.items():
             signal.signal(sig, h)
