@@ -100,7 +100,8 @@ def test_a_sweep_on_a_running_ray_cluster_by_its_address(tmp_path):
            "RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": secrets.token_hex(32)}
     ray_cli = Path(sys.executable).with_name("ray")
     head = subprocess.Popen([str(ray_cli), "start", "--head", "--block", "--port", str(port), "--num-cpus", "2",
-                             "--include-dashboard=false", "--disable-usage-stats", "--temp-dir", temp],
+                             "--include-dashboard=false", "--disable-usage-stats", "--temp-dir", temp,
+                             "--object-store-memory", str(128 * 1024 * 1024)],
                             stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT, env=env, cwd=ROOT,
                             start_new_session=True)
     try:
