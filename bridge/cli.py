@@ -61,7 +61,10 @@ their _yaw frames), and not for a frame the scenario defined unless --allow-rede
 With --signing-key the tower link takes only MAVLink 2 packets signed with that key
 (unsigned, wrong key, replayed or stale ones are counted and dropped) and the bridge signs
 what it sends. Vehicle packets are forwarded as they arrive: give the vehicles the same
-key (`towerlink sitl --signing-key`) so a signing GCS accepts them too. A refusal is
+key (`towerlink sitl --signing-key`) so a signing GCS accepts them too, and add
+--vehicle-signing so the bridge takes only signed packets from the vehicles as well (it
+signs what it translates from them: without the check a forged vehicle packet would reach
+the tower signed). `towerlink fly --signing-key` does all of that. A refusal is
 answered with STATUSTEXT "static tf refused: <reason>" and counted
 (TOWERLINK_BRIDGE_STATUS.refused).
 
@@ -156,6 +159,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="MAVLink 2 signing on the tower link: 64 hex digits, or a passphrase hashed "
                         "with SHA-256 (as MAVProxy's 'signing setup'); unsigned packets are dropped "
                         "and only signed senders become peers")
+    t.add_argument("--vehicle-signing", action="store_true",
+                   help="with --signing-key, the vehicle links too take only packets signed with the key "
+                        "(vehicles started with `towerlink sitl --signing-key`; others are counted and "
+                        "dropped). Without it the bridge trusts its vehicle links: it forwards their "
+                        "packets as they come and signs what it translates from them")
     f = p.add_argument_group("frames")
     f.add_argument("--scenario", default=None, help="scenario TOML (default: the built-in lab scenario)")
     f.add_argument("--tower-frame", default="tower", help="frame of the tower link (default %(default)s)")
@@ -211,6 +219,8 @@ def config_from_args(args):
     from gcs.signing import key_from_text
     from gcs.scenario import load_scenario, parse_static_transform
 
+    if getattr(args, "vehicle_signing", False) and not args.signing_key:
+        raise ValueError("--vehicle-signing needs --signing-key (the key the vehicles sign with)")
     sc = load_scenario(args.scenario)
     statics = list(sc.static_transforms) + [parse_static_transform(s) for s in args.static]
     vehicles, pairs = [], []
@@ -233,6 +243,7 @@ def config_from_args(args):
         max_transform_age=args.max_transform_age, time_grace=args.time_grace, quiet=args.quiet,
         trust_sysids=tuple(args.trust_sysid) if args.trust_sysid else (TOWER_SYSID,),
         allow_redefine=args.allow_redefine, signing_key=key_from_text(args.signing_key),
+        vehicle_signing=args.vehicle_signing,
         nodes=args.nodes, route_only=args.route_only,
         lockstep=args.lockstep)
 

@@ -41,6 +41,9 @@ class BridgeConfig:
     trust_sysids: tuple = (TOWER_SYSID,)
     allow_redefine: bool = False    # may a trusted sender redefine a scenario frame?
     signing_key: bytes | None = None
+    # with signing_key: the vehicle links too take only packets signed with it (else the bridge
+    # trusts them, and re-signs what it translates from them for the tower)
+    vehicle_signing: bool = False
     # a family (issue 12): every vehicle as (name, url, sysid), and (drone, rover) sysid pairs to
     # follow; empty: the lab's drone and rover above
     vehicles: list = field(default_factory=list)

@@ -12,13 +12,17 @@ packet up to t (the loop handles packets in arrival order). Then, at that barrie
    bridge to the world like any broadcast, on the same socket as its goals, so a goal sent
    before the tower's ACK reaches the vehicle before it).
 
+When the bridge closes it sends LEAVE on every vehicle link.
+
 Until the first TICK arrives on a link the bridge sends JOIN there every JOIN_PERIOD wall s,
 and again when no TICK came for REJOIN_AFTER wall s (the world dropped it, or restarted).
 
 UDP may drop a datagram when a reader falls behind (a tower handling 100 drones' telemetry):
 a TICK to the tower not acknowledged within TICK_RESEND wall s is sent again, and the tower
 answers a TICK it already handled with its ACK again (gcs.client), which the bridge routes
-on to the world like the first, so one lost TICK or ACK costs a moment, never the run.
+on to the world like the first, so one lost TICK or ACK costs a moment, never the run. The
+world does the same on the vehicle links: a TICK it sends again, one the barrier has passed,
+is ACKed again on that link and sent to the tower again.
 """
 from __future__ import annotations
 
@@ -45,7 +49,8 @@ class LockstepDesk:
         self.tower_joined = False
         self.tower_acked = -1               # newest ACK seen from the tower, us
         self.tower_tick_wall = 0.0          # when its newest TICK was sent (wall s)
-        self.tick_resends = 0
+        self.tick_resends = 0               # TICKs sent to the tower again
+        self.tick_resends_seen = 0          # TICKs the world sent again (answered again)
         self._next_join = 0.0
         self.barriers = 0
 
@@ -69,6 +74,9 @@ class LockstepDesk:
     def on_vehicle(self, v, msg) -> None:
         """A TOWERLINK_LOCKSTEP from a vehicle link (the world's TICK)."""
         if msg.kind != tl.TOWERLINK_LOCKSTEP_KIND_TICK:
+            return
+        if 0 <= msg.time_usec <= self.barrier_usec and v.name in self.ticks:
+            self._again(v)      # the world sent it again: our ACK, or the tower's, was lost
             return
         if v.name not in self.ticks:
             self.log(f"lockstep: {v.name} link ticks (every {msg.period_usec / 1e3:g} ms sim)")
@@ -98,6 +106,16 @@ class LockstepDesk:
         if self.tower_joined:
             self._tick_tower(self.wall())
 
+    def _again(self, v) -> None:
+        """A TICK the barrier has passed came again on v's link: ACK it again there, and TICK
+        the tower again (it ACKs a TICK it already handled again, which passes on to the world)."""
+        self.tick_resends_seen += 1
+        v.link.send(self.pack_own(self._message(tl.TOWERLINK_LOCKSTEP_KIND_ACK, self.barrier_usec, v.sysid)))
+        wall = self.wall()
+        # the world asks on every link the tower ACKs through: one TICK to the tower for them all
+        if self.tower_joined and wall - self.tower_tick_wall >= TICK_RESEND / 2:
+            self._tick_tower(wall)
+
     def _tick_tower(self, wall: float) -> None:
         self.tower_tick_wall = wall
         self.send_tower(self.pack_own(tl.MAVLink_towerlink_lockstep_message(
@@ -115,6 +133,15 @@ class LockstepDesk:
         elif msg.kind == tl.TOWERLINK_LOCKSTEP_KIND_LEAVE:
             self.tower_joined = False
             self.log("lockstep: the tower left")
+
+    def leave(self) -> None:
+        """LEAVE on every vehicle link: the bridge is going, so the world need not wait out its
+        --lockstep-timeout (a world started by hand, or one a restarted bridge will join again)."""
+        for v in self.vehicles.values():
+            try:
+                v.link.send(self.pack_own(self._message(tl.TOWERLINK_LOCKSTEP_KIND_LEAVE, max(self.barrier_usec, 0), v.sysid)))
+            except OSError:             # a link already gone has no world to tell
+                pass
 
     @staticmethod
     def _message(kind: int, t_usec: int, target: int):

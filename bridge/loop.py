@@ -109,7 +109,10 @@ class Bridge:
         self.codec = Codec(cfg.sysid, cfg.compid, cfg.signing_key)
         self.trust = StaticTrust(frozenset(cfg.trust_sysids), cfg.allow_redefine)
         if cfg.signing_key:
-            for link in (self.tower, *self.node_links):
+            checked = [self.tower, *self.node_links]
+            if cfg.vehicle_signing:         # what it translates from them goes out signed: check them
+                checked += [v.link for v in self.vehicles.values()]
+            for link in checked:
                 check = SignatureCheck(cfg.signing_key)
                 link.verify = lambda p, check=check: check.check(p.raw, p.sysid, p.compid)
         # the speedup only extrapolates a clock for log lines; `max` (inf) has no such rate
@@ -227,6 +230,8 @@ class Bridge:
     def on_packet(self, link: Link, pkt: Packet) -> None:
         if link in self.gcs_links:
             self.on_gcs_packet(link, pkt)
+            return
+        if pkt.refused is not None:             # --vehicle-signing, and this one did not pass
             return
         v = self.vehicles.get(pkt.sysid)
         if v is None or v.link is not link:
@@ -472,6 +477,8 @@ class Bridge:
         return summary(self)
 
     def close(self) -> None:
+        if self.lockstep is not None:
+            self.lockstep.leave()
         for link in self.links:
             link.close()
         self.sel.close()
@@ -529,5 +536,6 @@ def summary(b: Bridge) -> str:
     if b.lockstep is not None:
         parts.append(f"lockstep: {b.lockstep.barriers} barriers, last at {b.lockstep.sim_now:.3f} s sim; "
                      f"tower {'joined' if b.lockstep.tower_joined else 'not joined'}; "
-                     f"TICKs sent to the tower again {b.lockstep.tick_resends}")
+                     f"TICKs sent to the tower again {b.lockstep.tick_resends}; "
+                     f"the world's TICKs answered again {b.lockstep.tick_resends_seen}")
     return "\n".join(parts)

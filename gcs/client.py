@@ -21,6 +21,15 @@ the wall clock is only used for deadlines and resend intervals.
 Every command is re-sent until acknowledged (the link may lose packets), and
 state changes (mode, armed) are confirmed from the vehicle's heartbeat, so a
 lost COMMAND_ACK does not fail a command that took effect.
+
+Signing (MAVLink 2): ``Client.connect(..., signing_key=key)`` signs every packet the
+client sends (heartbeats, commands, missions, goals, lockstep JOIN/ACK/LEAVE) and accepts
+only packets signed with the same key, fresh and in order (gcs.signing.SignatureCheck:
+signature first, then the timestamp); every other packet is dropped and counted by
+reason in ``signing_refused`` (unsigned, bad_signature, replay, stale). A bridge started
+with --signing-key, and vehicles given the key (``towerlink sitl --signing-key``), talk
+only to such a client. Key text (passphrase or 64 hex digits) is read by
+gcs.signing.key_from_text, as MAVProxy's ``signing setup``.
 """
 from __future__ import annotations
 
@@ -36,6 +45,7 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 
 from gcs.mavstr import mav_str  # noqa: E402
+from gcs.signing import UNSIGNED, SignatureCheck, setup_signing  # noqa: E402
 
 mavlink = mavutil.mavlink
 
@@ -48,6 +58,12 @@ RESULT_NAMES = {
 # A vehicle clock (time_boot_ms) that goes back by more than this is a reboot (ms), not
 # a late packet: its clock is followed from there.
 REBOOT_JUMP_MS = 5000
+# The signing link id a Client sends on by default: 0 is the vehicles' own (and the bridge's
+# own messages'), 1 the bridge's re-packing of others' messages (a tower goal it translated goes
+# to the vehicle as (link 1, 255, 190)); a third stream never looks like a replay of either.
+# Not 0 also because pymavlink's mavutil adopts the link id of a signed packet from its target
+# vehicle while its own is 0 (then the tower would share the bridge's link 1).
+SIGNING_LINK_ID = 2
 LOCKSTEP_TIMEOUT = 15.0      # wall s a lockstep client waits for the world's next TICK
 LS_JOIN, LS_ACK, LS_TICK, LS_LEAVE, LS_TOWER, LS_OTHER = 1, 2, 3, 4, 2, 3   # TOWERLINK_LOCKSTEP kind / participant
 
@@ -241,7 +257,8 @@ class Client:
     def __init__(self, master: Any, *, log: Callable[[str], None] | None = None,
                  heartbeat_interval: float = 1.0, tlog: str | None = None,
                  lockstep: bool = False, lockstep_timeout: float = LOCKSTEP_TIMEOUT,
-                 lockstep_target: int = 0) -> None:
+                 lockstep_target: int = 0, signing_key: bytes | None = None,
+                 link_id: int = SIGNING_LINK_ID) -> None:
         self.master = master
         # 0: a participant for every vehicle (through the bridge); a sysid: for that vehicle
         # alone, on its own endpoint (the van's driver)
@@ -256,6 +273,11 @@ class Client:
         self._last_join = -1e9
         self._last_tick_wall = -1e9
         self.mav = master.mav
+        # packets refused by the signature check, by reason (gcs.signing's names)
+        self.signing_refused: dict[str, int] = {}
+        self.signed = False
+        if signing_key:                           # before the first packet this client sends
+            self._setup_signing(bytes(signing_key), link_id)
         self.systems: dict[int, SystemState] = {}
         self.log = log or (lambda s: None)
         self.heartbeat_interval = heartbeat_interval
@@ -297,21 +319,70 @@ class Client:
     def connect(cls, conn: str = "udpout:127.0.0.1:14600", *, source_system: int = 255,
                 source_component: int = 190, log: Callable[[str], None] | None = None,
                 tlog: str | None = None, factory: Callable[..., Any] | None = None,
-                lockstep: bool = False, lockstep_target: int = 0) -> "Client":
+                lockstep: bool = False, lockstep_target: int = 0,
+                signing_key: bytes | None = None, link_id: int = SIGNING_LINK_ID) -> "Client":
         """Open `conn` (pymavlink spelling: udpout:H:P, udpin:H:P, tcp:H:P) as a GCS.
 
         lockstep: join the world's lockstep through the bridge (TOWERLINK_LOCKSTEP, so the
         connection speaks the towerlink dialect); lockstep_target: the sysid of the one vehicle
         this client drives on that vehicle's own endpoint (0: every vehicle, through the bridge).
         Several lockstep clients of one program need a source_component each (the world tells
-        participants apart by sysid and compid)."""
+        participants apart by sysid and compid).
+
+        signing_key: 32 bytes (gcs.signing.key_from_text makes them from a passphrase or 64
+        hex digits): sign everything sent, accept only packets signed with it (see the module
+        docstring). link_id: the signing link id (0..255) of what this client sends (default
+        SIGNING_LINK_ID, 2); through a signing bridge not 1, the link the bridge re-packs
+        translated goals on as their sender (one stream from two senders looks like replays)."""
         if factory is None and lockstep:
             factory = _dialect_factory
         try:
             master = (factory or _default_factory)(conn, source_system, source_component)
         except OSError as exc:
             raise ClientError(f"cannot open {conn}: {exc}") from exc
-        return cls(master, log=log, tlog=tlog, lockstep=lockstep, lockstep_target=lockstep_target)
+        try:
+            return cls(master, log=log, tlog=tlog, lockstep=lockstep, lockstep_target=lockstep_target,
+                       signing_key=signing_key, link_id=link_id)
+        except ClientError:
+            master.close()
+            raise
+
+    def _setup_signing(self, key: bytes, link_id: int) -> None:
+        """Sign what this client packs (gcs.signing.setup_signing: the wall clock's timestamp),
+        allow no unsigned packet, and check a signed one with gcs.signing.SignatureCheck."""
+        if len(key) != 32:
+            raise ClientError(f"a MAVLink 2 signing key is 32 bytes, not {len(key)} "
+                              "(gcs.signing.key_from_text makes one from a passphrase or 64 hex digits)")
+        if not 0 <= int(link_id) <= 255:
+            raise ClientError(f"signing link_id {link_id} is not in 0..255")
+        self._link_id = int(link_id)
+        setup_signing(self.mav, key, self._link_id)
+        self.mav.signing.allow_unsigned_callback = None
+        # pymavlink's own check stores a new timestamp before it verifies the signature, so one
+        # forged packet with a far-future stamp would lock the real sender out: ours checks the
+        # signature first and shares the signing clock (what we send stays ahead of what we heard)
+        check = SignatureCheck(key, clock=self.mav.signing)
+
+        def check_signature(msgbuf: bytearray, sysid: int, compid: int) -> bool:
+            why = check.check(msgbuf, sysid, compid)
+            if why is not None:
+                self.signing_refused[why] = self.signing_refused.get(why, 0) + 1
+            return why is None
+
+        self.mav.check_signature = check_signature
+        self.signed = True
+
+    @property
+    def refused(self) -> int:
+        """Packets dropped by the signature check (0 without a signing key)."""
+        return sum(self.signing_refused.values())
+
+    def signing_report(self) -> str | None:
+        """'signing: N packet(s) refused (unsigned n, ...)' for a log line; None without a key."""
+        if not self.signed:
+            return None
+        detail = ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in sorted(self.signing_refused.items()))
+        return f"signing: {self.refused} packet(s) refused" + (f" ({detail})" if detail else "")
 
     def close(self) -> None:
         """Close the link (with lockstep after a LEAVE); a second call does nothing."""
@@ -416,8 +487,15 @@ class Client:
         mtype = msg.get_type()
         if mtype == "BAD_DATA":
             self.bad_packets += 1
+            data = bytes(getattr(msg, "data", b"") or b"")
+            if self.signed and getattr(msg, "reason", "") == "Invalid signature" and \
+                    not (data[:1] == b"\xfd" and len(data) > 2 and data[2] & 1):
+                # pymavlink refuses an unsigned packet without asking the check: counted here
+                self.signing_refused[UNSIGNED] = self.signing_refused.get(UNSIGNED, 0) + 1
             return
         self.received += 1
+        if self.signed:     # mavutil may have adopted the vehicle's link id (ours 0): ours stays ours
+            self.mav.signing.link_id = self._link_id
         if self._tlog is not None:
             self._write_tlog(msg)
         src = msg.get_srcSystem()

@@ -1,4 +1,6 @@
-"""MAVLink 2 message signing: the receiver's check, shared by the vehicles and the bridge.
+"""MAVLink 2 message signing: the receiver's check, shared by the vehicles, the bridge and the
+tower's client (gcs.client); the key from text (:func:`key_from_text`); a key hidden in a
+command line before it is logged (:func:`masked_argv`).
 
 A signed MAVLink 2 frame ends with 13 bytes: link_id (1), timestamp (6, little-endian,
 10 us units since 2015-01-01 00:00 UTC) and the first 6 bytes of
@@ -92,3 +94,32 @@ def key_from_text(text: str | None) -> bytes | None:
         except ValueError:
             pass
     return hashlib.sha256(text.encode()).digest()
+
+
+SIGNING_FLAG = "--signing-key"
+MASK = "***"
+
+
+def masked_argv(argv: list[str]) -> list[str]:
+    """`argv` with every --signing-key value replaced by ***, for logs and run folders.
+
+    Handles the value as the next word, as ``--signing-key=VALUE``, and inside one word that
+    holds a whole shell-quoted command line (a command handed to ssh)."""
+    import re
+    import shlex
+    out: list[str] = []
+    for i, a in enumerate(argv):
+        if i > 0 and argv[i - 1] == SIGNING_FLAG:
+            out.append(MASK)
+        elif a.startswith(SIGNING_FLAG + "="):
+            out.append(SIGNING_FLAG + "=" + MASK)
+        elif SIGNING_FLAG in a and a != SIGNING_FLAG:
+            try:
+                words = shlex.split(a)
+            except ValueError:          # not a command line: hide everything after the flag
+                out.append(re.sub(re.escape(SIGNING_FLAG) + r".*", SIGNING_FLAG + " " + MASK, a, flags=re.S))
+                continue
+            out.append(shlex.join(masked_argv(words)))
+        else:
+            out.append(a)
+    return out

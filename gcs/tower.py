@@ -41,6 +41,7 @@ Examples:
   towerlink tower --goals="-131.04,73.52;-105.06,88.52" --radius 0.5 --finish rtl
   towerlink tower --connect udpout:127.0.0.1:15600 --result out/tower.json --tlog out/tower.tlog
   towerlink tower --scenario family                 # every drone of the family at once (gcs.tower_family)
+  towerlink tower --signing-key "my passphrase"      # a bridge (and vehicles) started with the same key
 """
 from __future__ import annotations
 
@@ -343,12 +344,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="whole-system lockstep (issue 11): join the world's TOWERLINK_LOCKSTEP handshake "
                              "through the bridge (`towerlink bridge --lockstep`, `towerlink sitl --lockstep N`); "
                              "every timeout, retry and --resend then counts sim seconds of the world's TICKs")
+    parser.add_argument("--signing-key", metavar="PASSPHRASE|HEX64",
+                        help="MAVLink 2 signing, for a bridge started with --signing-key: 64 hex digits, or a "
+                             "passphrase hashed with SHA-256 (as MAVProxy's 'signing setup'). Everything the "
+                             "tower sends is signed (heartbeats, commands, goals, lockstep ACKs) and only "
+                             "packets signed with the key are accepted; give the vehicles the same key "
+                             "(`towerlink sitl --signing-key`), since the bridge forwards their packets as "
+                             "they come. The key is never logged")
 
 
 def run(args: argparse.Namespace) -> int:
     from gcs.scenario import ScenarioError, load_scenario
 
     from gcs.client import Client, ClientError
+    from gcs.signing import key_from_text
 
     def log(msg: str) -> None:
         print(f"tower: {msg}", flush=True)
@@ -379,9 +388,11 @@ def run(args: argparse.Namespace) -> int:
         print("tower: the scenario has no goals", file=sys.stderr)
         return 2
     log(f"scenario {sc.name}: {len(goals)} goals in frame {frame!r}, altitude {altitude:g} m, "
-        f"radius {radius:g} m, finish {finish}; link {args.connect}")
+        f"radius {radius:g} m, finish {finish}; link {args.connect}"
+        + (" (signed)" if getattr(args, "signing_key", None) else ""))
     try:
-        client = Client.connect(args.connect, log=log, tlog=args.tlog, lockstep=args.lockstep)
+        client = Client.connect(args.connect, log=log, tlog=args.tlog, lockstep=args.lockstep,
+                                signing_key=key_from_text(getattr(args, "signing_key", None)))
     except ClientError as exc:
         log(str(exc))
         return 2
@@ -399,6 +410,8 @@ def run(args: argparse.Namespace) -> int:
     if args.result:
         with open(args.result, "w") as f:
             json.dump(result.to_json(), f, indent=2)
+    if client.signing_report():
+        log(client.signing_report())
     reached = sum(g.reached for g in result.goals)
     log(f"{'MISSION OK' if result.ok else 'MISSION FAILED'}: {reached}/{len(goals)} goals reached"
         + (f" ({result.error})" if result.error else ""))

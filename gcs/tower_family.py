@@ -217,12 +217,16 @@ def run_family(args: argparse.Namespace, sc, *, radius: float, finish: str, fram
             f"{len(layers)} layer(s) {', '.join(f'{a:g}' for a in layers)} m, "
             f"{sum(len(d.goals) for d in drones)} goals in frame {frame!r}; radius {radius:g} m, "
             f"finish {finish}; link {args.connect}")
+    if getattr(args, "signing_key", None):
+        log("MAVLink 2 signing on: the link sends and accepts only packets signed with the key")
     frames = TowerFrames()
     watch = SeparationWatch({d.sysid: d.name for d in sc.drones}, sc.min_separation, log)
     gates = LayerGates({d.sysid: d.altitude for d in drones})
     try:
         # one link for the whole family: the bridge sends every drone's telemetry to each peer
-        c = SharedClient.connect(args.connect, log=log, tlog=args.tlog, lockstep=lockstep)
+        from gcs.signing import key_from_text
+        c = SharedClient.connect(args.connect, log=log, tlog=args.tlog, lockstep=lockstep,
+                                 signing_key=key_from_text(getattr(args, "signing_key", None)))
     except ClientError as exc:
         log(str(exc))
         return 2
@@ -274,6 +278,8 @@ def run_family(args: argparse.Namespace, sc, *, radius: float, finish: str, fram
         log("interrupted")
     finally:
         c.close()
+    if c.signing_report():
+        log(c.signing_report())
     out = {"ok": all(results.get(d.sysid) is not None and results[d.sysid].ok for d in drones),
            "scenario": sc.name, "frame": frame, "radius": radius, "finish": finish,
            "min_separation": sc.min_separation,

@@ -58,10 +58,12 @@ def finish(launch: Launch, timeout: float) -> dict:
 
 
 #: summary.json fields that are not flight figures: what was asked, how fast the machine
-#: delivered it (wall), where it ran (ports, commands, the world's host), and the bridge's
+#: delivered it (wall), where it ran (ports, commands, the world's host), whether it was
+#: MAVLink 2 signed (signing must not change a figure), and the bridge's
 #: packet counters as of its last status message (sent once a wall second, so they count
 #: whatever passed by then)
-WALL_FIELDS = ("speedup", "achieved_speedup", "run_dir", "ports", "commands", "world_host", "bridge_status")
+WALL_FIELDS = ("speedup", "achieved_speedup", "run_dir", "ports", "commands", "world_host", "bridge_status",
+               "signed")
 
 
 def flatten(d, prefix=""):

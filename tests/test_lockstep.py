@@ -203,11 +203,11 @@ class Participant:
                          self.addr)
 
 
-def start_world(speedup: float = math.inf):
+def start_world(speedup: float = math.inf, timeout: float = 1.0):
     port = free_port()
     w = World(WorldConfig(drones=1, rovers=0, state_dir=None, tcp_base=None, udp_base=None, speedup=speedup,
                           endpoints={0: [f"udpin:127.0.0.1:{port}"]}, lockstep=1, lockstep_period=0.04,
-                          lockstep_timeout=1.0))
+                          lockstep_timeout=timeout))
     w.start_thread()
     return w, Participant(port)
 
@@ -237,6 +237,41 @@ def test_world_never_steps_past_an_unacknowledged_tick(held_world):
     assert w.lockstep.frame_steps * w.dt == pytest.approx(0.04)
 
 
+def test_a_tick_still_owed_an_ack_is_sent_again_and_a_rejoining_participant_is_not_silent():
+    """A TICK or an ACK lost on a vehicle link: the world sends the TICK again to whoever owes
+    the ACK, each TICK_RESEND wall s; the participant ACKs, the world goes on. (Without the
+    resend the world stood forever: a bridge with no TICK JOINs again, so it is never silent.)"""
+    w, p = start_world(timeout=30.0)
+    try:
+        p.send(L.JOIN)
+        assert p.next_tick() == 0
+        p.send(L.ACK, 0)
+        assert p.next_tick() == 40000           # ... and "lost": no ACK
+        p.send(L.JOIN)                          # what a bridge does after a second with no TICK
+        assert p.next_tick() == 40000           # sent again
+        assert w.lockstep.tick_resends >= 1 and w.steps == w.lockstep.frame_steps
+        p.send(L.ACK, 40000)
+        assert p.next_tick() == 80000
+        assert w.lockstep.gate.dropped == 0 and "TICK(s) sent again" in w.lockstep.stats_line()
+    finally:
+        p.close()
+        w.stop()
+
+
+def test_gate_owes_a_tick_where_an_ack_is_missing():
+    g = LockstepGate(vehicles=2, expect=1)
+    tower = dict(sysid=255, compid=190, who=L.TOWER)
+    for v, ch in ((0, "b0"), (1, "b1")):
+        g.on_message(msg(L.JOIN), v, ch, 0.0)
+        g.on_message(msg(L.JOIN, **tower), v, ch, 0.0)    # the tower, through the bridge's channel
+    g.on_message(msg(L.ACK, 40000), 0, "b0", 0.1)
+    g.on_message(msg(L.ACK, 40000), 1, "b1", 0.1)
+    g.on_message(msg(L.ACK, 40000, **tower), 0, "b0", 0.1)
+    assert g.owed(40000) == [(1, "b1")]                   # the tower's ACK via vehicle 1 is missing
+    g.on_message(msg(L.ACK, 40000, **tower), 1, "b1", 0.2)
+    assert g.owed(40000) == [] and g.passed(40000)
+
+
 def test_a_silent_participant_is_dropped_and_the_world_goes_on(held_world, capsys):
     w, p = held_world
     p.send(L.JOIN)
@@ -245,6 +280,26 @@ def test_a_silent_participant_is_dropped_and_the_world_goes_on(held_world, capsy
     assert w.lockstep.gate.dropped == 1
     assert "lockstep: bridge (sysid 250, compid 191) silent for 1 s (wall): dropped, the world goes on" \
         in capsys.readouterr().out
+
+
+def test_a_closing_bridge_leaves_and_the_world_goes_on_at_once(capsys):
+    """The bridge says LEAVE when it closes: a world with a 60 s --lockstep-timeout goes on
+    without waiting for it (a world started by hand, the bridge stopped or restarted)."""
+    from bridge_fakes import bridge_config, running_bridge
+    w, p = start_world(timeout=60.0)
+    try:
+        cfg = bridge_config(free_port(), None, None, lockstep=True, follow=False)
+        cfg.drone = f"udpout:127.0.0.1:{p.addr[1]}"
+        with running_bridge(cfg) as bridge:
+            wait_until(lambda: w.t >= 0.4, 10.0, "the world stepping with the bridge acking")
+            assert bridge.lockstep.barriers >= 10
+        t_left = w.t
+        wait_until(lambda: w.t > t_left + 2.0, 10.0, "the world going on after the bridge left")
+        assert w.lockstep.gate.dropped == 0 and not w.lockstep.gate.participants
+        assert "lockstep: bridge (sysid 250, compid 191) left" in capsys.readouterr().out
+    finally:
+        p.close()
+        w.stop()
 
 
 @pytest.mark.parametrize("speedup", [math.inf, 20.0])
@@ -458,6 +513,13 @@ def test_bridge_desk_barrier_needs_a_tick_on_every_vehicle_link_then_upkeep_ack_
     desk.on_vehicle(vehicles[1], tick(40000))
     assert sent[0] == ("upkeep", 0.04) and desk.sim_now == 0.04
     sent.clear()
+    wall[0] = 0.5
+    desk.on_vehicle(vehicles[2], tick(40000))   # the world sent TICK(40 ms) again: an ACK was lost
+    desk.on_vehicle(vehicles[1], tick(40000))   # ... on both links: the tower is TICKed once
+    assert [(d, m.kind, m.time_usec) for d, m in sent] == \
+        [("rover", L.ACK, 40000), ("tower", L.TICK, 40000), ("drone", L.ACK, 40000)]
+    assert desk.barriers == 2 and desk.tick_resends_seen == 2
+    sent.clear()
     desk.on_tower(tl.MAVLink_towerlink_lockstep_message(40000, 0, L.ACK, L.TOWER, 0))
     wall[0] = 0.9
     desk.upkeep(0.9)                            # ticking: no JOIN; the tower ACKed: no TICK again
@@ -465,6 +527,10 @@ def test_bridge_desk_barrier_needs_a_tick_on_every_vehicle_link_then_upkeep_ack_
     wall[0] = 2.5
     desk.upkeep(2.5)                            # no TICK for over a second: JOIN again
     assert [(d, m.kind) for d, m in sent] == [("drone", L.JOIN), ("rover", L.JOIN)]
+    sent.clear()
+    desk.leave()                                # closing: the world is told, on every link
+    assert [(d, m.kind, m.time_usec, m.target_system) for d, m in sent] == \
+        [("drone", L.LEAVE, 40000, 1), ("rover", L.LEAVE, 40000, 2)]
 
 
 # ----------------------------------------------------------------------------- a world in several processes

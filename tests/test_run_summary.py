@@ -160,7 +160,10 @@ def test_summarize_and_format(tmp_path):
     assert s["wobble"]["drone"]["rms"] == pytest.approx(0.9)
     assert s["wobble"]["ratio_rms"] > 1e5
     assert s["limits"]["WPNAV_SPEED"] == 4.0
+    # the two limits the tlog did not hold are Copter's defaults, and the summary says so
+    assert s["limits"]["WPNAV_ACCEL"] == 2.5 and s["limits_assumed"] == ["PSC_JERK_XY", "WPNAV_ACCEL"]
     text = format_summary(s)
+    assert "WARNING: PSC_JERK_XY, WPNAV_ACCEL not read from the drone" in text
     assert "MISSION OK: 1/1 goals reached" in text
     assert "[ -4.00,  -2.00]" in text
     assert "yaw-only" in text and "RMS 0.50 m" in text

@@ -222,9 +222,56 @@ def test_sweep_dry_run_lists_the_runs():
     assert len({ln.split()[0] for ln in lines[:-1]}) == 12
 
 
-def test_only_the_sweep_cli_imports_ray():
+@pytest.mark.parametrize("lib, only", [("ray", ["tools/sweep.py"]), ("tqdm", ["tools/sweep_progress.py"])])
+def test_only_the_sweep_imports_its_extra(lib, only):
     import re
-    pattern = re.compile(r"^\s*(import ray\b|from ray\b)", re.M)
+    pattern = re.compile(rf"^\s*(import {lib}\b|from {lib}\b)", re.M)
     users = sorted(str(p.relative_to(ROOT)) for d in ("gcs", "vehicle", "bridge", "tools", "examples")
                    for p in (ROOT / d).rglob("*.py") if pattern.search(p.read_text(errors="replace")))
-    assert users == ["tools/sweep.py"]
+    assert users == only
+
+
+class _Clock:
+    def __init__(self) -> None:
+        self.t = 100.0
+
+    def __call__(self) -> float:
+        return self.t
+
+
+def test_progress_without_a_terminal_is_one_plain_line_per_run_with_counts_and_eta():
+    import io
+
+    from tools.sweep_progress import Progress
+    out, clock = io.StringIO(), _Clock()
+    p = Progress(5, done=1, stream=out, clock=clock)         # one finished before: resumed
+    assert p.bar is None and p.eta() is None
+    p.started(2)
+    clock.t += 30
+    p.finished("ab12 seed=1", True, wall_s=29.96)
+    clock.t += 30
+    p.finished("cd34 seed=2", False, reason="timed out: fly did not end within 330 s wall")
+    p.close()
+    lines = out.getvalue().splitlines()
+    assert lines == ["[sweep] 2/5 done, 0 failed, elapsed 0:30, ETA 1:30 | ab12 seed=1: pass, 30.0 s",
+                     "[sweep] 3/5 done, 1 failed, elapsed 1:00, ETA 1:00 | cd34 seed=2: "
+                     "FAIL (timed out: fly did not end within 330 s wall)"]
+    assert "\r" not in out.getvalue()
+
+
+def test_progress_on_a_terminal_is_a_bar_with_each_run_written_above_it():
+    import io
+
+    from tools.sweep_progress import Progress
+    out = io.StringIO()
+    p = Progress(4, done=1, failed=1, stream=out, tty=True)
+    p.started(2)
+    p.finished("ab12 seed=1", True, wall_s=12.0)
+    p.finished("cd34 seed=2", False, reason="mission failed")
+    p.close()
+    text = out.getvalue()
+    frames = [f for f in text.split("\r") if "flying" in f]          # the bar as redrawn
+    assert "[sweep] ab12 seed=1: pass, 12.0 s\n" in text and "[sweep] cd34 seed=2: FAIL (mission failed)\n" in text
+    assert any("1/4, 1 failed, 2 flying" in f for f in frames)       # resumed: starts at 1 done
+    assert "3/4, 2 failed, 0 flying" in frames[-1]                     # as it ended, left drawn
+    assert text.endswith("\n")

@@ -99,6 +99,7 @@ def test_world_on_another_host_flies_the_same_figures(hosts, tmp_path):
     s_across = json.loads((tmp_path / "across" / "summary.json").read_text())
     s_one = json.loads((tmp_path / "one" / "summary.json").read_text())
     assert s_across["ok"] and s_one["ok"] and s_across["goals_reached"] == 2
+    assert s_across["limits_assumed"] == s_one["limits_assumed"] == []
     x, y = figures(s_across), figures(s_one)
     assert len(x) > 40 and "follow_error.rms" in x and "goals[1].time_to_reach" in x
     assert "limits.WPNAV_SPEED" in x        # the monitor's PARAM_REQUEST_READ reached the world and back

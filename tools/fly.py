@@ -67,6 +67,15 @@ load. --no-lockstep runs the old free-running world (figures then depend on the 
   towerlink fly family --speedup max
   towerlink fly --no-lockstep            # free-running world
 
+MAVLink 2 signing: --signing-key PASSPHRASE|HEX64 runs the whole chain signed. The world's
+vehicles sign, drop unsigned packets and check the lockstep JOIN/ACK/LEAVE (sitl
+--signing-key); the bridge takes only signed packets on the tower link and the vehicle links
+and signs what it sends (bridge --signing-key --vehicle-signing); the tower and the van's
+driver sign everything and accept only signed packets. The key is masked (***) in the run
+folder's logs and meta.json:
+
+  towerlink fly --signing-key "my passphrase" --speedup max
+
 Exit status 0 iff the tower reached every goal.
 """
 from __future__ import annotations
@@ -88,6 +97,7 @@ from pathlib import Path
 from gcs.geo import lla_to_ned, ned_to_lla
 from gcs.lockstep import speedup_text, speedup_type
 from gcs.mavstr import mav_str
+from gcs.signing import SIGNING_FLAG, masked_argv
 from tools.procs import die_with_parent
 
 os.environ.setdefault("MAVLINK20", "1")
@@ -139,7 +149,7 @@ class Monitor(threading.Thread):
     """Listens where the world and the bridge push, records a tlog per link, tracks progress."""
 
     def __init__(self, run_dir: Path, ports: dict[str, int], host: str = "127.0.0.1",
-                 binds: dict[str, str] | None = None) -> None:
+                 binds: dict[str, str] | None = None, signing_key: bytes | None = None) -> None:
         super().__init__(daemon=True, name="fly-monitor")
         from gcs.dialect import towerlink as tl
         self.tl = tl
@@ -155,8 +165,11 @@ class Monitor(threading.Thread):
             p.robust_parsing = True
             self.parsers[name] = p
             self.tlogs[name] = open(run_dir / f"{name}.tlog", "wb")
-        self.peer: dict[str, tuple] = {}
         self.encoder = tl.MAVLink(None, srcSystem=255, srcComponent=158)
+        if signing_key:     # vehicles given the key drop unsigned requests (the scoring parameters)
+            from gcs.client import SIGNING_LINK_ID
+            from gcs.signing import setup_signing
+            setup_signing(self.encoder, signing_key, SIGNING_LINK_ID)
         self._halt = threading.Event()
         self.lock = threading.Lock()
         self.sim_ms = 0
@@ -185,7 +198,6 @@ class Monitor(threading.Thread):
                             break
                         except OSError:
                             break
-                        self.peer[name] = addr
                         self._datagram(name, data, addr)
         finally:
             sel.close()
@@ -252,18 +264,11 @@ class Monitor(threading.Thread):
         return True
 
     def request_params(self, names=SCORING_PARAMS) -> None:
-        """Ask the drone (through the world's push link) for the parameters the scoring needs."""
-        addr = self.peer.get("vehicles")
-        if addr is None:
-            return
+        """Ask the drone (through the world's push link, at the address the drone sends from:
+        every vehicle pushes to this one socket) for the parameters the scoring needs."""
         for n in names:
-            if n in self.params:
-                continue
-            msg = self.tl.MAVLink_param_request_read_message(DRONE, 1, n.encode(), -1)
-            try:
-                self.socks["vehicles"].sendto(msg.pack(self.encoder), addr)
-            except OSError:
-                pass
+            if n not in self.params:
+                self.send_to_vehicle(DRONE, self.tl.MAVLink_param_request_read_message(DRONE, 1, n.encode(), -1))
 
     def snapshot(self) -> dict:
         with self.lock:
@@ -300,7 +305,7 @@ class Launch:
                  tower_args: tuple[str, ...] = (), echo: bool = False, host: str = "127.0.0.1",
                  view_port: int | None = None, nodes: str | os.PathLike | None = None,
                  lockstep: bool = False, follow_with: str = "bridge", foll_pos_p: float | None = None,
-                 world=None) -> None:
+                 world=None, signing_key: str | None = None) -> None:
         from gcs.scenario import load_scenario, scenario_path
         self.dir = Path(run_dir)
         self.dir.mkdir(parents=True, exist_ok=True)
@@ -322,6 +327,12 @@ class Launch:
         self.nodes = sorted(Path(nodes).glob("*.py")) if nodes else []
         if nodes and not self.nodes:
             raise ValueError(f"no nodes (*.py) in {nodes}")
+        # MAVLink 2 signing for the whole run (the text as given: passphrase or 64 hex digits);
+        # each process reads it with gcs.signing.key_from_text; never written in clear
+        self.signing_key = signing_key or None
+        if self.signing_key and self.nodes:
+            raise ValueError("--signing-key with --nodes: the nodes (gcs.tf2_ros) cannot sign yet, and the "
+                             "bridge's node link takes only signed packets with a key")
         names = ["drone", "rover", "tower", "vehicles", "bridge", "proxy", "nodes"]
         if self.family:
             names += [f"vehicle{s}" for _n, s, _k in self.sc.vehicles]
@@ -357,7 +368,7 @@ class Launch:
     def _start(self, name: str, args: list[str]) -> subprocess.Popen:
         log = open(self.dir / f"{name}.log", "a")
         self.logs.setdefault(name, log)
-        log.write(f"$ {shlex.join(args)}\n")
+        log.write(f"$ {shlex.join(masked_argv(args))}\n")     # the signing key never in clear
         log.flush()
         env = dict(os.environ, PYTHONUNBUFFERED="1")
         if name == "tower":
@@ -382,7 +393,16 @@ class Launch:
                              "--endpoint", f"0=udpin:{h}:{self.ports['drone']}",
                              "--endpoint", f"1=udpin:{h}:{self.ports['rover']}",
                              "--out", f"udpout:{out}:{self.ports['vehicles']}", *self._scenario_wind(),
-                             *lock, *(("--rovers", "2") if self.follow_with == "both" else ()), *self.sitl_args)
+                             *lock, *(("--rovers", "2") if self.follow_with == "both" else ()),
+                             *self._signing_args(), *self.sitl_args)
+
+    def _signing_args(self) -> list[str]:
+        """--signing-key KEY for the world, the bridge and the tower (none without a key)."""
+        return [SIGNING_FLAG, self.signing_key] if self.signing_key else []
+
+    def _key(self) -> bytes | None:
+        from gcs.signing import key_from_text
+        return key_from_text(self.signing_key)
 
     def _world_binds(self) -> tuple[str, str]:
         """(where the world's endpoints listen, where it pushes its telemetry)."""
@@ -418,7 +438,7 @@ class Launch:
             i = sc.van.sysid - 1
             cmd += ["--endpoint", f"{i}=udpin:{h}:{self.ports['van_driver']}",
                     "--mission", f"{i}={self.write_van_mission()}"]
-        return cmd + list(self.sitl_args)
+        return cmd + self._signing_args() + list(self.sitl_args)
 
     def write_van_mission(self) -> Path:
         """The van's route as a QGC WPL 110 mission, looped with DO_JUMP (world NED -> lat/lon)."""
@@ -448,7 +468,7 @@ class Launch:
                 # (compid 200: the world tells it from the tower's link)
                 with Client.connect(f"udpout:{self.world_addr}:{self.ports['van_driver']}", log=log,
                                     source_component=200, lockstep=self.lockstep,
-                                    lockstep_target=van.sysid) as c:
+                                    lockstep_target=van.sysid, signing_key=self._key()) as c:
                     c.wait_heartbeat(van.sysid, timeout=60)
                     c.set_mode("AUTO", van.sysid, timeout=30)
                     c.arm(van.sysid, timeout=60)
@@ -481,6 +501,8 @@ class Launch:
             cmd += ["--nodes", f"udpin:{h}:{self.ports['nodes']}", "--route-only"]
         if self.follow_with == "ardupilot":
             cmd += ["--no-follow"]          # the rover follows in its own FOLLOW mode
+        if self.signing_key:                # the vehicles sign too: the bridge checks them as well
+            cmd += [*self._signing_args(), "--vehicle-signing"]
         return cmd + list(self.bridge_args)
 
     def node_cmd(self, path: Path) -> list[str]:
@@ -502,7 +524,7 @@ class Launch:
                         ("--radius", self.radius), ("--finish", self.finish)):
             if v is not None:
                 cmd.append(f"{flag}={v}")  # '=': goals may start with '-'
-        return cmd + list(self.tower_args)
+        return cmd + self._signing_args() + list(self.tower_args)
 
     def _read_tower(self, p: subprocess.Popen, log) -> None:
         import re
@@ -532,7 +554,7 @@ class Launch:
         """World, monitor, bridge, (loss proxy), tower: in that order."""
         self.t_wall0 = time.monotonic()
         self.monitor = Monitor(self.dir, {"vehicles": self.ports["vehicles"], "bridge": self.ports["bridge"]},
-                               self.host, {"vehicles": self._world_binds()[1]})
+                               self.host, {"vehicles": self._world_binds()[1]}, signing_key=self._key())
         if self.view_port is not None:
             from tools.live_view import LiveView
             self.view = LiveView(self.host, self.view_port)
@@ -567,8 +589,9 @@ class Launch:
 
     def start_world(self) -> None:
         if self.world is not None and self.world.attach:      # the user starts it there
-            print(f"towerlink fly: start the world on {self.world.addr}:\n  {shlex.join(self.world_cmd())}",
-                  flush=True)
+            hint = f"\n  (put your {SIGNING_FLAG} where *** stands)" if self.signing_key else ""
+            print(f"towerlink fly: start the world on {self.world.addr}:\n  "
+                  f"{shlex.join(masked_argv(self.world_cmd()))}{hint}", flush=True)
             return
         self._start("sitl", self.world_cmd())
 
@@ -649,11 +672,11 @@ class Launch:
 
     def write_meta(self) -> None:
         meta = {"scenario": self.scenario, "speedup": speedup_text(self.speedup), "lockstep": self.lockstep,
-                "seed": self.seed,
+                "seed": self.seed, "signed": bool(self.signing_key),
                 "follow_frame": self.follow_frame, "goals": self.goals, "tower_loss": self.tower_loss,
                 "follow_with": self.follow_with, "ardupilot_follower": self.ap_follower,
                 "ports": self.ports, "world_host": self.world.describe() if self.world else None,
-                "commands": {k: shlex.join(v) for k, v in
+                "commands": {k: shlex.join(masked_argv(v)) for k, v in
                              (("sitl", self.world_cmd()), ("bridge", self.bridge_cmd()), ("tower", self.tower_cmd()),
                               *((f"node-{p.stem}", self.node_cmd(p)) for p in self.nodes))}}
         (self.dir / "meta.json").write_text(json.dumps(meta, indent=2))
@@ -701,7 +724,7 @@ class Launch:
         tower = json.loads(tj.read_text()) if tj.exists() else {"ok": False, "goals": [],
                                                                 "error": "the tower wrote no result"}
         meta = {"seed": self.seed, "speedup": self.speedup if math.isfinite(self.speedup) else "max",
-                "lockstep": self.lockstep,
+                "lockstep": self.lockstep, "signed": bool(self.signing_key),
                 "tower_exit": tower_rc,
                 "follow_frame": self.follow_frame or _scenario_follow(self.scenario),
                 "run_dir": str(self.dir), "bridge_restarts": self.bridge_restarts,
@@ -818,6 +841,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                         help="a vehicle parameter for the world (ArduPilot name, e.g. WPNAV_SPEED=300); "
                              "repeatable; written to RUN/params.parm and passed as sitl --params")
+    parser.add_argument("--signing-key", metavar="PASSPHRASE|HEX64", default=None,
+                        help="MAVLink 2 signing for the whole run: 64 hex digits, or a passphrase hashed with "
+                             "SHA-256 (as MAVProxy's 'signing setup'). The world's vehicles, the bridge's tower "
+                             "link and the tower (and the van's driver) all sign and accept only signed "
+                             "packets, lockstep included. The key is masked (***) in the run folder's logs and "
+                             "meta.json (it is still on the processes' command lines). Not with --nodes")
     parser.add_argument("-v", "--verbose", action="store_true", help="echo the tower's log lines")
     from tools import hosts
     hosts.add_arguments(parser)
@@ -853,7 +882,7 @@ def run(args: argparse.Namespace) -> int:
                         finish=args.finish, goal_timeout=args.goal_timeout, tower_loss=args.tower_loss,
                         echo=args.verbose, view_port=args.view, nodes=args.nodes,
                         lockstep=args.lockstep, follow_with=args.follow_with, foll_pos_p=args.foll_pos_p,
-                        world=world, sitl_args=sitl_args)
+                        world=world, sitl_args=sitl_args, signing_key=args.signing_key)
     except ValueError as exc:
         print(f"towerlink fly: {exc}", file=sys.stderr)
         return 2

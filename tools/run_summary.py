@@ -324,6 +324,7 @@ def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
     to_world = buf.lookup_transform("world", goal_frame).transform
 
     params = {**PARAM_DEFAULTS, **data.params.get(DRONE, {})}
+    assumed = sorted(k for k in PARAM_DEFAULTS if k not in data.params.get(DRONE, {}))
     v = params["WPNAV_SPEED"] / 100.0
     a = params["WPNAV_ACCEL"] / 100.0
     j = params["PSC_JERK_XY"]
@@ -421,6 +422,7 @@ def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
         "scenario": sc.name, "goals_reached": reached, "goals_total": len(goals_out),
         "goals": goals_out, "follow_error": follow, "follow_error_ardupilot": follow_ap, "wobble": wobble, "flight": flight, "hover": hover,
         "limits": {"WPNAV_SPEED": v, "WPNAV_ACCEL": a, "PSC_JERK_XY": j},
+        "limits_assumed": assumed,      # not read from the drone (no PARAM_VALUE): Copter defaults
         "mission_window_sim": [t0, t1],
         "bridge_status": data.bridge_status, "tower_error": tower.get("error"),
     }
@@ -481,6 +483,9 @@ def format_summary(s: dict) -> str:
                  f"a {lim.get('WPNAV_ACCEL', 0):g} m/s², j {lim.get('PSC_JERK_XY', 0):g} m/s³ "
                  "(exact S-curve on short legs); reach = first sample within the radius, "
                  "before the drone has stopped, so a ratio can dip just under 1")
+    if s.get("limits_assumed"):
+        lines.append(f"WARNING: {', '.join(s['limits_assumed'])} not read from the drone (no PARAM_VALUE in "
+                     "the tlog): ArduPilot Copter's defaults assumed for the minimum times")
     lines.append("")
     lines.append(f"  {'goal':>5}  {'tower [x, y]':>18}  {'world [x, y]':>16}  {'leg m':>6}  "
                  f"{'reach s':>7}  {'min s':>6}  {'ratio':>5}  {'rover m':>7}")

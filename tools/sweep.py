@@ -26,14 +26,14 @@ Output (--out DIR, default sweeps/<timestamp>):
                          follow error, wobble and reach-time ratio, and the pass rate (also printed)
   DIR/sweep.json         the plan: scenario, options, every run's id and factors
 
-Progress: on a terminal a bar (done/total, failed, in flight, elapsed, ETA) under one line per
-finished run; piped or logged, one plain line per finished run with the counts.
+Progress: on a terminal a bar (done/total, failed, flying, elapsed, ETA) with each finished
+run's line above it; elsewhere (CI, a log file) one plain line per finished run.
 
 Run ids are hashes of the scenario and the factors: rerunning the same sweep into the same
 DIR (or --resume) does not redo finished runs. A run that fails or times out is a row with
 pass False and its reason. Ctrl-C stops the running flights cleanly and writes the table of
 the finished ones. Exit status 0 when every run has a row (failed missions are results), 2
-for a bad plan, a missing Ray or a cluster it cannot reach, 130 when interrupted.
+for a bad plan or a missing Ray, 130 when interrupted.
 """
 from __future__ import annotations
 
@@ -43,15 +43,16 @@ import logging
 import math
 import os
 import signal
+import socket
 import sys
 import time
 import tomllib
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from tools.sweep_grid import Plan, Run, SweepError
 
-INSTALL_HINT = ("towerlink sweep needs Ray, pyarrow and tqdm, the sweep extra: "
+INSTALL_HINT = ("towerlink sweep needs Ray and pyarrow, the sweep extra: "
                 "pip install 'towerlink[sweep]' (in this checkout: pip install -e '.[sweep]', or make sweep)")
 PROJECT_ROOT = str(Path(__file__).resolve().parent.parent)
 
@@ -67,13 +68,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", metavar="DIR", help="sweep folder (default sweeps/<timestamp>)")
     parser.add_argument("--address", metavar="HOST:PORT|auto|ray://HOST:10001",
                         help="a running Ray cluster to run on (default: a local Ray started for this sweep): "
-                             "HOST:PORT, the head's address that `ray start --head --port PORT` prints (from a "
-                             "node of the cluster); auto, the cluster started on this machine; ray://HOST:10001, "
-                             "Ray Client from outside the cluster. A cluster with token authentication (Ray's "
-                             "default once ~/.ray/auth_token exists) also needs RAY_AUTH_MODE=token and its token "
-                             "(RAY_AUTH_TOKEN, or the file ~/.ray/auth_token) here when the address is given. "
-                             "Every node needs towerlink installed, and DIR is best on a shared file system (else "
-                             "each run's folder stays on its node; summary.json and row.json come back here)")
+                             "its head's GCS address as `ray start --head` prints it, auto (the cluster on this "
+                             "machine), or ray:// through Ray Client. Every node needs towerlink installed; DIR "
+                             "is best on a shared file system (else each run's folder stays on its node; "
+                             "summary.json and row.json come back here). A cluster with token authentication "
+                             "(Ray's RAY_AUTH_MODE=token) needs the same in this shell")
     parser.add_argument("--parallel", type=int, default=None, metavar="N",
                         help="runs at once (default: the CPUs Ray has; each run is one CPU)")
     parser.add_argument("--speedup", choices=("max",), default="max",
@@ -162,6 +161,21 @@ def run_specs(runs: list[Run], scenario: Path, data: dict, plan: Plan, out: Path
 # ----------------------------------------------------------------------------- Ray
 
 
+def _check_listening(address: str, timeout: float = 5.0) -> None:
+    """SweepError unless something accepts TCP at a HOST:PORT (or ray://HOST:PORT) address:
+    ray.init retries an address where nothing listens for minutes, saying little."""
+    hostport = address.removeprefix("ray://")
+    host, sep, port = hostport.rpartition(":")
+    if not sep or not port.isdigit():
+        return                  # auto, local: Ray finds the cluster itself
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=timeout).close()
+    except OSError as exc:
+        raise SweepError(f"cannot join the Ray cluster at {address}: nothing accepts a connection there "
+                         f"({exc.strerror or exc}); start one with `ray start --head` and give the address "
+                         "it prints") from None
+
+
 def start_ray(address: str | None, parallel: int | None):
     """ray.init, quiet: no dashboard, a bounded object store, no usage stats, worker logs in
     Ray's own folder (each run keeps its own logs in its folder)."""
@@ -172,28 +186,18 @@ def start_ray(address: str | None, parallel: int | None):
         [PROJECT_ROOT, *[p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p and p != PROJECT_ROOT]])
     import ray
     quiet: dict[str, Any] = dict(log_to_driver=False, logging_level=logging.ERROR)
-    if address:     # a running cluster (HOST:PORT, auto, ray://HOST:10001): it has its own settings
+    if address:     # a cluster (ray://HOST:10001 through Ray Client, or auto): it has its own settings
+        _check_listening(address)
         try:
             ray.init(address=address, **quiet)
-        except KeyboardInterrupt:
-            raise
-        except Exception as exc:  # noqa: BLE001 - Ray raises ConnectionError, RuntimeError, ValueError...
-            raise SweepError(cluster_error(address, exc)) from None
+        except (ConnectionError, ray.exceptions.RayError, ValueError) as exc:
+            lines = [ln for ln in str(exc).strip().splitlines() if ln.strip()]
+            raise SweepError(f"cannot join the Ray cluster at {address}: {type(exc).__name__}: "
+                             f"{lines[0] if lines else ''}") from None
     else:
         ray.init(num_cpus=parallel or os.cpu_count() or 1, object_store_memory=128 * 1024 * 1024,
                  include_dashboard=False, **quiet)
     return ray
-
-
-def cluster_error(address: str, exc: BaseException) -> str:
-    """Why ray.init(address) failed, in one line, with what to do for a cluster that wants a token."""
-    text = " ".join(str(exc).split())
-    cause = " ".join(str(exc.__cause__ or "").split())
-    msg = f"cannot connect to the Ray cluster at {address}: {type(exc).__name__}: {text[:300]}"
-    if "auth" in f"{text} {cause}".lower():
-        msg += ("; the cluster wants its token: set RAY_AUTH_MODE=token and give the token "
-                "(RAY_AUTH_TOKEN, or the file ~/.ray/auth_token)")
-    return msg
 
 
 class Interrupt:
@@ -213,10 +217,10 @@ class Interrupt:
 
 
 def execute(ray, specs: list[dict], parallel: int, on_row, stop: Interrupt | None = None,
-            on_wait=None, say=print) -> bool:
+            on_flying: Callable[[int], None] | None = None) -> bool:
     """Run the specs as Ray tasks, at most `parallel` at once; on_row(spec, row, summary) as each
-    ends, on_wait(runs in flight) before each wait (about once a second), say(text) for messages.
-    Returns False when interrupted (Ctrl-C): running flights are cancelled and stopped."""
+    ends, on_flying(n) with the runs in flight at least once a second. Returns False when
+    interrupted (Ctrl-C): running flights are cancelled and stopped."""
     from tools.sweep_run import run_one
     task = ray.remote(num_cpus=1, max_retries=0)(run_one)
     todo = list(specs)
@@ -228,8 +232,8 @@ def execute(ray, specs: list[dict], parallel: int, on_row, stop: Interrupt | Non
             while todo and len(pending) < parallel:
                 spec = todo.pop(0)
                 pending[task.remote(spec)] = spec
-            if on_wait is not None:
-                on_wait(len(pending))
+            if on_flying is not None:       # each second at least: the bar's clock moves on
+                on_flying(len(pending))
             done, _ = ray.wait(list(pending), num_returns=1, timeout=1.0)
             for ref in done:
                 spec = pending.pop(ref)
@@ -245,7 +249,7 @@ def execute(ray, specs: list[dict], parallel: int, on_row, stop: Interrupt | Non
                 on_row(spec, row, summary)
         return True
     except KeyboardInterrupt:
-        say(f"[sweep] interrupted: stopping {len(pending)} running flight(s)...")
+        print(f"\n[sweep] interrupted: stopping {len(pending)} running flight(s)...", flush=True)
         for ref in pending:
             try:
                 ray.cancel(ref)         # KeyboardInterrupt in the task: it stops its fly (SIGINT)
@@ -258,8 +262,6 @@ def execute(ray, specs: list[dict], parallel: int, on_row, stop: Interrupt | Non
                 _done, left = ray.wait(left, num_returns=len(left), timeout=1.0)
             except KeyboardInterrupt:
                 break
-        if on_wait is not None:
-            on_wait(len(left))          # the flights still not stopped (none, normally)
         return False
 
 
@@ -304,15 +306,20 @@ def write_outputs(out: Path, rows: list[dict], runs: list[Run], varying: list[st
     return files
 
 
-def _fly_all(args, todo: list[dict], rows: dict[str, dict], total: int, t0: float, stop: Interrupt) -> bool:
+def _fly_all(args, todo: list[dict], rows: dict[str, dict], total: int, stop: Interrupt) -> bool:
     """Start Ray, fly the runs, shut Ray down; False when interrupted."""
     from tools import sweep_grid as g
+    from tools.sweep_progress import Progress
     from tools.sweep_run import write_atomic
     try:
         ray = start_ray(args.address, args.parallel)
     except KeyboardInterrupt:
         stop.hit = True
         ray = None
+    except SweepError as exc:
+        print(f"towerlink sweep: {exc}", file=sys.stderr, flush=True)
+        raise
+    progress = None
     try:
         if ray is None or stop.hit:
             print("\n[sweep] interrupted while Ray was starting", flush=True)
@@ -321,9 +328,7 @@ def _fly_all(args, todo: list[dict], rows: dict[str, dict], total: int, t0: floa
         parallel = min(args.parallel or cpus, len(todo))
         print(f"towerlink sweep: Ray {ray.__version__} "
               f"{'at ' + args.address if args.address else 'local'}, {parallel} run(s) at once", flush=True)
-        from tools.sweep_progress import Progress
-        progress = Progress(total, initial=len(rows), initial_failed=sum(not r.get("pass") for r in rows.values()),
-                            t0=t0)
+        progress = Progress(total, done=len(rows), failed=sum(not r.get("pass") for r in rows.values()))
 
         def on_row(spec, row, summary):
             rows[spec["run_id"]] = row
@@ -332,11 +337,13 @@ def _fly_all(args, todo: list[dict], rows: dict[str, dict], total: int, t0: floa
                 Path(spec["run_dir"]).mkdir(parents=True, exist_ok=True)
                 write_atomic(Path(spec["run_dir"]) / "summary.json", json.dumps(summary, indent=1, default=str))
                 write_atomic(Path(spec["run_dir"]) / "row.json", json.dumps(row, indent=1, default=str))
-            progress.run_done(f"{spec['run_id']} {g.format_factors(spec['factors'])}", row)
+            progress.finished(f"{spec['run_id']} {g.format_factors(spec['factors'])}", bool(row.get("pass")),
+                              row.get("reason"), row.get("wall_s"))
 
-        with progress:      # closed on any exit (Ctrl-C too): the terminal is left on a fresh line
-            return execute(ray, todo, parallel, on_row, stop, on_wait=progress.running, say=progress.write)
+        return execute(ray, todo, parallel, on_row, stop, on_flying=progress.started)
     finally:
+        if progress is not None:
+            progress.close()
         if ray is not None:
             try:
                 ray.shutdown()
@@ -366,7 +373,6 @@ def run(args: argparse.Namespace) -> int:
     try:
         import pyarrow  # noqa: F401
         import ray  # noqa: F401
-        import tqdm  # noqa: F401
     except ImportError:
         print(f"towerlink sweep: {INSTALL_HINT}", file=sys.stderr)
         return 2
@@ -394,9 +400,8 @@ def run(args: argparse.Namespace) -> int:
     stop = Interrupt()
     old_handlers = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
-        ok = _fly_all(args, todo, rows, total, t0, stop) if todo else True
-    except SweepError as exc:       # the cluster could not be reached
-        print(f"towerlink sweep: {exc}", file=sys.stderr)
+        ok = _fly_all(args, todo, rows, total, stop) if todo else True
+    except SweepError:          # said already (the cluster could not be joined): nothing flown
         return 2
     finally:
         for sig, h in old_handlers.items():

@@ -1,143 +1,94 @@
-"""The sweep's progress display: one line per finished run, and on a terminal a bar under them.
+"""The sweep's progress display: a bar on a terminal, plain lines everywhere else.
 
-On a terminal (stream.isatty()) a bar is pinned at the bottom and redrawn in place
-(done/total, failed, runs in flight, elapsed, ETA: tqdm draws it), and each finished run's line
-is written above it so the record of every run stays in the scrollback. Anywhere else (CI, a pipe,
-a log file) only plain lines, one per finished run with the counts in it, no carriage returns.
+On a terminal a tqdm bar stays at the bottom (runs done of the total, failures, runs in
+flight, elapsed and ETA) and each finished run's line is printed above it, so the record of
+every run stays in the scrollback. When the output is not a terminal (CI, ``| tee``, a log
+file) there is no bar and no carriage return: one line per finished run, each carrying the
+counts and the ETA itself.
 
-Pure apart from the stream it writes to and the clock it is given (wall seconds, monotonic), so
-tests feed it rows with a fake clock and read a StringIO. tqdm is imported only when a bar is drawn
-(it is in the sweep extra, like Ray).
+Runs finished before (a resumed sweep) count as done from the start; the ETA is reckoned
+from the runs flown in this invocation only.
 """
 from __future__ import annotations
 
 import sys
 import time
-from typing import Any, Callable, TextIO
+from typing import Callable, TextIO
 
 
 def fmt_s(s: float) -> str:
-    """Seconds as M:SS, or H:MM:SS from an hour (rounded, never negative)."""
+    """Seconds as M:SS, or H:MM:SS from an hour."""
     s = max(0, int(round(s)))
     return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
 
 
-def result_text(row: dict[str, Any]) -> str:
-    """'pass' or 'FAIL (reason)', then the run's wall time when it has one."""
-    res = "pass" if row.get("pass") else f"FAIL ({row.get('reason')})"
-    wall = row.get("wall_s")
-    return res + (f", {wall:.1f} s" if isinstance(wall, (int, float)) and not isinstance(wall, bool) else "")
-
-
 class Progress:
-    """Counts and shows a sweep's runs as they finish.
+    """Shows a sweep's progress on `stream` (default stdout).
 
-    total: runs in the sweep; initial: runs already finished (resumed), initial_failed: how many of
-    those failed; t0: when the sweep began (clock's seconds; default now). The ETA is this session's mean time per finished run (wall) times the runs left;
-    it is '?' until a run finishes. Use as a context manager: the bar is closed on any exit,
-    Ctrl-C included, so the terminal is left with the cursor on a fresh line.
-    """
+    tty: draw the bar (default: whether `stream` is a terminal). clock: wall seconds
+    (time.monotonic; a test passes its own)."""
 
-    def __init__(self, total: int, initial: int = 0, initial_failed: int = 0, *, stream: TextIO | None = None,
-                 tty: bool | None = None, clock: Callable[[], float] = time.monotonic,
-                 t0: float | None = None) -> None:
+    def __init__(self, total: int, done: int = 0, failed: int = 0, stream: TextIO | None = None,
+                 tty: bool | None = None, clock: Callable[[], float] = time.monotonic) -> None:
         self.stream = stream if stream is not None else sys.stdout
-        self.tty = _isatty(self.stream) if tty is None else tty
-        self.total, self.initial = total, initial
-        self.done, self.failed, self.in_flight = initial, initial_failed, 0
+        self.total, self.done, self.failed = total, done, failed
+        self.flown = 0                      # finished in this invocation (the ETA's rate)
+        self.in_flight = 0
         self.clock = clock
-        self.t0 = clock() if t0 is None else t0      # the sweep's start, on the same clock
-        self._bar = self._open_bar() if self.tty else None
+        self.t0 = clock()
+        if tty is None:
+            isatty = getattr(self.stream, "isatty", None)
+            tty = bool(isatty and isatty())
+        self.bar = None
+        if tty:
+            from tqdm import tqdm       # the sweep extra; only a terminal needs it
+            self.bar = tqdm(total=total, initial=done, file=self.stream, unit="run", dynamic_ncols=True,
+                            desc="sweep", bar_format="{desc} {bar} {n_fmt}/{total_fmt}{postfix} "
+                                                     "[{elapsed}<{remaining}]")
+            self._postfix()
 
-    # -- what is shown
+    def eta(self) -> float | None:
+        """Wall seconds left at this invocation's rate; None before the first run finished."""
+        if not self.flown:
+            return None
+        return (self.clock() - self.t0) / self.flown * (self.total - self.done)
 
-    def elapsed(self) -> float:
-        return self.clock() - self.t0
+    def started(self, in_flight: int) -> None:
+        """How many runs are flying now."""
+        self.in_flight = in_flight
+        self._postfix()
 
-    def eta(self) -> str:
-        now = self.done - self.initial
-        if self.done >= self.total:
-            return fmt_s(0)
-        return fmt_s(self.elapsed() / now * (self.total - self.done)) if now > 0 else "?"
-
-    def status(self) -> str:
-        """The bar's text after the bar itself."""
-        return (f"{self.failed} failed, {self.in_flight} in flight, elapsed {fmt_s(self.elapsed())}, "
-                f"ETA {self.eta()}")
-
-    # -- events
-
-    def run_done(self, label: str, row: dict[str, Any]) -> None:
-        """A run finished (passed or failed): its line, then the counts."""
+    def finished(self, what: str, ok: bool, reason: str | None = None, wall_s: float | None = None) -> None:
+        """One run ended: `what` names it (its id and factors)."""
         self.done += 1
-        self.failed += not row.get("pass")
+        self.flown += 1
+        self.failed += not ok
         self.in_flight = max(0, self.in_flight - 1)
-        if self._bar is None:
-            self._plain(f"[sweep] {self.done}/{self.total} done, {self.failed} failed, elapsed "
-                        f"{fmt_s(self.elapsed())}, ETA {self.eta()} | {label}: {result_text(row)}")
-        else:
-            self.write(f"[sweep] {self.done}/{self.total} {label}: {result_text(row)}")
+        res = "pass" if ok else f"FAIL ({reason})"
+        took = f", {wall_s:.1f} s" if isinstance(wall_s, (int, float)) else ""
+        if self.bar is not None:
+            self.bar.write(f"[sweep] {what}: {res}{took}", file=self.stream)
+            self.bar.update(1)
+            self._postfix()
+            return
+        eta = self.eta()
+        print(f"[sweep] {self.done}/{self.total} done, {self.failed} failed, elapsed "
+              f"{fmt_s(self.clock() - self.t0)}, ETA {fmt_s(eta) if eta is not None else '?'} | "
+              f"{what}: {res}{took}", file=self.stream, flush=True)
 
-    def running(self, n: int) -> None:
-        """n runs are in flight now; on a terminal the bar is redrawn (its elapsed time moves on)."""
-        self.in_flight = n
-        self._redraw()
-
-    def write(self, text: str) -> None:
-        """A line of text; on a terminal above the bar, which is drawn again under it."""
-        if self._bar is None:
-            self._plain(text)
+    def note(self, line: str) -> None:
+        """A line of its own (above the bar on a terminal)."""
+        if self.bar is not None:
+            self.bar.write(line, file=self.stream)
         else:
-            self._bar.write(text, file=self.stream)
-            self._redraw()
+            print(line, file=self.stream, flush=True)
 
     def close(self) -> None:
-        """The final state stays on screen; the cursor is left on a fresh line. Idempotent."""
-        if self._bar is not None:
-            bar, self._bar = self._bar, None
-            self.in_flight = 0 if self.done >= self.total else self.in_flight
-            bar.status, bar.n = self.status(), self.done
-            bar.close()
+        """Leave the bar drawn as it ended, the cursor on a fresh line (also after Ctrl-C)."""
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
 
-    def __enter__(self) -> Progress:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-    # -- drawing
-
-    def _plain(self, text: str) -> None:
-        self.stream.write(text + "\n")
-        self.stream.flush()
-
-    def _redraw(self) -> None:
-        if self._bar is not None:
-            self._bar.status, self._bar.n = self.status(), self.done
-            self._bar.refresh()
-
-    def _open_bar(self):
-        from tqdm import tqdm
-
-        class Bar(tqdm):
-            """tqdm with our status text in its bar_format; no monitor thread (we redraw on events
-            and on each wait of the sweep loop, about once a second)."""
-            monitor_interval = 0
-            status = ""
-
-            @property
-            def format_dict(self):
-                return {**super().format_dict, "status": self.status}
-
-        bar = Bar(total=self.total, initial=self.initial, file=self.stream, dynamic_ncols=True, mininterval=0,
-                  leave=True, bar_format="[sweep] {n}/{total} |{bar}| {status}")
-        bar.status = self.status()
-        bar.refresh()
-        return bar
-
-
-def _isatty(stream: TextIO) -> bool:
-    try:
-        return bool(stream.isatty())
-    except (AttributeError, ValueError):     # no isatty, or a closed file
-        return False
+    def _postfix(self) -> None:
+        if self.bar is not None:
+            self.bar.set_postfix_str(f"{self.failed} failed, {self.in_flight} flying", refresh=True)

@@ -116,6 +116,17 @@ class LockstepGate:
             return False
         return boundary_usec is None or p.acked.get(vehicle, -1) >= boundary_usec
 
+    def owed(self, t_usec: int) -> list[tuple[int, object]]:
+        """(vehicle, channel) of every participant that has not ACKed t there: where a TICK(t)
+        that may have been lost is sent again (each channel once per vehicle)."""
+        out: list[tuple[int, object]] = []
+        for p in self.participants.values():
+            for vehicle, a in p.acked.items():
+                ch = p.channels.get(vehicle)
+                if a < t_usec and ch is not None and all(v != vehicle or c is not ch for v, c in out):
+                    out.append((vehicle, ch))
+        return out
+
     def channels(self, vehicle: int) -> list:
         """Where TICKs for `vehicle` go: each joined channel once."""
         out: list = []

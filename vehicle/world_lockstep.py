@@ -10,7 +10,9 @@ participant has not ACKed that TICK yet, else the next (held until then). So eac
 effect at a sim time fixed by the data it reacts to, never by when the machine delivered
 it. Anyone else's packets are handled on arrival: third-party clients see an ordinary
 vehicle, and never a TOWERLINK_LOCKSTEP (TICKs go only to the addresses participants
-joined from). With --signing-key a TOWERLINK_LOCKSTEP must be signed with the key (else it
+joined from). A TICK still owed an ACK after TICK_RESEND wall s is sent again to whoever
+owes it, so one lost datagram on a vehicle link costs half a second, never the run (a
+participant that keeps JOINing is never silent, so dropping would not free the world). With --signing-key a TOWERLINK_LOCKSTEP must be signed with the key (else it
 is dropped and counted as the link counts any unsigned packet) and the TICKs are signed.
 """
 from __future__ import annotations
@@ -20,6 +22,8 @@ import time
 
 from gcs import lockstep as wire
 from vehicle.lockstep import LockstepGate
+
+TICK_RESEND = 0.5       # wall s without every ACK: TICK again to whoever owes one (UDP may drop either)
 
 
 class WorldLockstep:
@@ -36,6 +40,8 @@ class WorldLockstep:
         self.at_boundary = True
         self.waits = 0
         self.wait_wall = 0.0
+        self.tick_wall = 0.0                # when the newest TICK went out (wall s)
+        self.tick_resends = 0
         for v in world.vehicles:
             for ep in v.link.endpoints:
                 if ep.spec.startswith(("udpin:", "udpout:")):
@@ -90,12 +96,27 @@ class WorldLockstep:
 
     def _send_ticks(self) -> None:
         """TICK(t) after everything the vehicles sent up to t, to each joined channel."""
-        period = int(round(self.frame_steps * self.world.dt * 1e6))
         t = self.t_usec()
         for v in self.world.vehicles:
             for ch in self.gate.channels(v.index):
-                ch.send(wire.pack(wire.TICK, t, participant=wire.WORLD, target_system=0,
-                                  period_usec=period, sysid=v.sysid, compid=1, signing=self._signing(v)))
+                self._tick(v, ch, t)
+        self.tick_wall = time.monotonic()
+
+    def _tick(self, v, channel, t: int) -> None:
+        period = int(round(self.frame_steps * self.world.dt * 1e6))
+        channel.send(wire.pack(wire.TICK, t, participant=wire.WORLD, target_system=0,
+                               period_usec=period, sysid=v.sysid, compid=1, signing=self._signing(v)))
+
+    def _resend(self, t: int) -> None:
+        """TICK(t) again where an ACK is still owed after TICK_RESEND wall s: the TICK or the ACK
+        was lost (a participant answers a TICK it already handled with its ACK again)."""
+        if time.monotonic() - self.tick_wall < TICK_RESEND:
+            return
+        by_index = {v.index: v for v in self.world.vehicles}     # world indices (a worker holds some)
+        for index, ch in self.gate.owed(t):
+            self.tick_resends += 1          # before the send: a test reading it on arrival sees it
+            self._tick(by_index[index], ch, t)
+        self.tick_wall = time.monotonic()
 
     @staticmethod
     def _signing(v) -> tuple | None:
@@ -123,11 +144,13 @@ class WorldLockstep:
         w0 = time.monotonic()
         self.waits += 1
 
-        def drop() -> None:
+        def drop_or_resend() -> None:
             for p in gate.drop_silent(time.monotonic(), t):
                 self.world.log(f"lockstep: {p.name} silent for {gate.timeout:g} s (wall): dropped, "
                                f"the world goes on")
-        await self._until(lambda: gate.passed(t), stop, drop)
+            if not gate.passed(t):
+                self._resend(t)
+        await self._until(lambda: gate.passed(t), stop, drop_or_resend)
         self.wait_wall += time.monotonic() - w0
 
     async def start(self, stop: asyncio.Event) -> None:
@@ -147,4 +170,4 @@ class WorldLockstep:
 
     def stats_line(self) -> str:
         return (f"lockstep: {self.waits} waits for ACKs, {self.wait_wall:.2f} s wall waiting; "
-                f"{self.gate.dropped} participant(s) dropped for silence")
+                f"{self.tick_resends} TICK(s) sent again; {self.gate.dropped} participant(s) dropped for silence")

@@ -1,0 +1,304 @@
+"""MAVLink 2 signing for the tower (issue 11 hardening): gcs.client.Client with a signing key
+signs all it sends and accepts only packets signed with the key; through a signing bridge only
+a client with the key is heard; the world's lockstep takes a signed client's JOIN/ACKs; `towerlink
+fly --signing-key` hands the key to every process and never writes it in clear. Real sockets."""
+from __future__ import annotations
+
+import json
+import math
+import shlex
+import socket
+import sys
+
+import pytest
+
+from bridge_fakes import Endpoint, bridge_with_fakes, sync
+from gcs.client import SIGNING_LINK_ID, Client, ClientError, CommandTimeout, HeartbeatTimeout
+from gcs.dialect import towerlink as tl
+from gcs.signing import SignatureCheck, key_from_text, masked_argv, setup_signing, signing_timestamp
+from support import free_port, wait_until
+
+KEY = key_from_text("tower secret")
+WRONG = key_from_text("not the tower secret")
+
+
+def signed_encoder(sysid: int, compid: int, key: bytes, link_id: int = 0):
+    enc = tl.MAVLink(None, srcSystem=sysid, srcComponent=compid)
+    setup_signing(enc, key, link_id)
+    return enc
+
+
+def heartbeat(enc) -> bytes:
+    return tl.MAVLink_heartbeat_message(tl.MAV_TYPE_QUADROTOR, tl.MAV_AUTOPILOT_ARDUPILOTMEGA,
+                                        0, 0, tl.MAV_STATE_STANDBY, 3).pack(enc)
+
+
+# ----------------------------------------------------------------------------- the client alone
+
+
+@pytest.fixture
+def signed_listener():
+    """A Client with the key listening on udpin, and a raw UDP socket to write to it."""
+    port = free_port()
+    c = Client.connect(f"udpin:127.0.0.1:{port}", signing_key=KEY)
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        yield c, (lambda b: s.sendto(b, ("127.0.0.1", port)))
+    finally:
+        s.close()
+        c.close()
+
+
+def heard(c: Client, what: str, cond) -> None:
+    wait_until(lambda: c.poll(0.05) >= 0 and cond(), 5, what)
+
+
+def test_a_signing_client_drops_unsigned_badly_signed_and_replayed_packets(signed_listener):
+    c, send = signed_listener
+    send(heartbeat(tl.MAVLink(None, srcSystem=1, srcComponent=1)))
+    heard(c, "the unsigned heartbeat refused", lambda: c.signing_refused.get("unsigned") == 1)
+    send(heartbeat(signed_encoder(1, 1, WRONG)))
+    heard(c, "the wrong key refused", lambda: c.signing_refused.get("bad_signature") == 1)
+    assert c.received == 0 and c.system(1).mav_type is None      # neither one taken
+    good = heartbeat(signed_encoder(1, 1, KEY))
+    send(good)
+    heard(c, "the signed heartbeat", lambda: c.system(1).mav_type == tl.MAV_TYPE_QUADROTOR)
+    send(good)                                                    # the same bytes again
+    heard(c, "the replay refused", lambda: c.signing_refused.get("replay") == 1)
+    assert c.received == 1 and c.refused == 3 and c.bad_packets == 3
+
+
+def test_a_forged_far_future_stamp_does_not_lock_the_real_sender_out(signed_listener):
+    # pymavlink's own check stores a new stream's timestamp before it verifies the signature
+    c, send = signed_listener
+    forger = signed_encoder(1, 1, WRONG)
+    forger.signing.timestamp = signing_timestamp() + 10**9          # ~3 hours ahead
+    send(heartbeat(forger))
+    heard(c, "the forgery refused", lambda: c.signing_refused.get("bad_signature") == 1)
+    send(heartbeat(signed_encoder(1, 1, KEY)))                     # the real vehicle, stamped now
+    heard(c, "the real vehicle's heartbeat", lambda: c.system(1).mav_type == tl.MAV_TYPE_QUADROTOR)
+    assert c.signing_refused == {"bad_signature": 1}
+
+
+def test_everything_a_signing_client_sends_is_signed_on_its_own_link_id():
+    port = free_port()
+    vehicle = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    vehicle.bind(("127.0.0.1", port))
+    vehicle.settimeout(2.0)
+    c = Client.connect(f"udpout:127.0.0.1:{port}", signing_key=KEY)
+    try:
+        c._send(lambda: c.mav.command_long_send(1, 1, tl.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0))
+        frames = []
+        parser = tl.MAVLink(None)
+        while len(frames) < 2:
+            data, _ = vehicle.recvfrom(65535)
+            frames += [(m, bytes(m.get_msgbuf())) for m in parser.parse_buffer(data) or []]
+        check = SignatureCheck(KEY)
+        assert [m.get_type() for m, _ in frames] == ["HEARTBEAT", "COMMAND_LONG"]
+        for m, raw in frames:           # (a parser without the key does not mark them signed)
+            assert raw[0] == 0xFD and raw[2] & 1 and raw[-13] == SIGNING_LINK_ID
+            assert check.check(raw, 255, 190) is None
+    finally:
+        c.close()
+        vehicle.close()
+
+
+def test_a_key_of_the_wrong_size_is_a_typed_error():
+    with pytest.raises(ClientError, match="32 bytes, not 5"):
+        Client.connect(f"udpout:127.0.0.1:{free_port()}", signing_key=b"short")
+
+
+# ----------------------------------------------------------------------------- through a signing bridge
+
+
+@pytest.mark.parametrize("shared", [False, True], ids=["Client", "SharedClient"])
+def test_a_signing_tower_talks_through_a_signing_bridge(shared):
+    from gcs.tower_link import SharedClient
+    with bridge_with_fakes(rover=False, signing_key=KEY, tower_heartbeat=False) as w:
+        bridge, drone = w["bridge"], w["drone"]
+        setup_signing(drone.mav, KEY, 0)                  # a vehicle given the key
+        if shared:                                        # the family tower's link, its pump reading
+            c = SharedClient.connect(f"udpout:127.0.0.1:{bridge.tower.port}", signing_key=KEY).start()
+        else:
+            c = Client.connect(f"udpout:127.0.0.1:{bridge.tower.port}", signing_key=KEY)
+        got = []
+        c.add_listener(got.append)
+        try:
+            wait_until(lambda: bridge.tower.peers, 5, "the signed tower a peer of the bridge")
+            drone.heartbeat()
+            c.wait_heartbeat(1, timeout=5)                 # forwarded as the drone signed it
+            drone.pose(4200, (1.0, 2.0, -3.0))
+            p = c.wait_position(1, timeout=5)              # translated to tower, signed by the bridge
+            assert p.time_boot_ms == 4200
+            c.arm(1, timeout=5)                            # COMMAND_LONG out, COMMAND_ACK back
+            assert drone.armed
+            cmd = drone.of_type("COMMAND_LONG", lambda m: m.command == tl.MAV_CMD_COMPONENT_ARM_DISARM)[0]
+            raw = bytes(cmd.get_msgbuf())                  # as the tower signed it, forwarded untouched
+            assert raw[2] & 1 and raw[-13] == SIGNING_LINK_ID and SignatureCheck(KEY).check(raw, 255, 190) is None
+            assert got and all(m.get_signed() for m in got)
+            assert c.refused == 0 and c.bad_packets == 0
+            assert bridge.tower.stats.unsigned == 0 and bridge.tower.stats.bad_signature == 0
+        finally:
+            c.close()
+
+
+@pytest.mark.parametrize("key, counter", [(None, "unsigned"), (WRONG, "bad_signature")])
+def test_a_tower_without_the_key_hears_nothing_and_reaches_no_vehicle(key, counter):
+    with bridge_with_fakes(rover=False, signing_key=KEY, tower_heartbeat=False) as w:
+        bridge, drone = w["bridge"], w["drone"]
+        setup_signing(drone.mav, KEY, 0)
+        c = Client.connect(f"udpout:127.0.0.1:{bridge.tower.port}", signing_key=key)
+        marker = Endpoint(255, 191, bridge.tower.port, listen=False, name="signed tower")
+        setup_signing(marker.mav, KEY, 3)
+        try:
+            wait_until(lambda: getattr(bridge.tower.stats, counter) >= 1, 5, f"its heartbeat counted {counter}")
+            drone.heartbeat()
+            drone.pose(4200, (1.0, 2.0, -3.0))
+            with pytest.raises(HeartbeatTimeout):
+                c.wait_heartbeat(1, timeout=1.0)
+            before = getattr(bridge.tower.stats, counter)
+            with pytest.raises(CommandTimeout):
+                c.command_long(1, tl.MAV_CMD_COMPONENT_ARM_DISARM, [1], timeout=0.5, ack_timeout=0.2)
+            sync(marker, drone)             # the bridge handled everything the client sent before
+            assert getattr(bridge.tower.stats, counter) > before
+            assert not drone.of_type("COMMAND_LONG", lambda m: m.command == tl.MAV_CMD_COMPONENT_ARM_DISARM)
+            assert not drone.armed
+            assert c.received == 0                   # the bridge never made it a peer
+            assert ("127.0.0.1", c.master.port.getsockname()[1]) not in bridge.tower.peers
+            assert len(bridge.tower.peers) == 1      # the signed marker alone
+        finally:
+            marker.close()
+            c.close()
+
+
+def test_with_vehicle_signing_the_bridge_drops_an_unsigned_vehicle_packet():
+    with bridge_with_fakes(rover=False, signing_key=KEY, vehicle_signing=True, heartbeats=False,
+                           tower_heartbeat=False) as w:
+        bridge, drone = w["bridge"], w["drone"]
+        c = Client.connect(f"udpout:127.0.0.1:{bridge.tower.port}", signing_key=KEY)
+        try:
+            wait_until(lambda: bridge.tower.peers, 5, "the signed tower a peer of the bridge")
+            drone.pose(1000, (5.0, 0.0, -1.0))             # unsigned: would go out signed by the bridge
+            wait_until(lambda: bridge.vehicles[1].link.stats.unsigned >= 1, 5, "the unsigned pose counted")
+            setup_signing(drone.mav, KEY, 0)
+            drone.heartbeat()
+            c.wait_heartbeat(1, timeout=5)
+            assert c.system(1).position is None           # the forged-looking pose never reached it
+        finally:
+            c.close()
+
+
+# ----------------------------------------------------------------------------- lockstep
+
+
+def test_a_signing_clients_join_and_acks_are_taken_by_a_signing_world():
+    from vehicle.world import World, WorldConfig
+    port = free_port()
+    w = World(WorldConfig(drones=1, rovers=0, state_dir=None, tcp_base=None, udp_base=None, speedup=math.inf,
+                          endpoints={0: [f"udpin:127.0.0.1:{port}"]}, lockstep=1, lockstep_period=0.04,
+                          lockstep_timeout=30.0, signing_key=KEY))
+    w.start_thread()
+    c = None
+    try:
+        # the van's driver's way: a participant for vehicle 1 alone, on its own endpoint
+        c = Client.connect(f"udpout:127.0.0.1:{port}", lockstep=True, lockstep_target=1,
+                           source_component=200, signing_key=KEY)
+        c.lockstep_timeout = 10.0
+        ticks = []
+        while len(ticks) < 6:
+            c.poll()                                       # ACKs the last TICK, waits for the next
+            ticks.append(c.tick_usec)
+        assert ticks == [k * 40000 for k in range(6)]      # the world went on only on our ACKs
+        assert set(w.lockstep.gate.participants) == {(255, 200)}
+        stats = w.vehicles[0].link.stats
+        assert stats["unsigned"] == 0 and stats["bad_signature"] == 0
+        assert c.refused == 0 and c.system(1).mav_type is not None   # its signed telemetry taken
+    finally:
+        if c is not None:
+            c.close()
+        w.stop()
+
+
+def test_an_unsigned_client_does_not_join_a_signing_world():
+    from vehicle.world import World, WorldConfig
+    port = free_port()
+    w = World(WorldConfig(drones=1, rovers=0, state_dir=None, tcp_base=None, udp_base=None, speedup=math.inf,
+                          endpoints={0: [f"udpin:127.0.0.1:{port}"]}, lockstep=1, lockstep_period=0.04,
+                          lockstep_timeout=30.0, signing_key=KEY))
+    w.start_thread()
+    c = Client.connect(f"udpout:127.0.0.1:{port}", lockstep=True, lockstep_target=1, source_component=200)
+    c.lockstep_timeout = 1.0
+    try:
+        with pytest.raises(ClientError, match="no TICK"):
+            c.poll()
+        assert w.lockstep.gate.participants == {} and w.steps == 0
+        assert w.vehicles[0].link.stats["unsigned"] >= 1
+    finally:
+        c.close()
+        w.stop()
+
+
+# ----------------------------------------------------------------------------- the CLIs
+
+
+@pytest.mark.parametrize("cmd", ["tower", "fly", "bridge"])
+def test_help_teaches_the_signing_key(cmd, capsys):
+    from tools.cli import main
+    with pytest.raises(SystemExit):
+        main([cmd, "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "--signing-key PASSPHRASE|HEX64" in text and "MAVProxy's 'signing setup'" in text
+
+
+def test_masked_argv_hides_the_key_in_every_spelling():
+    ssh_cmd = shlex.join(["towerlink", "sitl", "--signing-key", "p q r", "--seed", "1"])
+    got = masked_argv(["x", "--signing-key", "p q r", "--signing-key=abc", "ssh", ssh_cmd, "--seed", "2"])
+    assert got == ["x", "--signing-key", "***", "--signing-key=***", "ssh",
+                   "towerlink sitl --signing-key '***' --seed 1", "--seed", "2"]
+    assert masked_argv(["a", "b"]) == ["a", "b"]
+
+
+def test_fly_passes_the_key_to_every_process_and_never_writes_it(tmp_path):
+    from tools.fly import Launch
+    secret = "correct horse battery staple"
+    launch = Launch(tmp_path, signing_key=secret, lockstep=True)
+    for cmd in (launch.sitl_cmd(), launch.bridge_cmd(), launch.tower_cmd()):
+        i = cmd.index("--signing-key")
+        assert cmd[i + 1] == secret
+    assert "--vehicle-signing" in launch.bridge_cmd()
+    launch.write_meta()
+    meta = json.loads((tmp_path / "meta.json").read_text())
+    assert meta["signed"] is True and secret not in json.dumps(meta)
+    assert "--signing-key '***'" in meta["commands"]["tower"]
+    p = launch._start("echo", [sys.executable, "-c", "pass", "--signing-key", secret])
+    p.wait(10)
+    launch.logs["echo"].close()
+    text = (tmp_path / "echo.log").read_text()
+    assert secret not in text and "--signing-key '***'" in text
+    family = Launch(tmp_path / "f", scenario="family", signing_key=secret, lockstep=True)
+    assert family.sitl_cmd()[family.sitl_cmd().index("--signing-key") + 1] == secret
+    with pytest.raises(ValueError, match="--nodes"):
+        Launch(tmp_path / "n", signing_key=secret, nodes="examples/lab")
+
+
+def test_bridge_vehicle_signing_needs_a_key(capsys):
+    from tools.cli import main
+    rc = main(["bridge", "--vehicle-signing", "--drone", "udpout:127.0.0.1:9", "--duration", "0.1"])
+    assert rc == 2 and "--vehicle-signing needs --signing-key" in capsys.readouterr().err
+
+
+def test_a_world_on_another_host_gets_the_key_and_no_record_shows_it(tmp_path, capsys):
+    from tools.fly import Launch
+    from tools.hosts import WorldHost
+    secret = "remote world secret"
+    ssh = Launch(tmp_path / "ssh", world=WorldHost("10.9.8.1", "10.9.8.2", ("ssh", "-tt", "sim-box")),
+                 signing_key=secret, lockstep=True)
+    remote = shlex.split(ssh.world_cmd()[-1])                        # what the remote shell runs
+    assert remote[remote.index("--signing-key") + 1] == secret
+    ssh.write_meta()
+    assert secret not in (tmp_path / "ssh" / "meta.json").read_text()
+    attach = Launch(tmp_path / "attach", world=WorldHost("10.9.8.1", "10.9.8.2"), signing_key=secret,
+                    lockstep=True)
+    attach.start_world()
+    out = capsys.readouterr().out
+    assert secret not in out and "--signing-key '***'" in out and "put your --signing-key where *** stands" in out
