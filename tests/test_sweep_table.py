@@ -206,6 +206,54 @@ def test_sweep_without_ray_says_how_to_install_it(tmp_path):
     assert not (tmp_path / "s").exists()
 
 
+def test_sweep_without_tqdm_says_how_to_install_it(tmp_path):
+    # an install of the sweep extra from before tqdm was in it: said before Ray starts
+    fake = tmp_path / "no_tqdm" / "tqdm"
+    fake.mkdir(parents=True)
+    (fake / "__init__.py").write_text("raise ImportError('No module named tqdm')\n")
+    env = {"PYTHONPATH": f"{fake.parent}{os.pathsep}{ROOT}"}
+    p = towerlink("sweep", "--seeds", "1", "--out", str(tmp_path / "s"), env_extra=env)
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert "needs Ray, pyarrow and tqdm" in p.stderr and "pip install 'towerlink[sweep]'" in p.stderr
+    assert "Traceback" not in p.stderr and not (tmp_path / "s").exists()
+
+
+def test_a_cluster_that_refuses_the_token_is_exit_2_saying_what_to_set(tmp_path, monkeypatch, capsys):
+    import argparse
+    import socket
+    import types
+
+    from tools import sweep
+
+    class RayError(Exception):
+        pass
+
+    def init(address=None, **_kw):      # what Ray 2.60 raises when the GCS refuses the token
+        try:
+            raise RayError("RPC error: InvalidAuthToken: Authentication token is missing or incorrect")
+        except RayError as exc:
+            raise ConnectionError("Failed to connect to Ray cluster at 192.0.2.2:6379") from exc
+
+    fake = types.ModuleType("ray")
+    fake.init, fake.__version__, fake.exceptions = init, "0.fake", types.SimpleNamespace(RayError=RayError)
+    monkeypatch.setitem(sys.modules, "ray", fake)
+    monkeypatch.setattr(os, "environ", dict(os.environ))        # start_ray sets PYTHONPATH, RAY_*
+    with socket.socket() as head:       # something listens at the address (the GCS port)
+        head.bind(("127.0.0.1", 0))
+        head.listen()
+        address = f"127.0.0.1:{head.getsockname()[1]}"
+        parser = argparse.ArgumentParser()
+        sweep.add_arguments(parser)
+        assert sweep.run(parser.parse_args(["--seeds", "1", "--out", str(tmp_path / "s"),
+                                            "--address", address])) == 2
+    err = capsys.readouterr().err
+    assert err.strip().splitlines()[-1] == (
+        f"towerlink sweep: cannot join the Ray cluster at {address}: ConnectionError: Failed to connect to Ray "
+        "cluster at 192.0.2.2:6379; it wants its token: set RAY_AUTH_MODE=token and give the token "
+        "(RAY_AUTH_TOKEN, or the file ~/.ray/auth_token)")
+    assert "Traceback" not in err
+
+
 def test_sweep_refuses_a_bad_plan_before_anything_starts(tmp_path):
     p = towerlink("sweep", "--set", "tower_loss=0,2", "--out", str(tmp_path / "s"))
     assert p.returncode == 2 and "tower_loss: 2 is outside 0 <= loss < 1" in p.stderr

@@ -38,6 +38,7 @@ for a bad plan or a missing Ray, 130 when interrupted.
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import logging
 import math
@@ -52,7 +53,7 @@ from typing import Any, Callable
 
 from tools.sweep_grid import Plan, Run, SweepError
 
-INSTALL_HINT = ("towerlink sweep needs Ray and pyarrow, the sweep extra: "
+INSTALL_HINT = ("towerlink sweep needs Ray, pyarrow and tqdm, the sweep extra: "
                 "pip install 'towerlink[sweep]' (in this checkout: pip install -e '.[sweep]', or make sweep)")
 PROJECT_ROOT = str(Path(__file__).resolve().parent.parent)
 
@@ -192,8 +193,12 @@ def start_ray(address: str | None, parallel: int | None):
             ray.init(address=address, **quiet)
         except (ConnectionError, ray.exceptions.RayError, ValueError) as exc:
             lines = [ln for ln in str(exc).strip().splitlines() if ln.strip()]
+            # a token refused says so only in the cause ('Failed to connect' on top): say what to set
+            token = "auth" in f"{exc} {exc.__cause__ or ''}".lower()
             raise SweepError(f"cannot join the Ray cluster at {address}: {type(exc).__name__}: "
-                             f"{lines[0] if lines else ''}") from None
+                             f"{lines[0] if lines else ''}"
+                             + ("; it wants its token: set RAY_AUTH_MODE=token and give the token "
+                                "(RAY_AUTH_TOKEN, or the file ~/.ray/auth_token)" if token else "")) from None
     else:
         ray.init(num_cpus=parallel or os.cpu_count() or 1, object_store_memory=128 * 1024 * 1024,
                  include_dashboard=False, **quiet)
@@ -373,6 +378,9 @@ def run(args: argparse.Namespace) -> int:
     try:
         import pyarrow  # noqa: F401
         import ray  # noqa: F401
+        # the bar's library, used only on a terminal (by tools/sweep_progress.py): an install of the
+        # sweep extra from before it was added lacks it, and would fail only after Ray started
+        importlib.import_module("tqdm")
     except ImportError:
         print(f"towerlink sweep: {INSTALL_HINT}", file=sys.stderr)
         return 2
