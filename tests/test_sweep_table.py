@@ -2,11 +2,13 @@
 refusals (a bad plan, no Ray) — all fast."""
 from __future__ import annotations
 
+import io
 import json
 import math
 import os
 import subprocess
 import sys
+import types
 from pathlib import Path
 
 import pytest
@@ -323,3 +325,72 @@ def test_progress_on_a_terminal_is_a_bar_with_each_run_written_above_it():
     assert any("1/4, 1 failed, 2 flying" in f for f in frames)       # resumed: starts at 1 done
     assert "3/4, 2 failed, 0 flying" in frames[-1]                     # as it ended, left drawn
     assert text.endswith("\n")
+
+
+class _FakeRay:
+    """What tools.sweep.execute uses of Ray: remote tasks, wait, get, cancel. The first wait gives
+    the first run; Ctrl-C comes during the second; then the cancelled flights have stopped."""
+    __version__ = "0.fake"
+
+    def __init__(self, summary: dict) -> None:
+        self.summary, self.specs, self.cancelled, self.waits, self.shut = summary, [], [], 0, False
+
+    def remote(self, **_opts):
+        return lambda fn: types.SimpleNamespace(remote=self._submit)
+
+    def _submit(self, spec):
+        self.specs.append(spec)
+        return len(self.specs) - 1
+
+    def available_resources(self):
+        return {"CPU": 2.0}
+
+    def wait(self, refs, num_returns=1, timeout=None):
+        self.waits += 1
+        if self.waits == 1:
+            return [refs[0]], refs[1:]
+        if self.waits == 2:
+            raise KeyboardInterrupt
+        return list(refs), []
+
+    def get(self, ref):
+        return {"row": {"run_id": self.specs[ref]["run_id"], "pass": True, "reason": "", "wall_s": 5.0},
+                "summary": self.summary}
+
+    def cancel(self, ref):
+        self.cancelled.append(ref)
+
+    def shutdown(self):
+        self.shut = True
+
+
+class _Tty(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_sweep_on_a_terminal_a_cluster_runs_summary_comes_back_and_ctrl_c_leaves_one_bar(tmp_path, monkeypatch):
+    from tools import sweep
+    fake = _FakeRay({"ok": True, "follow_rms": 1.25})
+    monkeypatch.setattr(sweep, "start_ray", lambda address, parallel: fake)
+    term = _Tty()
+    monkeypatch.setattr(sys, "stdout", term)
+    specs = [{"run_id": f"run{i}", "factors": {"seed": i}, "run_dir": str(tmp_path / "runs" / f"run{i}")}
+             for i in range(3)]
+    rows = {"old": {"run_id": "old", "pass": False, "reason": "x"}}     # resumed, failed
+    ok = sweep._fly_all(types.SimpleNamespace(address="10.0.0.9:6379", parallel=2), specs, rows, 4,
+                        sweep.Interrupt())
+    assert ok is False and fake.shut and fake.cancelled == [1, 2]
+    # a cluster worker's folder is on its node: the summary and row it returned are written here
+    assert json.loads((tmp_path / "runs" / "run0" / "summary.json").read_text())["follow_rms"] == 1.25
+    assert json.loads((tmp_path / "runs" / "run0" / "row.json").read_text())["run_id"] == "run0"
+    assert set(rows) == {"old", "run0"}
+    text = term.getvalue()
+    shown = [ln.split("\r")[-1].rstrip() for ln in text.split("\n")]   # what the terminal keeps
+    shown = [ln for ln in shown if ln]
+    assert text.endswith("\n")
+    assert shown[:3] == ["towerlink sweep: Ray 0.fake at 10.0.0.9:6379, 2 run(s) at once",
+                         "[sweep] run0 seed=0: pass, 5.0 s",
+                         "[sweep] interrupted: stopping 2 running flight(s)..."]
+    # one bar, under the lines, as it ended: 2 of 4 done (1 resumed), the cancelled flights stopped
+    assert len(shown) == 4 and "2/4, 1 failed, 0 flying" in shown[3], shown

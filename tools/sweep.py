@@ -222,9 +222,10 @@ class Interrupt:
 
 
 def execute(ray, specs: list[dict], parallel: int, on_row, stop: Interrupt | None = None,
-            on_flying: Callable[[int], None] | None = None) -> bool:
+            on_flying: Callable[[int], None] | None = None, say: Callable[[str], None] | None = None) -> bool:
     """Run the specs as Ray tasks, at most `parallel` at once; on_row(spec, row, summary) as each
-    ends, on_flying(n) with the runs in flight at least once a second. Returns False when
+    ends, on_flying(n) with the runs in flight at least once a second, say(line) for a message
+    (default: print it on a line of its own; the progress bar writes it above itself). Returns False when
     interrupted (Ctrl-C): running flights are cancelled and stopped."""
     from tools.sweep_run import run_one
     task = ray.remote(num_cpus=1, max_retries=0)(run_one)
@@ -254,7 +255,8 @@ def execute(ray, specs: list[dict], parallel: int, on_row, stop: Interrupt | Non
                 on_row(spec, row, summary)
         return True
     except KeyboardInterrupt:
-        print(f"\n[sweep] interrupted: stopping {len(pending)} running flight(s)...", flush=True)
+        msg = f"[sweep] interrupted: stopping {len(pending)} running flight(s)..."
+        say(msg) if say is not None else print("\n" + msg, flush=True)
         for ref in pending:
             try:
                 ray.cancel(ref)         # KeyboardInterrupt in the task: it stops its fly (SIGINT)
@@ -267,6 +269,8 @@ def execute(ray, specs: list[dict], parallel: int, on_row, stop: Interrupt | Non
                 _done, left = ray.wait(left, num_returns=len(left), timeout=1.0)
             except KeyboardInterrupt:
                 break
+        if on_flying is not None:
+            on_flying(len(left))        # the bar's last state: the flights still not stopped (none, normally)
         return False
 
 
@@ -345,7 +349,7 @@ def _fly_all(args, todo: list[dict], rows: dict[str, dict], total: int, stop: In
             progress.finished(f"{spec['run_id']} {g.format_factors(spec['factors'])}", bool(row.get("pass")),
                               row.get("reason"), row.get("wall_s"))
 
-        return execute(ray, todo, parallel, on_row, stop, on_flying=progress.started)
+        return execute(ray, todo, parallel, on_row, stop, on_flying=progress.started, say=progress.note)
     finally:
         if progress is not None:
             progress.close()
