@@ -64,6 +64,7 @@ REBOOT_JUMP_MS = 5000
 # Not 0 also because pymavlink's mavutil adopts the link id of a signed packet from its target
 # vehicle while its own is 0 (then the tower would share the bridge's link 1).
 SIGNING_LINK_ID = 2
+TAKEOFF_EVIDENCE_S = 3.0     # s a refused re-sent takeoff has to show a climb (see Client.takeoff)
 LOCKSTEP_TIMEOUT = 15.0      # wall s a lockstep client waits for the world's next TICK
 LS_JOIN, LS_ACK, LS_TICK, LS_LEAVE, LS_TOWER, LS_OTHER = 1, 2, 3, 4, 2, 3   # TOWERLINK_LOCKSTEP kind / participant
 
@@ -771,9 +772,11 @@ class Client:
             except CommandTimeout:
                 continue
             except CommandRejected as exc:
-                # a re-sent takeoff after a lost ack is refused once airborne: fine if climbing
-                self.poll(0.5)
-                if climbing():
+                # a takeoff re-sent after a lost ack is refused once the vehicle has left the
+                # ground (ArduPilot: it cannot take off again): fine if it climbs. It was re-sent
+                # a second after the first, when a copter still spooling up may have risen only
+                # centimetres, so the evidence gets TAKEOFF_EVIDENCE_S of the vehicle's time
+                if self._wait(climbing, min(TAKEOFF_EVIDENCE_S, max(0.0, end - self._now()))):
                     break
                 raise TakeoffError(str(exc)) from exc
         if not wait:

@@ -25,7 +25,7 @@ from support import free_port, wait_until  # noqa: E402
 
 class FakeCopter(threading.Thread):
     def __init__(self, port, *, prearm_fails=2, loss=0.0, seed=1, speed=40.0, sim_rate=4.0,
-                 refuse_guided=False, drop_commands=0):
+                 refuse_guided=False, drop_commands=0, drop_takeoff_acks=0):
         super().__init__(daemon=True)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.bind(("127.0.0.1", port))
@@ -48,6 +48,7 @@ class FakeCopter(threading.Thread):
         self.commands = []
         self.command_sims = []          # sim time each COMMAND_LONG arrived (dropped ones too)
         self.drop_commands = drop_commands
+        self.drop_takeoff_acks = drop_takeoff_acks     # accepted takeoffs whose ACK is "lost"
         self.streaming = True           # LOCAL_POSITION_NED on (a test may pause it)
         self.next_reset = False
         self.steps = self.pos_sent = 0  # loop iterations; LOCAL_POSITION_NED sent
@@ -128,6 +129,9 @@ class FakeCopter(threading.Thread):
                 if not self.armed or self.pos[2] < -0.2:
                     return self.ack(m.command, apm.MAV_RESULT_FAILED)
                 self.target = [self.pos[0], self.pos[1], -m.param7]
+                if self.drop_takeoff_acks > 0:
+                    self.drop_takeoff_acks -= 1
+                    return
                 self.ack(m.command, apm.MAV_RESULT_ACCEPTED)
             else:
                 self.ack(m.command, apm.MAV_RESULT_UNSUPPORTED)
@@ -213,6 +217,23 @@ def test_takeoff_refused_when_disarmed_and_goal_timeout(copter):
         with pytest.raises(GoalTimeout) as ei:  # not in GUIDED: the target is ignored
             c.wait_reached((50.0, 0, 0), 0.5, 0.5, sysid=1)
         assert ei.value.distance == pytest.approx(50.0)
+
+
+@pytest.mark.parametrize("copter", [dict(prearm_fails=0, speed=0.25, sim_rate=1.0, drop_takeoff_acks=1)],
+                         indirect=True)
+def test_a_takeoff_whose_ack_was_lost_is_not_failed_by_the_refusal_of_its_resend(copter):
+    """The takeoff's ACK is lost; the re-send a second later finds the copter just off the ground
+    (0.25 m at 0.25 m/s) and is refused FAILED, as ArduPilot refuses a second takeoff. The copter
+    is climbing, so the takeoff goes on. (Seen in a lossy sweep run: 'TakeoffError: command
+    MAV_CMD_NAV_TAKEOFF rejected: FAILED', when the client looked for 0.5 m after 0.5 s.)"""
+    fc, url = copter
+    with Client.connect(url) as c:
+        c.wait_heartbeat(1, timeout=5)
+        c.set_mode("GUIDED", 1)
+        c.arm(1)
+        p = c.takeoff(1.0, 1, timeout=20)
+        assert p.z <= -0.5
+        assert fc.commands.count(apm.MAV_CMD_NAV_TAKEOFF) == 2       # the first, and the refused re-send
 
 
 def test_wait_reached_ignores_a_stale_sample_inside_the_radius(copter):
