@@ -3,7 +3,9 @@
 tower_to_map, world_to_drone and ground_robot_controller (examples/lab, written against
 gcs.tf2_ros) run as separate programs; the bridge runs with --route-only (no vehicle
 frames, no goal translation, no follow of its own). One flight, checkpoints 1-3 read
-from its run folder. 2x for the reason tests/test_system_mission.py gives.
+from its run folder. At 1x: the nodes are not lockstep participants, so their reaction time
+counts in sim time as wall latency x speedup; at 2x the follow RMS read 0.81 m quiet and
+1.006 m in one CI run (over the 1 m mark), at 1x 0.70 m quiet and beside two CPU burners.
 """
 from __future__ import annotations
 
@@ -23,7 +25,7 @@ LAB = Path(__file__).resolve().parent.parent / "examples" / "lab"
 def run(tmp_path_factory):
     run_dir = tmp_path_factory.mktemp("lab_nodes")
     with launched(run_dir, goals=tower_goals(MISSION_WORLD), follow_frame="drone_yaw", finish="land",
-                  speedup=2.0, nodes=LAB) as launch:
+                  speedup=1.0, nodes=LAB) as launch:
         s = finish(launch, timeout=150)
     return run_dir, s
 
