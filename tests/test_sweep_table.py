@@ -197,26 +197,18 @@ def towerlink(*args, env_extra=None):
                           cwd=ROOT, env=env, timeout=60)
 
 
-def test_sweep_without_ray_says_how_to_install_it(tmp_path):
-    fake = tmp_path / "no_ray" / "ray"
+@pytest.mark.parametrize("missing, said", [("ray", "pip install 'towerlink[sweep]'"),
+                                            # an install of the sweep extra from before tqdm was in it
+                                            ("tqdm", "needs Ray, pyarrow and tqdm")])
+def test_sweep_without_its_extra_says_how_to_install_it(tmp_path, missing, said):
+    """Said before Ray starts, without a traceback, and nothing written."""
+    fake = tmp_path / f"no_{missing}" / missing
     fake.mkdir(parents=True)
-    (fake / "__init__.py").write_text("raise ImportError('No module named ray')\n")
-    env = {"PYTHONPATH": f"{fake.parent}{os.pathsep}{ROOT}"}
-    p = towerlink("sweep", "--seeds", "1", "--out", str(tmp_path / "s"), env_extra=env)
-    assert p.returncode == 2
-    assert "pip install 'towerlink[sweep]'" in p.stderr and "Traceback" not in p.stderr
-    assert not (tmp_path / "s").exists()
-
-
-def test_sweep_without_tqdm_says_how_to_install_it(tmp_path):
-    # an install of the sweep extra from before tqdm was in it: said before Ray starts
-    fake = tmp_path / "no_tqdm" / "tqdm"
-    fake.mkdir(parents=True)
-    (fake / "__init__.py").write_text("raise ImportError('No module named tqdm')\n")
+    (fake / "__init__.py").write_text(f"raise ImportError('No module named {missing}')\n")
     env = {"PYTHONPATH": f"{fake.parent}{os.pathsep}{ROOT}"}
     p = towerlink("sweep", "--seeds", "1", "--out", str(tmp_path / "s"), env_extra=env)
     assert p.returncode == 2, p.stdout + p.stderr
-    assert "needs Ray, pyarrow and tqdm" in p.stderr and "pip install 'towerlink[sweep]'" in p.stderr
+    assert said in p.stderr and "pip install 'towerlink[sweep]'" in p.stderr
     assert "Traceback" not in p.stderr and not (tmp_path / "s").exists()
 
 

@@ -191,13 +191,20 @@ def test_with_vehicle_signing_the_bridge_drops_an_unsigned_vehicle_packet():
 # ----------------------------------------------------------------------------- lockstep
 
 
-def test_a_signing_clients_join_and_acks_are_taken_by_a_signing_world():
+def _signing_world():
+    """A lockstep world (one drone, --speedup max) whose endpoint on a free port takes only
+    packets signed with KEY; started on a thread. Returns (world, port)."""
     from vehicle.world import World, WorldConfig
     port = free_port()
     w = World(WorldConfig(drones=1, rovers=0, state_dir=None, tcp_base=None, udp_base=None, speedup=math.inf,
                           endpoints={0: [f"udpin:127.0.0.1:{port}"]}, lockstep=1, lockstep_period=0.04,
                           lockstep_timeout=30.0, signing_key=KEY))
     w.start_thread()
+    return w, port
+
+
+def test_a_signing_clients_join_and_acks_are_taken_by_a_signing_world():
+    w, port = _signing_world()
     c = None
     try:
         # the van's driver's way: a participant for vehicle 1 alone, on its own endpoint
@@ -220,12 +227,7 @@ def test_a_signing_clients_join_and_acks_are_taken_by_a_signing_world():
 
 
 def test_an_unsigned_client_does_not_join_a_signing_world():
-    from vehicle.world import World, WorldConfig
-    port = free_port()
-    w = World(WorldConfig(drones=1, rovers=0, state_dir=None, tcp_base=None, udp_base=None, speedup=math.inf,
-                          endpoints={0: [f"udpin:127.0.0.1:{port}"]}, lockstep=1, lockstep_period=0.04,
-                          lockstep_timeout=30.0, signing_key=KEY))
-    w.start_thread()
+    w, port = _signing_world()
     c = Client.connect(f"udpout:127.0.0.1:{port}", lockstep=True, lockstep_target=1, source_component=200)
     c.lockstep_timeout = 1.0
     try:
