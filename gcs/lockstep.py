@@ -18,11 +18,12 @@ target_system u8, kind u8, participant u8.
 """
 from __future__ import annotations
 
-import hashlib
 import struct
 from dataclasses import dataclass
 
 from pymavlink.generator.mavcrc import x25crc
+
+from gcs.signing import signature
 
 MSG_ID = 43005
 CRC_EXTRA = 32                  # mavgen's seed for TOWERLINK_LOCKSTEP (checked against the dialect)
@@ -72,8 +73,7 @@ def pack(kind: int, time_usec: int, *, participant: int = WORLD, target_system: 
     if signing is None:
         return frame
     key, link_id, timestamp = signing
-    tail = bytes((link_id & 0xFF,)) + struct.pack("<Q", timestamp)[:6]
-    return frame + tail + hashlib.sha256(bytes(key) + frame + tail).digest()[:6]
+    return frame + signature(bytes(key), frame, link_id, timestamp)
 
 
 def is_lockstep(data: bytes) -> bool:

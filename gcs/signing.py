@@ -37,6 +37,16 @@ def signing_timestamp(unix_s: float | None = None) -> int:
     return int(max(t - SIGNING_EPOCH, 0.0) * 1e5)
 
 
+_SIG_PREFIX = struct.Struct("<BQ")      # link id + timestamp; its first 7 bytes are sent
+
+
+def signature(key: bytes, frame: bytes, link_id: int, timestamp: int) -> bytes:
+    """The 13 bytes that sign MAVLink 2 `frame` (header to CRC, with the signed flag set):
+    link_id, the 48-bit timestamp and the first 6 bytes of SHA-256(key + frame + those 7)."""
+    head = _SIG_PREFIX.pack(link_id & 0xFF, timestamp)[:7]
+    return head + hashlib.sha256(key + frame + head).digest()[:6]
+
+
 class _Clock:
     """A signing state of its own for receivers that do not sign."""
 

@@ -21,7 +21,6 @@ with the mirrored initial value, and 0xFFFF mirrors to itself).
 """
 from __future__ import annotations
 
-import hashlib
 import inspect
 import struct
 from binascii import crc_hqx
@@ -30,10 +29,11 @@ from operator import itemgetter
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
+from gcs.signing import signature
+
 MAGIC_V2 = 253
 IFLAG_SIGNED = 0x01
 _HEADER = struct.Struct("<BBBBBBBHB")
-_SIG_PREFIX = struct.Struct("<BQ")          # link id + 48-bit timestamp (the first 7 bytes)
 
 _MIRROR = bytes(int(f"{b:08b}"[::-1], 2) for b in range(256))
 
@@ -120,8 +120,7 @@ class Framer:
         crc = x25crc(buf[1:] + lay.crc_byte)
         buf += bytes((crc & 0xFF, crc >> 8))
         if signed:
-            buf += _SIG_PREFIX.pack(signing.link_id, signing.timestamp)[:7]
-            buf += hashlib.sha256(signing.secret_key + buf).digest()[:6]
+            buf += signature(signing.secret_key, buf, signing.link_id, signing.timestamp)
             signing.timestamp += 1
         return buf
 
