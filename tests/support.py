@@ -23,6 +23,15 @@ def free_port(kind: int = socket.SOCK_DGRAM) -> int:
         return s.getsockname()[1]
 
 
+def udp_listener(timeout: float = 5.0) -> tuple[socket.socket, int]:
+    """A UDP socket bound now to a free port on 127.0.0.1 (no pick-then-bind race), with a
+    receive timeout (s): a fake peer's end. Returns (socket, port); the caller closes it."""
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.bind(("127.0.0.1", 0))
+    s.settimeout(timeout)
+    return s, s.getsockname()[1]
+
+
 def free_ports(n: int, kind: int = socket.SOCK_DGRAM) -> list[int]:
     """n distinct free ports, held open together while picking so they differ."""
     socks = []

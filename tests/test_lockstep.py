@@ -12,7 +12,7 @@ from hypothesis import given, strategies as st
 
 from gcs import lockstep as L
 from gcs.dialect import towerlink as tl
-from tests.support import free_port, wait_until
+from tests.support import free_port, udp_listener, wait_until
 from vehicle.lockstep import LockstepGate
 from vehicle.world import World, WorldConfig
 
@@ -367,10 +367,7 @@ def test_lockstep_client_acts_only_at_ticks_and_acks_after_its_reactions():
     import threading
 
     from gcs.client import Client
-    port = free_port()
-    bridge = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    bridge.bind(("127.0.0.1", port))
-    bridge.settimeout(5.0)
+    bridge, port = udp_listener(5.0)
     parser = tl.MAVLink(None)
     enc = tl.MAVLink(None, srcSystem=250, srcComponent=191)
     vehicle = tl.MAVLink(None, srcSystem=1, srcComponent=1)
@@ -627,10 +624,7 @@ def test_a_lockstep_client_at_t0_does_not_take_no_heartbeat_for_one():
     # the van's driver asked for AUTO before the van's first heartbeat and got the copter's
     # mode number: with lockstep the clock starts at 0, and "no heartbeat" compared as t = 0
     from gcs.client import Client, ClientError
-    port = free_port()
-    world = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    world.bind(("127.0.0.1", port))
-    world.settimeout(5.0)
+    world, port = udp_listener(5.0)
     c = Client.connect(f"udpout:127.0.0.1:{port}", lockstep=True, lockstep_target=3, source_component=200)
     c.lockstep_timeout = 0.5
     try:

@@ -11,13 +11,15 @@ import threading
 from support import wait_until
 from tools.procs import die_with_parent
 
+# the body of a parent process the test SIGKILLs; its sleeps are what the two processes do
+# until killed (nothing waits on them)
 PARENT = textwrap.dedent("""
     import subprocess, sys, time
     from tools.procs import die_with_parent
     child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"],
                              start_new_session=True, preexec_fn=die_with_parent())
     print(child.pid, flush=True)
-    time.sleep(60)
+    time.sleep(60)          # until SIGKILLed by the test
 """)
 
 

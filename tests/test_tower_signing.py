@@ -16,7 +16,7 @@ from bridge_fakes import Endpoint, bridge_with_fakes, sync
 from gcs.client import SIGNING_LINK_ID, Client, ClientError, CommandTimeout, HeartbeatTimeout
 from gcs.dialect import towerlink as tl
 from gcs.signing import SignatureCheck, key_from_text, masked_argv, setup_signing, signing_timestamp
-from support import free_port, wait_until
+from support import free_port, udp_listener, wait_until
 
 KEY = key_from_text("tower secret")
 WRONG = key_from_text("not the tower secret")
@@ -81,10 +81,7 @@ def test_a_forged_far_future_stamp_does_not_lock_the_real_sender_out(signed_list
 
 
 def test_everything_a_signing_client_sends_is_signed_on_its_own_link_id():
-    port = free_port()
-    vehicle = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    vehicle.bind(("127.0.0.1", port))
-    vehicle.settimeout(2.0)
+    vehicle, port = udp_listener(2.0)
     c = Client.connect(f"udpout:127.0.0.1:{port}", signing_key=KEY)
     try:
         c._send(lambda: c.mav.command_long_send(1, 1, tl.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0))
