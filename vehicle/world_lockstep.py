@@ -12,8 +12,9 @@ it. Anyone else's packets are handled on arrival: third-party clients see an ord
 vehicle, and never a TOWERLINK_LOCKSTEP (TICKs go only to the addresses participants
 joined from). A TICK still owed an ACK after TICK_RESEND wall s is sent again to whoever
 owes it, so one lost datagram on a vehicle link costs half a second, never the run (a
-participant that keeps JOINing is never silent, so dropping would not free the world). With --signing-key a TOWERLINK_LOCKSTEP must be signed with the key (else it
-is dropped and counted as the link counts any unsigned packet) and the TICKs are signed.
+participant that keeps JOINing is never silent, so dropping would not free the world).
+With --signing-key a TOWERLINK_LOCKSTEP must be signed with the key (else it is dropped and
+counted as the link counts any unsigned packet) and the TICKs are signed.
 """
 from __future__ import annotations
 
@@ -32,6 +33,7 @@ class WorldLockstep:
         ap_dt = world.dt * world.ap_every
         # TICKs fall on autopilot ticks, so a TICK always follows that tick's telemetry
         self.frame_steps = world.ap_every * max(1, int(round(period / ap_dt)))
+        self.period_usec = int(round(self.frame_steps * world.dt * 1e6))    # what each TICK says
         self.gate = LockstepGate(len(world.vehicles), expect, timeout)
         self.expect = expect
         self.ticked_steps = -1
@@ -62,10 +64,10 @@ class WorldLockstep:
                     self.held.append((inner, data, channel))
                     return True
                 return inner(data, channel)
-            frame = data[:len(data) - len(rest)]
-            if v.link.signing_key and not v.link.signature_ok(frame, m.sysid, m.compid):
-                pass                # with --signing-key a participant must sign (counted by the link)
-            elif m.target_system in (0, v.sysid):
+            # with --signing-key a participant must sign (an unsigned one is counted by the link)
+            signed_ok = not v.link.signing_key or v.link.signature_ok(data[:len(data) - len(rest)],
+                                                                      m.sysid, m.compid)
+            if signed_ok and m.target_system in (0, v.sysid):
                 now = None
                 if self.gate.is_started and self.ticked_steps >= 0:
                     now = int(round(self.ticked_steps * self.world.dt * 1e6))
@@ -103,9 +105,8 @@ class WorldLockstep:
         self.tick_wall = time.monotonic()
 
     def _tick(self, v, channel, t: int) -> None:
-        period = int(round(self.frame_steps * self.world.dt * 1e6))
         channel.send(wire.pack(wire.TICK, t, participant=wire.WORLD, target_system=0,
-                               period_usec=period, sysid=v.sysid, compid=1, signing=self._signing(v)))
+                               period_usec=self.period_usec, sysid=v.sysid, compid=1, signing=self._signing(v)))
 
     def _resend(self, t: int) -> None:
         """TICK(t) again where an ACK is still owed after TICK_RESEND wall s: the TICK or the ACK
