@@ -11,7 +11,7 @@ Each datagram in each direction is dropped with probability `loss`, from a seede
 RNG, so a failing run can be replayed. Counters: passed/dropped per direction.
 `spare(datagram) -> bool` names datagrams never dropped (nor drawn for): `towerlink fly`
 spares TOWERLINK_LOCKSTEP in lockstep, the simulator's clock rather than radio traffic (a
-lost ACK or TICK would hold the world until the tower is dropped).
+lost ACK or TICK would cost the run half a second of wall time, its re-send).
 
 As a command: python -m tools.loss_proxy LISTEN_PORT UPSTREAM_PORT [--loss 0.2] [--seed 1]
 """
