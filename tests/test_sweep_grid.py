@@ -192,3 +192,12 @@ def test_the_default_scenario_round_trips():
 def test_scenario_errors_are_scenario_errors():
     with pytest.raises(ScenarioError):
         _build(g.scenario_copy(SC, {"mission.finish": "crash"}), DEFAULT_SCENARIO)
+
+
+@pytest.mark.parametrize("item", ["=5", "WPNAV_SPEED", "WPNAV_SPEED=fast"])
+def test_fly_param_without_a_name_or_a_number_is_refused_before_anything_starts(tmp_path, capsys, item):
+    from tools.cli import main
+    rc = main(["fly", "--param", item, "--out", str(tmp_path / "run")])
+    assert rc == 2
+    assert f"towerlink fly: --param {item!r}: write NAME=VALUE, e.g. WPNAV_SPEED=300" in capsys.readouterr().err
+    assert not (tmp_path / "run" / "params.parm").exists()

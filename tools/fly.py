@@ -867,6 +867,8 @@ def run(args: argparse.Namespace) -> int:
         for item in args.param:
             name, _eq, value = item.partition("=")
             try:
+                if not name.strip():
+                    raise ValueError("no name")
                 lines.append(f"{name.strip()} {float(value):.9g}")
             except ValueError:
                 print(f"towerlink fly: --param {item!r}: write NAME=VALUE, e.g. WPNAV_SPEED=300", file=sys.stderr)
