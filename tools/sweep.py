@@ -38,7 +38,6 @@ for a bad plan or a missing Ray, 130 when interrupted.
 from __future__ import annotations
 
 import argparse
-import importlib
 import json
 import logging
 import math
@@ -382,9 +381,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         import pyarrow  # noqa: F401
         import ray  # noqa: F401
-        # the bar's library, used only on a terminal (by tools/sweep_progress.py): an install of the
-        # sweep extra from before it was added lacks it, and would fail only after Ray started
-        importlib.import_module("tqdm")
+        from tools.sweep_progress import require_bar_library
+        require_bar_library()
     except ImportError:
         print(f"towerlink sweep: {INSTALL_HINT}", file=sys.stderr)
         return 2

@@ -16,6 +16,12 @@ import time
 from typing import Callable, TextIO
 
 
+def require_bar_library() -> None:
+    """ImportError unless tqdm is installed. It is drawn only on a terminal, so an install of
+    the sweep extra from before tqdm joined it would otherwise fail only after Ray started."""
+    import tqdm  # noqa: F401
+
+
 def fmt_s(s: float) -> str:
     """Seconds as M:SS, or H:MM:SS from an hour."""
     s = max(0, int(round(s)))
