@@ -122,8 +122,13 @@ def test_a_signing_tower_talks_through_a_signing_bridge(shared):
         c.add_listener(got.append)
         try:
             wait_until(lambda: bridge.tower.peers, 5, "the signed tower a peer of the bridge")
-            drone.heartbeat()
-            c.wait_heartbeat(1, timeout=5)                 # forwarded as the drone signed it
+            # forwarded as the drone signed it. The drone heartbeats again and again, as a vehicle
+            # does: SharedClient's pump may read one before a wait_heartbeat that wants a newer one
+            def heard() -> bool:
+                drone.heartbeat()
+                c.poll(0.2)
+                return c.system(1).mav_type is not None      # set by a vehicle's HEARTBEAT only
+            wait_until(heard, 5, "the drone's signed heartbeat at the tower")
             drone.pose(4200, (1.0, 2.0, -3.0))
             p = c.wait_position(1, timeout=5)              # translated to tower, signed by the bridge
             assert p.time_boot_ms == 4200
