@@ -210,9 +210,13 @@ def test_shared_link_without_lockstep_wakes_waiting_threads_on_new_messages():
         got = []
         t = threading.Thread(target=lambda: got.append(c.wait_heartbeat(7, timeout=5.0)))
         t.start()
-        master.put(tl.MAVLink_heartbeat_message(tl.MAV_TYPE_QUADROTOR, tl.MAV_AUTOPILOT_ARDUPILOTMEGA,
-                                                 217, 4, 4, 3), sysid=7)
-        t.join(5)
+        # heartbeats until the waiting thread has one, as a vehicle sends them: the pump may read
+        # the first before the thread's wait began (it wants one newer than its call)
+        end = time.monotonic() + 5
+        while t.is_alive() and time.monotonic() < end:
+            master.put(tl.MAVLink_heartbeat_message(tl.MAV_TYPE_QUADROTOR, tl.MAV_AUTOPILOT_ARDUPILOTMEGA,
+                                                     217, 4, 4, 3), sysid=7)
+            t.join(0.1)
         assert got and got[0].sysid == 7 and got[0].mav_type == tl.MAV_TYPE_QUADROTOR
     finally:
         c.close()
