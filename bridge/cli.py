@@ -73,7 +73,7 @@ peer silent for 30 s (wall) is dropped, at most 64 are kept (the most recent), a
 peer is added only by a datagram holding a valid MAVLink packet that, with
 --signing-key, passed the signature check.
 
-Nodes. --nodes URL opens a world-frame link for tf2_ros-style nodes (gcs.tf2_ros; the lab's
+Nodes. --nodes URL opens a world-frame link for tf2_ros-style nodes (common.tf2_ros; the lab's
 three nodes in examples/lab). A node's TOWERLINK_TRANSFORM (dynamic, or static with the
 flag) is judged like a static frame over the wire (trust, signing, the bridge's and the
 scenario's frames), then by authority: the first trusted publisher (sysid/compid) of a
@@ -104,7 +104,8 @@ import math
 import signal
 import sys
 
-from gcs.lockstep import speedup_type
+from common.mavlink.signing import add_signing_argument
+from common.mavlink.lockstep import speedup_type
 
 
 def _offset(text: str) -> tuple[float, float]:
@@ -155,10 +156,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "the tower GCS)")
     t.add_argument("--allow-redefine", action="store_true",
                    help="let a trusted sender redefine a frame the scenario defined")
-    t.add_argument("--signing-key", metavar="PASSPHRASE|HEX64",
-                   help="MAVLink 2 signing on the tower link: 64 hex digits, or a passphrase hashed "
-                        "with SHA-256 (as MAVProxy's 'signing setup'); unsigned packets are dropped "
-                        "and only signed senders become peers")
+    add_signing_argument(t, "MAVLink 2 signing on the tower link: {forms}; unsigned packets are dropped "
+                   "and only signed senders become peers")
     t.add_argument("--vehicle-signing", action="store_true",
                    help="with --signing-key, the vehicle links too take only packets signed with the key "
                         "(vehicles started with `towerlink sitl --signing-key`; others are counted and "
@@ -180,7 +179,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     f.add_argument("--time-grace", type=float, default=1.5,
                    help="wall s to hold a vehicle's samples waiting for its SYSTEM_TIME before "
                         "taking it to share the first vehicle's clock (default %(default)s)")
-    n = p.add_argument_group("nodes (tf2_ros over MAVLink: gcs.tf2_ros, examples/lab)")
+    n = p.add_argument_group("nodes (tf2_ros over MAVLink: common.tf2_ros, examples/lab)")
     n.add_argument("--nodes", type=_url_or_none, default=None, metavar="URL",
                    help="world-frame link for nodes, e.g. udpin:127.0.0.1:14620: they get what an --out "
                         "gets, and the TOWERLINK_TRANSFORMs they send (from trusted sysids) are stored and "
@@ -216,8 +215,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def config_from_args(args):
     from bridge.config import TOWER_SYSID, BridgeConfig
-    from gcs.signing import key_from_text
-    from gcs.scenario import load_scenario, parse_static_transform
+    from common.mavlink.signing import key_from_text
+    from common.scenario import load_scenario, parse_static_transform
 
     if getattr(args, "vehicle_signing", False) and not args.signing_key:
         raise ValueError("--vehicle-signing needs --signing-key (the key the vehicles sign with)")
@@ -303,8 +302,8 @@ def _run(args) -> int:
     bridge.log(f"tower {cfg.tower} ({cfg.tower_frame} frame); {served}; "
                f"outs {cfg.outs or '-'}; follow {'off' if not cfg.follow else cfg.follow_frame} "
                f"offset {cfg.follow_offset}; frames {[ts.child_frame_id for ts in cfg.statics]}")
-    from gcs.collector import tune_for_long_run
-    tune_for_long_run()       # a Packet per datagram, 66,000 /s with 1,000 vehicles (gcs/collector.py)
+    from common.collector import tune_for_long_run
+    tune_for_long_run()       # a Packet per datagram, 66,000 /s with 1,000 vehicles (common/collector.py)
     try:
         bridge.run(args.duration)
     finally:

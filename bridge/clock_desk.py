@@ -13,7 +13,7 @@ The timeline (bridge.timeline) is pure; this desk does its I/O and its log lines
 """
 from __future__ import annotations
 
-from gcs.dialect import towerlink as tl
+from common.mavlink.dialect import towerlink as tl
 from bridge.config import VehicleRecord
 from bridge.timeline import Timeline
 

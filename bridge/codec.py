@@ -5,13 +5,13 @@
   original sender's sysid, compid, seq and protocol version, and decodes a raw packet
   (None and counted when it does not decode).
 * The transform messages (TOWERLINK_TRANSFORM, TOWERLINK_STATIC_TRANSFORM) have their one
-  home in gcs.tf2_ros.wire, shared with the nodes: frame ids at most 16 bytes (a longer id
+  home in common.tf2_ros.wire, shared with the nodes: frame ids at most 16 bytes (a longer id
   is a ValueError, never cut), stamps sent as microseconds.
 """
 from __future__ import annotations
 
-from gcs.dialect import encoder
-from gcs.dialect import towerlink as tl
+from common.mavlink.dialect import encoder
+from common.mavlink.dialect import towerlink as tl
 
 
 class Codec:
@@ -24,7 +24,7 @@ class Codec:
         self.dec.robust_parsing = True
         self.decode_errors = 0
         if signing_key:
-            from gcs.signing import setup_signing
+            from common.mavlink.signing import setup_signing
             setup_signing(self.enc, signing_key, link_id=0)
             setup_signing(self.reenc, signing_key, link_id=1)   # its own stream: no replay clash
 

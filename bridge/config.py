@@ -49,7 +49,7 @@ class BridgeConfig:
     vehicles: list = field(default_factory=list)
     pairs: list = field(default_factory=list)
     # nodes (issue 12): a world-frame link for tf2_ros-style nodes, and routing only
-    nodes: str | None = None        # e.g. udpin:127.0.0.1:14620 (gcs.tf2_ros.DEFAULT_URL's peer)
+    nodes: str | None = None        # e.g. udpin:127.0.0.1:14620 (common.tf2_ros.DEFAULT_URL's peer)
     route_only: bool = False        # no vehicle frames, no goal translation, no follow: nodes do them
     lockstep: bool = False      # issue 11: a participant of the world's lockstep (bridge.lockstep_desk)
 

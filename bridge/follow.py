@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gcs.frames.batch import ground_point
+from common.frames.batch import ground_point
 
 FOLLOW_FRAMES = ("drone", "drone_yaw")
 

@@ -18,9 +18,9 @@ from __future__ import annotations
 
 import math
 
-from gcs.dialect import towerlink as tl
-from gcs.frames import TransformException
-from gcs.modes import ROVER_GUIDED, ROVER_HOLD
+from common.mavlink.dialect import towerlink as tl
+from common.frames import TransformException
+from common.mavlink.modes import ROVER_GUIDED, ROVER_HOLD
 from bridge import translate
 from bridge.codec import command_message as _command, statustext_message as _text
 from bridge.follow import FollowSupervisor, ground_points

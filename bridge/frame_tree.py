@@ -16,8 +16,8 @@
 """
 from __future__ import annotations
 
-from gcs.frames import LATEST, Buffer, TransformStamped
-from gcs.tf2_ros.stream import reset_edge  # noqa: F401 - one home, shared with every listener
+from common.frames import LATEST, Buffer, TransformStamped
+from common.tf2_ros.stream import reset_edge  # noqa: F401 - one home, shared with every listener
 
 SCENARIO = "scenario"
 ORIGIN = "origin"               # world -> <vehicle>_origin, from the vehicle's GPS_GLOBAL_ORIGIN

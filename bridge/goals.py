@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import math
 
-from gcs.frames import ExtrapolationException, TransformException
+from common.frames import ExtrapolationException, TransformException
 from bridge import translate
 from bridge.frame_tree import FrameTree, StaleTransform
 

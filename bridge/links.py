@@ -29,9 +29,9 @@ import struct
 import time
 from dataclasses import dataclass
 
-from gcs.dialect import towerlink as _tl
-from gcs.peers import PeerTable
-from gcs.endpoints import parse_connection as parse_url
+from common.mavlink.dialect import towerlink as _tl
+from common.mavlink.peers import PeerTable
+from common.mavlink.endpoints import parse_connection as parse_url
 
 try:  # pymavlink picks fastcrc when installed
     from pymavlink.generator.mavcrc import mcrf4xx as _fast_crc

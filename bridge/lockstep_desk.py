@@ -26,7 +26,7 @@ is ACKed again on that link and sent to the tower again.
 """
 from __future__ import annotations
 
-from gcs.dialect import towerlink as tl
+from common.mavlink.dialect import towerlink as tl
 
 JOIN_PERIOD = 0.5               # wall s between JOINs on a link that has had no TICK yet
 REJOIN_AFTER = 1.0              # wall s without a TICK on a link: JOIN again (the world dropped us or restarted)

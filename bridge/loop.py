@@ -6,7 +6,7 @@ Links
     ``rover``    vehicle sysid 2 (world frame)
     ``outN``     extra GCS-side endpoints (``--out``): world frame, untranslated; they
                  get everything the tower gets (telemetry, transform stream, status)
-    ``nodes``    (``--nodes``) the link of tf2_ros-style nodes (gcs.tf2_ros): an out that
+    ``nodes``    (``--nodes``) the link of tf2_ros-style nodes (common.tf2_ros): an out that
                  also takes their transforms (bridge.node_frames) and, with --route-only,
                  the tower's goals (tower frame, raw) for a node to transform
 
@@ -38,13 +38,13 @@ import selectors
 import sys
 import time
 
-from gcs.dialect import towerlink as tl
-from gcs.frames import TransformException
+from common.mavlink.dialect import towerlink as tl
+from common.frames import TransformException
 from bridge import translate
 from bridge.clock_desk import ClockDesk
 from bridge.codec import Codec, bridge_status_message, command_message, statustext_message
-from gcs.tf2_ros.wire import transform_from_message, transform_message
-from gcs.mavstr import mav_str
+from common.tf2_ros.wire import transform_from_message, transform_message
+from common.mavlink.mavstr import mav_str
 from bridge.config import BridgeConfig, VehicleRecord
 from bridge.follower import Follower
 from bridge.frame_tree import FrameTree
@@ -57,7 +57,7 @@ from bridge.origins import OriginDesk, origin_frame
 from bridge.pairing import VehicleFrames
 from bridge.timeline import Timeline
 from bridge.trust import StaticTrust
-from gcs.signing import SignatureCheck
+from common.mavlink.signing import SignatureCheck
 
 MSG_SET_POSITION_TARGET_LOCAL_NED = 84
 MSG_TL_TRANSFORM = 43000

@@ -11,11 +11,11 @@
 """
 from __future__ import annotations
 
-from gcs.dialect import towerlink as tl
-from gcs.frames import TransformException
-from gcs.mavstr import mav_str
+from common.mavlink.dialect import towerlink as tl
+from common.frames import TransformException
+from common.mavlink.mavstr import mav_str
 from bridge.codec import statustext_message
-from gcs.tf2_ros.wire import transform_from_message, transform_message
+from common.tf2_ros.wire import transform_from_message, transform_message
 from bridge.links import Link, Packet
 from bridge.node_frames import NodeFrames, publisher
 

@@ -1,4 +1,4 @@
-"""Frames that nodes publish (gcs.tf2_ros), and who owns each: *pure* (no sockets, no clocks).
+"""Frames that nodes publish (common.tf2_ros), and who owns each: *pure* (no sockets, no clocks).
 
 A node sends TOWERLINK_TRANSFORM (dynamic, or with the static flag) to a GCS-side link of
 the bridge (its node link, --nodes, or the tower link). Before it enters the frame tree:
@@ -20,7 +20,7 @@ from __future__ import annotations
 from collections import Counter
 from dataclasses import dataclass, field
 
-from gcs.frames import TransformStamped
+from common.frames import TransformStamped
 from bridge.frame_tree import SCENARIO, FrameTree
 from bridge.trust import StaticTrust
 

@@ -9,7 +9,7 @@ vehicle origins its odom frames)::
           --static--> rover_origin --dynamic--> rover, rover_yaw
 
 The static edge is a pure translation (both frames are NED): the origin's latitude,
-longitude and altitude as NED metres from the world's reference point, by gcs.geo
+longitude and altitude as NED metres from the world's reference point, by common.geo
 (ArduPilot's Location math). The world's reference point is --world-origin when given,
 else the first vehicle's (the drone's) own origin, so by default world == drone_origin.
 Until a vehicle's origin is known its frames are stored but not connected to world: a
@@ -23,8 +23,8 @@ from __future__ import annotations
 
 import math
 
-from gcs import geo
-from gcs.frames import Transform, TransformStamped
+from common import geo
+from common.frames import Transform, TransformStamped
 
 MSG_GPS_GLOBAL_ORIGIN = 49
 REQUEST_PERIOD = 1.0            # wall s between asking a vehicle for its origin

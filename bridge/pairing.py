@@ -18,7 +18,7 @@ import bisect
 import math
 from dataclasses import dataclass, field
 
-from gcs.frames import Transform, TransformStamped, quaternion_slerp
+from common.frames import Transform, TransformStamped, quaternion_slerp
 
 
 def quat_wxyz_to_xyzw(q) -> tuple[float, float, float, float]:

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import time
 
-from gcs.tf2_ros.wire import static_transform_message
-from gcs.frames import TransformStamped
+from common.tf2_ros.wire import static_transform_message
+from common.frames import TransformStamped
 
 TOWER_SYSID = 255       # a GCS's sysid, the one a bridge trusts by default (--trust-sysid)
 
@@ -19,7 +19,7 @@ def publish_static(url: str, ts: TransformStamped, timeout: float = 3.0, interva
     --signing-key accepts nothing else). Returns the bridge's text; raises
     TimeoutError if nothing answered in `timeout`.
     """
-    from gcs.dialect import mavlink_connection
+    from common.mavlink.dialect import mavlink_connection
 
     conn = mavlink_connection(url, source_system=source_system, source_component=190)
     if signing_key:

@@ -13,9 +13,9 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from gcs.dialect import towerlink as tl
-from gcs.frames import TransformException
-from gcs.tf2_ros.wire import transform_message
+from common.mavlink.dialect import towerlink as tl
+from common.frames import TransformException
+from common.tf2_ros.wire import transform_message
 from bridge.config import VehicleRecord
 from bridge.frame_tree import ORIGIN
 from bridge.origins import origin_from_message

@@ -46,7 +46,7 @@ from collections import OrderedDict, deque
 from dataclasses import dataclass, field
 
 # "the clock went back" and its threshold: one home, shared with every transform listener
-from gcs.tf2_ros.stream import REBOOT_JUMP, clock_went_back  # noqa: F401
+from common.tf2_ros.stream import REBOOT_JUMP, clock_went_back  # noqa: F401
 
 HOLD_MAX = 256          # items held per vehicle while its timeline is unknown
 

@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from gcs.dialect import towerlink as tl
+from common.mavlink.dialect import towerlink as tl
 
 # POSITION_TARGET_TYPEMASK bits
 IGNORE_POS = 0b111

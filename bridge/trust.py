@@ -5,7 +5,7 @@ bridge accepts one only when all of these hold, checked in this order; the first
 fails is the reason given in the answer, ``STATUSTEXT "static tf refused: <reason>"``:
 
 1. signing: with --signing-key the packet must be MAVLink 2 signed with that key and
-   fresh (gcs.signing; the link marks it, reasons ``unsigned``, ``bad_signature``,
+   fresh (common.mavlink.signing; the link marks it, reasons ``unsigned``, ``bad_signature``,
    ``replay``, ``stale``);
 2. sender: its sysid is one of --trust-sysid (default 255, the tower GCS's sysid);
 3. frame: a frame the bridge owns (world, each vehicle's frames) is never static, and

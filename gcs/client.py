@@ -24,12 +24,12 @@ lost COMMAND_ACK does not fail a command that took effect.
 
 Signing (MAVLink 2): ``Client.connect(..., signing_key=key)`` signs every packet the
 client sends (heartbeats, commands, missions, goals, lockstep JOIN/ACK/LEAVE) and accepts
-only packets signed with the same key, fresh and in order (gcs.signing.SignatureCheck:
+only packets signed with the same key, fresh and in order (common.mavlink.signing.SignatureCheck:
 signature first, then the timestamp); every other packet is dropped and counted by
 reason in ``signing_refused`` (unsigned, bad_signature, replay, stale). A bridge started
 with --signing-key, and vehicles given the key (``towerlink sitl --signing-key``), talk
 only to such a client. Key text (passphrase or 64 hex digits) is read by
-gcs.signing.key_from_text, as MAVProxy's ``signing setup``.
+common.mavlink.signing.key_from_text, as MAVProxy's ``signing setup``.
 """
 from __future__ import annotations
 
@@ -44,8 +44,8 @@ from typing import Any
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 
-from gcs.mavstr import mav_str  # noqa: E402
-from gcs.signing import UNSIGNED, SignatureCheck, setup_signing  # noqa: E402
+from common.mavlink.mavstr import mav_str  # noqa: E402
+from common.mavlink.signing import UNSIGNED, SignatureCheck, setup_signing  # noqa: E402
 
 mavlink = mavutil.mavlink
 
@@ -235,7 +235,7 @@ def mode_number(mode: str | int, mav_type: int | None) -> int:
 def _default_factory(conn: str, source_system: int, source_component: int):
     """Open a pymavlink connection; with the bridge's dialect when it is installed."""
     try:  # the project dialect decodes the transform stream; optional for a GCS
-        from gcs import dialect as _dialect  # type: ignore
+        from common.mavlink import dialect as _dialect  # type: ignore
         opener = getattr(_dialect, "mavlink_connection", None) or getattr(_dialect, "connect", None)
         if opener is not None:
             return opener(conn, source_system=source_system, source_component=source_component)
@@ -247,7 +247,7 @@ def _default_factory(conn: str, source_system: int, source_component: int):
 
 
 def _dialect_factory(conn: str, source_system: int, source_component: int):
-    from gcs.dialect import mavlink_connection
+    from common.mavlink.dialect import mavlink_connection
     return mavlink_connection(conn, source_system=source_system, source_component=source_component,
                               autoreconnect=True)
 
@@ -274,7 +274,7 @@ class Client:
         self._last_join = -1e9
         self._last_tick_wall = -1e9
         self.mav = master.mav
-        # packets refused by the signature check, by reason (gcs.signing's names)
+        # packets refused by the signature check, by reason (common.mavlink.signing's names)
         self.signing_refused: dict[str, int] = {}
         self.signed = False
         if signing_key:                           # before the first packet this client sends
@@ -330,7 +330,7 @@ class Client:
         Several lockstep clients of one program need a source_component each (the world tells
         participants apart by sysid and compid).
 
-        signing_key: 32 bytes (gcs.signing.key_from_text makes them from a passphrase or 64
+        signing_key: 32 bytes (common.mavlink.signing.key_from_text makes them from a passphrase or 64
         hex digits): sign everything sent, accept only packets signed with it (see the module
         docstring). link_id: the signing link id (0..255) of what this client sends (default
         SIGNING_LINK_ID, 2); through a signing bridge not 1, the link the bridge re-packs
@@ -349,11 +349,11 @@ class Client:
             raise
 
     def _setup_signing(self, key: bytes, link_id: int) -> None:
-        """Sign what this client packs (gcs.signing.setup_signing: the wall clock's timestamp),
-        allow no unsigned packet, and check a signed one with gcs.signing.SignatureCheck."""
+        """Sign what this client packs (common.mavlink.signing.setup_signing: the wall clock's timestamp),
+        allow no unsigned packet, and check a signed one with common.mavlink.signing.SignatureCheck."""
         if len(key) != 32:
             raise ClientError(f"a MAVLink 2 signing key is 32 bytes, not {len(key)} "
-                              "(gcs.signing.key_from_text makes one from a passphrase or 64 hex digits)")
+                              "(common.mavlink.signing.key_from_text makes one from a passphrase or 64 hex digits)")
         if not 0 <= int(link_id) <= 255:
             raise ClientError(f"signing link_id {link_id} is not in 0..255")
         self._link_id = int(link_id)
@@ -810,12 +810,12 @@ class Client:
 
         Sent as the bridge dialect's TOWERLINK_POSITION_TARGET; the bridge transforms it
         to world. Needs a connection opened with the dialect (the default when
-        gcs.dialect is installed).
+        common.mavlink.dialect is installed).
         """
         send = getattr(self.mav, "towerlink_position_target_send", None)
         if send is None:
             raise ClientError("this connection does not speak the towerlink dialect "
-                              "(TOWERLINK_POSITION_TARGET); open it with gcs.dialect")
+                              "(TOWERLINK_POSITION_TARGET); open it with common.mavlink.dialect")
         ms = (int(self.sim_time(sysid) * 1000) if time_boot_ms is None else int(time_boot_ms)) & 0xFFFFFFFF
         mask = MASK_POS_ONLY if yaw is None else MASK_POS_YAW
         fid = frame_name.encode()

@@ -27,7 +27,7 @@ radius of that world point seen from the tower now. Each goal also records how f
 same tower coordinates would land with the latest transform when it was reached
 (``latest_offset``).
 
-A family (a scenario with [[drones]], see gcs.scenario; run by gcs.tower_family): one Mission per drone,
+A family (a scenario with [[drones]], see common.scenario; run by gcs.tower_family): one Mission per drone,
 each in its own thread with its own queue, all on one link to the bridge (gcs.tower_link: one
 reader, so 100 drones' telemetry is decoded once; with --lockstep the link is the tower's one
 participant). They take off one altitude layer at a time from the highest down (a layer
@@ -53,6 +53,8 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import TYPE_CHECKING
+
+from common.mavlink.signing import add_signing_argument
 
 if TYPE_CHECKING:
     from gcs.tower_family import TowerFrames
@@ -344,9 +346,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="whole-system lockstep (issue 11): join the world's TOWERLINK_LOCKSTEP handshake "
                              "through the bridge (`towerlink bridge --lockstep`, `towerlink sitl --lockstep N`); "
                              "every timeout, retry and --resend then counts sim seconds of the world's TICKs")
-    parser.add_argument("--signing-key", metavar="PASSPHRASE|HEX64",
-                        help="MAVLink 2 signing, for a bridge started with --signing-key: 64 hex digits, or a "
-                             "passphrase hashed with SHA-256 (as MAVProxy's 'signing setup'). Everything the "
+    add_signing_argument(parser, "MAVLink 2 signing, for a bridge started with --signing-key: {forms}. Everything the "
                              "tower sends is signed (heartbeats, commands, goals, lockstep ACKs) and only "
                              "packets signed with the key are accepted; give the vehicles the same key "
                              "(`towerlink sitl --signing-key`), since the bridge forwards their packets as "
@@ -354,10 +354,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from gcs.scenario import ScenarioError, load_scenario
+    from common.scenario import ScenarioError, load_scenario
 
     from gcs.client import Client, ClientError
-    from gcs.signing import key_from_text
+    from common.mavlink.signing import key_from_text
 
     def log(msg: str) -> None:
         print(f"tower: {msg}", flush=True)

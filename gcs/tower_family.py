@@ -31,8 +31,8 @@ class TowerFrames:
     """
 
     def __init__(self, fixed: str = "world", cache_time: float = 30.0) -> None:
-        from gcs.frames import Buffer
-        from gcs.tf2_ros.stream import TransformStream
+        from common.frames import Buffer
+        from common.tf2_ros.stream import TransformStream
         self.fixed = fixed
         self.buffer = Buffer(cache_time=cache_time)
         self.stream = TransformStream(self.buffer)     # tf2_ros's listener core: stream -> buffer
@@ -46,7 +46,7 @@ class TowerFrames:
 
     def moving(self, frame: str) -> bool:
         """Does `frame` hang on a dynamic edge below the fixed frame?"""
-        from gcs.frames import TransformException
+        from common.frames import TransformException
         with self.lock:
             try:
                 stats = self.buffer.edge_stats()
@@ -56,7 +56,7 @@ class TowerFrames:
 
     def world_point(self, frame: str, p: Sequence[float], stamp: float | None):
         """`p` in `frame` at `stamp`, in the fixed frame (tf2 time travel); None until known."""
-        from gcs.frames import TransformException
+        from common.frames import TransformException
         if stamp is None:
             return None
         with self.lock:
@@ -68,7 +68,7 @@ class TowerFrames:
 
     def seen_from(self, frame: str, world: Sequence[float]):
         """A fixed-frame point in `frame` with the latest transform; None if unknown."""
-        from gcs.frames import LATEST, TransformException
+        from common.frames import LATEST, TransformException
         with self.lock:
             try:
                 T = self.buffer.lookup_transform(frame, self.fixed, LATEST)
@@ -78,7 +78,7 @@ class TowerFrames:
 
     def latest_offset(self, frame: str, p: Sequence[float], world: Sequence[float]) -> float | None:
         """How far `p` in `frame` resolved with the latest transform lands from `world`, m."""
-        from gcs.frames import LATEST, TransformException
+        from common.frames import LATEST, TransformException
         with self.lock:
             try:
                 T = self.buffer.lookup_transform(self.fixed, frame, LATEST)
@@ -224,7 +224,7 @@ def run_family(args: argparse.Namespace, sc, *, radius: float, finish: str, fram
     gates = LayerGates({d.sysid: d.altitude for d in drones})
     try:
         # one link for the whole family: the bridge sends every drone's telemetry to each peer
-        from gcs.signing import key_from_text
+        from common.mavlink.signing import key_from_text
         c = SharedClient.connect(args.connect, log=log, tlog=args.tlog, lockstep=lockstep,
                                  signing_key=key_from_text(getattr(args, "signing_key", None)))
     except ClientError as exc:

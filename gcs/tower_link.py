@@ -2,7 +2,7 @@
 
 A family's tower used to open one connection per drone. The bridge's tower link sends the
 whole system's telemetry to every peer, so N connections decoded N times everything (N**2
-work) and past 64 peers the link's peer table (gcs.peers) dropped some. A GCS flying many
+work) and past 64 peers the link's peer table (common.mavlink.peers) dropped some. A GCS flying many
 drones holds one link: :class:`SharedClient` is a gcs.client.Client whose socket only one
 thread, the pump, reads; each drone's gcs.tower.Mission runs in its own thread on the same
 object, and its blocking helpers (set_mode, arm, takeoff, wait_reached, ...) park in

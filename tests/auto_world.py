@@ -8,7 +8,7 @@ from collections.abc import Callable
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from gcs import geo
+from common import geo
 from vehicle.autopilot.mission_store import FENCE, MISSION, RALLY, MissionItem
 from vehicle.world import World, WorldConfig
 

@@ -11,7 +11,7 @@ import threading
 import time
 from contextlib import contextmanager
 
-from gcs.dialect import towerlink as tl
+from common.mavlink.dialect import towerlink as tl
 from bridge.config import BridgeConfig
 from bridge.loop import Bridge
 from support import wait_until
@@ -176,7 +176,7 @@ def sync(sender: Endpoint, *receivers: Endpoint, timeout: float = 5.0) -> None:
 
 
 def bridge_config(tower_port, drone_port=None, rover_port=None, **kw) -> BridgeConfig:
-    from gcs.scenario import load_scenario
+    from common.scenario import load_scenario
     kw.setdefault("statics", list(load_scenario().static_transforms))
     kw.setdefault("quiet", True)
     return BridgeConfig(tower=f"udpin:127.0.0.1:{tower_port}",

@@ -1,8 +1,8 @@
 """A reference evaluator for Buffer lookups, for tests to compare the production path against.
 
-Production evaluates a frame path with the straight-line code gcs/frames/_pathcode.py
+Production evaluates a frame path with the straight-line code common/frames/_pathcode.py
 generates per path shape. This is the same computation written as the plain loop over the
-helper functions in gcs/frames/transform.py: sample each edge (exact stamp, or linear
+helper functions in common/frames/transform.py: sample each edge (exact stamp, or linear
 translation + shortest-path SLERP between the two samples around t), compose each side up to
 the common ancestor, then inv(target side) * (source side). It reads the buffer's stored edges
 (through Buffer._path, which also raises Lookup/Connectivity errors exactly as a lookup does),
@@ -13,10 +13,10 @@ from __future__ import annotations
 from bisect import bisect_left
 from typing import Any
 
-from gcs.frames import LATEST, Buffer, Transform, TransformStamped
-from gcs.frames.buffer import _extrapolation
-from gcs.frames.stamped import check_time
-from gcs.frames.transform import IDENTITY7, _compose, _interpolate, _inv_compose, _inverse
+from common.frames import LATEST, Buffer, Transform, TransformStamped
+from common.frames.buffer import _extrapolation
+from common.frames.stamped import check_time
+from common.frames.transform import IDENTITY7, _compose, _interpolate, _inv_compose, _inverse
 
 
 def sample_edge(e, t: float, target: str, source: str) -> tuple:

@@ -13,14 +13,9 @@ import time
 from collections.abc import Callable
 from typing import TypeVar
 
+from common.ports import free_port, free_ports  # noqa: F401  (the tests import them from here)
+
 T = TypeVar("T")
-
-
-def free_port(kind: int = socket.SOCK_DGRAM) -> int:
-    """A port the OS says is free on 127.0.0.1 right now (UDP by default)."""
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def udp_listener(timeout: float = 5.0) -> tuple[socket.socket, int]:
@@ -30,20 +25,6 @@ def udp_listener(timeout: float = 5.0) -> tuple[socket.socket, int]:
     s.bind(("127.0.0.1", 0))
     s.settimeout(timeout)
     return s, s.getsockname()[1]
-
-
-def free_ports(n: int, kind: int = socket.SOCK_DGRAM) -> list[int]:
-    """n distinct free ports, held open together while picking so they differ."""
-    socks = []
-    try:
-        for _ in range(n):
-            s = socket.socket(socket.AF_INET, kind)
-            s.bind(("127.0.0.1", 0))
-            socks.append(s)
-        return [s.getsockname()[1] for s in socks]
-    finally:
-        for s in socks:
-            s.close()
 
 
 def wait_until(cond: Callable[[], T], timeout: float, what: str = "condition",

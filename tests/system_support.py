@@ -12,7 +12,7 @@ from tools.fly import Launch
 # world [26, 8]; as tower coordinates through the default scenario's static frame.
 def tower_goals(world_xy, scenario=None) -> str:
     import numpy as np
-    from gcs.scenario import load_scenario
+    from common.scenario import load_scenario
     from gcs.tower import format_goals
     sc = load_scenario(scenario)
     T = sc.buffer().lookup_transform("tower", "world").transform

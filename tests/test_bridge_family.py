@@ -10,9 +10,9 @@ import math
 
 import pytest
 
-from gcs.dialect import towerlink as tl
-from gcs.frames import Transform
-from gcs.scenario import parse_static_transform
+from common.mavlink.dialect import towerlink as tl
+from common.frames import Transform
+from common.scenario import parse_static_transform
 from bridge.config import BridgeConfig
 from bridge_fakes import Endpoint, FakeVehicle, running_bridge, sync, wait_origins
 from support import free_ports, wait_until

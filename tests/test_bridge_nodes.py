@@ -1,4 +1,4 @@
-"""Nodes (gcs.tf2_ros) through a running bridge (issue 12): a node's frame is looked up by
+"""Nodes (common.tf2_ros) through a running bridge (issue 12): a node's frame is looked up by
 another node; the bridge keeps each frame's authority and refuses a second publisher with
 a reason; a camera frame under `drone` shows in the tree with its rate and points go
 through it; --route-only hands the tower's goals to the nodes and publishes no vehicle frames."""
@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gcs.dialect import towerlink as tl
-from gcs.frames import LATEST, Buffer, PointStamped, Transform, TransformStamped
-from gcs.tf2_ros import (MessageFilter, Node, StaticTransformBroadcaster, TransformBroadcaster,
+from common.mavlink.dialect import towerlink as tl
+from common.frames import LATEST, Buffer, PointStamped, Transform, TransformStamped
+from common.tf2_ros import (MessageFilter, Node, StaticTransformBroadcaster, TransformBroadcaster,
                          TransformListener)
 from bridge_fakes import bridge_with_fakes
 from support import free_port, wait_until
@@ -141,7 +141,7 @@ def test_route_only_sends_tower_goals_to_the_nodes_and_publishes_no_vehicle_fram
 
 
 def test_message_filter_in_a_node_waits_for_another_nodes_frame_and_drops_stale_data(lab):
-    from gcs.tf2_ros import FilterFailureReason
+    from common.tf2_ros import FilterFailureReason
     bridge, drone = lab["bridge"], lab["drone"]
     user = lab["node"]("detector")
     buf = Buffer()
@@ -169,7 +169,7 @@ def test_message_filter_in_a_node_waits_for_another_nodes_frame_and_drops_stale_
 
 
 def test_a_static_transform_request_cannot_take_a_nodes_frame(lab):
-    from gcs.tf2_ros.wire import static_transform_message
+    from common.tf2_ros.wire import static_transform_message
     bridge, tower = lab["bridge"], lab["tower"]
     cam = lab["node"]("camera_driver")
     TransformBroadcaster(cam).send_transform(TransformStamped("world", "beacon", 1.0, Transform(translation=(1, 1, 0))))

@@ -6,9 +6,9 @@ import math
 
 import pytest
 
-from gcs import geo
-from gcs.dialect import towerlink as tl
-from gcs.frames import ConnectivityException
+from common import geo
+from common.mavlink.dialect import towerlink as tl
+from common.frames import ConnectivityException
 from bridge.origins import OriginDesk, origin_from_message
 from bridge_fakes import FakeVehicle, bridge_config, bridge_with_fakes, running_bridge
 from support import free_ports, wait_until

@@ -16,8 +16,8 @@ from bridge.goals import GoalDesk, PendingGoal
 from bridge.links import LinkStats
 from bridge.pairing import VehicleFrames
 from bridge_fakes import bridge_with_fakes
-from gcs.dialect import towerlink as tl
-from gcs.frames import Transform, TransformStamped
+from common.mavlink.dialect import towerlink as tl
+from common.frames import Transform, TransformStamped
 from support import wait_until
 
 

@@ -10,7 +10,7 @@ import os
 
 import pytest
 
-from gcs.dialect import towerlink as tl
+from common.mavlink.dialect import towerlink as tl
 from bridge_fakes import Endpoint, FakeVehicle, bridge_with_fakes, sync
 from support import free_ports, wait_until
 

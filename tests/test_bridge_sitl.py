@@ -8,9 +8,9 @@ import time
 
 import pytest
 
-from gcs.dialect import mavlink_connection
-from gcs.dialect import towerlink as tl
-from gcs.scenario import load_scenario
+from common.mavlink.dialect import mavlink_connection
+from common.mavlink.dialect import towerlink as tl
+from common.scenario import load_scenario
 from support import free_ports, wait_until
 
 pytestmark = pytest.mark.slow

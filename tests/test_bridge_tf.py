@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from gcs.dialect import towerlink as tl
-from gcs.frames import LATEST, Buffer, Transform
-from gcs.tf2_ros.wire import transform_message
+from common.mavlink.dialect import towerlink as tl
+from common.frames import LATEST, Buffer, Transform
+from common.tf2_ros.wire import transform_message
 from bridge.listener import TransformListener
 from bridge.pairing import VehicleFrames
 from bridge.timeline import Timeline
@@ -125,8 +125,8 @@ def test_transform_stream_reaches_tower(world):
 
 
 def test_transform_message_roundtrip():
-    from gcs.frames import TransformStamped
-    from gcs.tf2_ros.wire import transform_from_message
+    from common.frames import TransformStamped
+    from common.tf2_ros.wire import transform_from_message
     ts = TransformStamped("world", "a_long_frame_16c", 12.345678,
                           Transform.from_euler(yaw=1, pitch=0.2, roll=0.3, translation=(1, 2, 3)))
     msg = transform_message(ts, static=True)

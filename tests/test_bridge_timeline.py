@@ -10,10 +10,10 @@ import time
 
 import pytest
 
-from gcs.frames import LATEST, TransformException
+from common.frames import LATEST, TransformException
 from bridge.timeline import Timeline, TimesyncProbe
 from bridge_fakes import Endpoint, FakeVehicle, bridge_config, running_bridge, sync
-from gcs.dialect import towerlink as tl
+from common.mavlink.dialect import towerlink as tl
 from support import free_ports, wait_until
 
 

@@ -1,4 +1,4 @@
-"""Frame translation through a running bridge, checked against gcs.frames math.
+"""Frame translation through a running bridge, checked against common.frames math.
 
 tower -> drone: SET_POSITION_TARGET_LOCAL_NED (point, vectors, yaw); drone -> tower:
 LOCAL_POSITION_NED and POSITION_TARGET_LOCAL_NED; goals in named frames
@@ -12,9 +12,9 @@ import math
 import numpy as np
 import pytest
 
-from gcs.dialect import towerlink as tl
-from gcs.frames import Transform
-from gcs.scenario import load_scenario
+from common.mavlink.dialect import towerlink as tl
+from common.frames import Transform
+from common.scenario import load_scenario
 from bridge_fakes import bridge_with_fakes, sync
 from support import wait_until
 

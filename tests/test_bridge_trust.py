@@ -7,8 +7,8 @@ import socket
 
 import pytest
 
-from gcs.dialect import mavlink_connection, towerlink as tl
-from gcs.frames import LATEST, Transform, TransformStamped
+from common.mavlink.dialect import mavlink_connection, towerlink as tl
+from common.frames import LATEST, Transform, TransformStamped
 from bridge_fakes import Endpoint, bridge_with_fakes
 from support import free_port, wait_until
 
@@ -107,7 +107,7 @@ def client(port: int, key: bytes | None, sysid: int = 255):
 
 
 def verdict(conn, ts: TransformStamped) -> str | None:
-    from gcs.tf2_ros.wire import static_transform_message
+    from common.tf2_ros.wire import static_transform_message
     conn.mav.send(static_transform_message(ts))
     m = conn.recv_match(type="STATUSTEXT", blocking=True, timeout=1.0)
     return m.text if m is not None and m.text.startswith("static tf") else None
@@ -172,7 +172,7 @@ class FakeClock:
 
 
 def _heartbeat(sysid: int = 255) -> bytes:
-    from gcs.dialect import encoder
+    from common.mavlink.dialect import encoder
     return tl.MAVLink_heartbeat_message(6, 8, 0, 0, 0, 3).pack(encoder(sysid, 190))
 
 
@@ -218,10 +218,10 @@ def test_udp_peers_expire_after_30_s_and_are_bounded_to_the_64_most_recent():
         link.close()
 
 
-# ---------------------------------------------------------------------- gcs.signing, the shared check
+# ---------------------------------------------------------------------- common.mavlink.signing, the shared check
 def test_signature_check_order_and_reasons():
-    from gcs.dialect import encoder
-    from gcs.signing import SignatureCheck, setup_signing, signing_timestamp
+    from common.mavlink.dialect import encoder
+    from common.mavlink.signing import SignatureCheck, setup_signing, signing_timestamp
 
     def packet(key, ts=None, link_id=0):
         e = encoder(255, 190)

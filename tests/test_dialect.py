@@ -8,8 +8,8 @@ import xml.etree.ElementTree as ET
 
 
 import pymavlink.dialects.v20 as v20
-from gcs.dialect import DIALECT_IDS, XML, generate, mavlink_connection, module_path
-from gcs.dialect import towerlink as tl
+from common.mavlink.dialect import DIALECT_IDS, XML, generate, mavlink_connection, module_path
+from common.mavlink.dialect import towerlink as tl
 from support import free_port, wait_until
 
 
@@ -17,7 +17,7 @@ def test_ids_collide_with_nothing_shipped():
     ours = {int(m.get("id")): m.get("name") for m in ET.parse(XML).getroot().iter("message")}
     assert ours == {v: k for k, v in DIALECT_IDS.items()}
     for info in pkgutil.iter_modules(v20.__path__):
-        if info.name == "towerlink":    # ours, put there by `python -m gcs.dialect --install`
+        if info.name == "towerlink":    # ours, put there by `python -m common.mavlink.dialect --install`
             continue
         mod = importlib.import_module(f"pymavlink.dialects.v20.{info.name}")
         clash = set(ours) & set(getattr(mod, "mavlink_map", {}))
@@ -59,7 +59,7 @@ def test_mavlink_connection_helper_decodes_dialect():
 
 
 def test_pymavlink_tools_decode_the_dialect_after_install(tmp_path):
-    """`python -m gcs.dialect --install`, then pymavlink's own mavlogdump.py decodes TOWERLINK_*
+    """`python -m common.mavlink.dialect --install`, then pymavlink's own mavlogdump.py decodes TOWERLINK_*
     in a tlog (instead of UNKNOWN_43000), as the README says."""
     import os
     import shutil
@@ -67,8 +67,8 @@ def test_pymavlink_tools_decode_the_dialect_after_install(tmp_path):
     import subprocess
     import sys
 
-    from gcs.dialect import towerlink as tl
-    from gcs.dialect.__main__ import main as dialect_main
+    from common.mavlink.dialect import towerlink as tl
+    from common.mavlink.dialect.__main__ import main as dialect_main
 
     assert dialect_main(["--install"]) == 0
     enc = tl.MAVLink(None, srcSystem=250, srcComponent=1)
@@ -90,7 +90,7 @@ def test_compiled_module_is_cached_and_a_damaged_cache_is_replaced(tmp_path):
     beside it (even with PYTHONDONTWRITEBYTECODE); a damaged cache is compiled again."""
     import marshal
 
-    from gcs import dialect
+    from common.mavlink import dialect
     src = tmp_path / "towerlink_x.py"
     src.write_text("ANSWER = 42\n")
     code = dialect._code(src)

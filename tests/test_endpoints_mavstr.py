@@ -1,10 +1,10 @@
-"""gcs.endpoints (pymavlink connection strings) and gcs.mavstr (MAVLink char[] fields)."""
+"""common.mavlink.endpoints (pymavlink connection strings) and common.mavlink.mavstr (MAVLink char[] fields)."""
 from __future__ import annotations
 
 import pytest
 
-from gcs.endpoints import parse_connection
-from gcs.mavstr import mav_str
+from common.mavlink.endpoints import parse_connection
+from common.mavlink.mavstr import mav_str
 from vehicle.link.endpoints import parse_endpoint
 
 

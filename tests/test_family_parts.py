@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from gcs.dialect import towerlink as tl
-from gcs.frames import Transform
-from gcs.scenario import ScenarioError, load_scenario
+from common.mavlink.dialect import towerlink as tl
+from common.frames import Transform
+from common.scenario import ScenarioError, load_scenario
 from gcs.tower_family import SeparationWatch, TowerFrames
 from tools.family_summary import closest_approach, format_family_summary, summarize_family
 from tools.run_summary import RunData, Track
@@ -193,8 +193,8 @@ def test_fly_family_command_lines_give_every_vehicle_its_port_and_the_bridge_eac
 
 
 def test_fly_van_route_is_a_looped_mission_on_the_van(tmp_path):
-    from gcs.geo import lla_to_ned
-    from gcs.wpl import read
+    from common.geo import lla_to_ned
+    from common.wpl import read
     from tools.fly import SITL_HOME, Launch
     launch = Launch(tmp_path, scenario="van")
     sitl = launch.sitl_cmd()

@@ -10,7 +10,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from gcs import geo
+from common import geo
 from vehicle.autopilot.fence import fence_names
 from vehicle.autopilot.fence_geometry import (CIRCLE_IN, CIRCLE_OUT, POLY_IN, POLY_OUT, FenceLoadError,
                                               FenceZones, load_zones, point_in_circle, point_in_polygon)

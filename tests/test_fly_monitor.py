@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import socket
 
-from gcs.dialect import towerlink as tl
+from common.mavlink.dialect import towerlink as tl
 from support import free_ports, wait_until
 from tools.fly import DRONE, ROVER, SCORING_PARAMS, Monitor
 

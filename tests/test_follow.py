@@ -8,9 +8,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gcs.dialect import towerlink as tl
+from common.mavlink.dialect import towerlink as tl
 from bridge.follow import FollowSupervisor, ground_points
-from gcs.frames import Transform
+from common.frames import Transform
 from bridge_fakes import Endpoint, FakeVehicle, bridge_config, running_bridge, sync, wait_origins
 from support import free_ports, wait_until
 
@@ -172,8 +172,8 @@ def test_in_lockstep_the_rovers_mode_and_arm_go_out_only_at_the_barrier(lockstep
     from types import SimpleNamespace
 
     from bridge.follower import Follower
-    from gcs.frames import Buffer, TransformStamped
-    from gcs.modes import ROVER_GUIDED
+    from common.frames import Buffer, TransformStamped
+    from common.mavlink.modes import ROVER_GUIDED
     cfg = bridge_config(free_ports(1)[0], lockstep=lockstep)
     buf = Buffer()
     for parent, child in (("world", "drone"), ("world", "drone_yaw"), ("rover_origin", "world")):

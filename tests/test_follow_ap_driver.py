@@ -1,7 +1,7 @@
 """tools/follow_ap.py: what `fly --follow-with ardupilot` sends the rover, in order, until it follows."""
 from __future__ import annotations
 
-from gcs.dialect import towerlink as tl
+from common.mavlink.dialect import towerlink as tl
 from tools.follow_ap import ApFollowDriver
 
 

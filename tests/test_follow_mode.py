@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from gcs.frames import euler_from_quaternion
+from common.frames import euler_from_quaternion
 from vehicle.autopilot.follow_mode import Follow
 from vehicle.world import World, WorldConfig
 

@@ -1,4 +1,4 @@
-"""gcs.frames.batch: the batch rotation forms agree with scipy and with Transform, both paths."""
+"""common.frames.batch: the batch rotation forms agree with scipy and with Transform, both paths."""
 from __future__ import annotations
 
 import math
@@ -9,8 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from gcs.frames import Transform, euler_from_quaternion
-from gcs.frames.batch import SMALL, body_z_axis, ground_point, quat_mul, rotate, wrap_pi, yaw_of
+from common.frames import Transform, euler_from_quaternion
+from common.frames.batch import SMALL, body_z_axis, ground_point, quat_mul, rotate, wrap_pi, yaw_of
 
 SIZES = (1, SMALL, SMALL + 1, 50)     # the float path and the numpy path, at their seam
 

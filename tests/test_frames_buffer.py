@@ -10,7 +10,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation, Slerp
 
-from gcs.frames import (LATEST, Buffer, FutureExtrapolationException, PastExtrapolationException,
+from common.frames import (LATEST, Buffer, FutureExtrapolationException, PastExtrapolationException,
                            PointStamped, PoseStamped, Transform, TransformStamped, VectorStamped)
 
 from frames_reference import reference_lookup

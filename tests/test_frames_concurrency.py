@@ -11,7 +11,7 @@ import pytest
 
 from support import wait_until
 
-from gcs.frames import (LATEST, Buffer, ExtrapolationException, TimeoutException, Transform,
+from common.frames import (LATEST, Buffer, ExtrapolationException, TimeoutException, Transform,
                            TransformStamped)
 
 
@@ -20,7 +20,7 @@ def ts(parent, child, stamp, tf=None):
 
 
 class FakeClock:
-    """Stands in for the buffer's wall clock (gcs.frames.buffer._monotonic): it moves only
+    """Stands in for the buffer's wall clock (common.frames.buffer._monotonic): it moves only
     when the test moves it, and counts how often the buffer read it."""
 
     def __init__(self, now: float = 100.0) -> None:
@@ -41,7 +41,7 @@ class FakeClock:
 @pytest.fixture
 def clock(monkeypatch):
     c = FakeClock()
-    monkeypatch.setattr(importlib.import_module("gcs.frames.buffer"), "_monotonic", c)
+    monkeypatch.setattr(importlib.import_module("common.frames.buffer"), "_monotonic", c)
     return c
 
 

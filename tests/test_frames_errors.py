@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from gcs.frames import (LATEST, Buffer, ConnectivityException, ExtrapolationException,
+from common.frames import (LATEST, Buffer, ConnectivityException, ExtrapolationException,
                            FutureExtrapolationException, InvalidArgumentException, LookupException,
                            PastExtrapolationException, PointStamped, PoseStamped, TimeoutException,
                            Transform, TransformException, TransformStamped)

@@ -1,4 +1,4 @@
-"""gcs.frames.Buffer where callers meet tf2's rules (issue 9, list 1-4, and the pruning window).
+"""common.frames.Buffer where callers meet tf2's rules (issue 9, list 1-4, and the pruning window).
 
 Checked against ros2/geometry2 tf2/src/buffer_core.cpp (walkToTopParent, lookupTransformImpl,
 canTransform, getLatestCommonTime, clear) and tf2/src/cache.cpp (TimeCache::insertData,
@@ -10,7 +10,7 @@ import math
 
 import pytest
 
-from gcs.frames import (LATEST, Buffer, ConnectivityException, ExtrapolationException,
+from common.frames import (LATEST, Buffer, ConnectivityException, ExtrapolationException,
                         FutureExtrapolationException, InvalidArgumentException, LookupException,
                         PastExtrapolationException, PointStamped, Transform, TransformStamped)
 

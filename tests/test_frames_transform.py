@@ -9,7 +9,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from gcs.frames import InvalidArgumentException, Transform
+from common.frames import InvalidArgumentException, Transform
 
 finite = st.floats(-100.0, 100.0, allow_nan=False, allow_infinity=False)
 vec3 = st.tuples(finite, finite, finite)
@@ -279,7 +279,7 @@ def test_apply_large_batches_blockwise(n):
 
 
 # ---- tf.transformations-style helpers: the project's one Euler and SLERP ----------------
-from gcs.frames import euler_from_quaternion, quaternion_from_euler, quaternion_slerp  # noqa: E402
+from common.frames import euler_from_quaternion, quaternion_from_euler, quaternion_slerp  # noqa: E402
 
 
 @given(quats())

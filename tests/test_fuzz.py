@@ -16,7 +16,7 @@ import time
 import pytest
 
 from bridge_fakes import Endpoint
-from gcs.dialect import towerlink as tl
+from common.mavlink.dialect import towerlink as tl
 from support import free_ports, wait_until
 
 SEED = 20261123
@@ -147,7 +147,7 @@ def test_bridge_passes_a_non_finite_yaw_on():
     translate.heading raise (math domain error) and killed the bridge. The bridge translates;
     the vehicle validates: the yaw goes on as sent and the vehicle refuses the target."""
     from bridge import translate
-    from gcs.frames import Transform
+    from common.frames import Transform
     T = Transform((1.0, 2.0, 0.0))
     for yaw in (math.inf, -math.inf, math.nan):
         msg = tl.MAVLink_set_position_target_local_ned_message(0, 1, 1, tl.MAV_FRAME_LOCAL_NED, 0b0000_1001_1111_1000,

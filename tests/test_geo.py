@@ -1,4 +1,4 @@
-"""gcs.geo: latitude/longitude <-> local NED exactly as ArduPilot's Location computes it."""
+"""common.geo: latitude/longitude <-> local NED exactly as ArduPilot's Location computes it."""
 from __future__ import annotations
 
 import math
@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from gcs import geo
+from common import geo
 
 # AP_Math/definitions.h: 1e-7 degree in metres at the equator, for RADIUS_OF_EARTH = 6378100 m
 LOCATION_SCALING_FACTOR = 0.011131884502145034

@@ -7,10 +7,10 @@ from pathlib import Path
 
 import pytest
 
-from gcs.dialect import towerlink as tl
-from gcs.frames import Transform, TransformStamped
-from gcs.scenario import load_scenario
-from gcs.tf2_ros.wire import transform_from_message, transform_message
+from common.mavlink.dialect import towerlink as tl
+from common.frames import Transform, TransformStamped
+from common.scenario import load_scenario
+from common.tf2_ros.wire import transform_from_message, transform_message
 
 LAB = Path(__file__).resolve().parent.parent / "examples" / "lab"
 
@@ -23,7 +23,7 @@ def load(name: str):
 
 
 class FakeNode:
-    """What the nodes use of gcs.tf2_ros.Node; `ok()` is True for `turns` loop turns."""
+    """What the nodes use of common.tf2_ros.Node; `ok()` is True for `turns` loop turns."""
 
     def __init__(self, turns: int = 1) -> None:
         self.subs, self.sent, self.logs, self.turns = {}, [], [], turns

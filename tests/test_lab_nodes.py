@@ -1,7 +1,7 @@
 """The lab flown by its three nodes (issue 12): `towerlink fly --nodes examples/lab`.
 
 tower_to_map, world_to_drone and ground_robot_controller (examples/lab, written against
-gcs.tf2_ros) run as separate programs; the bridge runs with --route-only (no vehicle
+common.tf2_ros) run as separate programs; the bridge runs with --route-only (no vehicle
 frames, no goal translation, no follow of its own). One flight, checkpoints 1-3 read
 from its run folder. At 1x: the nodes are not lockstep participants, so their reaction time
 counts in sim time as wall latency x speedup; at 2x the follow RMS read 0.81 m quiet and
@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from gcs.tf2_ros.node import component_for
+from common.tf2_ros.node import component_for
 from system_support import MISSION_WORLD, finish, launched, tower_goals, tower_result
 from tools.run_summary import read_tlog
 

@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from gcs.dialect import towerlink as tl
+from common.mavlink.dialect import towerlink as tl
 from tools.run_mcap import buffer_from_mcap, read_records, write_mcap
 from tools.scene_feed import TOPICS, records_of
 
@@ -218,7 +218,7 @@ def test_bridge_view_serves_its_frame_tree_to_a_foxglove_client(processes):
                                for ft in b["transforms"]), 30, "world -> tower from the bridge")
         ft = next(ft for _, b in client.of("/tf_static") for ft in b["transforms"] if ft["child_frame_id"] == "tower")
         assert ft["parent_frame_id"] == "world"
-        from gcs.scenario import load_scenario
+        from common.scenario import load_scenario
         want = load_scenario(None).buffer().lookup_transform("world", "tower").transform.translation
         assert [ft["translation"][k] for k in "xyz"] == pytest.approx(list(want), abs=1e-3)
     finally:

@@ -10,8 +10,8 @@ from types import SimpleNamespace
 import pytest
 from hypothesis import given, strategies as st
 
-from gcs import lockstep as L
-from gcs.dialect import towerlink as tl
+from common.mavlink import lockstep as L
+from common.mavlink.dialect import towerlink as tl
 from tests.support import free_port, udp_listener, wait_until
 from vehicle.lockstep import LockstepGate
 from vehicle.world import World, WorldConfig
@@ -448,7 +448,7 @@ def test_bridge_desk_sends_an_unacknowledged_tick_to_the_tower_again():
 
 def test_client_acks_a_repeated_tick_again():
     from gcs.client import Client
-    from gcs.lockstep import ACK, TICK
+    from common.mavlink.lockstep import ACK, TICK
 
     class Mav:
         def __init__(self):
@@ -588,7 +588,7 @@ def test_a_world_in_two_worker_processes_steps_as_one_under_one_participant(proc
 
 
 def test_with_a_signing_key_only_a_signed_join_counts_and_the_ticks_are_signed():
-    from gcs.signing import SignatureCheck, key_from_text, signing_timestamp
+    from common.mavlink.signing import SignatureCheck, key_from_text, signing_timestamp
     key = key_from_text("lockstep secret")
     port = free_port()
     w = World(WorldConfig(drones=1, rovers=0, state_dir=None, tcp_base=None, udp_base=None, speedup=math.inf,

@@ -44,7 +44,7 @@ def test_drops_about_the_asked_fraction_each_way_and_is_replayable():
 
 def test_spared_datagrams_always_pass_and_draw_nothing_from_the_seeded_rng():
     # `towerlink fly --tower-loss` in lockstep spares TOWERLINK_LOCKSTEP (a lost ACK would hold the world)
-    from gcs import lockstep as L
+    from common.mavlink import lockstep as L
     upstream = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     upstream.bind(("127.0.0.1", 0))
     upstream.settimeout(2)

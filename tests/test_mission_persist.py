@@ -10,7 +10,7 @@ from dataclasses import astuple
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from gcs import wpl
+from common import wpl
 from vehicle.autopilot.mission_persist import PersistentMissionStore, missions_path
 from vehicle.autopilot.mission_store import FENCE, MISSION, RALLY, MissionItem
 from vehicle.link.mission_items import from_wpl

@@ -285,7 +285,7 @@ def test_do_reposition_switches_to_guided_and_arrives():
     w = _world()
     ap = _fly(w, alt=5.0)
     assert ap.set_mode(modes.LOITER)
-    from gcs import geo
+    from common import geo
     lat, lon, _ = geo.ned_to_lla(ap.origin, (20.0, -10.0, 0.0))
     assert _reposition(ap, lat, lon, 8.0, flags=0) == A.MAV_RESULT_DENIED      # not GUIDED, no flag
     assert ap.mode == modes.LOITER
@@ -304,7 +304,7 @@ def test_rover_do_reposition_takes_param1_as_speed():
     w = _world(drones=0, rovers=1)
     ap = w.vehicles[0].ap
     assert ap.set_mode(modes.ROVER_HOLD) and ap.arm() == A.MAV_RESULT_ACCEPTED
-    from gcs import geo
+    from common import geo
     lat, lon, _ = geo.ned_to_lla(ap.origin, ap.pos + [60.0, 0.0, 0.0])
     assert _reposition(ap, lat, lon, 5.0, speed=3.0) == A.MAV_RESULT_ACCEPTED
     assert ap.mode == modes.ROVER_GUIDED

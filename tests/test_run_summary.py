@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gcs.geo import ned_to_lla
+from common.geo import ned_to_lla
 from tools.run_summary import (Track, format_summary, ground_point_errors, horizontal_error,
                                load_messages, minimum_time, rms)
 
@@ -84,7 +84,7 @@ def test_minimum_time_continuous_at_boundaries():
 
 
 def test_ground_point_error_full_vs_yaw_only():
-    from gcs.frames import Transform
+    from common.frames import Transform
     h = 9.0
     tilt = math.radians(14.0)
     full = Transform.from_euler(yaw=0.7, pitch=tilt, translation=(3.0, 4.0, -h))
@@ -108,7 +108,7 @@ def test_track_interpolation_and_errors():
 
 def _msgs():
     """A few synthetic messages as the vehicles and the bridge send them."""
-    from gcs.dialect import towerlink as tl
+    from common.mavlink.dialect import towerlink as tl
     lat0, lon0, alt0 = -35.3632621, 149.1652374, 584.0
     out = []
 

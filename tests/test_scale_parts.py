@@ -13,9 +13,9 @@ from types import SimpleNamespace
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from gcs.dialect import towerlink as tl
-from gcs.family_plan import LanePlan, drone_start, scenario_toml
-from gcs.scenario import ScenarioError, load_scenario
+from common.mavlink.dialect import towerlink as tl
+from common.family_plan import LanePlan, drone_start, scenario_toml
+from common.scenario import ScenarioError, load_scenario
 from gcs.tower_family import LayerGates, SeparationWatch
 from support import free_port, wait_until
 
@@ -29,7 +29,7 @@ def _load(tmp_path, text, name="f.toml"):
 # ----------------------------------------------------------------------------- the generated family
 
 def test_shipped_family100_is_the_rule_and_flies_lanes_on_two_layers():
-    from gcs.scenario import scenario_path
+    from common.scenario import scenario_path
     shipped = scenario_path("family100").read_text()
     assert shipped == scenario_toml(LanePlan(drones=100))       # regenerated, never edited by hand
     sc = load_scenario("family100")
@@ -166,7 +166,7 @@ class _FakeMaster:
 
 
 def test_shared_link_acks_a_tick_only_after_every_mission_thread_acted_on_it():
-    from gcs.lockstep import ACK, TICK
+    from common.mavlink.lockstep import ACK, TICK
     from gcs.tower_link import SharedClient
     events = []
     master = _FakeMaster(events)

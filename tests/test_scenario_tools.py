@@ -8,8 +8,8 @@ import sys
 import numpy as np
 import pytest
 
-from gcs.frames import InvalidArgumentException, Transform
-from gcs.scenario import ScenarioError, load_scenario, parse_static_transform
+from common.frames import InvalidArgumentException, Transform
+from common.scenario import ScenarioError, load_scenario, parse_static_transform
 from tools.frames_cmd import LAB_CHECKPOINT, checkpoint_rows, convert
 
 
@@ -69,7 +69,7 @@ def test_parse_static_transform_rejects_bad_input(line, error, text):
     with pytest.raises(error) as info:
         ts = parse_static_transform(line)
         # frame-id checks belong to the buffer: adding is where tf2 refuses them
-        from gcs.frames import Buffer
+        from common.frames import Buffer
         Buffer().set_transform_static(ts, "test")
     assert text in str(info.value)
 

@@ -15,7 +15,7 @@ import pytest
 from test_sitl_support import Sitl, command, connect, mav, recv, set_mode, wait_armable  # MAVLINK20 first
 
 from pymavlink import mavwp  # noqa: E402  (after MAVLINK20 is set)
-from gcs import geo  # noqa: E402
+from common import geo  # noqa: E402
 
 REL = mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
 

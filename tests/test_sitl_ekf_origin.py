@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from gcs import geo
+from common import geo
 from vehicle.autopilot.ekf_origin import EkfOrigin
 from test_sitl_support import Sitl, command, connect, goto_local, mav, recv, set_mode, wait_armable
 

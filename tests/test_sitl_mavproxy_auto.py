@@ -7,7 +7,7 @@ import re
 
 import pytest
 
-from gcs import geo
+from common import geo
 from support import wait_until
 from test_sitl_support import MavProxy, Sitl, connect, wait_armable
 

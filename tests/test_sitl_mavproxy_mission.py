@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import pytest
 
-from gcs import wpl
+from common import wpl
 from support import wait_until
 from test_sitl_mission_protocol import HOME, WPL, fence_item, item_int, upload
 from test_sitl_support import MavProxy, Sitl, connect, mav

@@ -4,8 +4,8 @@ from __future__ import annotations
 import subprocess
 import sys
 
-from gcs.dialect import mavlink_connection
-from gcs.tf2_ros.wire import transform_from_message
+from common.mavlink.dialect import mavlink_connection
+from common.tf2_ros.wire import transform_from_message
 from support import free_port, wait_until
 
 

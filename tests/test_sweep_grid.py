@@ -8,7 +8,7 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from gcs.scenario import DEFAULT_SCENARIO, ScenarioError, _build
+from common.scenario import DEFAULT_SCENARIO, ScenarioError, _build
 from tools import sweep_grid as g
 from tools.sweep_grid import Plan, SweepError
 

@@ -1,4 +1,4 @@
-"""Issue 14 on the full system: the tower's family at scale (gcs.family_plan's lanes and layers).
+"""Issue 14 on the full system: the tower's family at scale (common.family_plan's lanes and layers).
 
 The whole system in lockstep at --speedup max (world, bridge and the family's one tower link
 as participants) flies a generated family of 100 drones: every drone in its own lane, two
@@ -19,7 +19,7 @@ DRONES = 100
 
 
 def test_generated_family_every_drone_reaches_its_goal_and_separation_holds(tmp_path):
-    from gcs.family_plan import LanePlan, scenario_toml
+    from common.family_plan import LanePlan, scenario_toml
     from tools.family_summary import closest_approach
     from tools.run_summary import RunData, load_messages, read_tlog
     plan = LanePlan(drones=DRONES, legs=1)

@@ -93,8 +93,8 @@ def _udp_ports_of(pid: int) -> list[int]:
 
 def _garbage(rng: random.Random) -> list[bytes]:
     """Random bytes, bad CRCs, truncated packets, unknown ids, huge length fields."""
-    from gcs.dialect import encoder
-    from gcs.dialect import towerlink as tl
+    from common.mavlink.dialect import encoder
+    from common.mavlink.dialect import towerlink as tl
     mav = encoder(77, 1)
     good = tl.MAVLink_heartbeat_message(6, 8, 0, 0, 0, 3).pack(mav)
     target = tl.MAVLink_set_position_target_local_ned_message(

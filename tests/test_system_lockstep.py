@@ -65,7 +65,7 @@ def assert_signed_throughout(run: Path) -> None:
     assert all(ln.endswith("unsigned 0 bad signature 0") for ln in counters), counters
     assert "unsigned" not in logs["sitl"] and "bad_signature" not in logs["sitl"]
     assert "lockstep: tower (sysid 255, compid 190) joined" in logs["sitl"]
-    from gcs.signing import key_from_text
+    from common.mavlink.signing import key_from_text
     key = key_from_text(SECRET)
     forms = (SECRET.encode(), key, key.hex().encode())      # the passphrase, the key, its hex
     assert [p.name for p in run.iterdir() if p.is_file() and any(f in p.read_bytes() for f in forms)] == []

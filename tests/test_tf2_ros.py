@@ -1,11 +1,11 @@
-"""gcs.tf2_ros: the MessageFilter's queue (pure), and broadcaster -> listener over real sockets."""
+"""common.tf2_ros: the MessageFilter's queue (pure), and broadcaster -> listener over real sockets."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from gcs.frames import LATEST, Buffer, PointStamped, Transform, TransformStamped
-from gcs.tf2_ros import (FilterFailureReason as R, FilterQueue, MessageFilter, Node,
+from common.frames import LATEST, Buffer, PointStamped, Transform, TransformStamped
+from common.tf2_ros import (FilterFailureReason as R, FilterQueue, MessageFilter, Node,
                          StaticTransformBroadcaster, TransformBroadcaster, TransformListener)
 from tests.support import free_port, wait_until
 

@@ -9,12 +9,12 @@ import subprocess
 import numpy as np
 import pytest
 
-from gcs.dialect import towerlink as tl
-from gcs.frames import Buffer, Transform, TransformStamped
-from gcs.tf2_ros.wire import transform_message
+from common.mavlink.dialect import towerlink as tl
+from common.frames import Buffer, Transform, TransformStamped
+from common.tf2_ros.wire import transform_message
 from bridge_fakes import FakeVehicle
 from support import free_ports, wait_until
-from gcs.frames import euler_from_quaternion
+from common.frames import euler_from_quaternion
 from tools.tf_format import format_tf_echo
 
 TOWER = TransformStamped("world", "tower", 0.0,

@@ -14,8 +14,8 @@ import pytest
 
 from bridge_fakes import Endpoint, bridge_with_fakes, sync
 from gcs.client import SIGNING_LINK_ID, Client, ClientError, CommandTimeout, HeartbeatTimeout
-from gcs.dialect import towerlink as tl
-from gcs.signing import SignatureCheck, key_from_text, masked_argv, setup_signing, signing_timestamp
+from common.mavlink.dialect import towerlink as tl
+from common.mavlink.signing import SignatureCheck, key_from_text, masked_argv, setup_signing, signing_timestamp
 from support import free_port, udp_listener, wait_until
 
 KEY = key_from_text("tower secret")

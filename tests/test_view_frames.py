@@ -6,12 +6,12 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-from gcs.frames import Buffer, Transform, TransformStamped
+from common.frames import Buffer, Transform, TransformStamped
 from tools import view_frames as vf
 
 
 def _buffer() -> Buffer:
-    from gcs.scenario import load_scenario
+    from common.scenario import load_scenario
     b = load_scenario().buffer()
     for k in range(21):
         t = 100.0 + 0.1 * k
@@ -91,8 +91,8 @@ def test_write_drawing_without_graphviz(tmp_path, ext):
 
 
 def test_from_tlog_and_cli(tmp_path, capsys):
-    from gcs.dialect import encoder
-    from gcs.tf2_ros.wire import transform_message
+    from common.mavlink.dialect import encoder
+    from common.tf2_ros.wire import transform_message
     mav = encoder(250, 191)
     path = tmp_path / "bridge.tlog"
     with open(path, "wb") as f:

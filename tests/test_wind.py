@@ -11,9 +11,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gcs.frames import euler_from_quaternion
-from gcs.frames.batch import ground_point
-from gcs.scenario import ScenarioError, load_scenario
+from common.frames import euler_from_quaternion
+from common.frames.batch import ground_point
+from common.scenario import ScenarioError, load_scenario
 from test_autopilot_behaviour import _fly, _until
 from vehicle import cli as sitl_cli
 from vehicle.autopilot import modes

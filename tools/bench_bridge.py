@@ -40,7 +40,8 @@ import threading
 import time
 from contextlib import contextmanager
 
-from gcs.dialect import towerlink as tl
+from common.ports import free_port
+from common.mavlink.dialect import towerlink as tl
 from tools.benchtable import machine, table, stop_process
 
 ADDED_P99_TARGET_MS = 1.0
@@ -68,11 +69,6 @@ def _cpus() -> tuple[int, set[int]]:
     cpus = sorted(os.sched_getaffinity(0))
     return cpus[-1], (set(cpus[:-1]) or set(cpus))
 
-
-def _free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _udp(port: int = 0, rcvbuf: int = 8 << 20) -> socket.socket:
@@ -110,7 +106,7 @@ def _bridge(cpu: int):
     Yields (proc, tower socket, drone socket, address of the bridge's drone link,
     address of its tower link)."""
     tower, drone = _udp(), _udp()
-    tport = _free_port()
+    tport = free_port()
     args = [sys.executable, "-m", "tools.cli", "bridge", "--tower", f"udpin:127.0.0.1:{tport}",
             "--drone", f"udpout:127.0.0.1:{drone.getsockname()[1]}", "--rover", "none",
             "--no-follow", "--telemetry-rate", "0", "-q"]
@@ -335,7 +331,7 @@ def mavproxy_rate(frames: list[bytes], seconds: float, cpu: int) -> tuple[float,
     if mavproxy_exe() is None:
         return None
     sink = _udp()
-    mport = _free_port()
+    mport = free_port()
     with tempfile.TemporaryDirectory() as tmp:
         args = mavproxy_router_args(mport, sink.getsockname()[1], tmp)
         try:

@@ -31,8 +31,9 @@ import tempfile
 import time
 from contextlib import contextmanager
 
-from gcs.dialect import towerlink as tl
-from tools.bench_bridge import (_free_port, _pinned_process, _udp, latency, mavproxy_exe, mavproxy_router_args,
+from common.mavlink.dialect import towerlink as tl
+from common.ports import free_port
+from tools.bench_bridge import (_pinned_process, _udp, latency, mavproxy_exe, mavproxy_router_args,
                                 messages_in)
 
 SOURCE_NOTE = ("1,000 vehicles' telemetry: a fake source (not a world: 1,000 simulated vehicles do not fit on "
@@ -189,7 +190,7 @@ def bridge_under_fleet(cpu: int, samples: int, rounds) -> dict:
     """One `towerlink bridge` with NETWORKS vehicle links; the probe and the load as above."""
     tower, drone = _udp(), _udp()
     nets = [drone] + [_udp() for _ in range(NETWORKS - 1)]
-    tport = _free_port()
+    tport = free_port()
     args = [sys.executable, "-m", "tools.cli", "bridge", "--tower", f"udpin:127.0.0.1:{tport}",
             "--no-follow", "--telemetry-rate", "0", "-q"]
     for g, s in enumerate(nets):
@@ -233,7 +234,7 @@ def mavproxy_under_fleet(cpu: int, samples: int, rounds) -> dict | None:
     if mavproxy_exe() is None:
         return None
     tower, drone = _udp(), _udp()
-    mport = _free_port()
+    mport = free_port()
     with tempfile.TemporaryDirectory() as tmp:
         args = mavproxy_router_args(mport, tower.getsockname()[1], tmp)
         try:

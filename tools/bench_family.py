@@ -35,7 +35,7 @@ def _cpu_s(pid: int) -> float | None:
 
 def fly_family(run_dir: Path, drones: int, legs: int, period: float = 0.1, timeout: float = 300.0) -> dict:
     """Fly a generated family once; the figures as a dict."""
-    from gcs.family_plan import LanePlan, scenario_toml
+    from common.family_plan import LanePlan, scenario_toml
     from tools.family_summary import summarize_family
     from tools.fly import Launch
     plan = LanePlan(drones=drones, legs=legs)

@@ -1,4 +1,4 @@
-"""Benchmark gcs.frames against its peers, side by side, in one run.
+"""Benchmark common.frames against its peers, side by side, in one run.
 
 Rows:
   * interpolated lookup over the 3-hop chain tower <- world <- drone <- drone_yaw
@@ -22,7 +22,7 @@ import sys
 
 import numpy as np
 
-from gcs.frames import Buffer, Transform, TransformStamped
+from common.frames import Buffer, Transform, TransformStamped
 from tools.benchtable import machine, median_time, table
 
 LOOKUP_TARGET_US = 5.0
@@ -188,7 +188,7 @@ def main(argv: list[str] | None = None) -> int:
                  "met" if ib_rate >= INSERT_TARGET_PER_S else "MISSED"])
 
     print(machine())
-    print(table("gcs.frames vs peers (median; lower µs / higher rate is better)",
+    print(table("common.frames vs peers (median; lower µs / higher rate is better)",
                 ["measure", "towerlink", "peer", "peer figure", "ratio", "target", "status"], rows))
     return 0
 

@@ -18,7 +18,7 @@ import time
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from gcs import geo
+from common import geo
 from tools.benchtable import machine, table
 from tools.run_summary import minimum_time
 from vehicle.autopilot import modes

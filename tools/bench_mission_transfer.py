@@ -11,22 +11,17 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import socket
 import statistics
 import subprocess
 import sys
 import time
 
+from common.ports import free_port
 from tools.benchtable import machine, table, stop_process
 
 HOME = (-35.363261, 149.165230, 584.0)
 REL = 6   # MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
 
-
-def _free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _items(n: int) -> list[tuple]:
@@ -122,7 +117,7 @@ def main(argv: list[str] | None = None) -> int:
     a = ap.parse_args(argv)
     if a.mavsdk_client:
         return _mavsdk_client(*a.mavsdk_client)
-    udp, out = _free_port(), _free_port()
+    udp, out = free_port(), free_port()
     cmd = [sys.executable, "-m", "tools.cli", "sitl", "--drones", "1", "--rovers", "0", "--speedup", "1",
            "--no-save", "--tcp-base", "0", "--udp-base", "0", "--endpoint", f"0=udpin:127.0.0.1:{udp}",
            "--out", f"udpout:127.0.0.1:{out}"]

@@ -31,7 +31,7 @@ MSGS_PER_SIM_S = 250          # measured on the lab run's bridge.tlog: ~15,000 m
 
 def stream(sim_s: float = SIM_S) -> list:
     """Decoded messages shaped like a lab run's bridge stream, in arrival order."""
-    from gcs.dialect import towerlink as tl
+    from common.mavlink.dialect import towerlink as tl
     enc_b = tl.MAVLink(None, srcSystem=250, srcComponent=1)
     enc_v = {1: tl.MAVLink(None, srcSystem=1, srcComponent=1), 2: tl.MAVLink(None, srcSystem=2, srcComponent=1)}
     raw = bytearray()

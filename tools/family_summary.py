@@ -60,7 +60,7 @@ def summarize_family(run_dir: str | os.PathLike, *, tower: dict | None = None,
     """Score a family / van run; the dict written as summary.json."""
     import json
 
-    from gcs.scenario import load_scenario
+    from common.scenario import load_scenario
     run_dir = Path(run_dir)
     data = data if data is not None else load_run(run_dir)
     if tower is None:

@@ -15,7 +15,7 @@ Three processes on loopback with free ports (so several runs can share a machine
                     transform stream pushed to this launcher (bridge.tlog)
   towerlink tower   the mission in tower coordinates (tower.tlog, tower.json)
 
-With --nodes DIR every DIR/*.py is started as a node (gcs.tf2_ros), `python FILE
+With --nodes DIR every DIR/*.py is started as a node (common.tf2_ros), `python FILE
 --connect udpout:127.0.0.1:PORT --follow-frame FRAME` (node-<name>.log), and the bridge
 gets --nodes udpin:127.0.0.1:PORT --route-only: the nodes publish the drone's frames,
 turn the tower's goals into world goals and drive the rover; the bridge only routes (and
@@ -55,7 +55,7 @@ DO_JUMP back, forever) and a driver on a port of its own puts it in AUTO and arm
 (van.log). The summary then has a row per vehicle, a row per goal of every drone (with
 the time-travel figure when the tower rides the van) and the closest approach of two
 airborne drones; tracks.png draws every vehicle. `towerlink fly family100 --speedup
-max` flies 100 drones (gcs/family_plan.py: own lanes, two altitude layers, no rovers; the summary
+max` flies 100 drones (common/family_plan.py: own lanes, two altitude layers, no rovers; the summary
 then counts per layer).
 
 Lockstep (issue 11) is the default: the world waits for the bridge, the tower (a family's
@@ -94,10 +94,11 @@ import threading
 import time
 from pathlib import Path
 
-from gcs.geo import lla_to_ned, ned_to_lla
-from gcs.lockstep import speedup_text, speedup_type
-from gcs.mavstr import mav_str
-from gcs.signing import SIGNING_FLAG, masked_argv
+from common.geo import lla_to_ned, ned_to_lla
+from common.mavlink.lockstep import speedup_text, speedup_type
+from common.mavlink.mavstr import mav_str
+from common.mavlink.signing import SIGNING_FLAG, add_signing_argument, masked_argv
+from common.ports import free_udp_ports
 from tools.procs import die_with_parent
 
 os.environ.setdefault("MAVLINK20", "1")
@@ -107,34 +108,6 @@ SITL_HOME = (-35.363261, 149.16523, 584.0)     # towerlink sitl's default --home
 SCORING_PARAMS = ("WPNAV_SPEED", "WPNAV_ACCEL", "PSC_JERK_XY")
 
 
-FIXED_PORTS = (20000, 32000)    # below Linux's ephemeral range (32768-60999)
-
-
-def free_udp_ports(n: int, host: str = "127.0.0.1") -> list[int]:
-    """n UDP ports free now, picked below the ephemeral range: a world of 100 vehicles opens
-    100 sockets with kernel-chosen (ephemeral) ports while it binds the planned ones, and an
-    ephemeral pick would take a planned port first ("Address already in use")."""
-    import random
-    socks = []
-    lo, hi = FIXED_PORTS
-    start = random.randrange(lo, hi)          # parallel runs start at different places
-    try:
-        for k in range(hi - lo):
-            if len(socks) == n:
-                break
-            s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-            try:
-                s.bind((host, lo + (start - lo + k) % (hi - lo)))
-            except OSError:
-                s.close()
-                continue
-            socks.append(s)
-        if len(socks) < n:
-            raise OSError(f"only {len(socks)} free UDP ports in {lo}..{hi - 1}, {n} wanted")
-        return [s.getsockname()[1] for s in socks]
-    finally:
-        for s in socks:
-            s.close()
 
 
 def towerlink_cmd(*args: str) -> list[str]:
@@ -151,7 +124,7 @@ class Monitor(threading.Thread):
     def __init__(self, run_dir: Path, ports: dict[str, int], host: str = "127.0.0.1",
                  binds: dict[str, str] | None = None, signing_key: bytes | None = None) -> None:
         super().__init__(daemon=True, name="fly-monitor")
-        from gcs.dialect import towerlink as tl
+        from common.mavlink.dialect import towerlink as tl
         self.tl = tl
         self.socks: dict[str, socket.socket] = {}
         self.parsers = {}
@@ -168,7 +141,7 @@ class Monitor(threading.Thread):
         self.encoder = tl.MAVLink(None, srcSystem=255, srcComponent=158)
         if signing_key:     # vehicles given the key drop unsigned requests (the scoring parameters)
             from gcs.client import SIGNING_LINK_ID
-            from gcs.signing import setup_signing
+            from common.mavlink.signing import setup_signing
             setup_signing(self.encoder, signing_key, SIGNING_LINK_ID)
         self._halt = threading.Event()
         self.lock = threading.Lock()
@@ -306,7 +279,7 @@ class Launch:
                  view_port: int | None = None, nodes: str | os.PathLike | None = None,
                  lockstep: bool = False, follow_with: str = "bridge", foll_pos_p: float | None = None,
                  world=None, signing_key: str | None = None) -> None:
-        from gcs.scenario import load_scenario, scenario_path
+        from common.scenario import load_scenario, scenario_path
         self.dir = Path(run_dir)
         self.dir.mkdir(parents=True, exist_ok=True)
         self.scenario = str(scenario_path(scenario).resolve()) if scenario else None
@@ -328,10 +301,10 @@ class Launch:
         if nodes and not self.nodes:
             raise ValueError(f"no nodes (*.py) in {nodes}")
         # MAVLink 2 signing for the whole run (the text as given: passphrase or 64 hex digits);
-        # each process reads it with gcs.signing.key_from_text; never written in clear
+        # each process reads it with common.mavlink.signing.key_from_text; never written in clear
         self.signing_key = signing_key or None
         if self.signing_key and self.nodes:
-            raise ValueError("--signing-key with --nodes: the nodes (gcs.tf2_ros) cannot sign yet, and the "
+            raise ValueError("--signing-key with --nodes: the nodes (common.tf2_ros) cannot sign yet, and the "
                              "bridge's node link takes only signed packets with a key")
         names = ["drone", "rover", "tower", "vehicles", "bridge", "proxy", "nodes"]
         if self.family:
@@ -401,7 +374,7 @@ class Launch:
         return [SIGNING_FLAG, self.signing_key] if self.signing_key else []
 
     def _key(self) -> bytes | None:
-        from gcs.signing import key_from_text
+        from common.mavlink.signing import key_from_text
         return key_from_text(self.signing_key)
 
     def _world_binds(self) -> tuple[str, str]:
@@ -417,7 +390,7 @@ class Launch:
         """The scenario's wind table as `sitl --wind` (none when it has no wind)."""
         if not self.scenario:
             return []
-        from gcs.scenario import load_scenario
+        from common.scenario import load_scenario
         w = load_scenario(self.scenario).wind_arg()
         return ["--wind", w] if w else []
 
@@ -442,8 +415,8 @@ class Launch:
 
     def write_van_mission(self) -> Path:
         """The van's route as a QGC WPL 110 mission, looped with DO_JUMP (world NED -> lat/lon)."""
-        from gcs.geo import ned_to_lla
-        from gcs.wpl import WplItem, write
+        from common.geo import ned_to_lla
+        from common.wpl import WplItem, write
         van = self.sc.van
         items = [WplItem(0, 1, 0, 16, 0, 0, 0, 0, SITL_HOME[0], SITL_HOME[1], SITL_HOME[2]),
                  WplItem(1, 0, 3, 178, 1, van.speed, -1, 0, 0, 0, 0)]      # DO_CHANGE_SPEED ground
@@ -560,7 +533,7 @@ class Launch:
             self.view = LiveView(self.host, self.view_port)
             self.monitor.listeners["bridge"] = self.view.on_message
         if self.ap_follower is not None:
-            from gcs.scenario import load_scenario
+            from common.scenario import load_scenario
             from tools.follow_ap import ApFollowDriver
             self.ap_driver = ApFollowDriver(self.monitor.send_to_vehicle, self.ap_follower, DRONE,
                                             load_scenario(self.scenario).follow_offset, self.foll_pos_p)
@@ -575,7 +548,7 @@ class Launch:
             self._start(f"node-{path.stem}", self.node_cmd(path))
         if self.tower_loss > 0:
             from tools.loss_proxy import LossProxy
-            from gcs.lockstep import is_lockstep
+            from common.mavlink.lockstep import is_lockstep
             self.proxy = LossProxy(self.ports["proxy"], (self.host, self.ports["tower"]),
                                    loss=self.tower_loss, seed=self.loss_seed, host=self.host,
                                    spare=is_lockstep if self.lockstep else None)
@@ -781,7 +754,7 @@ def _signal_group(p: subprocess.Popen, sig: int) -> None:
 
 
 def _scenario_follow(path: str | None) -> str:
-    from gcs.scenario import load_scenario
+    from common.scenario import load_scenario
     return load_scenario(path).follow_frame
 
 
@@ -841,9 +814,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                         help="a vehicle parameter for the world (ArduPilot name, e.g. WPNAV_SPEED=300); "
                              "repeatable; written to RUN/params.parm and passed as sitl --params")
-    parser.add_argument("--signing-key", metavar="PASSPHRASE|HEX64", default=None,
-                        help="MAVLink 2 signing for the whole run: 64 hex digits, or a passphrase hashed with "
-                             "SHA-256 (as MAVProxy's 'signing setup'). The world's vehicles, the bridge's tower "
+    add_signing_argument(parser, "MAVLink 2 signing for the whole run: {forms}. The world's vehicles, the bridge's tower "
                              "link and the tower (and the van's driver) all sign and accept only signed "
                              "packets, lockstep included. The key is masked (***) in the run folder's logs and "
                              "meta.json (it is still on the processes' command lines). Not with --nodes")
@@ -856,7 +827,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else Path("runs") / time.strftime("%Y%m%d-%H%M%S")
     try:
-        from gcs.scenario import ScenarioError, load_scenario
+        from common.scenario import ScenarioError, load_scenario
         load_scenario(args.scenario)
     except ScenarioError as exc:
         print(f"towerlink fly: {exc}", file=sys.stderr)

@@ -28,7 +28,7 @@ RETRY = 0.5                      # wall s between attempts
 class ApFollowDriver:
     def __init__(self, send, sysid: int, lead_sysid: int, offset=(0.0, 0.0), pos_p: float | None = None,
                  clock=time.monotonic) -> None:
-        from gcs.dialect import towerlink as tl
+        from common.mavlink.dialect import towerlink as tl
         self.tl = tl
         self._send = send                # (target sysid, message) -> bool: sent
         self.sysid = sysid

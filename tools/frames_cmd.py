@@ -14,8 +14,8 @@ import sys
 
 import numpy as np
 
-from gcs.frames import PointStamped, TransformException
-from gcs.scenario import Scenario, ScenarioError, load_scenario
+from common.frames import PointStamped, TransformException
+from common.scenario import Scenario, ScenarioError, load_scenario
 
 # The lab's self-checkpoint table: world [x, y] -> tower [x, y], rounded to 0.1.
 LAB_CHECKPOINT: tuple[tuple[tuple[float, float], tuple[float, float]], ...] = (

@@ -129,8 +129,8 @@ def format_hover(h: dict, wind: Any = None) -> list[str]:
 def fly_hover(wind=None, seconds: float = 60.0, alt: float = 9.0, seed: int = 1) -> dict[str, float]:
     """Take off in an in-process World to alt, settle 10 s, hover `seconds`: truth figures
     (hover error from the hold point, tilt, full-attitude ground-point offset and its spread)."""
-    from gcs.frames import euler_from_quaternion
-    from gcs.frames.batch import ground_point
+    from common.frames import euler_from_quaternion
+    from common.frames.batch import ground_point
     from pymavlink.dialects.v20 import ardupilotmega as mav
     from vehicle.autopilot import modes
     from vehicle.world import World, WorldConfig

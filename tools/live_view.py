@@ -87,7 +87,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from gcs.dialect import mavlink_connection
+    from common.mavlink.dialect import mavlink_connection
     try:
         view = LiveView(args.host, args.port)
     except (RuntimeError, OSError) as exc:

@@ -27,7 +27,7 @@ from tools.run_summary import DRONE, ROVER, RunData, load_messages, load_run, re
 
 
 def _goals_world(run_dir: Path | None, scenario: str | None):
-    from gcs.scenario import load_scenario
+    from common.scenario import load_scenario
     meta = {}
     if run_dir is not None and (run_dir / "meta.json").exists():
         meta = json.loads((run_dir / "meta.json").read_text())

@@ -108,7 +108,7 @@ def buffer_from_mcap(path: str | os.PathLike, cache_time: float = 1e9):
     stamps maps each dynamic child frame to the set of its sample times (s), as tf-echo's
     tlog reader does, so `tf-echo --mcap` can print at every stamp of a chain.
     """
-    from gcs.frames import Buffer, Transform, TransformStamped
+    from common.frames import Buffer, Transform, TransformStamped
 
     buf = Buffer(cache_time=cache_time)
     stamps: dict[str, set[float]] = {}

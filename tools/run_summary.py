@@ -29,9 +29,9 @@ from typing import Any
 
 import numpy as np
 
-from gcs.frames.batch import ground_point
-from gcs.geo import lla_to_ned, ned_to_lla
-from gcs.mavstr import mav_str
+from common.frames.batch import ground_point
+from common.geo import lla_to_ned, ned_to_lla
+from common.mavlink.mavstr import mav_str
 
 os.environ.setdefault("MAVLINK20", "1")
 
@@ -78,7 +78,7 @@ def minimum_time(d: float, v: float, a: float, j: float) -> float:
 def read_tlog(path: str | os.PathLike) -> Iterator[Any]:
     """Every message of a tlog, decoded with the towerlink dialect (ardupilotmega if absent)."""
     try:
-        from gcs.dialect import mavlink_connection
+        from common.mavlink.dialect import mavlink_connection
     except ImportError:  # pragma: no cover
         from pymavlink.mavutil import mavlink_connection
     conn = mavlink_connection(str(path))
@@ -281,7 +281,7 @@ def ground_point_errors(transforms: list[tuple[float, tuple]]) -> tuple[np.ndarr
     """Attitude-caused ground-point error of each recorded world -> drone-frame transform.
 
     The ground point is (0, 0, h) in the drone frame, h = the drone's height (-z of its
-    origin in world), mapped to world (gcs.frames.batch.ground_point, the follow's own);
+    origin in world), mapped to world (common.frames.batch.ground_point, the follow's own);
     its horizontal distance from the frame's own origin is what the attitude adds
     (h·sin(tilt) for a full-attitude frame, 0 for a yaw-only one). Returns (stamps, errors).
     """
@@ -316,8 +316,8 @@ def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
     scenario_path = scenario_path or meta.get("scenario")
 
     # world coordinates of the goals, from the scenario's static frames
-    from gcs.frames import PointStamped  # noqa: F401  (documented API)
-    from gcs.scenario import load_scenario
+    from common.frames import PointStamped  # noqa: F401  (documented API)
+    from common.scenario import load_scenario
     sc = load_scenario(scenario_path)
     buf = sc.buffer()
     goal_frame = tower["goals"][0]["frame"] if tower.get("goals") else sc.goal_frame

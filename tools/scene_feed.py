@@ -36,7 +36,7 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
-from gcs.mavstr import mav_str
+from common.mavlink.mavstr import mav_str
 
 TOWER_SYSID = 255
 DISPLAY_FRAME = "world_enu"

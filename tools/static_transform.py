@@ -22,8 +22,9 @@ import sys
 
 import numpy as np
 
-from gcs.frames import InvalidArgumentException, TransformStamped
-from gcs.scenario import STATIC_TRANSFORM_USAGE, ScenarioError, parse_static_transform
+from common.mavlink.signing import add_signing_argument
+from common.frames import InvalidArgumentException, TransformStamped
+from common.scenario import STATIC_TRANSFORM_USAGE, ScenarioError, parse_static_transform
 from tools.tf_format import format_number, format_tf_echo
 
 
@@ -61,8 +62,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "and wait for the bridge to accept or refuse it")
     parser.add_argument("--timeout", type=float, default=3.0, metavar="S",
                         help="wall seconds to wait for the bridge's answer with --publish (default 3)")
-    parser.add_argument("--signing-key", metavar="PASSPHRASE|HEX64",
-                        help="sign the request (MAVLink 2), for a bridge started with --signing-key")
+    add_signing_argument(parser, "sign the request (MAVLink 2), for a bridge started with --signing-key: {forms}")
     parser.add_argument("--sysid", type=int, default=255,
                         help="sysid to send as (default 255; the bridge trusts --trust-sysid, default 255)")
 
@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     if args.publish:
         from bridge.static_publisher import publish_static  # the bridge's own sender; imported only when used
         try:
-            from gcs.signing import key_from_text
+            from common.mavlink.signing import key_from_text
             verdict = publish_static(args.publish, ts, timeout=args.timeout, source_system=args.sysid,
                                      signing_key=key_from_text(args.signing_key))
         except TimeoutError as exc:

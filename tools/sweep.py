@@ -93,7 +93,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def build(args: argparse.Namespace) -> tuple[Path | None, dict, list[Run], Plan]:
     """Scenario path, its data, the runs and the plan; SweepError / ScenarioError when bad."""
-    from gcs.scenario import ScenarioError, _build, scenario_path
+    from common.scenario import ScenarioError, _build, scenario_path
     from tools import sweep_grid as g
     if args.resume:
         if not args.out:
@@ -360,7 +360,7 @@ def _fly_all(args, todo: list[dict], rows: dict[str, dict], total: int, stop: In
 
 
 def run(args: argparse.Namespace) -> int:
-    from gcs.scenario import ScenarioError
+    from common.scenario import ScenarioError
     from tools import sweep_grid as g
     from tools import sweep_table as t
     from tools.sweep_run import finished, write_atomic

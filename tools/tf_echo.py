@@ -56,8 +56,8 @@ def _print(ts, precision: int) -> None:
 
 def read_tlog(path: str, cache_time: float = 1e9):
     """A TransformListener filled with every TOWERLINK_TRANSFORM of a tlog (no window)."""
-    from gcs.dialect import mavlink_connection
-    from gcs.frames import Buffer
+    from common.mavlink.dialect import mavlink_connection
+    from common.frames import Buffer
     from bridge.listener import TransformListener
 
     lis = TransformListener(Buffer(cache_time=cache_time))
@@ -85,7 +85,7 @@ def read_mcap(path: str):
 
 
 def run_offline(args) -> int:
-    from gcs.frames import LATEST, TransformException
+    from common.frames import LATEST, TransformException
 
     try:
         lis = read_mcap(args.tlog) if str(args.tlog).endswith(".mcap") else read_tlog(args.tlog)
@@ -131,8 +131,8 @@ def run_offline(args) -> int:
 
 
 def run_live(args) -> int:
-    from gcs.dialect import mavlink_connection
-    from gcs.frames import LATEST, TransformException
+    from common.mavlink.dialect import mavlink_connection
+    from common.frames import LATEST, TransformException
     from bridge.listener import TransformListener
 
     try:

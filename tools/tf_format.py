@@ -12,17 +12,17 @@ TARGET into SOURCE), and prints, with 3 decimals fixed::
                 in RPY (degree) [roll, pitch, yaw]
 
 RPY is tf's ``getRPY``: fixed-axis roll about x, then pitch about y, then yaw about z,
-R = Rz(yaw) Ry(pitch) Rx(roll), from ``gcs.frames.euler_from_quaternion``. Printed in
+R = Rz(yaw) Ry(pitch) Rx(roll), from ``common.frames.euler_from_quaternion``. Printed in
 roll, pitch, yaw order, as tf_echo does.
 
-Pure formatting: accepts a ``gcs.frames.TransformStamped``, a ``Transform``, or a
+Pure formatting: accepts a ``common.frames.TransformStamped``, a ``Transform``, or a
 plain ``(translation, rotation_xyzw)`` pair; no dependency on the frame buffer.
 """
 from __future__ import annotations
 
 import math
 
-from gcs.frames import euler_from_quaternion
+from common.frames import euler_from_quaternion
 
 __all__ = ["format_tf_echo", "format_number", "split_transform"]
 

@@ -19,7 +19,7 @@ the drawing as .yaml.
 Examples:
   towerlink view-frames                                   # listen on udpin:127.0.0.1:14610 for 5 s (bridge --out udpout:127.0.0.1:14610)
   towerlink view-frames --tlog runs/latest/bridge.tlog -o frames.png
-  towerlink view-frames --scenario gcs/scenarios/default.toml -o frames.svg
+  towerlink view-frames --scenario common/scenarios/default.toml -o frames.svg
 """
 from __future__ import annotations
 
@@ -41,7 +41,7 @@ DEFAULT_LISTEN = "udpin:127.0.0.1:14610"
 
 def buffer_from_messages(msgs, cache_time: float = 10.0):
     """A Buffer filled from decoded messages (TOWERLINK_TRANSFORM; others ignored)."""
-    from gcs.frames import Buffer
+    from common.frames import Buffer
     from bridge.listener import TransformListener
     listener = TransformListener(Buffer(cache_time=cache_time))
     for m in msgs:
@@ -60,13 +60,13 @@ def buffer_from_tlog(path: str | os.PathLike, cache_time: float = 10.0):
 
 
 def buffer_from_scenario(path: str | None):
-    from gcs.scenario import load_scenario
+    from common.scenario import load_scenario
     return load_scenario(path).buffer(), 0.0
 
 
 def buffer_from_live(url: str, duration: float, cache_time: float = 10.0):
-    from gcs.dialect import mavlink_connection
-    from gcs.frames import Buffer
+    from common.mavlink.dialect import mavlink_connection
+    from common.frames import Buffer
     from bridge.listener import TransformListener
     conn = mavlink_connection(url, source_system=255, source_component=191)
     listener = TransformListener(Buffer(cache_time=cache_time))

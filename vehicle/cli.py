@@ -68,9 +68,9 @@ import os
 import signal
 import sys
 
-from gcs.collector import tune_for_long_run
-from gcs.lockstep import speedup_type
-from gcs.signing import key_from_text as signing_key
+from common.collector import tune_for_long_run
+from common.mavlink.lockstep import speedup_type
+from common.mavlink.signing import add_signing_argument, key_from_text as signing_key
 from vehicle.world import DEFAULT_HOME, DEFAULT_STATE_DIR, PLAN_FILE, World, WorldConfig
 
 
@@ -116,7 +116,7 @@ def _sysid(s: str) -> tuple[int, int]:
 def _mission(s: str):
     """I=FILE -> (I, [MissionItem]); a file that cannot be read or an item that an upload
     would refuse is an argparse error naming it."""
-    from gcs import wpl
+    from common import wpl
     from pymavlink.dialects.v20 import ardupilotmega as mav
     from vehicle.link.mission_items import from_wpl
     i, sep, path = s.partition("=")
@@ -193,9 +193,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="run the world in K processes (one core each; default 1): worker w runs vehicles "
                         "w*N/K..(w+1)*N/K-1 on the same plan and ports, all starting at one instant; "
                         "with --lockstep all held at the same TICKs")
-    p.add_argument("--signing-key", metavar="PASSPHRASE|HEX64",
-                   help="MAVLink 2 signing: 64 hex digits, or a passphrase hashed with SHA-256 "
-                        "(as MAVProxy's 'signing setup'); unsigned packets are then dropped")
+    add_signing_argument(p, "MAVLink 2 signing: {forms}; unsigned packets are then dropped")
 
 
 def config_from_args(a: argparse.Namespace) -> WorldConfig:

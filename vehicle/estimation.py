@@ -26,7 +26,7 @@ import math
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
-from gcs.frames.batch import quat_mul, rotate
+from common.frames.batch import quat_mul, rotate
 
 G = np.array([0.0, 0.0, 9.80665])
 

@@ -46,7 +46,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from gcs.frames import euler_from_quaternion
+from common.frames import euler_from_quaternion
 
 from vehicle import params_core
 from vehicle.control import copter as ccore

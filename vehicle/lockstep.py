@@ -1,7 +1,7 @@
 """The world's lockstep gate (issue 11): who the world waits for, and whether it may step on.
 
 Pure: no sockets, no clocks of its own (wall times are passed in). The world
-(vehicle/world.py) feeds it every TOWERLINK_LOCKSTEP it receives (gcs.lockstep) with the
+(vehicle/world.py) feeds it every TOWERLINK_LOCKSTEP it receives (common.mavlink.lockstep) with the
 vehicle index whose endpoint it arrived on and the reply channel, and asks it:
 
 * ``started(wall)``: may the world leave t = 0? When ``expect`` participants have joined on
@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from gcs.lockstep import ACK, JOIN, LEAVE, PARTICIPANT_NAMES, Lockstep
+from common.mavlink.lockstep import ACK, JOIN, LEAVE, PARTICIPANT_NAMES, Lockstep
 
 
 @dataclass

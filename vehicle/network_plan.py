@@ -126,7 +126,7 @@ def _host(h: str) -> str:
 
 
 def _parse(spec: str) -> tuple[str, str, int]:
-    from gcs.endpoints import parse_connection
+    from common.mavlink.endpoints import parse_connection
     try:
         return parse_connection(spec, kinds=("udpin", "udpout", "tcpin"), default_host="0.0.0.0")
     except ValueError as e:

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gcs.frames.batch import rotate
+from common.frames.batch import rotate
 
 BLOCK = 256
 # slots in one row of standard normals

@@ -32,7 +32,7 @@ import threading
 import time
 from dataclasses import replace
 
-from gcs.collector import tune_for_long_run
+from common.collector import tune_for_long_run
 from vehicle.world import World, WorldConfig
 
 READY_TIMEOUT = 300.0     # wall s for a worker to build its share
@@ -73,7 +73,7 @@ def _child(cfg: WorldConfig, conn) -> None:
             loop.add_signal_handler(sig, world.request_stop)
         threading.Thread(target=watch_parent, daemon=True).start()
         await world.run()
-    tune_for_long_run()                  # this share's vehicles are built (gcs/collector.py)
+    tune_for_long_run()                  # this share's vehicles are built (common/collector.py)
     try:
         asyncio.run(main())
     except OSError as e:                 # a port taken after the plan was made

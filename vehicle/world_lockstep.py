@@ -1,6 +1,6 @@
 """The world's side of the lockstep handshake (issue 11): the I/O around the pure gate.
 
-`WorldLockstep` reads TOWERLINK_LOCKSTEP (gcs.lockstep) off every UDP endpoint before the
+`WorldLockstep` reads TOWERLINK_LOCKSTEP (common.mavlink.lockstep) off every UDP endpoint before the
 vehicle's link sees it (the link speaks ardupilotmega; this one message is the world's),
 feeds the gate (vehicle.lockstep), sends the TICKs and waits for the ACKs. The world's
 stepping loop asks :meth:`WorldLockstep.boundary` before every step.
@@ -21,7 +21,7 @@ from __future__ import annotations
 import asyncio
 import time
 
-from gcs import lockstep as wire
+from common.mavlink import lockstep as wire
 from vehicle.lockstep import LockstepGate
 
 TICK_RESEND = 0.5       # wall s without every ACK: TICK again to whoever owes one (UDP may drop either)

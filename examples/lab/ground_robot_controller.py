@@ -15,10 +15,10 @@ edge the bridge publishes from the rover's GPS_GLOBAL_ORIGIN; without it, no goa
 import argparse
 import time
 
-from gcs.dialect import towerlink as tl
-from gcs.frames import LATEST, Buffer, PointStamped, TransformException
-from gcs.modes import ROVER_GUIDED
-from gcs.tf2_ros import DEFAULT_URL, Node, TransformListener
+from common.mavlink.dialect import towerlink as tl
+from common.frames import LATEST, Buffer, PointStamped, TransformException
+from common.mavlink.modes import ROVER_GUIDED
+from common.tf2_ros import DEFAULT_URL, Node, TransformListener
 
 POS_VEL = 0b0000_1100_0000_0000 | 0b0001_1100_0000   # ignore acceleration, yaw, yaw rate
 DT = 0.1                                            # s of drone clock between the two lookups

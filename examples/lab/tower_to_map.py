@@ -10,9 +10,9 @@ static_transform_publisher), and sends the goal in world to the drone.
 """
 import argparse
 
-from gcs.dialect import towerlink as tl
-from gcs.frames import LATEST, Buffer, InvalidArgumentException, PointStamped, TransformException
-from gcs.tf2_ros import DEFAULT_URL, Node, TransformListener
+from common.mavlink.dialect import towerlink as tl
+from common.frames import LATEST, Buffer, InvalidArgumentException, PointStamped, TransformException
+from common.tf2_ros import DEFAULT_URL, Node, TransformListener
 
 TOWER_SYSID = 255
 IGNORE_YAW = 1 << 10

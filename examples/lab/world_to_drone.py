@@ -11,9 +11,9 @@ topic) it broadcasts, stamped with the drone's clock (time_boot_ms, sim seconds)
 """
 import argparse
 
-from gcs.frames import (Transform, TransformException, TransformStamped, euler_from_quaternion,
+from common.frames import (Transform, TransformException, TransformStamped, euler_from_quaternion,
                         quaternion_from_euler)
-from gcs.tf2_ros import DEFAULT_URL, Node, TransformBroadcaster
+from common.tf2_ros import DEFAULT_URL, Node, TransformBroadcaster
 
 
 class WorldToDrone:

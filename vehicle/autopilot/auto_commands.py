@@ -38,7 +38,7 @@ import math
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from gcs.frames.batch import wrap_pi
+from common.frames.batch import wrap_pi
 from vehicle.autopilot.mission_geo import ItemFrameError, has_position, item_alt_z, item_ned
 from vehicle.autopilot.mission_store import MissionItem
 

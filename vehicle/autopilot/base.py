@@ -17,8 +17,8 @@ from collections.abc import Callable
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from gcs import geo
-from gcs.frames import euler_from_quaternion
+from common import geo
+from common.frames import euler_from_quaternion
 from vehicle.autopilot import modes
 from vehicle.autopilot.auto import AutoMode
 from vehicle.autopilot.ekf_origin import EkfOrigin

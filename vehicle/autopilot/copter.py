@@ -23,7 +23,7 @@ import math
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from gcs.frames.batch import wrap_pi
+from common.frames.batch import wrap_pi
 from vehicle.autopilot import modes
 from vehicle.autopilot.base import (ACCEPTED, DENIED, FAILED, SEV_INFO, SEV_WARNING, Autopilot,
                                     UNSUPPORTED)

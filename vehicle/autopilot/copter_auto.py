@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from gcs.frames.batch import wrap_pi
+from common.frames.batch import wrap_pi
 from vehicle.autopilot import modes
 from vehicle.autopilot.guided import GuidedTarget
 from vehicle.autopilot.mission_store import RALLY

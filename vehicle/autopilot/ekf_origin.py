@@ -7,7 +7,7 @@ where it is. So two vehicles that booted 3 m apart each report (0, 0) where they
 
 The autopilot and the fleet work in the SITL world's NED (centred on the world's home,
 `world_origin`); this class converts at the MAVLink edge. The origin is a pure translation
-of the world frame (no rotation: both are north-east-down), computed once with gcs.geo
+of the world frame (no rotation: both are north-east-down), computed once with common.geo
 (ArduPilot's Location math), so local = world - offset exactly, and the bridge's static
 world -> <vehicle>_origin edge (the same translation, from GPS_GLOBAL_ORIGIN) undoes it.
 Units: degrees, metres AMSL (up), NED metres (down positive). Pure: no clocks, no sockets.
@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from gcs import geo
+from common import geo
 
 
 class EkfOrigin:

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from gcs import geo
+from common import geo
 from vehicle.autopilot.mission_store import MissionItem
 
 RETURN_POINT = mav.MAV_CMD_NAV_FENCE_RETURN_POINT

@@ -22,7 +22,7 @@ and so what this does:
 * No valid target: Copter holds (zero velocity), Rover stops.
 
 Frames: everything here is the SITL world's NED (m, z down); the lead's latitude and
-longitude are converted with gcs.geo from the world origin, as every other global target.
+longitude are converted with common.geo from the world origin, as every other global target.
 Pure: the autopilot passes sim time in; no sockets, no clocks.
 """
 from __future__ import annotations
@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gcs import geo
+from common import geo
 
 TIMEOUT = 3.0               # s: AP_FOLLOW_TIMEOUT_MS
 SYSID_TIMEOUT = 10.0        # s: AP_FOLLOW_SYSID_TIMEOUT_MS

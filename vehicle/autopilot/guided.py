@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from gcs.frames.batch import wrap_pi
+from common.frames.batch import wrap_pi
 
 POS_BITS = 0b111
 VEL_BITS = 0b111000

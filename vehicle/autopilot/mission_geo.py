@@ -17,7 +17,7 @@ import math
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from gcs import geo
+from common import geo
 from vehicle.autopilot.mission_store import MissionItem
 
 AMSL = {mav.MAV_FRAME_GLOBAL, mav.MAV_FRAME_GLOBAL_INT}

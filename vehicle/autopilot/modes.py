@@ -1,6 +1,6 @@
 """Flight modes: what each mode allows, HEARTBEAT base_mode flags.
 
-The numbers and names are ArduPilot's and live in gcs/modes.py (the bridge and the tools use
+The numbers and names are ArduPilot's and live in common/mavlink/modes.py (the bridge and the tools use
 them too), so pymavlink's `mode_mapping()` and MAVProxy decode them. Modes we list but do not
 implement are refused with "Mode change to X failed: init failed", as ArduPilot says when a
 mode's init fails. AUTO (both vehicles) is vehicle/autopilot/auto.py; the copter arms in AUTO
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from gcs.modes import (ALT_HOLD, AUTO, BRAKE, COPTER_MODES, FOLLOW, GUIDED, LAND,  # noqa: F401 (re-exported)
+from common.mavlink.modes import (ALT_HOLD, AUTO, BRAKE, COPTER_MODES, FOLLOW, GUIDED, LAND,  # noqa: F401 (re-exported)
                        LOITER, POSHOLD, ROVER_ACRO, ROVER_AUTO, ROVER_FOLLOW, ROVER_GUIDED, ROVER_HOLD,
                        ROVER_LOITER, ROVER_MANUAL, ROVER_MODES, ROVER_RTL, ROVER_SMART_RTL,
                        ROVER_STEERING, RTL, SMART_RTL, STABILIZE, mode_name)

@@ -18,7 +18,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from gcs.frames.batch import wrap_pi, yaw_of
+from common.frames.batch import wrap_pi, yaw_of
 from vehicle.control import shaping
 from vehicle.physics import NumpyOps
 from vehicle.physics.multicopter import GRAVITY

@@ -18,7 +18,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from gcs.frames.batch import wrap_pi, yaw_of
+from common.frames.batch import wrap_pi, yaw_of
 from vehicle.physics import NumpyOps
 
 D2R = math.pi / 180.0

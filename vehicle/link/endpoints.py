@@ -19,8 +19,8 @@ import socket
 import time
 from collections.abc import Callable
 
-from gcs.endpoints import parse_connection
-from gcs.peers import MAX_PEERS, PEER_TIMEOUT, PeerTable
+from common.mavlink.endpoints import parse_connection
+from common.mavlink.peers import MAX_PEERS, PEER_TIMEOUT, PeerTable
 
 VEHICLE_KINDS = ("udpin", "udpout", "tcpin")
 Handler = Callable[[bytes, "Channel"], "bool | None"]
@@ -29,7 +29,7 @@ Handler = Callable[[bytes, "Channel"], "bool | None"]
 
 def parse_endpoint(spec: str) -> tuple[str, str, int]:
     """'udpin:127.0.0.1:14560' -> ('udpin', '127.0.0.1', 14560); an empty host listens on all
-    interfaces. The kinds a vehicle serves; raises ValueError (gcs.endpoints does the parsing)."""
+    interfaces. The kinds a vehicle serves; raises ValueError (common.mavlink.endpoints does the parsing)."""
     return parse_connection(spec, kinds=VEHICLE_KINDS, default_host="0.0.0.0")
 
 
@@ -89,7 +89,7 @@ class UdpIn(Endpoint):
         self.host, self.port, self.on_data = host, port, on_data
         self.transport = None
         self.clock = clock
-        self.peers = PeerTable(peer_timeout, max_peers)   # addr -> its reply Channel (gcs.peers)
+        self.peers = PeerTable(peer_timeout, max_peers)   # addr -> its reply Channel (common.mavlink.peers)
         self.next_expiry = 0.0
         self.dropped_peers = 0
 

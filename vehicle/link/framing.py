@@ -29,7 +29,7 @@ from operator import itemgetter
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from gcs.signing import signature
+from common.mavlink.signing import signature
 
 MAGIC_V2 = 253
 IFLAG_SIGNED = 0x01

@@ -238,7 +238,7 @@ def legacy_xy(item: MissionItem) -> tuple[float, float]:
 
 
 def from_wpl(w, mission_type: int = MISSION) -> tuple[int, MissionItem | None]:
-    """A QGC WPL line (gcs.wpl.WplItem, degrees) as a stored item, checked as an upload would
+    """A QGC WPL line (common.wpl.WplItem, degrees) as a stored item, checked as an upload would
     be: (ACCEPTED, item) or (the MAV_MISSION_RESULT refusing it, None)."""
     result, item = from_legacy(w, mission_type)
     if item is None:

@@ -12,8 +12,8 @@ import numpy as np
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from gcs import geo
-from gcs.frames import euler_from_quaternion
+from common import geo
+from common.frames import euler_from_quaternion
 from vehicle.link.framing import layout
 
 

@@ -36,8 +36,8 @@ from collections import Counter
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from gcs.mavstr import mav_str
-from gcs.signing import SIGNING_EPOCH, UNSIGNED, SignatureCheck
+from common.mavlink.mavstr import mav_str
+from common.mavlink.signing import SIGNING_EPOCH, UNSIGNED, SignatureCheck
 from vehicle.link import ftp
 from vehicle.link.endpoints import Channel, Endpoint, make_endpoint
 from vehicle.link.framing import Framer
@@ -333,7 +333,7 @@ class VehicleLink:
         return True
 
     def _signature_ok(self, m) -> bool:
-        """MAVLink 2 signing (gcs.signing): unsigned, badly signed, replayed and stale
+        """MAVLink 2 signing (common.mavlink.signing): unsigned, badly signed, replayed and stale
         packets are counted and dropped."""
         return self.signature_ok(m.get_msgbuf(), m.get_srcSystem(), m.get_srcComponent())
 

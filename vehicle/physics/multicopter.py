@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gcs.frames.batch import yaw_of
+from common.frames.batch import yaw_of
 from vehicle.physics import NumpyOps
 
 GRAVITY = 9.80665

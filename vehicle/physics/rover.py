@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gcs.frames.batch import wrap_pi
+from common.frames.batch import wrap_pi
 from vehicle.physics import NumpyOps
 
 

@@ -1,6 +1,6 @@
 """Rotation math on many vectors at once: the batch forms beside `Transform` (one value).
 
-Quaternions are (x, y, z, w) rows, as everywhere in gcs.frames; a quaternion maps body (FRD)
+Quaternions are (x, y, z, w) rows, as everywhere in common.frames; a quaternion maps body (FRD)
 vectors into world (NED) for the vehicles. `Transform` is the API for one transform; these are
 for the fleet and for scoring, which rotate (n, 3) arrays every step. Small batches (n <= 8)
 run on floats, since numpy's per-call cost dominates there; larger ones on numpy columns.

@@ -108,6 +108,16 @@ def key_from_text(text: str | None) -> bytes | None:
 
 SIGNING_FLAG = "--signing-key"
 MASK = "***"
+#: how every CLI describes the key it takes
+KEY_FORMS = "64 hex digits, or a passphrase hashed with SHA-256 (as MAVProxy's 'signing setup')"
+
+
+def add_signing_argument(parser, help: str) -> None:
+    """Declare ``--signing-key PASSPHRASE|HEX64`` (default None) on an argparse parser.
+
+    `help` says what is signed; it may use ``{forms}`` for :data:`KEY_FORMS`."""
+    parser.add_argument(SIGNING_FLAG, metavar="PASSPHRASE|HEX64", default=None,
+                        help=help.replace("{forms}", KEY_FORMS))
 
 
 def masked_argv(argv: list[str]) -> list[str]:

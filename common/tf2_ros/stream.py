@@ -9,7 +9,7 @@ counted in ``rejected``, never raised.
 """
 from __future__ import annotations
 
-from gcs.frames import Buffer, TransformStamped
+from common.frames import Buffer, TransformStamped
 
 from .wire import transform_from_message
 
@@ -25,7 +25,7 @@ def reset_edge(buffer: Buffer, ts: TransformStamped, authority: str = "reset") -
     """Drop the history of the dynamic edge ts.frame_id -> ts.child_frame_id.
 
     The Buffer replaces an edge when it switches between static and dynamic
-    (gcs.frames.buffer), so writing it once as static and then dynamic again empties
+    (common.frames.buffer), so writing it once as static and then dynamic again empties
     it without touching any other edge.
     """
     buffer.set_transform_static(ts, authority)

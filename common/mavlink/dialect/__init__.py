@@ -1,6 +1,6 @@
 """The towerlink MAVLink dialect (towerlink.xml, extends ardupilotmega) and helpers.
 
-The module ``gcs.dialect.towerlink`` is generated, not committed (it is over 2 MB):
+The module ``common.mavlink.dialect.towerlink`` is generated, not committed (it is over 2 MB):
 on first use pymavlink's own generator (``pymavlink.generator.mavgen``, language Python,
 wire protocol 2.0) turns ``towerlink.xml`` plus the XML definitions shipped inside the
 installed pymavlink (no network) into a module in a cache directory
@@ -8,12 +8,12 @@ installed pymavlink (no network) into a module in a cache directory
 named by a hash of the XML and the pymavlink version, so an edit to the XML or a new
 pymavlink regenerates it. That costs a few seconds once; afterwards it is an import.
 
-    python -m gcs.dialect            # generate (if needed) and print where it is
-    python -m gcs.dialect --check    # exit 1 if the cached module differs from a fresh run
+    python -m common.mavlink.dialect            # generate (if needed) and print where it is
+    python -m common.mavlink.dialect --check    # exit 1 if the cached module differs from a fresh run
 
 Other tools get a pymavlink connection that decodes (and can send) the dialect with::
 
-    from gcs.dialect import mavlink_connection, towerlink as tl
+    from common.mavlink.dialect import mavlink_connection, towerlink as tl
     conn = mavlink_connection("udpin:127.0.0.1:14600", source_system=255)
     msg = conn.recv_match(type="TOWERLINK_TRANSFORM", blocking=True, timeout=1)
     conn.mav.towerlink_static_transform_send(0, 0, b"world", b"pad", [1, 2, 0], [0, 0, 0, 1])
@@ -149,7 +149,7 @@ def _code(path: Path):
 
 
 def __getattr__(name: str):
-    # PEP 562: `from gcs.dialect import towerlink` generates/loads on first use
+    # PEP 562: `from common.mavlink.dialect import towerlink` generates/loads on first use
     if name == "towerlink":
         return load()
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

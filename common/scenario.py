@@ -1,12 +1,12 @@
 """Scenario files: static frames, the tower's goals and the follow settings.
 
-A scenario is TOML (see gcs/scenarios/default.toml). Its static frames are
+A scenario is TOML (see common/scenarios/default.toml). Its static frames are
 written exactly like static_transform_publisher arguments, and this module holds
 the one parser for that form, used by the loader and by
 `towerlink static-transform`.
 
 Vehicles. The lab has one drone (frame ``drone``, sysid 1) and its rover (``rover``,
-sysid 2). A scenario may instead list a family (gcs/scenarios/family.toml)::
+sysid 2). A scenario may instead list a family (common/scenarios/family.toml)::
 
     [[drones]]                 # one table per drone, in sysid order (1, 2, ...)
     name = "drone1"            # its frame id (and drone1_yaw)
@@ -14,7 +14,7 @@ sysid 2). A scenario may instead list a family (gcs/scenarios/family.toml)::
     rover = "rover1"           # the rover that follows it (omit: none)
     goals = [[x, y], ...]      # its own queue of goals, in mission.goal_frame
 
-and mount the tower on a van (gcs/scenarios/van.toml): ``[van]`` names a rover that
+and mount the tower on a van (common/scenarios/van.toml): ``[van]`` names a rover that
 drives a route of its own (world NED [x, y], looped) and the tower is a static child
 of the van frame, so world -> tower changes as the van drives and turns.
 
@@ -22,7 +22,7 @@ Sysids follow `towerlink sitl --drones N --rovers M`: drones first (1..N), then 
 following rovers in their drones' order, then the van. Separation (see
 :func:`check_separation`): two drones fly altitude layers at least
 ``mission.min_separation`` m apart, or paths (start and goals, world) that far apart in the
-horizontal (gcs/family_plan.py generates 100 drones in lanes on two layers).
+horizontal (common/family_plan.py generates 100 drones in lanes on two layers).
 """
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
-from gcs.frames import (Buffer, InvalidArgumentException, Transform,
+from common.frames import (Buffer, InvalidArgumentException, Transform,
                            TransformStamped)
 
 DEFAULT_SCENARIO = Path(__file__).with_name("scenarios") / "default.toml"
@@ -160,7 +160,7 @@ class Scenario:
 
 
 def shipped_scenarios() -> list[str]:
-    """Names of the scenarios shipped in gcs/scenarios (``towerlink fly NAME``)."""
+    """Names of the scenarios shipped in common/scenarios (``towerlink fly NAME``)."""
     return sorted(p.stem for p in DEFAULT_SCENARIO.parent.glob("*.toml"))
 
 
@@ -286,7 +286,7 @@ def check_separation(sc: Scenario) -> str | None:
     """Why two drones of the plan could come closer than min_separation (None if they cannot).
 
     Each drone flies its whole queue at its own altitude layer, from where the world boots
-    it (gcs.family_plan.drone_start) through its goals. Two drones whose layers are at least
+    it (common.family_plan.drone_start) through its goals. Two drones whose layers are at least
     min_separation apart never meet; two closer layers (the same one, say) are allowed only
     when their paths keep min_separation apart in the horizontal (world frame, the goals
     resolved through the scenario's static frames). A goal frame on a moving vehicle (the
@@ -314,8 +314,8 @@ def check_separation(sc: Scenario) -> str | None:
 def _world_paths(sc: Scenario) -> list[list[tuple[float, float]]] | None:
     """Each drone's horizontal path in world (start, then its goals), or None if the goal
     frame does not hang on world by static frames."""
-    from gcs.family_plan import drone_start
-    from gcs.frames import TransformException
+    from common.family_plan import drone_start
+    from common.frames import TransformException
     if len(sc.drones) < 2:
         return []
     try:

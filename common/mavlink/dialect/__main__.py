@@ -1,9 +1,9 @@
-"""python -m gcs.dialect [--check] [--output PATH] [--install]: generate the dialect module with mavgen.
+"""python -m common.mavlink.dialect [--check] [--output PATH] [--install]: generate the dialect module with mavgen.
 
 --install puts the dialect where pymavlink's own tools look for one (pymavlink/dialects/v20/
 towerlink.xml and .py in the installed pymavlink), so they decode TOWERLINK_* messages:
 
-    python -m gcs.dialect --install
+    python -m common.mavlink.dialect --install
     MAVLINK20=1 mavlogdump.py --dialect towerlink --types TOWERLINK_TRANSFORM runs/<run>/bridge.tlog
 """
 from __future__ import annotations
@@ -33,7 +33,7 @@ def install_into_pymavlink() -> list[Path]:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m gcs.dialect", description=__doc__)
+    p = argparse.ArgumentParser(prog="python -m common.mavlink.dialect", description=__doc__)
     p.add_argument("--check", action="store_true",
                    help="compare the cached module with a fresh mavgen run; exit 1 if different")
     p.add_argument("--output", help="also write a copy here")
@@ -55,7 +55,7 @@ def main(argv=None) -> int:
             for f in install_into_pymavlink():
                 print(f"installed {f}")
         except OSError as exc:
-            print(f"python -m gcs.dialect: cannot install into pymavlink: {exc}", file=sys.stderr)
+            print(f"python -m common.mavlink.dialect: cannot install into pymavlink: {exc}", file=sys.stderr)
             return 1
     print(f"dialect module: {path}")
     return 0

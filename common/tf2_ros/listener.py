@@ -2,7 +2,7 @@
 
 ``TransformListener(buffer, node)`` subscribes to TOWERLINK_TRANSFORM on the node's
 link; the node's background thread (tf2_ros's listener thread) feeds each one into
-the buffer through :class:`~gcs.tf2_ros.stream.TransformStream`. ``node`` may be a
+the buffer through :class:`~common.tf2_ros.stream.TransformStream`. ``node`` may be a
 connection string, for which the listener makes a node of its own (closed by
 :meth:`close`). Callbacks added with :meth:`add_callback` run after each transform
 goes in (the MessageFilter re-checks its queue there).
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from gcs.frames import Buffer
+from common.frames import Buffer
 
 from .node import Node
 from .stream import TransformStream

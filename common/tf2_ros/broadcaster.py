@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from gcs.frames import TransformStamped
+from common.frames import TransformStamped
 
 from .node import Node
 from .wire import transform_message

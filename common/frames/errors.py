@@ -19,7 +19,7 @@ from __future__ import annotations
 
 
 class TransformException(Exception):
-    """Base of every error raised by :mod:`gcs.frames`."""
+    """Base of every error raised by :mod:`common.frames`."""
 
 
 class LookupException(TransformException):

@@ -2,8 +2,8 @@
 
 The names and behaviour of tf2_ros, usable from any Python process::
 
-    from gcs.frames import Buffer, PointStamped, Transform, TransformStamped
-    from gcs.tf2_ros import (Node, TransformBroadcaster, StaticTransformBroadcaster,
+    from common.frames import Buffer, PointStamped, Transform, TransformStamped
+    from common.tf2_ros import (Node, TransformBroadcaster, StaticTransformBroadcaster,
                              TransformListener, MessageFilter)
 
     node = Node("camera_node", "udpout:127.0.0.1:14620")   # a bridge's node link (--nodes)

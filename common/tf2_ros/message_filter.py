@@ -2,7 +2,7 @@
 
 Semantics (tf2_ros/message_filter.h, ROS 2):
 
-* ``add(msg)``: `msg` is stamped data (gcs.frames PointStamped, VectorStamped,
+* ``add(msg)``: `msg` is stamped data (common.frames PointStamped, VectorStamped,
   PoseStamped, or anything with ``frame_id`` and ``stamp``). If the buffer can transform
   ``msg.frame_id`` into the target frame at ``msg.stamp`` now, the callbacks get it at
   once; otherwise it waits in the queue.
@@ -33,7 +33,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from gcs.frames import (LATEST, Buffer, ExtrapolationException, PointStamped, PoseStamped,
+from common.frames import (LATEST, Buffer, ExtrapolationException, PointStamped, PoseStamped,
                         TransformException, VectorStamped)
 
 

@@ -1,9 +1,9 @@
 """towerlink's frame library: rigid transforms and a tf2-grade, time-aware buffer.
 
 Pure (numpy/scipy only): no sockets, no clocks, no MAVLink. tf2 names and
-semantics; quaternions are (x, y, z, w). See :mod:`gcs.frames.buffer` for the
-buffer's semantics, :mod:`gcs.frames.transform` for the math of one transform and
-:mod:`gcs.frames.batch` for the same math on (n, 4) / (n, 3) arrays.
+semantics; quaternions are (x, y, z, w). See :mod:`common.frames.buffer` for the
+buffer's semantics, :mod:`common.frames.transform` for the math of one transform and
+:mod:`common.frames.batch` for the same math on (n, 4) / (n, 3) arrays.
 """
 from .buffer import Buffer, EdgeStats
 from .errors import (ConnectivityException, ExtrapolationException,

@@ -67,8 +67,8 @@ class Node:
     def __init__(self, name: str, url: str = DEFAULT_URL, *, source_system: int = NODE_SYSID,
                  source_component: int | None = None, heartbeat: bool = True,
                  log: Callable[[str], None] | None = None) -> None:
-        from gcs.dialect import mavlink_connection
-        from gcs.dialect import towerlink as tl
+        from common.mavlink.dialect import mavlink_connection
+        from common.mavlink.dialect import towerlink as tl
 
         os.environ.setdefault("MAVLINK20", "1")
         self.name = name

@@ -1,6 +1,6 @@
 """TOWERLINK_TRANSFORM / TOWERLINK_STATIC_TRANSFORM on the wire (the one home of this encoding).
 
-Used by the nodes (gcs.tf2_ros) and by the bridge (bridge.codec re-exports these).
+Used by the nodes (common.tf2_ros) and by the bridge (bridge.codec re-exports these).
 Frame ids are at most 16 bytes on the wire (char[16]); a longer id is a ValueError,
 never silently cut. Stamps are seconds on the sender's timeline (sim time), sent as
 microseconds; a negative or non-finite stamp is a ValueError.
@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import math
 
-from gcs.dialect import towerlink as tl
-from gcs.frames import Transform, TransformStamped
-from gcs.mavstr import mav_str
+from common.mavlink.dialect import towerlink as tl
+from common.frames import Transform, TransformStamped
+from common.mavlink.mavstr import mav_str
 
 STATIC_FLAG = tl.TOWERLINK_TRANSFORM_FLAGS_STATIC
 FRAME_ID_LEN = 16
@@ -43,7 +43,7 @@ def transform_message(ts: TransformStamped, static: bool = False):
 def transform_from_message(msg) -> tuple[TransformStamped, bool]:
     """(TransformStamped, is_static) from a decoded TOWERLINK_TRANSFORM or TOWERLINK_STATIC_TRANSFORM.
 
-    Raises TransformException (gcs.frames) for a rotation that is not a quaternion or
+    Raises TransformException (common.frames) for a rotation that is not a quaternion or
     non-finite numbers.
     """
     stamp = getattr(msg, "time_usec", 0) / 1e6

@@ -1,8 +1,8 @@
 """TOWERLINK_LOCKSTEP (43005) on the wire, without the generated dialect (pure: no sockets, no clocks).
 
-The simulated vehicle may not import the generated dialect module (gcs.dialect), so the
+The simulated vehicle may not import the generated dialect module (common.mavlink.dialect), so the
 world packs and reads this one message here; tests/test_lockstep.py checks these bytes
-against gcs.dialect.towerlink (the same CRC_EXTRA, field order and lengths).
+against common.mavlink.dialect.towerlink (the same CRC_EXTRA, field order and lengths).
 
 The handshake (issue 11, docs/ARCHITECTURE.md "Lockstep"):
 
@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 from pymavlink.generator.mavcrc import x25crc
 
-from gcs.signing import signature
+from common.mavlink.signing import signature
 
 MSG_ID = 43005
 CRC_EXTRA = 32                  # mavgen's seed for TOWERLINK_LOCKSTEP (checked against the dialect)
@@ -58,7 +58,7 @@ def pack(kind: int, time_usec: int, *, participant: int = WORLD, target_system: 
     """One MAVLink 2 frame of TOWERLINK_LOCKSTEP (trailing zero bytes trimmed).
 
     signing: (secret key, link_id, timestamp in 10 us units since 2015) signs the frame as
-    MAVLink 2 does (gcs.signing checks it); None: unsigned."""
+    MAVLink 2 does (common.mavlink.signing checks it); None: unsigned."""
     payload = _PAYLOAD.pack(int(time_usec) & 0xFFFFFFFFFFFFFFFF, int(period_usec) & 0xFFFFFFFF,
                             target_system & 0xFF, kind & 0xFF, participant & 0xFF)
     n = len(payload)
@@ -95,7 +95,7 @@ def unpack(data: bytes) -> tuple[Lockstep | None, bytes]:
 
     Returns (None, data) for anything else (another message, a bad CRC, a short frame):
     the caller hands those bytes on unchanged. Signed frames are read; the signature is
-    the receiver's to check (gcs.signing on ``data[:len(data) - len(rest)]``)."""
+    the receiver's to check (common.mavlink.signing on ``data[:len(data) - len(rest)]``)."""
     if not is_lockstep(data):
         return None, data
     n, incompat = data[1], data[2]
