@@ -28,8 +28,8 @@ class Flight:
         self.texts: list[tuple[float, int, str]] = []
         self.reached: list[tuple[float, int]] = []
         self.track: list[tuple[float, np.ndarray, np.ndarray, int]] = []   # t, pos, vel, mission seq
-        self.ap.text = lambda sev, msg: self.texts.append((self.world.t, sev, msg))
-        self.ap.item_reached = lambda seq: self.reached.append((self.world.t, seq))
+        self.ap.outbox.subscribe(text=lambda sev, msg: self.texts.append((self.world.t, sev, msg)),
+                                 item_reached=lambda seq: self.reached.append((self.world.t, seq)))
         for k, val in (params or {}).items():
             assert self.ap.params.set(k, val, save=False) is None, k
             self.ap.push_params({k: val})

@@ -56,7 +56,7 @@ def rover():
     w = _world(drones=0, rovers=1)
     ap = w.vehicles[0].ap
     texts = []
-    ap.text = lambda sev, t: texts.append(t)
+    ap.outbox.subscribe(text=lambda sev, t: texts.append(t))
     return w, ap, texts
 
 
@@ -176,7 +176,7 @@ def test_copter_fs_gcs_enable_actions(enable, mode):
     w = _world()
     ap = _fly(w, alt=5.0)
     texts = []
-    ap.text = lambda sev, t: texts.append(t)
+    ap.outbox.subscribe(text=lambda sev, t: texts.append(t))
     for name, v in (("FS_GCS_ENABLE", enable), ("FS_GCS_TIMEOUT", 2)):
         assert ap.params.set(name, v, save=False) is None
     ap.gcs_heartbeat()
@@ -193,7 +193,7 @@ def test_copter_fs_gcs_smartrtl_falls_back_without_a_path(enable, fallback, why)
     w = _world()
     ap = _fly(w, alt=5.0)
     texts = []
-    ap.text = lambda sev, t: texts.append(t)
+    ap.outbox.subscribe(text=lambda sev, t: texts.append(t))
     ap.srtl.deactivate("bad position")               # the path is unusable
     for name, v in (("FS_GCS_ENABLE", enable), ("FS_GCS_TIMEOUT", 2)):
         assert ap.params.set(name, v, save=False) is None
@@ -220,7 +220,7 @@ def test_copter_fs_gcs_disabled_silent_gcs_changes_nothing():
     ap = _fly(w, alt=5.0)
     assert ap.params["FS_GCS_ENABLE"] == 0
     texts = []
-    ap.text = lambda sev, t: texts.append(t)
+    ap.outbox.subscribe(text=lambda sev, t: texts.append(t))
     ap.gcs_heartbeat()
     here = ap.pos.copy()
     w.run_for(30)                       # six FS_GCS_TIMEOUTs of silence

@@ -144,7 +144,7 @@ def _world(drones=1, rovers=0, **params) -> World:
     _until(w, lambda: all(v.ap.est_ok and v.ap.home is not None for v in w.vehicles), 10)
     for v in w.vehicles:
         v.texts = []
-        v.ap.text = (lambda texts: lambda sev, t: texts.append((sev, t)))(v.texts)
+        v.ap.outbox.subscribe(text=(lambda texts: lambda sev, t: texts.append((sev, t)))(v.texts))
     return w
 
 

@@ -62,7 +62,7 @@ def test_follow_refused_without_foll_enable_and_accepted_with_it():
     w = world()
     d, r = w.vehicles[0].ap, w.vehicles[1].ap
     texts = []
-    d.text = lambda sev, msg: texts.append(msg)
+    d.outbox.subscribe(text=lambda sev, msg: texts.append(msg))
     w.run_for(3.0)
     assert not d.set_mode(23) and "Set FOLL_ENABLE = 1" in texts
     assert not r.set_mode(6)

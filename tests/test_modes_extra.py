@@ -156,7 +156,7 @@ def test_smart_rtl_refused_without_a_path_as_arducopter():
     w = _world()
     ap = _fly(w, alt=5.0)
     texts = []
-    ap.text = lambda sev, t: texts.append(t)
+    ap.outbox.subscribe(text=lambda sev, t: texts.append(t))
     ap.srtl.deactivate("buffer full")
     assert not ap.set_mode(modes.SMART_RTL)
     assert texts == ["SmartRTL deactivated: buffer full", "Mode change to SMART_RTL failed: init failed"]
@@ -191,7 +191,7 @@ def test_copter_fence_actions_smartrtl_and_brake(action, usable, mode, said):
     w = _world()
     ap = _fly(w, alt=5.0)
     texts = []
-    ap.text = lambda sev, t: texts.append(t)
+    ap.outbox.subscribe(text=lambda sev, t: texts.append(t))
     if not usable:
         ap.srtl.deactivate("bad position")
         texts.clear()
@@ -254,7 +254,7 @@ def test_rover_smart_rtl_retraces_and_says_reached_destination():
     w = _world(drones=0, rovers=1)
     ap = w.vehicles[0].ap
     texts = []
-    ap.text = lambda sev, t: texts.append(t)
+    ap.outbox.subscribe(text=lambda sev, t: texts.append(t))
     assert ap.set_mode(modes.ROVER_GUIDED) and ap.arm() == A.MAV_RESULT_ACCEPTED
     start = ap.pos.copy()
     legs = [start + d for d in (np.array([30, 0, 0]), np.array([30, 30, 0]))]

@@ -45,8 +45,8 @@ def fly(legs=LEGS_M) -> dict:
     ap = w.vehicles[0].ap
     texts: list[tuple[float, str]] = []
     reached: list[tuple[float, int]] = []
-    ap.text = lambda sev, msg: texts.append((w.t, msg))
-    ap.item_reached = lambda seq: reached.append((w.t, seq))
+    ap.outbox.subscribe(text=lambda sev, msg: texts.append((w.t, msg)),
+                        item_reached=lambda seq: reached.append((w.t, seq)))
 
     def at(n, e, cmd=mav.MAV_CMD_NAV_WAYPOINT, alt=ALT):
         lat, lon, _ = geo.ned_to_lla(w.cfg.home, [n, e, 0.0])

@@ -27,6 +27,7 @@ from vehicle.autopilot.fence import Fence
 from vehicle.autopilot.follow_mode import Follow
 from vehicle.autopilot.guided import GuidedTarget, TargetError, decode_global, decode_local
 from vehicle.autopilot.mission_store import MissionStore
+from vehicle.autopilot.outbox import Outbox
 from vehicle.autopilot.params import ParamStore
 from vehicle.autopilot.reposition import RepositionDenied
 from vehicle.autopilot.reposition import decode as decode_reposition
@@ -71,7 +72,7 @@ class Autopilot:
     auto_mode = -1
 
     def __init__(self, fleet, index: int, params: ParamStore, origin: tuple[float, float, float],
-                 start_ned, text: Callable[[int, str], None] | None = None,
+                 start_ned, outbox: Outbox | None = None,
                  push_params: Callable[[dict], None] | None = None,
                  missions: MissionStore | None = None) -> None:
         self.fleet = fleet
@@ -83,7 +84,8 @@ class Autopilot:
         self.start_ned = np.asarray(start_ned, float)
         # local NED (LOCAL_POSITION_NED, local targets) is centred here, set at the first fix
         self.local_origin = EkfOrigin(origin)
-        self.text = text or (lambda sev, msg: None)
+        # STATUSTEXT and MISSION_ITEM_REACHED go out through here (the links subscribe)
+        self.outbox = outbox if outbox is not None else Outbox()
         # parameter changes (PARAM_SET, DO_CHANGE_SPEED) reach this vehicle's index only
         self.push_params = push_params or (lambda p: fleet.set_params(p, i=index))
         self.t = 0.0
@@ -104,11 +106,18 @@ class Autopilot:
         self.arm_time = 0.0
         # missions, fence and rally points; the link fills the store, the runner flies it
         self.missions = missions if missions is not None else MissionStore()
-        self.item_reached: Callable[[int], None] = lambda seq: None   # -> MISSION_ITEM_REACHED
         self.auto = AutoMode(self)
         self.fence = Fence(self)
         self.follow = Follow(params, lambda: self.sysid, origin)     # FOLLOW mode's lead
         self.refresh()
+
+    def text(self, severity: int, message: str) -> None:
+        """Say a STATUSTEXT (through the outbox)."""
+        self.outbox.text(severity, message)
+
+    def item_reached(self, seq: int) -> None:
+        """Say MISSION_ITEM_REACHED for item `seq` (through the outbox)."""
+        self.outbox.item_reached(seq)
 
     # ----- state read-back ------------------------------------------------------------
     def refresh(self) -> None:
@@ -172,8 +181,8 @@ class Autopilot:
         """Start this autopilot afresh, as a reboot would: parameters re-read from where they
         are kept (SYSID_THISMAV included), disarmed, initial mode, no home, no targets. The
         vehicle stays where it is; the stored missions (the vehicle's eeprom) are kept; the
-        hooks the link and world set (text, push_params, item_reached) are kept."""
-        hooks = {k: self.__dict__[k] for k in ("text", "push_params", "item_reached") if k in self.__dict__}
+        collaborators it was built with (its outbox, push_params) are kept."""
+        hooks = {k: self.__dict__[k] for k in ("outbox", "push_params")}
         battery = self.battery          # the pack is hardware: a reboot does not recharge it
         battery.reboot()
         args = (self.fleet, self.i, self.params, self.origin, self.start_ned)

@@ -34,7 +34,7 @@ class MissionLink:
             store=ap.missions, home_item=lambda: home_item(*ap.home_lla()),
             running=lambda: ap.mission_current()[1] == mav.MISSION_STATE_ACTIVE,
             current_seq=self._current_seq, stored=lambda t: ap.mission_uploaded(t))
-        ap.item_reached = self.item_reached
+        ap.outbox.subscribe(item_reached=self.item_reached)
 
     def _current_seq(self) -> int:
         seq, state = self.link.ap.mission_current()

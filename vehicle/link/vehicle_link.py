@@ -107,7 +107,7 @@ class VehicleLink:
             self._sign_check = SignatureCheck(signing_key, clock=self.mav.signing)
         self.missions = MissionLink(self)      # mission / fence / rally protocol
         self._rebuild_schedule()
-        ap.text = self.statustext
+        ap.outbox.subscribe(text=self.statustext)
         ap.params.deferred = True              # saved once a tick by update(), and at close()
 
     def _parser(self):
@@ -454,7 +454,6 @@ class VehicleLink:
         forgets message intervals and queued replies. Peers and the world clock stay (the
         world's clock is every vehicle's time_boot_ms, so it does not restart)."""
         self.ap.reboot()
-        self.ap.text = self.statustext
         self.mav.srcSystem = self.ap.sysid
         self.intervals.clear()
         self._origin_sent = None               # a new boot says its EKF origin again
