@@ -1,0 +1,157 @@
+"""Telemetry streams, the link capability: which message goes out when, and the requests
+that change it.
+
+The schedule: HEARTBEAT at 1 Hz, each SR0_* stream group at its parameter's rate
+(vehicle/link/telemetry.py: STREAM_GROUPS), and MAV_CMD_SET_MESSAGE_INTERVAL's per-message
+intervals over both (-1 disables a message, 0 restores its default). REQUEST_DATA_STREAM sets
+the SR0_* parameters (not saved), as ArduPilot does. MAV_CMD_GET_MESSAGE_INTERVAL,
+MAV_CMD_REQUEST_MESSAGE and MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES answer after their ACK.
+
+Streams are framed without message objects (vehicle/link/framing.py) and only while an
+endpoint has someone to hear them; the messages of one tick go out together. A reboot
+forgets the message intervals.
+"""
+from __future__ import annotations
+
+import math
+
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+from vehicle.link.command_link import Command, CommandLink
+from vehicle.link.link_core import LinkCore
+from vehicle.link.telemetry import DATA_STREAMS, STREAM_GROUPS, Telemetry
+
+MAX_INTERVAL_US = 2**31 - 1   # MESSAGE_INTERVAL.interval_us is an int32
+
+
+class StreamLink:
+    def __init__(self, core: LinkCore, params, telemetry: Telemetry, commands: CommandLink) -> None:
+        """params: the vehicle's ParamStore (SR0_* rates); telemetry builds the messages."""
+        self.core = core
+        self.params = params
+        self.telemetry = telemetry
+        self.intervals: dict[int, float] = {}     # msgid -> seconds; <0 disabled (SET_MESSAGE_INTERVAL)
+        self.next_due: dict[int, float] = {}
+        self.schedule: dict[int, float] = {}
+        self.next_any = -math.inf                 # earliest next_due (a lower bound; -inf: scan)
+        self.rebuild()
+        core.register("REQUEST_DATA_STREAM", self.on_request_data_stream)
+        for cmd in (mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAV_CMD_GET_MESSAGE_INTERVAL,
+                    mav.MAV_CMD_REQUEST_MESSAGE, mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES):
+            commands.register(cmd, self.command)
+        core.on_tick(self.update)
+        core.on_reboot(self.forget)
+
+    def rebuild(self) -> None:
+        """The schedule from the SR0_* parameters and the message intervals (after either changed)."""
+        sched: dict[int, float] = {mav.MAVLINK_MSG_ID_HEARTBEAT: 1.0}
+        for group, ids in STREAM_GROUPS.items():
+            hz = float(self.params.get(group, 0) or 0)
+            if hz > 0:
+                for i in ids:
+                    sched[i] = min(sched.get(i, math.inf), 1.0 / hz)
+        for i, iv in self.intervals.items():
+            if iv < 0:
+                sched.pop(i, None)
+            else:
+                sched[i] = iv
+        self.schedule = sched
+        now = self.core.clock()
+        for i in list(self.next_due):
+            if i not in sched:
+                del self.next_due[i]
+        for i in sched:
+            self.next_due.setdefault(i, now)
+        self.next_any = -math.inf          # recompute the earliest due time on the next update
+
+    def forget(self) -> None:
+        """A reboot: the message intervals are gone."""
+        self.intervals.clear()
+        self.rebuild()
+
+    def update(self, t: float) -> None:
+        """Send whatever is due at sim time t (called at the autopilot rate). The messages of
+        one tick go out together: one UDP datagram (MAVLink allows several frames per
+        datagram; ArduPilot's UDP output does the same), one TCP write."""
+        if t + 1e-9 < self.next_any:       # most ticks nothing is due: skip the scan (1,000 vehicles)
+            return
+        core = self.core
+        due = self.next_due
+        batch = []
+        first = math.inf
+        # streams nobody can hear (no udpin peer, no TCP client yet) are not built: their
+        # schedule runs on, the sequence number waits for a listener
+        frame = self.telemetry.frame if core.listened() else None
+        link_mav = core.mav
+        for msgid, interval in self.schedule.items():
+            nd = due[msgid]
+            if t + 1e-9 >= nd:
+                buf = frame(msgid) if frame is not None else None
+                if buf is not None:
+                    batch.append(buf)
+                    link_mav.seq = (link_mav.seq + 1) % 256
+                nd += interval
+                nd = due[msgid] = nd if nd > t else t + interval
+            if nd < first:
+                first = nd
+        self.next_any = first
+        if batch:
+            core.send_frames(batch)
+
+    def on_request_data_stream(self, m, ch) -> None:
+        rate = m.req_message_rate if m.start_stop else 0
+        groups = list(DATA_STREAMS.values()) if m.req_stream_id == mav.MAV_DATA_STREAM_ALL \
+            else [DATA_STREAMS.get(m.req_stream_id)]
+        for g in groups:
+            if g is not None:
+                self.params.set(g, min(max(rate, 0), 50), save=False)
+        self.rebuild()
+
+    def command(self, c: Command) -> int:
+        """MAV_CMD_SET_MESSAGE_INTERVAL, GET_MESSAGE_INTERVAL, REQUEST_MESSAGE and
+        REQUEST_AUTOPILOT_CAPABILITIES, as ArduPilot answers them."""
+        cmd, p = c.command, c.params
+        if not all(math.isfinite(v) for v in p[:2]):
+            return mav.MAV_RESULT_DENIED
+        builders = self.telemetry.builders
+        if cmd == mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
+            if p[0] != 1:                  # ArduPilot: param1 1 asks for the version
+                return mav.MAV_RESULT_FAILED
+            c.after_ack.append(self.telemetry.autopilot_version())
+            return mav.MAV_RESULT_ACCEPTED
+        if not 0 <= p[0] <= 2**24 - 1:          # MAVLink 2 message ids are 24 bits
+            return mav.MAV_RESULT_DENIED
+        msgid = int(p[0])
+        if cmd == mav.MAV_CMD_REQUEST_MESSAGE:
+            # ArduPilot: an id it has no ap_message for -> FAILED; a known one -> ACCEPTED, and
+            # the message follows when there is one to send (HOME_POSITION / GPS_GLOBAL_ORIGIN
+            # before home / the origin are set: ACCEPTED, nothing sent)
+            if msgid not in builders:
+                return mav.MAV_RESULT_FAILED
+            msg = self.telemetry.build(msgid)
+            if msg is not None:
+                c.after_ack.append(msg)
+            return mav.MAV_RESULT_ACCEPTED
+        if cmd == mav.MAV_CMD_GET_MESSAGE_INTERVAL:
+            if msgid not in builders:
+                return mav.MAV_RESULT_DENIED
+            iv = self.schedule.get(msgid)
+            c.after_ack.append(mav.MAVLink_message_interval_message(msgid, -1 if iv is None else int(iv * 1e6)))
+            return mav.MAV_RESULT_ACCEPTED
+        return self._set_interval(msgid, p[1])
+
+    def _set_interval(self, msgid: int, us: float) -> int:
+        """SET_MESSAGE_INTERVAL: `us` the interval in microseconds; -1 disable; 0 default."""
+        if msgid not in self.telemetry.builders or msgid == mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
+            self.core.statustext(mav.MAV_SEVERITY_INFO, f"No ap_message for mavlink id ({msgid})"[:50])
+            return mav.MAV_RESULT_DENIED
+        if us > MAX_INTERVAL_US:
+            return mav.MAV_RESULT_DENIED
+        if us == 0:
+            self.intervals.pop(msgid, None)
+        elif us < 0:
+            self.intervals[msgid] = -1.0
+        else:
+            self.intervals[msgid] = max(us * 1e-6, 0.001)
+        self.rebuild()
+        return mav.MAV_RESULT_ACCEPTED
