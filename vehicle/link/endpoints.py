@@ -40,7 +40,6 @@ class Channel:
     def __init__(self, name: str, sender: Callable[[bytes], None]) -> None:
         self.name = name
         self._send = sender
-        self.parser = None          # set by the link on first use (TCP only)
         self.closed = False         # the peer was dropped (its queued replies are discarded)
 
     def send(self, buf: bytes) -> None:

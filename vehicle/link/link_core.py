@@ -1,16 +1,20 @@
-"""The link core of one vehicle: endpoints, parsing, signing, routing, sending, pacing.
+"""The link core of one vehicle: endpoints, parsing, signing, routing, sending, the stream
+schedule and the pacing of replies.
 
-What the core does not know is what the messages mean: each capability (parameters,
-commands, missions, telemetry streams, files, position targets: vehicle/link/*_link.py and
-streams.py) registers the message types it handles, the work it does every autopilot tick
-and what it forgets at a reboot, as MAVSDK's plugins sit on its core. The core routes every
-message that passed its checks to the one capability that registered its type.
+What the core does not know is what the messages mean: each capability (vehicle/link/
+stream_link.py, command_link.py, param_link.py, mission_link.py, ftp_link.py,
+position_link.py) registers the message types it handles, the work it does every autopilot
+tick and what it forgets at a reboot, as MAVSDK's plugins sit on its core. The core routes
+every message that passed its checks to the one capability that registered its type.
 
-Parsing: pymavlink's MAVLink 2 parser in robust mode, one parser per TCP client, and a
-fresh parse of every UDP datagram (a datagram that ends inside a frame counts as truncated).
-Dropped and counted in `stats`: garbage bytes (bad prefix), bad CRC, bad length, truncated
-frames, unknown message ids, messages for another system, and (when signing is on) unsigned
-or badly signed packets. Counters also go out once a second as NAMED_VALUE_INT
+Streams: the core sends every message of `set_schedule`'s schedule when it is due, framed by
+the source given to `stream_from` (the telemetry) and only while an endpoint has someone to
+hear it (a udpin peer, a TCP client, a udpout target); the messages due in one tick go out
+in one write.
+
+Parsing (vehicle/link/parsing.py): dropped and counted in `stats` are garbage bytes (bad
+prefix), bad CRC, bad length, truncated frames, unknown message ids, messages for another
+system, and (when signing is on) unsigned or badly signed packets. Counters also go out once a second as NAMED_VALUE_INT
 once non-zero (names in STAT_NAMES).
 
 Replies go back on the channel a request came from (`send(msg, channel)`); broadcasts
@@ -31,6 +35,7 @@ are whole packets, a TCP chunk is a piece of a stream.
 """
 from __future__ import annotations
 
+import math
 import time
 import traceback
 from collections import Counter
@@ -42,6 +47,7 @@ from common.mavlink.signing import SIGNING_EPOCH, UNSIGNED, SignatureCheck
 from vehicle.link.endpoints import Channel, Endpoint, make_endpoint, parse_endpoint
 from vehicle.link.framing import Framer
 from vehicle.link.paced_queue import PacedQueue
+from vehicle.link.parsing import ChunkParser, NullFile, rejected
 
 COMP_ID = mav.MAV_COMP_ID_AUTOPILOT1
 
@@ -75,18 +81,6 @@ def statustext_message(severity: int, text: str):
     return mav.MAVLink_statustext_message(severity, text.encode("ascii", "replace")[:50], 0, 0)
 
 
-class _Out:
-    """pymavlink encoder needs a file; we pack ourselves, so nothing is written."""
-    def write(self, b):
-        pass
-
-
-def _parser():
-    p = mav.MAVLink(_Out(), srcSystem=0, srcComponent=0)
-    p.robust_parsing = True
-    return p
-
-
 class LinkCore:
     TEXTS_PER_CHUNK = 30      # ArduPilot's STATUSTEXT queue: what does not fit is dropped
 
@@ -96,14 +90,20 @@ class LinkCore:
         self.clock = clock                    # () -> sim seconds since world start
         self.specs = list(endpoints)
         self.endpoints: list[Endpoint] = [make_endpoint(s, self._receiver(s, intake)) for s in endpoints]
-        self.mav = mav.MAVLink(_Out(), srcSystem=sysid, srcComponent=COMP_ID)
+        self.mav = mav.MAVLink(NullFile(), srcSystem=sysid, srcComponent=COMP_ID)
         self.framer = Framer(self.mav)         # streams: packed without message objects
-        self.udp_parser = _parser()
         self.stats: Counter = Counter()
+        self.parser = ChunkParser(self.stats)
         self.signing_key = signing_key
         self.outboxes: dict[Channel, PacedQueue] = {}   # paced replies per peer
         self.handlers: dict[str, MessageHandler] = {"TIMESYNC": self._on_timesync}
-        self._ticks: list[Callable[[float], None]] = []
+        self._ticks: list[Callable[[], None]] = []
+        # the streams: msgid -> interval (s), msgid -> next due (sim s), the earliest of those
+        # (a lower bound; -inf: scan), and what frames them (stream_from)
+        self.schedule: dict[int, float] = {}
+        self.next_due: dict[int, float] = {}
+        self.next_any = -math.inf
+        self._stream_source = None
         self._reboot_hooks: list[Callable[[], None]] = []
         self._close_hooks: list[Callable[[], None]] = []
         if signing_key:
@@ -126,9 +126,26 @@ class LinkCore:
             raise ValueError(f"{msg_type} is already handled by {self.handlers[msg_type]!r}")
         self.handlers[msg_type] = handler
 
-    def on_tick(self, update: Callable[[float], None]) -> None:
-        """`update(t)` runs every autopilot tick (sim s), in registration order."""
+    def on_tick(self, update: Callable[[], None]) -> None:
+        """`update()` runs every autopilot tick after the streams, in registration order."""
         self._ticks.append(update)
+
+    def stream_from(self, source) -> None:
+        """`source.frame(msgid)` frames the streamed message `msgid` with this link's framer
+        (None: nothing to send now); what is streamed when is `set_schedule`'s."""
+        self._stream_source = source
+
+    def set_schedule(self, schedule: dict[int, float]) -> None:
+        """Stream these messages (msgid -> interval, sim s) from now on: a message already
+        streamed keeps its next due time, a new one is due at once."""
+        self.schedule = schedule
+        now = self.clock()
+        for i in list(self.next_due):
+            if i not in schedule:
+                del self.next_due[i]
+        for i in schedule:
+            self.next_due.setdefault(i, now)
+        self.next_any = -math.inf          # recompute the earliest due time on the next update
 
     def on_reboot(self, forget: Callable[[], None]) -> None:
         """`forget()` runs when the vehicle reboots (after the autopilot restarted)."""
@@ -171,18 +188,6 @@ class LinkCore:
         else:
             for ep in self.endpoints:
                 ep.send(buf)
-
-    def send_frames(self, frames: list[bytes]) -> None:
-        """Frames packed by the link's framer (each took a sequence number), to every
-        endpoint in one write: one UDP datagram, as ArduPilot's UDP output sends a tick's."""
-        self.stats["tx"] += len(frames)
-        buf = b"".join(frames)
-        for ep in self.endpoints:
-            ep.send(buf)
-
-    def listened(self) -> bool:
-        """Someone can hear a broadcast now (a udpin peer, a TCP client, a udpout target)."""
-        return any(ep.listened() for ep in self.endpoints)
 
     def statustext(self, severity: int, text: str) -> None:
         """STATUSTEXT to every endpoint (at most TEXTS_PER_CHUNK per received chunk)."""
@@ -237,10 +242,14 @@ class LinkCore:
 
     # ----- every autopilot tick --------------------------------------------------------------
     def update(self, t: float) -> None:
-        """Every capability's tick at sim time t (the autopilot rate), then the paced replies
-        due and, once a second, the receive counters."""
+        """At sim time t (the autopilot rate): the streamed messages due, every capability's
+        tick, the paced replies due and, once a second, the receive counters. The streamed
+        messages of one tick go out together: one UDP datagram (MAVLink allows several frames
+        per datagram; ArduPilot's UDP output does the same), one TCP write."""
+        if t + 1e-9 >= self.next_any:      # most ticks nothing is due: skip the scan (1,000 vehicles)
+            self._stream(t)
         for tick in self._ticks:
-            tick(t)
+            tick()
         if self.outboxes:
             self._drain_outboxes(t)
         if t >= self.next_stats:
@@ -262,27 +271,37 @@ class LinkCore:
             if q.idle():
                 del self.outboxes[ch]
 
+    def _stream(self, t: float) -> None:
+        due = self.next_due
+        batch = []
+        first = math.inf
+        # streams nobody can hear (no udpin peer, no TCP client yet) are not built: their
+        # schedule runs on, the sequence number waits for a listener
+        heard = any(ep.listened() for ep in self.endpoints)
+        frame = self._stream_source.frame
+        link_mav = self.mav
+        for msgid, interval in self.schedule.items():
+            nd = due[msgid]
+            if t + 1e-9 >= nd:
+                buf = frame(msgid) if heard else None
+                if buf is not None:
+                    batch.append(buf)
+                    link_mav.seq = (link_mav.seq + 1) % 256
+                nd += interval
+                nd = due[msgid] = nd if nd > t else t + interval
+            if nd < first:
+                first = nd
+        self.next_any = first
+        if batch:
+            self.stats["tx"] += len(batch)
+            buf = b"".join(batch)
+            for ep in self.endpoints:
+                ep.send(buf)
+
     # ----- receiving -------------------------------------------------------------------------
     def on_data(self, data: bytes, channel: Channel) -> bool:
         """Parse and handle one received chunk; True if a packet in it passed the checks."""
-        if channel.stream:
-            if channel.parser is None:
-                channel.parser = _parser()
-            parser = channel.parser
-        else:
-            parser = self.udp_parser
-        try:
-            msgs = parser.parse_buffer(data) or []
-        except Exception:            # never let a malformed input escape
-            msgs = []
-            self.stats["garbage"] += 1
-            parser.buf = bytearray()
-            parser.buf_index = 0
-        if not channel.stream and parser.buf_len() > 0:
-            self.stats["truncated"] += 1
-            parser.buf = bytearray()
-            parser.buf_index = 0
-            parser.expected_length = mav.HEADER_LEN_V1 + 2
+        msgs = self.parser.parse(data, channel)
         ok = False
         self._once, self._texts = {}, 0
         try:
@@ -300,19 +319,7 @@ class LinkCore:
 
     def _classify_and_handle(self, m, channel: Channel) -> bool:
         """Count or route one parsed message; True if it passed the checks (a real peer)."""
-        if isinstance(m, mav.MAVLink_bad_data):
-            reason = str(getattr(m, "reason", ""))
-            if "CRC" in reason:
-                self.stats["bad_crc"] += 1
-            elif "prefix" in reason:
-                self.stats["garbage"] += 1
-            elif "length" in reason or "Bad message" in reason:
-                self.stats["bad_length"] += 1
-            else:
-                self.stats["bad_data"] += 1
-            return False
-        if isinstance(m, mav.MAVLink_unknown):
-            self.stats["unknown_id"] += 1
+        if rejected(m, self.stats):
             return False
         if self.signing_key and not self.signature_ok(m.get_msgbuf(), m.get_srcSystem(), m.get_srcComponent()):
             return False

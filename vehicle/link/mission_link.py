@@ -72,9 +72,10 @@ class MissionLink:
         self._send(self.protocol.handle(m, (m.get_srcSystem(), m.get_srcComponent()), channel,
                                         self.core.clock()))
 
-    def update(self, t: float) -> None:
+    def update(self) -> None:
+        """Every tick: re-request what an upload is missing, or give up on a stalled one."""
         if self.protocol.uploads:
-            self._send(self.protocol.update(t))
+            self._send(self.protocol.update(self.core.clock()))
 
     def _guided_item(self, m, channel) -> None:
         """A mission item with current = 2 is a GUIDED "fly to here" (ArduPilot's

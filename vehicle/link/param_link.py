@@ -36,12 +36,8 @@ class ParamLink:
         core.register("PARAM_REQUEST_LIST", self.on_param_request_list)
         core.register("PARAM_REQUEST_READ", self.on_param_request_read)
         core.register("PARAM_SET", self.on_param_set)
-        core.on_tick(self.flush)
+        core.on_tick(params.flush)             # the PARAM_SETs of a tick reach the file together
         core.on_close(params.flush)
-
-    def flush(self, t: float) -> None:
-        """The PARAM_SETs of this tick reach the saved file together."""
-        self.params.flush()
 
     def param_value(self, name: str):
         """PARAM_VALUE of parameter `name` as it is now."""

@@ -29,7 +29,8 @@ class PositionLink:
         """A new boot says its EKF origin again."""
         self._origin_sent = None
 
-    def update(self, t: float) -> None:
+    def update(self) -> None:
+        """Every tick: GPS_GLOBAL_ORIGIN when the EKF origin was set or moved."""
         origin = self.ap.ekf_origin()
         if origin != self._origin_sent:          # set (first good estimate) or moved
             self._origin_sent = origin

@@ -1,5 +1,5 @@
-"""Telemetry streams, the link capability: which message goes out when, and the requests
-that change it.
+"""Telemetry streams, the link capability: which message goes out how often, and the
+requests that change it (the link core sends what is due, framed by the telemetry).
 
 The schedule: HEARTBEAT at 1 Hz, each SR0_* stream group at its parameter's rate
 (vehicle/link/telemetry.py: STREAM_GROUPS), and MAV_CMD_SET_MESSAGE_INTERVAL's per-message
@@ -8,8 +8,7 @@ the SR0_* parameters (not saved), as ArduPilot does. MAV_CMD_GET_MESSAGE_INTERVA
 MAV_CMD_REQUEST_MESSAGE and MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES answer after their ACK.
 
 Streams are framed without message objects (vehicle/link/framing.py) and only while an
-endpoint has someone to hear them; the messages of one tick go out together. A reboot
-forgets the message intervals.
+endpoint has someone to hear them. A reboot forgets the message intervals.
 """
 from __future__ import annotations
 
@@ -31,15 +30,12 @@ class StreamLink:
         self.params = params
         self.telemetry = telemetry
         self.intervals: dict[int, float] = {}     # msgid -> seconds; <0 disabled (SET_MESSAGE_INTERVAL)
-        self.next_due: dict[int, float] = {}
-        self.schedule: dict[int, float] = {}
-        self.next_any = -math.inf                 # earliest next_due (a lower bound; -inf: scan)
+        core.stream_from(telemetry)
         self.rebuild()
         core.register("REQUEST_DATA_STREAM", self.on_request_data_stream)
         for cmd in (mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAV_CMD_GET_MESSAGE_INTERVAL,
                     mav.MAV_CMD_REQUEST_MESSAGE, mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES):
             commands.register(cmd, self.command)
-        core.on_tick(self.update)
         core.on_reboot(self.forget)
 
     def rebuild(self) -> None:
@@ -55,48 +51,12 @@ class StreamLink:
                 sched.pop(i, None)
             else:
                 sched[i] = iv
-        self.schedule = sched
-        now = self.core.clock()
-        for i in list(self.next_due):
-            if i not in sched:
-                del self.next_due[i]
-        for i in sched:
-            self.next_due.setdefault(i, now)
-        self.next_any = -math.inf          # recompute the earliest due time on the next update
+        self.core.set_schedule(sched)
 
     def forget(self) -> None:
         """A reboot: the message intervals are gone."""
         self.intervals.clear()
         self.rebuild()
-
-    def update(self, t: float) -> None:
-        """Send whatever is due at sim time t (called at the autopilot rate). The messages of
-        one tick go out together: one UDP datagram (MAVLink allows several frames per
-        datagram; ArduPilot's UDP output does the same), one TCP write."""
-        if t + 1e-9 < self.next_any:       # most ticks nothing is due: skip the scan (1,000 vehicles)
-            return
-        core = self.core
-        due = self.next_due
-        batch = []
-        first = math.inf
-        # streams nobody can hear (no udpin peer, no TCP client yet) are not built: their
-        # schedule runs on, the sequence number waits for a listener
-        frame = self.telemetry.frame if core.listened() else None
-        link_mav = core.mav
-        for msgid, interval in self.schedule.items():
-            nd = due[msgid]
-            if t + 1e-9 >= nd:
-                buf = frame(msgid) if frame is not None else None
-                if buf is not None:
-                    batch.append(buf)
-                    link_mav.seq = (link_mav.seq + 1) % 256
-                nd += interval
-                nd = due[msgid] = nd if nd > t else t + interval
-            if nd < first:
-                first = nd
-        self.next_any = first
-        if batch:
-            core.send_frames(batch)
 
     def on_request_data_stream(self, m, ch) -> None:
         rate = m.req_message_rate if m.start_stop else 0
@@ -135,7 +95,7 @@ class StreamLink:
         if cmd == mav.MAV_CMD_GET_MESSAGE_INTERVAL:
             if msgid not in builders:
                 return mav.MAV_RESULT_DENIED
-            iv = self.schedule.get(msgid)
+            iv = self.core.schedule.get(msgid)
             c.after_ack.append(mav.MAVLink_message_interval_message(msgid, -1 if iv is None else int(iv * 1e6)))
             return mav.MAV_RESULT_ACCEPTED
         return self._set_interval(msgid, p[1])
