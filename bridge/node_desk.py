@@ -16,7 +16,8 @@ from common.frames import TransformException
 from common.mavlink.mavstr import mav_str
 from bridge.codec import statustext_message
 from common.tf2_ros.wire import transform_from_message, transform_message
-from bridge.links import Link, Packet
+from bridge.links import Link
+from common.mavlink.frame_parser import Packet
 from bridge.node_frames import NodeFrames, publisher
 
 REFUSAL_TELL_PERIOD = 5.0       # wall s between STATUSTEXTs for one sender and frame
