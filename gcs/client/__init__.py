@@ -46,20 +46,9 @@ from typing import Any
 
 from gcs.client.action import TAKEOFF_EVIDENCE_S, Action, mode_number
 from gcs.client.commands import Commands
-from gcs.client.errors import (
-    RESULT_NAMES,
-    ArmError,
-    ClientError,
-    ClientTimeout,
-    CommandRejected,
-    CommandTimeout,
-    GoalTimeout,
-    HeartbeatTimeout,
-    ModeChangeError,
-    TakeoffError,
-    command_name,
-    fmt_point,
-)
+from gcs.client.errors import (RESULT_NAMES, ArmError, ClientError, ClientTimeout, CommandRejected,
+                               CommandTimeout, GoalTimeout, HeartbeatTimeout, ModeChangeError,
+                               TakeoffError, command_name, fmt_point)
 from gcs.client.goals import MASK_POS_ONLY, MASK_POS_YAW, Goals, Reached
 from gcs.client.link import SIGNING_LINK_ID, Link
 from gcs.client.lockstep import LOCKSTEP_TIMEOUT
@@ -68,35 +57,12 @@ from gcs.client.state import REBOOT_JUMP_MS, Position, SystemState
 from gcs.client.telemetry import Telemetry
 
 __all__ = [
-    "LOCKSTEP_TIMEOUT",
-    "MASK_POS_ONLY",
-    "MASK_POS_YAW",
-    "REBOOT_JUMP_MS",
-    "RESULT_NAMES",
-    "SIGNING_LINK_ID",
-    "TAKEOFF_EVIDENCE_S",
-    "Action",
-    "ArmError",
-    "Client",
-    "ClientError",
-    "ClientTimeout",
-    "CommandRejected",
-    "CommandTimeout",
-    "Commands",
-    "GoalTimeout",
-    "Goals",
-    "HeartbeatTimeout",
-    "Link",
-    "ModeChangeError",
-    "Param",
-    "Position",
-    "Reached",
-    "SystemState",
-    "TakeoffError",
-    "Telemetry",
-    "command_name",
-    "fmt_point",
-    "mode_number",
+    "Client", "Link", "Action", "Commands", "Goals", "Param", "Telemetry",
+    "Position", "SystemState", "Reached", "mode_number", "command_name", "fmt_point",
+    "ClientError", "ClientTimeout", "HeartbeatTimeout", "CommandTimeout", "CommandRejected",
+    "ModeChangeError", "ArmError", "TakeoffError", "GoalTimeout",
+    "RESULT_NAMES", "SIGNING_LINK_ID", "LOCKSTEP_TIMEOUT", "REBOOT_JUMP_MS", "TAKEOFF_EVIDENCE_S",
+    "MASK_POS_ONLY", "MASK_POS_YAW",
 ]
 
 

@@ -7,16 +7,8 @@ COMMAND_ACK does not fail a command that took effect. Deadlines are in the clien
 from __future__ import annotations
 
 from gcs.client.commands import Commands
-from gcs.client.errors import (
-    RESULT_NAMES,
-    ArmError,
-    ClientError,
-    ClientTimeout,
-    CommandRejected,
-    CommandTimeout,
-    ModeChangeError,
-    TakeoffError,
-)
+from gcs.client.errors import (RESULT_NAMES, ArmError, ClientError, ClientTimeout, CommandRejected,
+                               CommandTimeout, ModeChangeError, TakeoffError)
 from gcs.client.link import Link
 from gcs.client.mav import mavlink, mavutil
 from gcs.client.state import Position

@@ -250,8 +250,10 @@ class Link:
             self.log(f"send failed ({exc}); will retry")
 
     def _maybe_heartbeat(self) -> None:
-        # with lockstep a sim-time second: the vehicle's GCS failsafe (FS_GCS_*) counts sim time
-        if self.clock() - self._last_hb_sent >= self.heartbeat_interval:
+        # with lockstep a sim-time second: the vehicle's GCS failsafe (FS_GCS_*) counts sim time.
+        # (clock() inlined: this runs for every message received)
+        now = self.ticks.now() if self.lockstep else time.monotonic()
+        if now - self._last_hb_sent >= self.heartbeat_interval:
             self._send_heartbeat()
 
     def _send_heartbeat(self) -> None:

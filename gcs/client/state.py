@@ -101,7 +101,7 @@ class SystemTracker:
     def note(self, msg: Any, mtype: str) -> str | None:
         """Update the sender's state from `msg` (of type `mtype`); a log line when it rebooted."""
         src = msg.get_srcSystem()
-        st = self.system(src)
+        st = self.systems.get(src) or self.system(src)
         said = None
         tb = getattr(msg, "time_boot_ms", None)
         if isinstance(tb, int):
