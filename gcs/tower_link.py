@@ -4,7 +4,7 @@ A family's tower used to open one connection per drone. The bridge's tower link 
 whole system's telemetry to every peer, so N connections decoded N times everything (N**2
 work) and past 64 peers the link's peer table (common.mavlink.peers) dropped some. A GCS flying many
 drones holds one link: :class:`SharedClient` is a gcs.client.Client whose socket only one
-thread, the pump, reads; each drone's gcs.tower.Mission runs in its own thread on the same
+thread, the pump, reads; each drone's gcs.tower_mission.Mission runs in its own thread on the same
 object, and its blocking helpers (set_mode, arm, takeoff, wait_reached, ...) park in
 ``poll`` until the pump has handled the next batch of messages.
 
