@@ -38,6 +38,8 @@ MSG_TL_LOCKSTEP = 43005
 
 
 class GcsSide:
+    """What a GCS-side link's packet means to the bridge (see the module docstring)."""
+
     def __init__(self, cfg: BridgeConfig, tower: Link, codec: Codec, router: Router, goals: GoalDesk,
                  statics: StaticDesk, nodes: NodeDesk, lockstep: LockstepDesk | None, timeline: Timeline,
                  vehicles: dict[int, VehicleRecord], clock: Callable[[], float]) -> None:

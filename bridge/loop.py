@@ -68,6 +68,8 @@ from bridge.vehicle_side import VehicleSide
 
 
 class Bridge:
+    """The bridge, built from `cfg`: its links open, its rooms wired; run() routes."""
+
     def __init__(self, cfg: BridgeConfig, clock=time.monotonic, log=None) -> None:
         self.cfg = cfg
         self.clock = clock
@@ -175,10 +177,12 @@ class Bridge:
         self.loop.stop()
 
     def summary(self) -> str:
+        """The end-of-run counters (bridge.status)."""
         return summary(self.links, self.vehicles, self.timeline, self.node_desk.frames, self.followers,
                        self.codec.decode_errors, self.vehicle_side.tower_drops, self.lockstep)
 
     def close(self) -> None:
+        """LEAVE the lockstep (if in it), close every link and the selector."""
         if self.lockstep is not None:
             self.lockstep.leave()
         for link in self.links:

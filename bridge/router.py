@@ -21,6 +21,8 @@ from bridge.links import Link
 
 
 class Router:
+    """The links and where a packet goes between them; the bridge's own sends."""
+
     def __init__(self, tower: Link, outs: list[Link], vehicles: dict[int, VehicleRecord], codec: Codec,
                  own_sysid: int, rover_sysid: int | None = None) -> None:
         self.tower = tower
@@ -34,6 +36,8 @@ class Router:
 
     # ------------------------------------------------------------------ routing
     def from_gcs(self, link: Link, pkt: Packet) -> None:
+        """`pkt` from GCS-side `link` to the links carrying its target (0: all), raw; an
+        unknown target is counted unroutable on `link`."""
         t = pkt.target_system
         if t == self.own_sysid:
             return

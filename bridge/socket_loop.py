@@ -51,6 +51,8 @@ class LinkSelector:
 
 
 class PacketLoop:
+    """The select loop over every link; packets to `on_gcs` / `on_vehicle` by their link's side."""
+
     def __init__(self, gcs_links: list[Link], vehicle_links: list[Link], on_gcs: OnPacket, on_vehicle: OnPacket,
                  tick: Callable[[], None], clock: Callable[[], float],
                  warn_once: Callable[[str, str], bool]) -> None:
@@ -108,7 +110,7 @@ class PacketLoop:
         for pkt in pkts:
             try:
                 on(link, pkt)
-            except Exception as exc:   # never let one packet stop the router
+            except Exception as exc:  # noqa: BLE001 - never let one packet stop the router
                 link.stats.malformed += 1
                 self.warn_once("packet-error", f"packet {pkt.msgid} from {link.name} failed: {exc!r}")
 

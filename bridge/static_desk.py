@@ -23,6 +23,8 @@ from bridge.trust import StaticTrust
 
 
 class StaticDesk:
+    """Live static frames from the GCS side: trust, then the tree and the stream."""
+
     def __init__(self, trust: StaticTrust, tree: FrameTree, node_frames: NodeFrames, codec: Codec,
                  router: Router, log: BridgeLog) -> None:
         self.trust = trust

@@ -33,6 +33,8 @@ TELEMETRY_STOPPED = 2.0         # behaviour-clock s without a vehicle's pose: as
 
 
 class SimChecks:
+    """Goal retries and the followers' checks, on the behaviour clock."""
+
     def __init__(self, goals: GoalDesk, followers: dict, vehicles: dict[int, VehicleRecord], router: Router,
                  timeline: Timeline, follow: bool) -> None:
         self.goals = goals
@@ -53,6 +55,7 @@ class SimChecks:
                     self.router.send_out(follower.check(rover, *rover_clock(rover)), rover)
 
     def on_wall_tick(self) -> None:
+        """Without --lockstep: every wall tick, the rover's staleness judged on the wall clock."""
         self.run(lambda rover: self.timeline.newest(rover.name))
 
     def at_barrier(self, t: float) -> None:
@@ -62,6 +65,8 @@ class SimChecks:
 
 
 class Upkeep:
+    """The wall-clock pass of every loop TICK."""
+
     def __init__(self, links: list, vehicles: dict[int, VehicleRecord], router: Router, codec: Codec,
                  telemetry: TelemetryDesk, clocks: ClockDesk, tree: FrameTree, sim_checks: SimChecks,
                  lockstep: LockstepDesk | None, behaviour_clock: Callable[[], float],
@@ -87,6 +92,7 @@ class Upkeep:
         return False
 
     def tick(self) -> None:
+        """One upkeep pass (see the module docstring), then the GCS links flushed."""
         now = self.clock()
         for link in self.links:
             link.poll()

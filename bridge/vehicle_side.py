@@ -33,6 +33,8 @@ TO_TOWER = {MSG_LOCAL_POSITION_NED: translate.local_position,
 
 
 class VehicleSide:
+    """What a vehicle link's packet means to the bridge (see the module docstring)."""
+
     def __init__(self, tower: Link, tower_frame: str, vehicles: dict[int, VehicleRecord], codec: Codec,
                  tree: FrameTree, telemetry: TelemetryDesk, lockstep: LockstepDesk | None, router: Router,
                  log: BridgeLog) -> None:

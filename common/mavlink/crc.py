@@ -11,7 +11,7 @@ from binascii import crc_hqx
 
 try:  # the C implementation pymavlink picks when it is installed
     from fastcrc.crc16 import mcrf4xx as _fast
-except Exception:  # pragma: no cover - exercised where fastcrc is missing
+except ImportError:  # pragma: no cover - where fastcrc is missing
     _fast = None
 
 X25_INIT = 0xFFFF

@@ -88,7 +88,7 @@ class Packet:
 class FrameParser:
     """Cut bytes into MAVLink packets; count and skip whatever is not one."""
 
-    __slots__ = ("buf", "malformed", "packets", "_skipping", "table")
+    __slots__ = ("_skipping", "buf", "malformed", "packets", "table")
 
     def __init__(self, table: dict[int, MsgInfo]) -> None:
         self.buf = bytearray()
@@ -125,7 +125,7 @@ class FrameParser:
                 pay0 = i + HEADER_V2
                 total = HEADER_V2 + plen + 2 + (SIGNATURE_LEN if incompat else 0)
                 msgid = buf[i + 7] | buf[i + 8] << 8 | buf[i + 9] << 16
-                seq = i + 4                 # seq, sysid, compid follow one another
+                ids = i + 4                 # seq, sysid, compid, one after another
             elif magic == MAGIC_V1:
                 if n - i < HEADER_V1:
                     break
@@ -133,7 +133,7 @@ class FrameParser:
                 pay0 = i + HEADER_V1
                 total = HEADER_V1 + plen + 2
                 msgid = buf[i + 5]
-                seq = i + 2
+                ids = i + 2
             else:
                 self._bad(); i += 1; continue
             if n - i < total:
@@ -146,7 +146,7 @@ class FrameParser:
                 self._bad(); i += 1; continue
             ts = buf[pay0 + info.target_system_ofs] if 0 <= info.target_system_ofs < plen else 0
             tc = buf[pay0 + info.target_component_ofs] if 0 <= info.target_component_ofs < plen else 0
-            out.append(Packet(bytes(buf[i:i + total]), msgid, buf[seq + 1], buf[seq + 2], buf[seq],
+            out.append(Packet(bytes(buf[i:i + total]), msgid, buf[ids + 1], buf[ids + 2], buf[ids],
                               ts, tc, magic == MAGIC_V2))
             i += total
             self._skipping = False
