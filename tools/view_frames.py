@@ -323,6 +323,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if args.tlog:
+        from tools.recording_file import require_recording
+        try:
+            require_recording(args.tlog)
+        except OSError as exc:
+            print(f"view-frames: {exc}", file=sys.stderr)
+            return 2
         buf, now = buffer_from_tlog(args.tlog, args.cache_time)
         title = f"view_frames: {args.tlog}"
     elif args.scenario is not None:
