@@ -151,45 +151,42 @@ class Tf2Model:
             raise ModelError("connectivity")
         return _compose(_inverse(tgt_acc), src_acc)
 
-    def _latest(self, frame: str) -> tuple[float, str | None]:
-        c = self.caches[frame]
-        if isinstance(c, tuple):
-            return 0.0, c[1]
-        return (c[-1][0], c[-1][1]) if c else (0.0, None)
+    def _up(self, frame: str):
+        """(newest stamp, parent) of each cache from ``frame`` up, until a root or a cache
+        without data (getLatestTimeAndParent; a static cache's stamp is 0)."""
+        while frame in self.caches:
+            c = self.caches[frame]
+            if isinstance(c, tuple):
+                t, parent = 0.0, c[1]
+            elif c:
+                t, parent = c[-1][0], c[-1][1]
+            else:
+                return
+            yield t, parent
+            frame = parent
 
     def _latest_common_time(self, target: str, source: str) -> float:
         """getLatestCommonTime (zero stamps, i.e. statics, do not count)."""
+        inf = float("inf")
         lct: list[tuple[float, str]] = []
-        common = float("inf")
-        frame = source
-        while frame in self.caches:
-            t, parent = self._latest(frame)
-            if parent is None:
-                break
-            if t:
-                common = min(common, t)
+        common = inf
+        for t, parent in self._up(source):
+            common = min(common, t or inf)
             lct.append((t, parent))
-            frame = parent
-            if frame == target:
-                return 0.0 if common == float("inf") else common
-        frame, common, common_parent = target, float("inf"), None
-        while frame in self.caches:
-            t, parent = self._latest(frame)
-            if parent is None:
-                break
-            if t:
-                common = min(common, t)
+            if parent == target:
+                return 0.0 if common == inf else common
+        common, common_parent = inf, None
+        for t, parent in self._up(target):
+            common = min(common, t or inf)
             if parent in [p for _, p in lct]:
                 common_parent = parent
                 break
-            frame = parent
-            if frame == source:
-                return 0.0 if common == float("inf") else common
+            if parent == source:
+                return 0.0 if common == inf else common
         if common_parent is None:
             raise ModelError("connectivity")
         for t, p in lct:
-            if t:
-                common = min(common, t)
+            common = min(common, t or inf)
             if p == common_parent:
                 break
-        return 0.0 if common == float("inf") else common
+        return 0.0 if common == inf else common
