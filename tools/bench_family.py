@@ -37,7 +37,7 @@ def fly_family(run_dir: Path, drones: int, legs: int, period: float = 0.1, timeo
     """Fly a generated family once; the figures as a dict."""
     from common.family_plan import LanePlan, scenario_toml
     from tools.family_summary import summarize_family
-    from tools.fly import Launch
+    from tools.fly_launch import Launch
     plan = LanePlan(drones=drones, legs=legs)
     path = run_dir / f"family{drones}.toml"
     path.write_text(scenario_toml(plan))
