@@ -78,10 +78,6 @@ folder's logs and meta.json:
   towerlink fly --signing-key "my passphrase" --speedup max
 
 Exit status 0 iff the tower reached every goal.
-
-The parts: tools/fly_plan.py (the options, ports and command lines), tools/fly_launch.py
-(starting, watching and stopping the processes: fly_processes, fly_monitor, fly_van,
-fly_progress), tools/fly_run_folder.py (meta.json, the summary and the drawings).
 """
 from __future__ import annotations
 
@@ -96,8 +92,10 @@ from common.mavlink.lockstep import speedup_type
 from common.mavlink.signing import add_signing_argument
 from tools.fly_launch import Launch
 
-
-# ----------------------------------------------------------------------------- CLI
+# This module is the command line. The run itself: tools/fly_plan.py (the options, ports and
+# command lines), tools/fly_launch.py (starting, watching and stopping the processes, with
+# fly_processes, fly_monitor, fly_van and fly_progress), tools/fly_run_folder.py (meta.json,
+# the summary and the drawings).
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
