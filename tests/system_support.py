@@ -13,7 +13,7 @@ from tools.fly_launch import Launch
 def tower_goals(world_xy, scenario=None) -> str:
     import numpy as np
     from common.scenario import load_scenario
-    from gcs.tower import format_goals
+    from gcs.tower_mission import format_goals
     sc = load_scenario(scenario)
     T = sc.buffer().lookup_transform("tower", "world").transform
     return format_goals([tuple(T.apply_point(np.array([x, y, -sc.altitude]))) for x, y in world_xy])

@@ -12,7 +12,8 @@ from hypothesis import given, settings, strategies as st
 from common.mavlink.dialect import towerlink as tl
 from common.frames import Transform
 from common.scenario import ScenarioError, load_scenario
-from gcs.tower_family import SeparationWatch, TowerFrames
+from gcs.tower_family import SeparationWatch
+from gcs.tower_frames import TowerFrames
 from tools.family_summary import closest_approach, format_family_summary, summarize_family
 from tools.run_data import RunData, Track
 

@@ -84,7 +84,7 @@ def test_everything_a_signing_client_sends_is_signed_on_its_own_link_id():
     vehicle, port = udp_listener(2.0)
     c = Client.connect(f"udpout:127.0.0.1:{port}", signing_key=KEY)
     try:
-        c._send(lambda: c.mav.command_long_send(1, 1, tl.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0))
+        c.send(lambda: c.mav.command_long_send(1, 1, tl.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0))
         frames = []
         parser = tl.MAVLink(None)
         while len(frames) < 2:
