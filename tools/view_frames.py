@@ -55,7 +55,7 @@ def buffer_from_tlog(path: str | os.PathLike, cache_time: float = 10.0):
         from tools.run_mcap import buffer_from_mcap
         buf, _stamps, latest = buffer_from_mcap(path, cache_time)
         return buf, latest
-    from tools.run_summary import read_tlog
+    from tools.run_data import read_tlog
     return buffer_from_messages(read_tlog(path), cache_time)
 
 
