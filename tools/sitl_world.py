@@ -103,6 +103,10 @@ async def run_closing(world: World, started=None) -> None:
         for v in world.vehicles:
             v.link.close()
         raise
+    # the TCP clients' readers see their closed connections end before asyncio.run cancels what
+    # is left (a reader cancelled mid-read is logged as an error by Python 3.11's asyncio)
+    for _ in range(3):
+        await asyncio.sleep(0)
 
 
 class ThreadWorld:
