@@ -36,6 +36,17 @@ def read_tracks(tlog: Path, origin: tuple[float, float, float]) -> dict[int, dic
     return dict(tracks)
 
 
+MIN_SPAN_M = 10.0       # the map shows at least this much (a hover's centimetres are no track)
+
+
+def _at_least(ax, span: float) -> None:
+    for get, put in ((ax.get_xlim, ax.set_xlim), (ax.get_ylim, ax.set_ylim)):
+        lo, hi = get()
+        if hi - lo < span:
+            mid = 0.5 * (lo + hi)
+            put(mid - span / 2, mid + span / 2)
+
+
 def plot_tracks(tlog: Path, png: Path, origin: tuple[float, float, float], title: str = "") -> Path:
     """Draw the tlog's tracks into `png`; ImportError without matplotlib."""
     import matplotlib
@@ -57,6 +68,7 @@ def plot_tracks(tlog: Path, png: Path, origin: tuple[float, float, float], title
         if tr["height"]:
             t, h = zip(*tr["height"])
             ax_h.plot(t, h, color=colour, label=f"sysid {sysid}")
+    _at_least(ax_map, MIN_SPAN_M)
     ax_map.set_xlabel("east (m)")
     ax_map.set_ylabel("north (m)")
     ax_map.set_aspect("equal", adjustable="datalim")
