@@ -20,6 +20,7 @@ from typing import Any
 _STAMP = struct.Struct(">Q")
 _V1, _V2 = 0xFE, 0xFD
 _SIGNED = 0x01
+BATCH_S = 0.02          # wall s between two drains of the socket (its buffer holds far more)
 
 
 def split_frames(data: bytes) -> list[bytes]:
@@ -75,15 +76,21 @@ class Recorder:
         return self
 
     def _run(self) -> None:
+        # drained every BATCH_S, not woken per datagram: an in-process world sends one every
+        # autopilot tick (thousands a wall second at max speed), and each wake-up would take
+        # the interpreter lock from the world's thread
+        self.sock.setblocking(False)
         while not self._stop.is_set():
             ready, _, _ = select.select([self.sock], [], [], 0.1)
-            if not ready:
-                continue
-            try:
-                data = self.sock.recv(65535)
-            except OSError:
-                continue
-            self._write(data)
+            while ready:
+                try:
+                    data = self.sock.recv(65535)
+                except (BlockingIOError, InterruptedError):
+                    break
+                except OSError:
+                    break
+                self._write(data)
+            self._stop.wait(BATCH_S)
 
     def _write(self, data: bytes) -> None:
         stamp = _STAMP.pack(int(time.time() * 1e6))
