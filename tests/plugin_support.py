@@ -41,3 +41,22 @@ def processes_mentioning(text: str) -> list[str]:
         if text in cmd:
             found.append(f"{d.name}: {cmd[:200]}")
     return found
+
+
+def run_group(args: list[str], timeout: float) -> tuple[int, str]:
+    """Run a program in a process group of its own and kill the whole group afterwards
+    (a MAVSDK 3.x script's mavsdk_server too, whatever happened); (exit code, output)."""
+    import signal
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            start_new_session=True)
+    try:
+        out, _ = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        out = "(timed out)"
+    finally:
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        proc.wait()
+    return proc.returncode, out
