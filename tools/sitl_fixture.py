@@ -99,19 +99,26 @@ class TowerlinkSitl:
             raise IndexError(f"vehicle {i}: this world has vehicles 0..{self.spec.count - 1}")
         return i
 
+    def tcp_port(self, i: int = 0) -> int:
+        """Vehicle i's TCP server port on 127.0.0.1 (MAVProxy --master=tcp:127.0.0.1:PORT)."""
+        return self._runner.ports.tcp[self._check(i)]
+
+    def udp_port(self, i: int = 0) -> int:
+        """Vehicle i's udpin port on 127.0.0.1 (it answers whoever sends it a packet)."""
+        return self._runner.ports.udp[self._check(i)]
+
     def connection(self, i: int = 0, kind: str = "tcp") -> str:
         """pymavlink connection string of vehicle i: "tcp" (streams at once) or "udp" (udpout:
         the vehicle streams once the client sent it a packet)."""
-        ports = self._runner.ports
         if kind == "tcp":
-            return f"tcp:127.0.0.1:{ports.tcp[self._check(i)]}"
+            return f"tcp:127.0.0.1:{self.tcp_port(i)}"
         if kind == "udp":
-            return f"udpout:127.0.0.1:{ports.udp[self._check(i)]}"
+            return f"udpout:127.0.0.1:{self.udp_port(i)}"
         raise ValueError(f"connection kind {kind!r}: 'tcp' or 'udp'")
 
     def mavsdk_address(self, i: int = 0) -> str:
         """Vehicle i for MAVSDK, 4.x (Mavsdk.add_any_connection) and 3.x (System.connect)."""
-        return f"tcpout://127.0.0.1:{self._runner.ports.tcp[self._check(i)]}"
+        return f"tcpout://127.0.0.1:{self.tcp_port(i)}"
 
     def sysid(self, i: int = 0) -> int:
         return self._runner.sysids[self._check(i)]
