@@ -244,6 +244,7 @@ def test_plugin_reports_a_failing_tests_tlog_and_plot_and_keeps_nothing_of_passi
                    cwd=tmp_path)
     assert r.returncode == 0, r.stdout
     assert (base / "test_passes0" / "towerlink" / "world.tlog").stat().st_size > 1000
+    assert (base / "test_passes0" / "towerlink" / "world.png").exists()
     assert "--towerlink-speedup" in run_pytest(["--help"], cwd=tmp_path).stdout
 
 

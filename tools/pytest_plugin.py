@@ -62,7 +62,10 @@ def towerlink_sitl(request: pytest.FixtureRequest, tmp_path):
         yield sitl
     finally:
         del request.node.stash[_SITL]
-        sitl.stop(keep_logs=spec.keep_logs or request.node.stash.get(_FAILED, False))
+        failed = request.node.stash.get(_FAILED, False)
+        if spec.keep_logs and not failed:
+            sitl.artefacts(request.node.nodeid)          # a failing test's are drawn already
+        sitl.stop(keep_logs=spec.keep_logs or failed)
 
 
 @pytest.hookimpl(wrapper=True)
@@ -71,5 +74,5 @@ def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo):
     sitl = item.stash.get(_SITL, None)
     if sitl is not None and report.failed and report.when == "call":
         item.stash[_FAILED] = True
-        report.sections.append(("towerlink", sitl.failure_report(item.nodeid)))
+        report.sections.append(("towerlink", sitl.artefacts(item.nodeid)))
     return report

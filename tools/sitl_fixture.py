@@ -87,7 +87,7 @@ class TowerlinkSitl:
             if not keep_logs and self.workdir.exists():
                 shutil.rmtree(self.workdir, ignore_errors=True)
 
-    def failure_report(self, title: str) -> str:
+    def artefacts(self, title: str) -> str:
         """Leave the tlog and the track plot in the test's tmp_path; the report's text."""
         from tools.sitl_artefacts import failure_artefacts
         tlog = self._recorder.flush()
