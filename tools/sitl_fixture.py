@@ -132,12 +132,19 @@ class TowerlinkSitl:
     def vehicle(self, i: int = 0) -> VehicleTruth:
         """Vehicle i's true state now (world NED from the origin, geodetic, velocity, attitude,
         mode, armed, landed: tools.sitl_truth)."""
+        self._heard()
         return self._runner.truth(self._check(i))
 
     @property
     def time(self) -> float:
         """The world's sim time, s."""
+        self._heard()
         return self._runner.sim_time()
+
+    def _heard(self) -> None:
+        """A process world's truth is what it streamed: take in what has arrived."""
+        if self._listener is not None and self._recorder is not None:
+            self._recorder.drain()
 
     def wait_for(self, predicate: Callable[[], T], sim_timeout: float, what: str | None = None,
                  wall_timeout: float | None = None) -> T:
@@ -152,6 +159,9 @@ class TowerlinkSitl:
             wall_timeout = sim_timeout / paced + WALL_GRACE_S
         end_wall = time.monotonic() + wall_timeout
         lockstep_clients = [c for c in self._clients if c.lockstep]
+        if self.spec.lockstep and not lockstep_clients:
+            raise RuntimeError("towerlink lockstep: the world steps only with a participant: connect one with "
+                               "sitl.client(i) before waiting")
         while True:
             value = predicate()
             if value:

@@ -53,6 +53,7 @@ class Recorder:
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.bind(("127.0.0.1", 0))
         self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 21)
+        self.sock.setblocking(False)
         self.port: int = self.sock.getsockname()[1]
         self.on_message = on_message
         self._parser = None
@@ -79,27 +80,31 @@ class Recorder:
         # drained every BATCH_S, not woken per datagram: an in-process world sends one every
         # autopilot tick (thousands a wall second at max speed), and each wake-up would take
         # the interpreter lock from the world's thread
-        self.sock.setblocking(False)
         while not self._stop.is_set():
             ready, _, _ = select.select([self.sock], [], [], 0.1)
-            while ready:
+            if ready:
+                self.drain()
+            self._stop.wait(BATCH_S)
+
+    def drain(self) -> int:
+        """Record (and hand to the listener) every datagram waiting now; how many. Safe from
+        any thread: a reader of the listener's truth calls it to be up to date."""
+        n = 0
+        with self._lock:
+            while self._f is not None:
                 try:
                     data = self.sock.recv(65535)
-                except (BlockingIOError, InterruptedError):
+                except OSError:          # nothing waiting (BlockingIOError), or closed
                     break
-                except OSError:
-                    break
+                n += 1
                 self._write(data)
-            self._stop.wait(BATCH_S)
+        return n
 
     def _write(self, data: bytes) -> None:
         stamp = _STAMP.pack(int(time.time() * 1e6))
         frames = split_frames(data)
-        with self._lock:
-            if self._f is None:
-                return
-            self._f.write(b"".join(stamp + f for f in frames))
-            self.frames += len(frames)
+        self._f.write(b"".join(stamp + f for f in frames))
+        self.frames += len(frames)
         if self._parser is not None:
             for m in self._parser.parse_buffer(data) or []:
                 self.on_message(m)
