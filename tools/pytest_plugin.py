@@ -68,11 +68,12 @@ def towerlink_sitl(request: pytest.FixtureRequest, tmp_path):
         sitl.stop(keep_logs=spec.keep_logs or failed)
 
 
-@pytest.hookimpl(wrapper=True)
+@pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo):
-    report = yield
+    """A failing test's report gets a "towerlink" section: where its tlog and track plot are."""
+    outcome = yield
+    report = outcome.get_result()
     sitl = item.stash.get(_SITL, None)
     if sitl is not None and report.failed and report.when == "call":
         item.stash[_FAILED] = True
         report.sections.append(("towerlink", sitl.artefacts(item.nodeid)))
-    return report
