@@ -41,7 +41,14 @@ def test_world(k, request):
         g = m.recv_match(type="GLOBAL_POSITION_INT", blocking=True, timeout=10)
         assert g is not None and abs(g.lat / 1e7 - home[0]) < 1e-3 and m.target_system == i + 1
         m.close()
-    time.sleep(0.3)                    # overlap with the other worker's worlds
+    # the workers start seconds apart on a loaded machine: each holds its first world until the
+    # other worker has one too, then every world is held a while, so worlds overlap
+    me = os.environ.get("PYTEST_XDIST_WORKER")
+    open(os.path.join(OUT, f"started-{me}"), "w").close()
+    end = time.time() + 60
+    while len([n for n in os.listdir(OUT) if n.startswith("started-")]) < 2 and time.time() < end:
+        time.sleep(0.05)
+    time.sleep(0.5)
     rec = {"k": k, "worker": os.environ.get("PYTEST_XDIST_WORKER"), "ports": ports, "t0": t0, "t1": time.time()}
     with open(os.path.join(OUT, f"{k}.json"), "w") as f:
         json.dump(rec, f)
@@ -56,7 +63,7 @@ def test_two_xdist_workers_with_several_worlds_each_share_no_port_and_leave_noth
     r = run_pytest(["-q", "-n", "2", "--dist", "load", "--basetemp", str(base), "test_many.py"], cwd=tmp_path,
                    env={"TOWERLINK_XDIST_OUT": str(out)})
     assert r.returncode == 0 and "8 passed" in r.stdout, r.stdout[-4000:] + r.stderr[-2000:]
-    recs = [json.loads(p.read_text()) for p in sorted(out.glob("*.json"))]
+    recs = [json.loads(p.read_text()) for p in sorted(out.glob("[0-9]*.json"))]
     assert len(recs) == 8 and {x["worker"] for x in recs} == {"gw0", "gw1"}
     overlapping = 0
     for a, b in itertools.combinations(recs, 2):
