@@ -16,6 +16,7 @@ import asyncio
 import errno
 import socket
 import threading
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -126,12 +127,13 @@ class ThreadWorld:
             self._error = None
             self._thread = threading.Thread(target=self._run, name="towerlink-world", daemon=True)
             self._thread.start()
+            deadline = time.monotonic() + timeout
             while not self.world.ready.wait(0.01):
-                if not self._thread.is_alive() or timeout <= 0:
+                if not self._thread.is_alive() or time.monotonic() > deadline:
                     break
-                timeout -= 0.01
             if self.world.ready.is_set():
                 return
+            self.world.request_stop()
             self._thread.join(5.0)
             if self._error is not None and address_in_use(self._error) and attempt < TRIES - 1:
                 continue
