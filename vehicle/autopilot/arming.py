@@ -5,8 +5,9 @@ Pre-arm (ARMING_CHECK 0 skips them): "Need Position Estimate", "Waiting for home
 long: home follows the first good estimate), "Mode not armable" (the mode's allows_arming),
 and the fence's (fence.py). Each failure is said as "PreArm: <why>" (CRITICAL) and the
 request FAILS. Arming takes home here if there is none yet and the hold point where the
-vehicle stands. Disarming: the copter refuses while flying ("Disarm: not landed") unless
-forced; ArduCopter resets the mission on every disarm, ArduRover outside AUTO (auto.py).
+vehicle stands. Disarming drops GUIDED's target and AUTO's auto-armed state; ArduCopter resets
+the mission on every disarm, ArduRover outside AUTO (auto.py). The copter's differences are
+CopterArming's (copter_arming.py).
 """
 from __future__ import annotations
 
@@ -18,6 +19,10 @@ ACCEPTED, FAILED = mav.MAV_RESULT_ACCEPTED, mav.MAV_RESULT_FAILED
 
 
 class Arming:
+    """Arming of autopilot `ap` (a rover's as it is: it may disarm while moving)."""
+
+    disarm_refused = "Disarm: moving"
+
     def __init__(self, ap) -> None:
         self.ap = ap
 
@@ -56,7 +61,7 @@ class Arming:
         ap.arm_time = ap.t
         ap.fleet.set_armed(ap.i, True)
         ap.hold_here()
-        ap.on_armed()
+        self.on_armed()
         ap.text(mav.MAV_SEVERITY_INFO, "Arming motors")
         return ACCEPTED
 
@@ -66,14 +71,25 @@ class Arming:
         if not ap.armed:
             return ACCEPTED
         ap.refresh()
-        if not force and not ap.may_disarm():
-            ap.text(mav.MAV_SEVERITY_CRITICAL, ap.disarm_refused_text)
+        if not force and not self.may_disarm():
+            ap.text(mav.MAV_SEVERITY_CRITICAL, self.disarm_refused)
             return FAILED
         ap.armed = False
         ap.fleet.set_armed(ap.i, False)
         ap.guided.targets.clear()
         ap.auto.mission.on_disarmed(ap.flightmode is ap.auto)
         ap.auto_armed = False
-        ap.on_disarmed()
+        self.on_disarmed()
         ap.text(mav.MAV_SEVERITY_INFO, f"Disarming motors{': ' + reason if reason else ''}")
         return ACCEPTED
+
+    # ----- what a vehicle adds ------------------------------------------------------------
+    def may_disarm(self) -> bool:
+        """May it disarm unforced now?"""
+        return True
+
+    def on_armed(self) -> None:
+        """Just armed."""
+
+    def on_disarmed(self) -> None:
+        """Just disarmed."""

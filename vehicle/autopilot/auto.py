@@ -150,6 +150,16 @@ class AutoMission(AutoCommands):
         self.paused = False
         return True
 
-    def mission_state(self) -> int:
-        """MISSION_CURRENT.mission_state (a paused leg is still ACTIVE, as ArduPilot reports it)."""
-        return self.runner.mission_state()
+    # ----- the mission protocol's calls ---------------------------------------------------
+    def set_current(self, seq) -> bool:
+        """MISSION_SET_CURRENT / DO_SET_MISSION_CURRENT: False if seq is not a valid item."""
+        try:
+            seq = int(seq)
+        except (TypeError, ValueError, OverflowError):
+            return False
+        return self.runner.set_current(seq)
+
+    def current(self) -> tuple[int, int]:
+        """(seq, mission_state) for MISSION_CURRENT: the navigation command flown, and the
+        runner's state (a paused leg is still ACTIVE, as ArduPilot reports it)."""
+        return self.runner.current_seq(), self.runner.mission_state()

@@ -42,16 +42,18 @@ SEV_INFO, SEV_WARNING = mav.MAV_SEVERITY_INFO, mav.MAV_SEVERITY_WARNING
 
 class Autopilot:
     """One vehicle's autopilot. Subclasses name the vehicle (kind, mav_type), its modes
-    (mode_classes, the GUIDED/AUTO/RTL/SMART_RTL numbers) and its collaborators' classes."""
+    (mode_classes, the GUIDED/AUTO/RTL/SMART_RTL numbers) and its collaborators' classes, and
+    say what only they know: electrical_load() (W drawn, for the battery), landed_state()
+    (MAV_LANDED_STATE) and home_from_fix()."""
 
     kind = "?"
     mav_type = 0
     mode_classes: tuple[type[Mode], ...] = ()
     initial_mode = GUIDED = AUTO = RTL = SMART_RTL = -1
+    arming_class: type = Arming
     commands_class: type = object
     failsafe_class: type = object
     speed_param: tuple[str, float, float, float] = ("", 1.0, 0.0, 100.0)   # name, per m/s, default, max m/s
-    disarm_refused_text = "Disarm: moving"
 
     def __init__(self, fleet, index: int, params: ParamStore, origin: tuple[float, float, float],
                  start_ned, outbox: Outbox | None = None,
@@ -85,9 +87,8 @@ class Autopilot:
         self.follow = Follow(params, lambda: self.sysid, origin)     # FOLLOW mode's lead
         self.srtl = SmartRTLPath(float(params.get("SRTL_ACCURACY", 2.0)), int(params.get("SRTL_POINTS", 300)),
                                  text=self.text)
-        name, per_m_s, default, max_speed = self.speed_param
-        self.speed = SpeedOverride(params, self.push_params, name, per_m_s, default, max_speed)
-        self.arming = Arming(self)
+        self.speed = SpeedOverride(params, self.push_params, *self.speed_param)
+        self.arming = self.arming_class(self)
         self.commands = self.commands_class(self)
         self.failsafe = self.failsafe_class(self)
         self.flightmodes: dict[int, Mode] = {}
@@ -258,10 +259,6 @@ class Autopilot:
         mode.run(dt)
         self.smart_rtl.save_position(t)
 
-    def home_from_fix(self) -> np.ndarray:
-        """Home at the first good estimate: here."""
-        return self.pos.copy()
-
     # ----- what the link and the world call --------------------------------------------
     def command(self, cmd: int, p: list[float], frame: int | None = None,
                 x: int | None = None, y: int | None = None) -> int:
@@ -293,40 +290,16 @@ class Autopilot:
         return self.guided.position_target_global(frame, type_mask, lat_int, lon_int, alt, v, a, yaw, yaw_rate)
 
     def mission_uploaded(self, mission_type: int) -> None:
-        """A new list of `mission_type` was stored (upload, partial write or clear).
-
-        AUTO notices a new MISSION by the store's version on its next step (and restarts
-        the command it flies, as ArduPilot); the fence and rally points are read live."""
+        """A new list of `mission_type` was stored (upload, partial write or clear): AUTO sees
+        a new MISSION by the store's version; the fence and rally points are read live."""
 
     def set_mission_current(self, seq: int) -> bool:
         """MISSION_SET_CURRENT / DO_SET_MISSION_CURRENT: False if seq is not valid."""
-        try:
-            seq = int(seq)
-        except (TypeError, ValueError, OverflowError):
-            return False
-        return self.auto.mission.runner.set_current(seq)
+        return self.auto.mission.set_current(seq)
 
     def mission_current(self) -> tuple[int, int]:
         """(current seq, MISSION_STATE) for MISSION_CURRENT."""
-        m = self.auto.mission
-        return m.runner.current_seq(), m.mission_state()
-
-    # ----- vehicle specific --------------------------------------------------------------
-    def electrical_load(self) -> float:
-        """Electrical power (W) the armed vehicle's motors draw now."""
-        return 0.0
-
-    def may_disarm(self) -> bool:
-        return True
-
-    def on_armed(self) -> None:
-        pass
-
-    def on_disarmed(self) -> None:
-        pass
-
-    def landed_state(self) -> int:
-        return mav.MAV_LANDED_STATE_ON_GROUND
+        return self.auto.mission.current()
 
     _sp_key = None
 

@@ -33,5 +33,12 @@ class RoverAutopilot(Autopilot):
         """The drive's electrical power (W): about 1 A standing plus 2 A per m/s at 11.1 V."""
         return DRIVE_V * (DRIVE_IDLE_A + DRIVE_A_PER_M_S * float(np.linalg.norm(self.vel[:2])))
 
+    def landed_state(self) -> int:
+        return mav.MAV_LANDED_STATE_ON_GROUND
+
+    def home_from_fix(self) -> np.ndarray:
+        """Home at the first good estimate: here."""
+        return self.pos.copy()
+
     def mode_change_failed(self, mode) -> None:
         self.text(mav.MAV_SEVERITY_WARNING, "Flight mode change failed")     # Rover::set_mode's words
