@@ -1,7 +1,8 @@
 """AUTO's mission half, shared by the copter's and the rover's AUTO mode objects
-(copter_modes/auto.py, rover_modes/auto.py), as ArduCopter's and ArduRover's ModeAuto own
-their AP_Mission: the stored MISSION walked by a MissionRunner, each command started and
-verified by auto_commands.py. How the vehicle flies each sub-mode is its mode object's.
+(copter_modes/auto.py, rover_modes/auto.py, both MissionModes), as ArduCopter's and
+ArduRover's ModeAuto own their AP_Mission: the stored MISSION walked by a MissionRunner, each
+command started and verified by auto_commands.py. How the vehicle flies each sub-mode is its
+mode object's.
 
 What the mode does around the commands (learned from ArduPilot's source, re-expressed here):
 - Entering: no mission -> refused (Copter "Mode change to AUTO failed: init failed"; Rover
@@ -163,3 +164,31 @@ class AutoMission(AutoCommands):
         """(seq, mission_state) for MISSION_CURRENT: the navigation command flown, and the
         runner's state (a paused leg is still ACTIVE, as ArduPilot reports it)."""
         return self.runner.current_seq(), self.runner.mission_state()
+
+
+class MissionMode:
+    """The hooks the copter's and the rover's AUTO modes share, put before their vehicle's
+    Mode class: the mission is started, stepped (every tick, disarmed too, before the vehicle
+    flies), paused and left through its AutoMission, which flies the RTL mode for
+    NAV_RETURN_TO_LAUNCH."""
+
+    def __init__(self, ap) -> None:
+        super().__init__(ap)
+        self.mission = AutoMission(ap, ap.flightmodes[ap.RTL])
+
+    def init(self, ignore_checks: bool) -> bool:
+        return self.mission.init()
+
+    def exit(self) -> None:
+        super().exit()
+        self.mission.exit()
+
+    def pause(self) -> bool:
+        return self.mission.pause()
+
+    def resume(self) -> bool:
+        return self.mission.resume()
+
+    def run(self, dt: float) -> None:
+        self.mission.step()
+        super().run(dt)

@@ -67,18 +67,24 @@ class Mode:
         does nothing; a simulated transmitter plugs in here, before run()."""
 
     # ----- what the mode is ------------------------------------------------------------
+    # Each mode declares ArduPilot's answers here; the hooks below return them, and a mode
+    # whose answer depends on its state or a parameter overrides the hook instead.
+    position_required: ClassVar[bool] = True     # requires_position()
+    arming_allowed: ClassVar[bool] = True        # allows_arming()
+    autopilot_mode: ClassVar[bool] = False       # is_autopilot()
+
     def requires_position(self) -> bool:
         """ArduCopter requires_GPS() / Rover requires_position(): refused without a
         position estimate ("Mode change to X failed: requires position")."""
-        raise NotImplementedError
+        return self.position_required
 
     def allows_arming(self, method: ArmingMethod) -> bool:
         """May the vehicle arm in this mode (pre-arm "Mode not armable" otherwise)?"""
-        raise NotImplementedError
+        return self.arming_allowed
 
     def is_autopilot(self) -> bool:
         """ArduCopter is_autopilot() / Rover is_autopilot_mode(): the vehicle flies itself."""
-        return False
+        return self.autopilot_mode
 
     def in_guided_mode(self) -> bool:
         """External position targets (SET_POSITION_TARGET_*, DO_REPOSITION) are taken."""

@@ -10,21 +10,16 @@ import numpy as np
 from vehicle.autopilot import modes
 from vehicle.autopilot.copter_modes.copter_mode import CopterMode
 from vehicle.autopilot.guided import GuidedTarget
-from vehicle.autopilot.mode import ArmingMethod
 
 NAN = float("nan")
 
 
 class ModeAltHold(CopterMode):
     number = modes.ALT_HOLD
-
-    def requires_position(self) -> bool:
-        return False
-
-    def allows_arming(self, method: ArmingMethod) -> bool:
-        return True
+    position_required, arming_allowed = False, True
 
     def has_user_takeoff(self, must_navigate: bool) -> bool:
+        """Only a takeoff the pilot may steer (it holds no position)."""
         return not must_navigate
 
     def fly(self, dt: float) -> None:

@@ -19,7 +19,7 @@ import numpy as np
 
 from common.frames.batch import wrap_pi
 from vehicle.autopilot import modes
-from vehicle.autopilot.auto import AutoMission
+from vehicle.autopilot.auto import MissionMode
 from vehicle.autopilot.copter_modes.copter_mode import CopterMode
 from vehicle.autopilot.guided import GuidedTarget
 from vehicle.autopilot.mode import ArmingMethod
@@ -30,24 +30,18 @@ EDGE_M, EDGE_ALT_M = 3.0, 1.0  # off the circle's edge by more than these: fly t
 ALLOW_ARMING, ALLOW_TAKEOFF_WITHOUT_THROTTLE = 1, 2      # AUTO_OPTIONS bits
 
 
-class ModeAuto(CopterMode):
+class ModeAuto(MissionMode, CopterMode):
     number = modes.AUTO
+    position_required, autopilot_mode = True, True
     reports_guided_enabled = True
 
     def __init__(self, ap) -> None:
         super().__init__(ap)
-        self.mission = AutoMission(ap, ap.flightmodes[modes.RTL])
         self._fly_sub = {"takeoff": self._takeoff, "wp": self._wp, "land": self._land,
                          "rtl": self._rtl, "circle": self._circle}
 
-    def requires_position(self) -> bool:
-        return True
-
     def allows_arming(self, method: ArmingMethod) -> bool:
         return bool(int(self.ap.params.get("AUTO_OPTIONS", 0)) & ALLOW_ARMING)
-
-    def is_autopilot(self) -> bool:
-        return True
 
     def takeoff_without_throttle(self) -> bool:
         """AUTO_OPTIONS bit 1: arming in AUTO also auto-arms (no throttle to raise)."""
@@ -59,23 +53,6 @@ class ModeAuto(CopterMode):
     def is_landing(self) -> bool:
         sub = self.mission.sub
         return sub == "land" or (sub == "rtl" and self.mission.rtl.is_landing())
-
-    def init(self, ignore_checks: bool) -> bool:
-        return self.mission.init()
-
-    def exit(self) -> None:
-        super().exit()
-        self.mission.exit()
-
-    def pause(self) -> bool:
-        return self.mission.pause()
-
-    def resume(self) -> bool:
-        return self.mission.resume()
-
-    def run(self, dt: float) -> None:
-        self.mission.step()
-        super().run(dt)
 
     # ----- the sub-modes --------------------------------------------------------------------
     def fly(self, dt: float) -> None:

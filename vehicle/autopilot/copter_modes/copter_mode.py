@@ -8,13 +8,14 @@ Setpoints are world NED (m, z down) for the CopterFleet.
 from __future__ import annotations
 
 import math
+from typing import ClassVar
 
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from vehicle.autopilot import modes
 from vehicle.autopilot.guided import GuidedTarget
-from vehicle.autopilot.mode import ArmingMethod, Mode
+from vehicle.autopilot.mode import Mode
 
 LAND_ALT_LOW = 10.0     # m: below it LAND descends at LAND_SPEED (LAND_ALT_LOW's default, cm / 100)
 MAX_TAKEOFF_M = 1000.0  # m: a NAV_TAKEOFF higher than this is refused
@@ -51,18 +52,18 @@ class CopterMode(Mode):
     BRAKE and POSHOLD); towerlink reports it, as it always has, for AUTO, GUIDED, LOITER,
     RTL, SMART_RTL and FOLLOW."""
 
-    # ----- ArduCopter's Mode hooks ------------------------------------------------------
+    # ----- ArduCopter's Mode hooks (values declared as in Mode) --------------------------
+    manual_throttle: ClassVar[bool] = False      # has_manual_throttle()
+    user_takeoff: ClassVar[bool] = False         # has_user_takeoff()
+
     def has_manual_throttle(self) -> bool:
         """The pilot's throttle stick drives the motors (STABILIZE, ACRO)."""
-        return False
+        return self.manual_throttle
 
     def has_user_takeoff(self, must_navigate: bool) -> bool:
         """MAV_CMD_NAV_TAKEOFF may start a takeoff in this mode (must_navigate: param3 == 0,
         the mode must hold position while it climbs)."""
-        return False
-
-    def allows_arming(self, method: ArmingMethod) -> bool:
-        return False
+        return self.user_takeoff
 
     def is_taking_off(self) -> bool:
         return self.ap.takeoff.running

@@ -13,21 +13,12 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from vehicle.autopilot import modes
 from vehicle.autopilot.copter_modes.copter_mode import CopterMode
 from vehicle.autopilot.guided import GuidedTarget
-from vehicle.autopilot.mode import ArmingMethod
 
 
 class ModeFollow(CopterMode):
     number = modes.FOLLOW
+    position_required, arming_allowed, autopilot_mode = True, False, True
     reports_guided_enabled = True
-
-    def requires_position(self) -> bool:
-        return True
-
-    def allows_arming(self, method: ArmingMethod) -> bool:
-        return False
-
-    def is_autopilot(self) -> bool:
-        return True
 
     def init(self, ignore_checks: bool) -> bool:
         if not self.ap.follow.enabled():

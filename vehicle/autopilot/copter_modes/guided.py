@@ -25,6 +25,7 @@ TAKEOFF_DONE_M = 0.3     # m below the takeoff altitude counts as there
 
 class ModeGuided(CopterMode):
     number = modes.GUIDED
+    position_required, autopilot_mode, user_takeoff = True, True, True
     reports_guided_enabled = True
 
     def __init__(self, ap) -> None:
@@ -33,21 +34,12 @@ class ModeGuided(CopterMode):
         self.paused = False
         self.stop = StopThenHold(ap)
 
-    def requires_position(self) -> bool:
-        return True
-
     def allows_arming(self, method: ArmingMethod) -> bool:
         """Always from the ground station; from the transmitter only with GUID_OPTIONS bit 0
         (AllowArmingFromTX), which towerlink does not model: never."""
         return method is ArmingMethod.MAVLINK
 
-    def is_autopilot(self) -> bool:
-        return True
-
     def in_guided_mode(self) -> bool:
-        return True
-
-    def has_user_takeoff(self, must_navigate: bool) -> bool:
         return True
 
     def enter(self) -> None:

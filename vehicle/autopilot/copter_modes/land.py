@@ -9,22 +9,16 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from vehicle.autopilot import modes
 from vehicle.autopilot.copter_modes.copter_mode import CopterMode
-from vehicle.autopilot.mode import ArmingMethod
 
 
 class ModeLand(CopterMode):
     number = modes.LAND
+    arming_allowed, autopilot_mode = False, True
     disarm_on_land = True
 
     def requires_position(self) -> bool:
         """ArduCopter's LAND does not (it descends without GPS: ModeLand::nogps_run);
         towerlink's LAND always holds its x, y, so it requires a position estimate."""
-        return True
-
-    def allows_arming(self, method: ArmingMethod) -> bool:
-        return False
-
-    def is_autopilot(self) -> bool:
         return True
 
     def is_landing(self) -> bool:

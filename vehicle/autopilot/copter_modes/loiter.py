@@ -6,21 +6,12 @@ from __future__ import annotations
 
 from vehicle.autopilot import modes
 from vehicle.autopilot.copter_modes.copter_mode import CopterMode
-from vehicle.autopilot.mode import ArmingMethod
 
 
 class ModeLoiter(CopterMode):
     number = modes.LOITER
+    position_required, arming_allowed, user_takeoff = True, True, True
     reports_guided_enabled = True
-
-    def requires_position(self) -> bool:
-        return True
-
-    def allows_arming(self, method: ArmingMethod) -> bool:
-        return True
-
-    def has_user_takeoff(self, must_navigate: bool) -> bool:
-        return True
 
     def fly(self, dt: float) -> None:
         ap = self.ap

@@ -14,7 +14,6 @@ from vehicle.autopilot import modes
 from vehicle.autopilot.copter_modes.copter_mode import CopterMode
 from vehicle.autopilot.guided import GuidedTarget
 from vehicle.autopilot.mission_store import RALLY
-from vehicle.autopilot.mode import ArmingMethod
 from vehicle.autopilot.rally import best_return, rally_points
 
 ARRIVED_M = 0.5          # m horizontally from the destination, and
@@ -24,6 +23,7 @@ CLIMBED_M = 0.5          # m from RTL's altitude: the climb is done
 
 class ModeRTL(CopterMode):
     number = modes.RTL
+    position_required, arming_allowed, autopilot_mode = True, False, True
     disarm_on_land = True
     reports_guided_enabled = True
 
@@ -33,15 +33,6 @@ class ModeRTL(CopterMode):
         self.dest = np.zeros(3)          # home or the rally point (world NED)
         self.z = 0.0                     # world z of the return
         self.loiter_t0 = 0.0
-
-    def requires_position(self) -> bool:
-        return True
-
-    def allows_arming(self, method: ArmingMethod) -> bool:
-        return False
-
-    def is_autopilot(self) -> bool:
-        return True
 
     def is_landing(self) -> bool:
         return self.stage == "land"

@@ -11,36 +11,23 @@ from __future__ import annotations
 import numpy as np
 
 from vehicle.autopilot import modes
-from vehicle.autopilot.copter_modes.copter_mode import CopterMode
+from vehicle.autopilot.copter_modes.rtl import ModeRTL
 from vehicle.autopilot.guided import GuidedTarget
-from vehicle.autopilot.mode import ArmingMethod
 
 PRELAND_ABOVE_M = 2.0    # m above the last point before the descent
 PRELAND_STILL_M_S = 0.5  # m/s: slow enough there to start landing
 
 
-class ModeSmartRTL(CopterMode):
+class ModeSmartRTL(ModeRTL):
+    """RTL's hooks and landing (ArduCopter's ModeSmartRTL is a ModeRTL), its own way back.
+    `stage`: path, preland, land."""
+
     number = modes.SMART_RTL
-    disarm_on_land = True
-    reports_guided_enabled = True
 
     def __init__(self, ap) -> None:
         super().__init__(ap)
-        self.stage = ""                            # path, preland, land
         self.dest: np.ndarray | None = None
         self.popped: np.ndarray | None = None      # taken off the path, not yet reached
-
-    def requires_position(self) -> bool:
-        return True
-
-    def allows_arming(self, method: ArmingMethod) -> bool:
-        return False
-
-    def is_autopilot(self) -> bool:
-        return True
-
-    def is_landing(self) -> bool:
-        return self.stage == "land"
 
     def init(self, ignore_checks: bool) -> bool:
         return self.ap.srtl.usable()

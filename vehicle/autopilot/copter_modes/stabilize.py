@@ -10,20 +10,11 @@ import numpy as np
 from vehicle.autopilot import modes
 from vehicle.autopilot.copter_modes.copter_mode import CopterMode
 from vehicle.autopilot.guided import GuidedTarget
-from vehicle.autopilot.mode import ArmingMethod
 
 
 class ModeStabilize(CopterMode):
     number = modes.STABILIZE
-
-    def requires_position(self) -> bool:
-        return False
-
-    def has_manual_throttle(self) -> bool:
-        return True
-
-    def allows_arming(self, method: ArmingMethod) -> bool:
-        return True
+    position_required, arming_allowed, manual_throttle = False, True, True
 
     def fly(self, dt: float) -> None:
         ap = self.ap

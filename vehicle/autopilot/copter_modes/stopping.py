@@ -1,5 +1,5 @@
 """A jerk-limited stop, then a hold where the copter stopped: BRAKE, POSHOLD with the sticks
-centred, and GUIDED's pause each own one.
+centred (both StoppingModes), and GUIDED's pause each own one.
 
 The stop decelerates along the horizontal velocity the copter had when it started, with a
 deceleration (m/s/s) reached at a jerk limit (m/s/s/s) and eased out so the speed reaches 0
@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 
+from vehicle.autopilot.copter_modes.copter_mode import CopterMode
 from vehicle.autopilot.guided import GuidedTarget
 
 STOPPED_SPEED = 0.1              # m/s: below it the copter counts as stopped
@@ -88,3 +89,27 @@ class StopThenHold:
                 return
         ap.echo = GuidedTarget("pos", ap.hold_pos.copy(), None, None, ap.hold_yaw, None)
         ap.setpoint(pos=ap.hold_pos, yaw=ap.hold_yaw)
+
+
+class StoppingMode(CopterMode):
+    """A mode that, entered in the air, stops with its stop_limits() and then holds (BRAKE,
+    POSHOLD); entered disarmed or on the ground there is nothing to stop: it holds."""
+
+    def __init__(self, ap) -> None:
+        super().__init__(ap)
+        self.stop = StopThenHold(ap)
+
+    def stop_limits(self) -> tuple[float, float]:
+        """(deceleration m/s/s, jerk m/s/s/s) of this mode's stop."""
+        raise NotImplementedError
+
+    def enter(self) -> None:
+        if self.ap.armed and not self.ap.on_ground:
+            self.stop.start(*self.stop_limits())
+
+    def exit(self) -> None:
+        super().exit()
+        self.stop.release()
+
+    def fly(self, dt: float) -> None:
+        self.stop.run(dt)

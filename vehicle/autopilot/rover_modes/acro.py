@@ -1,6 +1,7 @@
 """ACRO (Rover/mode_acro.cpp ModeAcro): the pilot's speed and turn rate, held by the controllers.
 
-No RC: target speed 0 and no turn, so the rover stops and stays stopped.
+No RC: target speed 0 and no turn, so the rover stops and stays stopped. It needs a velocity
+estimate unless the rover is skid-steered (towerlink's rovers steer).
 """
 from __future__ import annotations
 
@@ -10,16 +11,7 @@ from vehicle.autopilot.rover_modes.rover_mode import RoverMode
 
 class ModeAcro(RoverMode):
     number = modes.ROVER_ACRO
-
-    def requires_position(self) -> bool:
-        return False
-
-    def requires_velocity(self) -> bool:
-        """ArduRover: only for a rover that is not skid-steered (towerlink's steers)."""
-        return True
-
-    def has_manual_input(self) -> bool:
-        return True
+    position_required, velocity_required, manual_input = False, True, True
 
     def drive(self, dt: float) -> None:
         self.stop()

@@ -17,9 +17,7 @@ STILL_M_S = 0.05          # a follow velocity below this is a stop
 
 class ModeFollow(RoverMode):
     number = modes.ROVER_FOLLOW
-
-    def is_autopilot(self) -> bool:
-        return True
+    autopilot_mode = True
 
     def init(self, ignore_checks: bool) -> bool:
         return self.ap.follow.enabled()

@@ -25,13 +25,11 @@ BODY_FRAMES = (mav.MAV_FRAME_BODY_NED, mav.MAV_FRAME_BODY_OFFSET_NED)
 
 class ModeGuided(RoverMode):
     number = modes.ROVER_GUIDED
+    autopilot_mode = True
 
     def __init__(self, ap) -> None:
         super().__init__(ap)
         self.targets = GuidedTargets(ap)
-
-    def is_autopilot(self) -> bool:
-        return True
 
     def in_guided_mode(self) -> bool:
         return True

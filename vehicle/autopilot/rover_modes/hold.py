@@ -7,12 +7,7 @@ from vehicle.autopilot.rover_modes.rover_mode import RoverMode
 
 class ModeHold(RoverMode):
     number = modes.ROVER_HOLD
-
-    def requires_position(self) -> bool:
-        return False
-
-    def requires_velocity(self) -> bool:
-        return False
+    position_required, velocity_required = False, False
 
     def drive(self, dt: float) -> None:
         self.stop()

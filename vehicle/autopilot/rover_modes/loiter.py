@@ -12,9 +12,7 @@ from vehicle.autopilot.rover_modes.rover_mode import RoverMode
 
 class ModeLoiter(RoverMode):
     number = modes.ROVER_LOITER
-
-    def is_autopilot(self) -> bool:
-        return True
+    autopilot_mode = True
 
     def drive(self, dt: float) -> None:
         ap = self.ap

@@ -10,15 +10,7 @@ from vehicle.autopilot.rover_modes.rover_mode import RoverMode
 
 class ModeManual(RoverMode):
     number = modes.ROVER_MANUAL
-
-    def requires_position(self) -> bool:
-        return False
-
-    def requires_velocity(self) -> bool:
-        return False
-
-    def has_manual_input(self) -> bool:
-        return True
+    position_required, velocity_required, manual_input = False, False, True
 
     def drive(self, dt: float) -> None:
         self.stop()

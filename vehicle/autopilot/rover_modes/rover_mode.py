@@ -6,12 +6,14 @@ the RoverFleet ignores z.
 """
 from __future__ import annotations
 
+from typing import ClassVar
+
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from vehicle.autopilot import modes
 from vehicle.autopilot.guided import GuidedTarget
-from vehicle.autopilot.mode import ArmingMethod, Mode
+from vehicle.autopilot.mode import Mode
 
 ZERO = np.zeros(3)
 
@@ -21,19 +23,17 @@ class RoverMode(Mode):
 
     names = modes.ROVER_MODES
 
-    # ----- Rover's Mode hooks (defaults as Rover/mode.h) ---------------------------------
-    def requires_position(self) -> bool:
-        return True
+    # ----- Rover's Mode hooks (values declared as in Mode; defaults as Rover/mode.h) -----
+    velocity_required: ClassVar[bool] = True     # requires_velocity()
+    manual_input: ClassVar[bool] = False         # has_manual_input()
 
     def requires_velocity(self) -> bool:
-        return True
-
-    def allows_arming(self, method: ArmingMethod) -> bool:
-        return True
+        """Refused without a velocity estimate (towerlink's estimate has both or neither)."""
+        return self.velocity_required
 
     def has_manual_input(self) -> bool:
         """The pilot's sticks drive (MANUAL, ACRO, STEERING): base_mode MANUAL_INPUT_ENABLED."""
-        return False
+        return self.manual_input
 
     def base_mode_flags(self) -> int:
         flags = mav.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED if self.has_manual_input() else 0

@@ -11,7 +11,6 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from vehicle.autopilot import modes
 from vehicle.autopilot.mission_store import RALLY
-from vehicle.autopilot.mode import ArmingMethod
 from vehicle.autopilot.rally import best_return, rally_points
 from vehicle.autopilot.rover_modes.rover_mode import RoverMode
 
@@ -20,17 +19,12 @@ ARRIVE_MARGIN_M = 0.5     # m beyond WP_RADIUS still counts as arrived
 
 class ModeRTL(RoverMode):
     number = modes.ROVER_RTL
+    arming_allowed, autopilot_mode = False, True
 
     def __init__(self, ap) -> None:
         super().__init__(ap)
         self.done = False
         self.dest = np.zeros(3)
-
-    def is_autopilot(self) -> bool:
-        return True
-
-    def allows_arming(self, method: ArmingMethod) -> bool:
-        return False
 
     def enter(self) -> None:
         self.start()

@@ -11,23 +11,17 @@ import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from vehicle.autopilot import modes
-from vehicle.autopilot.mode import ArmingMethod
 from vehicle.autopilot.rover_modes.rover_mode import RoverMode
 
 
 class ModeSmartRTL(RoverMode):
     number = modes.ROVER_SMART_RTL
+    arming_allowed, autopilot_mode = False, True
 
     def __init__(self, ap) -> None:
         super().__init__(ap)
         self.dest: np.ndarray | None = None
         self.done = False
-
-    def is_autopilot(self) -> bool:
-        return True
-
-    def allows_arming(self, method: ArmingMethod) -> bool:
-        return False
 
     def init(self, ignore_checks: bool) -> bool:
         return self.ap.srtl.usable()

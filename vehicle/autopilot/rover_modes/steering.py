@@ -10,12 +10,7 @@ from vehicle.autopilot.rover_modes.rover_mode import RoverMode
 
 class ModeSteering(RoverMode):
     number = modes.ROVER_STEERING
-
-    def requires_position(self) -> bool:
-        return False
-
-    def has_manual_input(self) -> bool:
-        return True
+    position_required, velocity_required, manual_input = False, True, True
 
     def drive(self, dt: float) -> None:
         self.stop()
