@@ -368,14 +368,14 @@ def test_prune_cuts_a_loop():
 def test_path_records_at_accuracy_and_deactivates_when_full():
     said = []
     path = SmartRTLPath(accuracy=2.0, points_max=10, text=lambda s, m: said.append(m))
-    path.update(np.zeros(3), True, True, 0.0)
+    path.record(np.zeros(3), True, True, False, 0.0)
     assert len(path.points) == 1 and path.active
-    path.update(np.array([1.0, 0, 0]), True, True, 0.1)
+    path.record(np.array([1.0, 0, 0]), True, True, False, 0.1)
     assert len(path.points) == 1                     # under SRTL_ACCURACY from the last point
     t = 0.2
     for k in range(200):                              # a zig-zag that cannot be simplified away
         t += 0.5
-        path.update(np.array([3.0 * k, 10.0 * (k % 2), 0]), True, True, t)
+        path.record(np.array([3.0 * k, 10.0 * (k % 2), 0]), True, True, False, t)
         if not path.active:
             break
     assert said == ["SmartRTL deactivated: buffer full"]

@@ -33,9 +33,18 @@ class Failsafes:
         self.battery_priority: int | None = None
 
     def update(self, t: float, dt: float) -> None:
-        """Every autopilot tick: the battery, then the GCS."""
-        self._battery(t, dt)
-        self._gcs_check()
+        """Every autopilot tick: the battery (read every BATTERY_PERIOD), then the GCS.
+        Inline: it runs every tick for every vehicle, and nothing triggers on most."""
+        self._battery_due += dt
+        if self._battery_due >= BATTERY_PERIOD - 1e-9 or dt <= 0:
+            self._battery(t)
+        ap = self.ap
+        if self.last_gcs is None or self.gcs_failsafe or not ap.armed:
+            return
+        enable = int(ap.params.get("FS_GCS_ENABLE", 0))
+        if enable and ap.t - self.last_gcs > float(ap.params.get("FS_GCS_TIMEOUT", 5.0)):
+            self.gcs_failsafe = True
+            self.gcs_action(enable)
 
     # ----- GCS ----------------------------------------------------------------------------
     def gcs_heartbeat(self) -> None:
@@ -45,21 +54,9 @@ class Failsafes:
             self.gcs_failsafe = False
             ap.text(mav.MAV_SEVERITY_INFO, "GCS Failsafe Cleared")
 
-    def _gcs_check(self) -> None:
-        ap = self.ap
-        enable = int(ap.params.get("FS_GCS_ENABLE", 0))
-        if enable == 0 or self.last_gcs is None or self.gcs_failsafe or not ap.armed:
-            return
-        if ap.t - self.last_gcs > float(ap.params.get("FS_GCS_TIMEOUT", 5.0)):
-            self.gcs_failsafe = True
-            self.gcs_action(enable)
-
     # ----- battery ------------------------------------------------------------------------
-    def _battery(self, t: float, dt: float) -> None:
-        # the load drawn at the reading stands for the 0.1 s since the last one
-        self._battery_due += dt
-        if self._battery_due < BATTERY_PERIOD - 1e-9 and dt > 0:
-            return
+    def _battery(self, t: float) -> None:
+        # the load drawn at the reading stands for the time since the last one (0.1 s)
         dt, self._battery_due = self._battery_due, 0.0
         ap = self.ap
         b = ap.battery

@@ -115,18 +115,14 @@ class SmartRTLPath:
         self.last_save = self.last_good = t
 
     def record(self, pos, position_ok: bool, armed: bool, retracing: bool, t: float) -> None:
-        """Every autopilot tick (ArduPilot's ModeSmartRTL::save_position): a new path at
-        every arming, points saved while armed and not retracing the path."""
+        """Every autopilot tick, 3 Hz at least (ArduPilot's ModeSmartRTL::save_position): a
+        new path at every arming, pos saved while armed and not retracing the path."""
         if armed and not self.was_armed:
             self.set_home(pos, t)
         self.was_armed = armed
-        self.update(pos, position_ok, armed and not retracing, t)
-
-    def update(self, pos, position_ok: bool, save: bool, t: float) -> None:
-        """Call at 3 Hz or more: records pos when `save` (armed and not retracing)."""
         if position_ok and not self.home_saved:
             self.set_home(pos, t)
-        if not self.active or not save:
+        if not self.active or not armed or retracing:
             return
         if not position_ok:
             if t - self.last_good > TIMEOUT:

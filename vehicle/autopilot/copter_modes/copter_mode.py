@@ -28,16 +28,13 @@ class UserTakeoff:
 
     def __init__(self) -> None:
         self.alt_z: float | None = None    # world z (m, down) the takeoff climbs to
-
-    @property
-    def running(self) -> bool:
-        return self.alt_z is not None
+        self.running = False
 
     def start(self, alt_z: float) -> None:
-        self.alt_z = alt_z
+        self.alt_z, self.running = alt_z, True
 
     def stop(self) -> None:
-        self.alt_z = None
+        self.alt_z, self.running = None, False
 
 
 class CopterMode(Mode):
