@@ -177,6 +177,9 @@ class MissionMode:
         self.mission = AutoMission(ap, ap.flightmodes[ap.RTL])
 
     def init(self, ignore_checks: bool) -> bool:
+        """AutoMission.init's checks. ArduCopter's ModeAuto::init also enters AUTO without a
+        mission when ignore_checks (disarmed); towerlink refuses it armed or not, as it
+        always has."""
         return self.mission.init()
 
     def exit(self) -> None:
