@@ -207,7 +207,8 @@ class Autopilot:
         """The one way modes change (mode.py): refused when the number is not a mode of this
         vehicle, when the mode requires a position estimate there is not (checked armed or
         not: ArduCopter skips it disarmed, towerlink never has), or when its init() says no;
-        then the old mode's exit(), the hold point here, the new mode's enter()."""
+        then the old mode's exit(), the hold point here, the new mode's enter(). `reason` is
+        ArduPilot's ModeReason (it logs it; nothing here reads it)."""
         number = wire_int(number, 0, 2**32 - 1)
         if number is None:
             self.text(SEV_WARNING, "Mode change failed: bad mode number")
