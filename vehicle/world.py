@@ -36,8 +36,10 @@ import time
 from vehicle.autopilot import ParamStore
 from vehicle.physics.wind import WindField, WindParams
 from vehicle.world_build import Vehicle, build, start_position
-from vehicle.world_config import WorldConfig
+from vehicle.world_config import DEFAULT_HOME, WorldConfig
 from vehicle.world_lockstep import WorldLockstep
+
+__all__ = ["DEFAULT_HOME", "Vehicle", "World", "WorldConfig"]     # what the world's users import here
 
 AP_RATE = 50.0
 SHARE_RATE = 10.0        # Hz sim: GLOBAL_POSITION_INT heard by the other vehicles (FOLLOW)
@@ -171,19 +173,22 @@ class World:
             await v.link.start()
 
     async def run(self, started=None) -> None:
+        """Open the endpoints, step until request_stop(), close them (also when an endpoint
+        cannot be opened: the ones already open are closed before the OSError goes on)."""
         self._loop = asyncio.get_running_loop()
         self._stop = asyncio.Event()
-        await self.start_endpoints()
-        for v in self.vehicles:
-            v.ap.update(self.t)
-        if started is not None:
-            started()
-        self.ready.set()
         try:
+            await self.start_endpoints()
+            for v in self.vehicles:
+                v.ap.update(self.t)
+            if started is not None:
+                started()
+            self.ready.set()
             await self._lockstep()
         finally:
             for v in self.vehicles:
                 v.link.close()
+            await asyncio.sleep(0)      # closed connections end while the loop still runs
 
     async def _lockstep(self) -> None:
         speedup, dt = self.cfg.speedup, self.dt
