@@ -288,14 +288,15 @@ def _run_workers(args: argparse.Namespace) -> int:
     paths = ([os.path.join(args.state_dir, PLAN_FILE)] if not args.no_save else []) + \
         ([args.plan_out] if args.plan_out else [])
 
+    worlds: list = []                    # this process's World, once built
+
     def out(text: str) -> None:
-        if text.startswith("towerlink sitl:") and out.world is not None:   # the banner: plan is final
-            for path in paths:                                             # (written before it shows)
-                out.world.write_plan(path)
+        if text.startswith("towerlink sitl:") and worlds:     # the banner: the plan is final
+            for path in paths:                                 # (written before it shows)
+                worlds[0].write_plan(path)
         print(text, flush=True)
-    out.world = None
     try:
-        return workers.run(cfg, args.workers, out=out, on_world=lambda w: setattr(out, "world", w))
+        return workers.run(cfg, args.workers, out=out, on_world=worlds.append)
     except PlanError as e:
         print(f"towerlink sitl: refused: {e}", file=sys.stderr)
         return 2

@@ -35,12 +35,16 @@ def parse_endpoint(spec: str) -> tuple[str, str, int]:
 
 class Channel:
     """One reply path. `stream` is True for TCP (a parser keeps state across chunks)."""
-    stream = False
 
-    def __init__(self, name: str, sender: Callable[[bytes], None]) -> None:
+    def __init__(self, name: str, sender: Callable[[bytes], None], stream: bool = False) -> None:
         self.name = name
         self._send = sender
+        self.stream = stream
         self.closed = False         # the peer was dropped (its queued replies are discarded)
+
+    def close(self) -> None:
+        """The peer is gone: what is queued for it is dropped, nothing more is sent."""
+        self.closed = True
 
     def send(self, buf: bytes) -> None:
         try:
@@ -119,7 +123,7 @@ class UdpIn(Endpoint):
 
     def _closed(self, dropped) -> None:
         for _addr, ch in dropped:
-            ch.closed = True
+            ch.close()
             self.dropped_peers += 1
 
     def expire(self) -> None:
@@ -222,13 +226,12 @@ class TcpIn(Endpoint):
         """A new client: its reply channel (asyncio sets TCP_NODELAY on TCP transports)."""
         peer = transport.get_extra_info("peername")
         ch = Channel(f"{self.spec}<-{peer[0]}:{peer[1]}" if peer else self.spec,
-                     lambda b, t=transport: self._write(t, b))
-        ch.stream = True
+                     lambda b, t=transport: self._write(t, b), stream=True)
         self.clients[ch] = transport
         return ch
 
     def disconnected(self, ch: Channel) -> None:
-        ch.closed = True            # its queued replies are dropped
+        ch.close()                  # its queued replies are dropped
         self.clients.pop(ch, None)
 
     def _write(self, t: asyncio.Transport, buf: bytes) -> None:
