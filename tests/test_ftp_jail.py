@@ -8,15 +8,14 @@ from __future__ import annotations
 import errno
 import itertools
 import os
-import struct
 import tempfile
 from pathlib import Path
 
 import pytest
+from ftp_support import body, nak_of, req
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from ftp_support import body, nak_of, req
 from vehicle.files.jail import PathJail
 from vehicle.link import ftp
 
@@ -98,7 +97,7 @@ def test_escapes_are_files_that_do_not_exist(world, path):
 
 
 def test_links_inside_the_root_work_and_links_out_are_not_listed(world):
-    top, root, srv = world
+    _top, root, srv = world
     (r,) = ask(srv, ftp.LIST_DIRECTORY, b"/")
     names = body(r).split(b"\0")
     assert b"Flink_in\t%d" % os.stat(root / "logs").st_size in names      # a link: "F", sized by its target

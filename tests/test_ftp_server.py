@@ -10,8 +10,8 @@ import os
 import struct
 
 import pytest
-
 from ftp_support import Clock, body, crc32_bitwise, hdr, nak_of, req
+
 from vehicle.link import ftp
 
 PARAMS = bytes(range(256)) * 3            # 768 bytes standing for @PARAM/param.pck

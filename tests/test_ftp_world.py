@@ -7,10 +7,10 @@ from __future__ import annotations
 import itertools
 
 import pytest
-
 from ftp_support import body, hdr, req
 from support import free_ports, wait_until
 from test_sitl_support import command, connect, mav, recv
+
 from vehicle.link import ftp
 from vehicle.vehicle_root import vehicle_root
 from vehicle.world import World, WorldConfig

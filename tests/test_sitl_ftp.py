@@ -18,10 +18,10 @@ import struct
 import time
 
 import pytest
-
 from ftp_support import Clock, hdr, req
 from support import Processes, wait_until
 from test_sitl_support import MavProxy, Sitl, connect, mav, recv
+
 from vehicle.link import ftp
 from vehicle.vehicle_root import vehicle_root
 

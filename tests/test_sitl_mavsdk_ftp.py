@@ -17,6 +17,16 @@ LOG = (bytes(range(251)) * 100)[:20_000]        # logs/00000001.BIN, known to bo
 UPLOAD = bytes(range(7, 250)) * 21              # 5103 bytes
 
 
+def _read(path: str) -> bytes:
+    with open(path, "rb") as f:
+        return f.read()
+
+
+def _write(path: str, data: bytes) -> None:
+    with open(path, "wb") as f:
+        f.write(data)
+
+
 def client(port: int) -> int:
     import asyncio
     return asyncio.run(_client(port))
@@ -58,15 +68,13 @@ async def _client(port: int) -> int:
                 seen = []
                 async for result, progress in ftp.download("/logs/00000001.BIN", local, burst):
                     seen.append((result, progress.bytes_transferred, progress.total_bytes))
-                with open(os.path.join(local, "00000001.BIN"), "rb") as f:
-                    got = f.read()
+                got = _read(os.path.join(local, "00000001.BIN"))
                 if got != LOG or seen[-1][0] != FtpResult.SUCCESS or (FtpResult.NEXT, len(LOG), len(LOG)) not in seen:
                     raise SystemExit(f"download (burst {burst}): {len(got)} bytes, {seen[:3]}...{seen[-3:]}")
             step("downloaded")
 
             up = os.path.join(here, "uploaded.bin")
-            with open(up, "wb") as f:
-                f.write(UPLOAD)
+            _write(up, UPLOAD)
             async for _result, _progress in ftp.upload(up, "/terrain"):
                 pass
             if not await ftp.are_files_identical(up, "/terrain/uploaded.bin"):
@@ -112,6 +120,7 @@ async def _client(port: int) -> int:
 @pytest.mark.timeout(150)
 def test_mavsdk_ftp_plugin(processes, tmp_path):
     from test_sitl_support import run_client_script
+
     from vehicle.vehicle_root import vehicle_root
     root = vehicle_root(tmp_path / "state", 0)                 # the state dir run_client_script's sitl uses
     (root / "logs").mkdir(parents=True)

@@ -31,7 +31,7 @@ def param_pck(entries, with_defaults: bool = False) -> bytes:
         if with_defaults and value != default:
             flags, vals = 1, [value, default]
         if fmt != "f":
-            vals = [int(round(v)) for v in vals]
+            vals = [round(v) for v in vals]
         out.append(struct.pack("<BB", code | flags << 4, (len(suffix) - 1) << 4 | common) + suffix
                    + struct.pack("<" + fmt * len(vals), *vals))
         last = nb

@@ -41,14 +41,45 @@ import time
 from collections.abc import Callable, Hashable, Mapping
 
 from vehicle.files.ftp_sessions import SLOTS, TAKEOVER_S, Session, SessionTable
-from vehicle.files.ftp_wire import (ACK, BURST_READ_FILE, CALC_FILE_CRC32, CREATE_DIRECTORY, CREATE_FILE,  # noqa: F401
-                                    DATA_MAX, ENOENT, ERR_EOF, ERR_FAIL, ERR_FAIL_ERRNO, ERR_FILE_EXISTS,
-                                    ERR_FILE_NOT_FOUND, ERR_FILE_PROTECTED, ERR_INVALID_DATA_SIZE,
-                                    ERR_INVALID_SESSION, ERR_NO_SESSIONS, ERR_UNKNOWN_COMMAND, HEADER,
-                                    LIST_DIRECTORY, NAK, NONE, OPEN_FILE_RO, OPEN_FILE_WO, PAYLOAD_LEN,
-                                    READ_FILE, REMOVE_DIRECTORY, REMOVE_FILE, RENAME, RESET_SESSIONS,
-                                    TERMINATE_SESSION, TRUNCATE_FILE, WRITE_FILE, Request, ack, nak,
-                                    os_nak, reply)
+from vehicle.files.ftp_wire import (  # noqa: F401
+    ACK,
+    BURST_READ_FILE,
+    CALC_FILE_CRC32,
+    CREATE_DIRECTORY,
+    CREATE_FILE,
+    DATA_MAX,
+    ENOENT,
+    ERR_EOF,
+    ERR_FAIL,
+    ERR_FAIL_ERRNO,
+    ERR_FILE_EXISTS,
+    ERR_FILE_NOT_FOUND,
+    ERR_FILE_PROTECTED,
+    ERR_INVALID_DATA_SIZE,
+    ERR_INVALID_SESSION,
+    ERR_NO_SESSIONS,
+    ERR_UNKNOWN_COMMAND,
+    HEADER,
+    LIST_DIRECTORY,
+    NAK,
+    NONE,
+    OPEN_FILE_RO,
+    OPEN_FILE_WO,
+    PAYLOAD_LEN,
+    READ_FILE,
+    REMOVE_DIRECTORY,
+    REMOVE_FILE,
+    RENAME,
+    RESET_SESSIONS,
+    TERMINATE_SESSION,
+    TRUNCATE_FILE,
+    WRITE_FILE,
+    Request,
+    ack,
+    nak,
+    os_nak,
+    reply,
+)
 from vehicle.files.param_pck import PCK_MAGIC, PCK_MAGIC_DEFAULTS, param_pck  # noqa: F401
 from vehicle.files.tree import VehicleFiles
 
@@ -149,14 +180,30 @@ class FtpServer:
             s.close_quietly()                  # the client gave up on our ACK: open afresh
         if s.file is not None:
             return [nak(req, ERR_FAIL)]
-        path = req.name()
-        if path is None:
+        return self._named(req, lambda path: self._opened(s, self.tree.open_read(path)))
+
+    @staticmethod
+    def _opened(s: Session, f) -> bytes:
+        """Keep the file in the session; OpenFileRO's ACK data: its size, u32."""
+        s.file = f
+        return struct.pack("<I", f.size & 0xFFFFFFFF)
+
+    def _named(self, req: Request, act: Callable[..., bytes | None], two: bool = False) -> list[bytes]:
+        """The reply to a request naming a path (two, "old\\0new", for Rename): InvalidDataSize
+        when the size does not fit the name; else act(*names) -> the ACK's data (None: none),
+        and the NAK for the OSError it raises."""
+        if two:
+            names = req.two_names()
+        else:
+            name = req.name()
+            names = None if name is None else (name,)
+        if names is None:
             return [nak(req, ERR_INVALID_DATA_SIZE)]
         try:
-            s.file = self.tree.open_read(path)
+            data = act(*names)
         except OSError as e:
             return [os_nak(req, e)]
-        return [ack(req, struct.pack("<I", s.file.size & 0xFFFFFFFF))]
+        return [ack(req, data or b"")]
 
     def _readable(self, s: Session, req: Request) -> bytes | None:
         """The NAK for a read without a file open for reading, else None."""
@@ -195,14 +242,10 @@ class FtpServer:
     def _open_write(self, s: Session, req: Request, now: float) -> list[bytes]:
         if s.file is not None:
             return [nak(req, ERR_FAIL)]
-        path = req.name()
-        if path is None:
-            return [nak(req, ERR_INVALID_DATA_SIZE)]
-        try:
+
+        def open_write(path: bytes) -> None:
             s.file = self.tree.open_write(path, truncate=req.opcode == CREATE_FILE)
-        except OSError as e:
-            return [os_nak(req, e)]
-        return [ack(req)]
+        return self._named(req, open_write)
 
     def _write(self, s: Session, req: Request, now: float) -> list[bytes]:
         if s.file is None:
@@ -217,36 +260,12 @@ class FtpServer:
 
     def _path_op(self, s: Session, req: Request, now: float) -> list[bytes]:
         """CreateDirectory, RemoveFile, RemoveDirectory, TruncateFile: one path, ACK or NAK."""
-        path = req.name()
-        if path is None:
-            return [nak(req, ERR_INVALID_DATA_SIZE)]
-        try:
-            if req.opcode == CREATE_DIRECTORY:
-                self.tree.mkdir(path)
-            elif req.opcode == TRUNCATE_FILE:
-                self.tree.truncate(path, req.offset)
-            else:
-                self.tree.remove(path)
-        except OSError as e:
-            return [os_nak(req, e)]
-        return [ack(req)]
+        t = self.tree
+        act = {CREATE_DIRECTORY: t.mkdir, TRUNCATE_FILE: lambda path: t.truncate(path, req.offset)}
+        return self._named(req, act.get(req.opcode, t.remove))
 
     def _rename(self, s: Session, req: Request, now: float) -> list[bytes]:
-        names = req.two_names()
-        if names is None:
-            return [nak(req, ERR_INVALID_DATA_SIZE)]
-        try:
-            self.tree.rename(*names)
-        except OSError as e:
-            return [os_nak(req, e)]
-        return [ack(req)]
+        return self._named(req, self.tree.rename, two=True)
 
     def _crc32(self, s: Session, req: Request, now: float) -> list[bytes]:
-        path = req.name()
-        if path is None:
-            return [nak(req, ERR_INVALID_DATA_SIZE)]
-        try:
-            crc = self.tree.crc32(path)
-        except OSError as e:
-            return [os_nak(req, e)]
-        return [ack(req, struct.pack("<I", crc))]
+        return self._named(req, lambda path: struct.pack("<I", self.tree.crc32(path)))
