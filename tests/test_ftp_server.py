@@ -354,3 +354,11 @@ def test_a_retransmitted_request_gets_the_same_reply(srv, root):
     out = srv.handle(req(ftp.BURST_READ_FILE, seq=31, session=4, size=80), 255, 190, "udp")
     assert [hdr(p)[0] for p in out] == [32, 33] and out[1][3] == ftp.NAK
     assert ok(one(srv, ftp.TERMINATE_SESSION, seq=32, session=4))[5] == ftp.TERMINATE_SESSION
+
+
+def test_a_fifo_in_the_root_does_not_hang_the_server(srv, root):
+    os.mkfifo(root / "pipe")
+    assert nak_of(one(srv, ftp.CREATE_FILE, session=1, data=b"pipe")) == (ftp.ERR_FAIL_ERRNO, errno.ENXIO)
+    ok(one(srv, ftp.OPEN_FILE_RO, session=2, data=b"pipe"))
+    assert nak_of(one(srv, ftp.READ_FILE, session=2, size=10)) == (ftp.ERR_FAIL_ERRNO, errno.ESPIPE)
+    assert b"pipe" not in b"".join(listing(srv, b"/")[0])                   # ArduPilot lists files and dirs only

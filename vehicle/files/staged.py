@@ -16,8 +16,10 @@ and no path reaches them); what a crash left there is removed when a server star
 """
 from __future__ import annotations
 
+import errno
 import os
 import shutil
+import stat
 import tempfile
 
 
@@ -40,7 +42,10 @@ class StagedFile:
     writable = True
 
     def __init__(self, target: bytes, staging: bytes, truncate: bool) -> None:
-        os.close(os.open(target, os.O_WRONLY | os.O_CREAT | os.O_CLOEXEC, 0o644))
+        # the in-place open ArduPilot makes, for its errors (non-blocking: a FIFO is ENXIO)
+        os.close(os.open(target, os.O_WRONLY | os.O_CREAT | os.O_CLOEXEC | os.O_NONBLOCK, 0o644))
+        if not stat.S_ISREG(os.stat(target).st_mode):
+            raise OSError(errno.EINVAL, os.strerror(errno.EINVAL), os.fsdecode(target))
         self.target = target
         fd, self.path = tempfile.mkstemp(dir=staging, prefix=b"upload-")
         self.fd: int | None = fd

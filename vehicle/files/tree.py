@@ -46,11 +46,12 @@ class BytesFile:
 
 
 class DiskFile:
-    """A real file opened for reading (read where it stands: a growing log grows)."""
+    """A real file opened for reading (read where it stands: a growing log grows). Opened
+    non-blocking: a FIFO someone left in the root gives EAGAIN instead of hanging the link."""
     writable = False
 
     def __init__(self, path: bytes) -> None:
-        self.fd: int | None = os.open(path, os.O_RDONLY | os.O_CLOEXEC)
+        self.fd: int | None = os.open(path, os.O_RDONLY | os.O_CLOEXEC | os.O_NONBLOCK)
         self.size = os.fstat(self.fd).st_size
 
     def read(self, offset: int, n: int) -> bytes:
