@@ -16,7 +16,8 @@ SITL's AP_Filesystem (posix backend, "@" virtual directories, the @MAV_LOG alias
   idle 3 s is closed by the next OpenFileRO);
 - errors as GCS_FTP::error maps them: ENOENT -> FileNotFound, EEXIST -> FileExists, other
   errno -> FailErrno + errno; bad name sizes InvalidDataSize; no open file FileNotFound;
-  size > 239 InvalidDataSize; Ack/Nack received are not answered;
+  size > 239 InvalidDataSize; Ack/Nack received are not answered; InvalidSession is never
+  sent (4.5's single global session sent it to a second session while a file was open);
 - a retransmitted request (same requester, session, opcode and seq as the last reply answered)
   gets that reply again without being re-executed.
 
