@@ -110,6 +110,9 @@ class FtpServer:
                      CALC_FILE_CRC32: self._crc32, RENAME: self._rename}
 
     def handle(self, payload, sysid: int = 0, compid: int = 0, channel: Hashable = None) -> list[bytes]:
+        """The replies to one request payload from (sysid, compid) on `channel` (anything
+        hashable naming the link it came by): none to a payload too short for a header or to
+        an Ack/Nack, several to a burst."""
         req = Request.parse(payload)
         if req is None or req.opcode in (ACK, NAK):
             return []                                     # nothing to answer / a reply looped back
