@@ -144,7 +144,7 @@ def test_pymavlinks_mavftp_lists_gets_puts_and_manages_files(sitl, tmp_path):
         settings = mavftp.MAVFTPSettings([
             ("debug", int, 0), ("pkt_loss_tx", int, 0), ("pkt_loss_rx", int, 0), ("max_backlog", int, 5),
             ("burst_read_size", int, 80), ("write_size", int, 80), ("write_qsize", int, 5),
-            ("idle_detection_time", float, 0.6), ("read_retry_time", float, 0.5), ("retry_time", float, 0.5)])
+            ("idle_detection_time", float, 1.0), ("read_retry_time", float, 0.5), ("retry_time", float, 0.5)])
         f = mavftp.MAVFTP(master, target_system=master.target_system, target_component=master.target_component,
                           settings=settings)
         ret = f.cmd_ftp(["list", "/"])
