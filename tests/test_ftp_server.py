@@ -362,3 +362,11 @@ def test_a_fifo_in_the_root_does_not_hang_the_server(srv, root):
     ok(one(srv, ftp.OPEN_FILE_RO, session=2, data=b"pipe"))
     assert nak_of(one(srv, ftp.READ_FILE, session=2, size=10)) == (ftp.ERR_FAIL_ERRNO, errno.ESPIPE)
     assert b"pipe" not in b"".join(listing(srv, b"/")[0])                   # ArduPilot lists files and dirs only
+
+
+def test_a_root_that_cannot_be_made_leaves_the_virtual_files(tmp_path, clock):
+    (tmp_path / "file").write_bytes(b"")
+    srv = ftp.FtpServer({"@PARAM/param.pck": lambda d: PARAMS}, root=tmp_path / "file" / "vehicles" / "0",
+                        clock=clock)
+    assert nak_of(one(srv, ftp.LIST_DIRECTORY, data=b"/")) == (ftp.ERR_FILE_NOT_FOUND,)
+    ok(one(srv, ftp.OPEN_FILE_RO, data=b"@PARAM/param.pck"))

@@ -78,13 +78,19 @@ class VehicleFiles:
     def __init__(self, root: str | os.PathLike | None,
                  virtual: Mapping[str, Callable[[bool], bytes]] | None = None) -> None:
         """root: the vehicle's directory (created if missing), None for no file system (only
-        the virtual files); virtual: path ("@PARAM/param.pck") -> content(with_defaults)."""
+        the virtual files, as when the directory cannot be made); virtual: path
+        ("@PARAM/param.pck") -> content(with_defaults)."""
         self.virtual = {os.fsencode(k): v for k, v in (virtual or {}).items()}
-        self.jail = PathJail(ensure_dir(root)) if root is not None else None
-        self.staging = None
-        if self.jail is not None:
-            self.staging = staging_dir_for(self.jail.root)
+        self.jail = self.staging = None
+        if root is None:
+            return
+        try:
+            jail = PathJail(ensure_dir(root))
+            self.staging = staging_dir_for(jail.root)
             clear_staging(self.staging)
+        except OSError:
+            return                  # a directory that cannot be made or used: the virtual files only
+        self.jail = jail
 
     # ----- routing ----------------------------------------------------------------------------
     def _local(self, path: bytes, follow: bool = True) -> bytes:
