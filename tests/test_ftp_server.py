@@ -11,6 +11,8 @@ import struct
 
 import pytest
 from ftp_support import Clock, body, crc32_bitwise, hdr, nak_of, req
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from vehicle.link import ftp
 
@@ -370,3 +372,24 @@ def test_a_root_that_cannot_be_made_leaves_the_virtual_files(tmp_path, clock):
                         clock=clock)
     assert nak_of(one(srv, ftp.LIST_DIRECTORY, data=b"/")) == (ftp.ERR_FILE_NOT_FOUND,)
     ok(one(srv, ftp.OPEN_FILE_RO, data=b"@PARAM/param.pck"))
+
+
+@settings(max_examples=150, deadline=None)
+@given(requests=st.lists(st.tuples(st.integers(0, 20) | st.integers(0, 255), st.integers(0, 6), st.integers(0, 255),
+                                   st.integers(0, 2**32 - 1) | st.integers(0, 2000),
+                                   st.binary(max_size=239) | st.lists(st.sampled_from(
+                                       [b"logs", b"..", b"/", b"@MAV_LOG", b"@PARAM", b"param.pck", b"x", b"\0"]),
+                                       max_size=6).map(b"/".join)),
+                         min_size=1, max_size=12))
+def test_any_request_sequence_is_answered_without_raising(requests):
+    import tempfile
+    with tempfile.TemporaryDirectory() as t:
+        root = os.path.join(t, "vehicles", "0")
+        srv = ftp.FtpServer({"@PARAM/param.pck": lambda d: PARAMS}, root=root, clock=Clock())
+        for seq, (opcode, session, size, offset, data) in enumerate(requests):
+            payload = struct.pack("<HBBBBBBI", seq, session, opcode, size, 0, 0, 0, offset) + data
+            out = srv.handle(payload[:251], 255, 190, "udp")
+            assert opcode in (ftp.ACK, ftp.NAK) or 1 <= len(out) <= srv.BURST_PACKETS
+            assert all(len(r) == 251 and r[3] in (ftp.ACK, ftp.NAK) and r[5] == opcode for r in out)
+        srv.close()
+        assert os.listdir(os.path.join(t, "vehicles", ".0.partial")) == []
