@@ -41,7 +41,7 @@ G = np.array([0.0, 0.0, 9.80665])
 def _inv(S: np.ndarray) -> np.ndarray:
     """The filters' ``inv`` (filterpy's hook for S^-1): a scalar measurement's (baro) 1x1 S
     by one division, which is what an LU inverse of a 1x1 matrix computes (the same number,
-    without numpy.linalg's ~8 us of checks); larger S by numpy's LU inverse."""
+    without numpy.linalg's ~5 us of checks); larger S by numpy's LU inverse."""
     if S.shape == (1, 1):
         return 1.0 / S
     return np.linalg.inv(S)
