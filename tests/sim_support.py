@@ -8,7 +8,7 @@ DT = 1.0 / 400.0      # the design step, s
 
 def run(f, secs: float, cb: Callable | None = None, dt: float = DT) -> None:
     """Step fleet f for `secs` sim seconds at dt, calling cb(f) after every step."""
-    for _ in range(int(round(secs / dt))):
+    for _ in range(round(secs / dt)):
         f.step(dt)
         if cb is not None:
             cb(f)

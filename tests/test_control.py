@@ -5,13 +5,12 @@ import math
 
 import numpy as np
 import pytest
+from sim_support import DT, run
 
 from vehicle.control import copter as ccore
 from vehicle.control import shaping
 from vehicle.fleet import CopterFleet, RoverFleet, Setpoint
 from vehicle.physics import ScalarOps
-
-from sim_support import DT, run
 
 
 def hover_at(alt=10.0, **kw):

@@ -5,11 +5,10 @@ import math
 
 import numpy as np
 import pytest
+from sim_support import run
 
 from vehicle.fleet import CopterFleet, RoverFleet, Setpoint
 from vehicle.sensors import Sensors, SensorSpec, vehicle_rngs
-
-from sim_support import DT, run
 
 
 def test_estimate_converges_and_estimate_ok():

@@ -90,6 +90,7 @@ def by_stage(best: dict[str, float], kinds: tuple[str, ...]) -> tuple[dict, dict
 def _fly(w) -> None:
     """Both vehicles GUIDED, armed and on their way (the drone climbing to 10 m first)."""
     from pymavlink.dialects.v20 import ardupilotmega as mav
+
     from vehicle.autopilot import modes
     drone, rover = (v.ap for v in w.vehicles)
     while not all(v.ap.est_ok and v.ap.home is not None for v in w.vehicles):
@@ -116,7 +117,7 @@ def measure(seconds: float = 1.0) -> dict:
     sink.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 8 << 20)
     w = World(WorldConfig(drones=1, rovers=1, state_dir=None, tcp_base=None, udp_base=None,
                           outs=[f"udpout:127.0.0.1:{sink.getsockname()[1]}"]))
-    steps = int(round(seconds / w.dt))
+    steps = round(seconds / w.dt)
 
     def timed() -> float:
         t0 = time.process_time()

@@ -17,6 +17,7 @@ from __future__ import annotations
 import collections
 import time
 from collections.abc import Callable, Iterable
+from typing import Self
 
 
 class StageTimer:
@@ -67,7 +68,7 @@ class StageTimer:
                     stack[-1] += spent
         return timed
 
-    def __enter__(self) -> "StageTimer":
+    def __enter__(self) -> Self:
         for owner, name, label in self.spots:
             own = name in getattr(owner, "__dict__", {})     # else inherited / from the class
             fn = getattr(owner, name)

@@ -21,8 +21,8 @@ import numpy as np
 from common.frames.batch import wrap_pi, yaw_of
 from vehicle.control import shaping
 from vehicle.physics import NumpyOps
-from vehicle.physics.scalar_form import generic
 from vehicle.physics.multicopter import GRAVITY
+from vehicle.physics.scalar_form import generic
 
 D2R = math.pi / 180.0
 
