@@ -29,6 +29,7 @@ constants, caches and modules from theirs.
 from __future__ import annotations
 
 import ast
+import copy
 import functools
 import inspect
 import itertools
@@ -48,12 +49,13 @@ class _Inline(ast.NodeTransformer):
         self.bind = bind                # (hint, object) -> a namespace name bound to object
         self.tmp = (f"_sf{i}" for i in itertools.count())
 
-    def _once(self, e: ast.expr) -> tuple[ast.expr, ast.expr]:
-        """(first use, later uses) of e, evaluated once."""
+    def _once(self, e: ast.expr) -> tuple[ast.expr, Callable[[], ast.expr]]:
+        """(first use, maker of a later use) of e, evaluated once. Every use is its own node
+        (a node in two places of a tree would get its line numbers moved twice)."""
         if isinstance(e, _ONCE_FREE) or (isinstance(e, ast.UnaryOp) and isinstance(e.operand, _ONCE_FREE)):
-            return e, e
+            return e, lambda: copy.deepcopy(e)
         name = next(self.tmp)
-        return ast.NamedExpr(target=ast.Name(name, ast.Store()), value=e), ast.Name(name, ast.Load())
+        return ast.NamedExpr(target=ast.Name(name, ast.Store()), value=e), lambda: ast.Name(name, ast.Load())
 
     @staticmethod
     def _is_xp(node: ast.expr) -> bool:
@@ -90,15 +92,15 @@ class _Inline(ast.NodeTransformer):
         if op in ("any", "all") and len(a) == 1:
             return ast.IfExp(test=a[0], body=ast.Constant(True), orelse=ast.Constant(False))
         if op == "clip" and len(a) == 3:
-            x1, x2 = self._once(a[0])
-            lo1, lo2 = self._once(a[1])
-            hi1, hi2 = self._once(a[2])
-            return ast.IfExp(test=cmp(x1, ast.Lt(), lo1), body=lo2,
-                             orelse=ast.IfExp(test=cmp(x2, ast.Gt(), hi1), body=hi2, orelse=x2))
+            x1, x = self._once(a[0])
+            lo1, lo = self._once(a[1])
+            hi1, hi = self._once(a[2])
+            return ast.IfExp(test=cmp(x1, ast.Lt(), lo1), body=lo(),
+                             orelse=ast.IfExp(test=cmp(x(), ast.Gt(), hi1), body=hi(), orelse=x()))
         if op in ("minimum", "maximum") and len(a) == 2:
-            b1, b2 = self._once(a[1])
-            a1, a2 = self._once(a[0])
-            return ast.IfExp(test=cmp(b1, ast.Lt() if op == "minimum" else ast.Gt(), a1), body=b2, orelse=a2)
+            b1, b = self._once(a[1])
+            a1, a_ = self._once(a[0])
+            return ast.IfExp(test=cmp(b1, ast.Lt() if op == "minimum" else ast.Gt(), a1), body=b(), orelse=a_())
         return None
 
 
