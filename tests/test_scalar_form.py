@@ -108,3 +108,13 @@ def test_every_core_matches_itself_on_scalar_ops():
         rphys.step.__wrapped__(p1, *v1, f.model, g, dt, ScalarOps, air)
         rphys.step(p2, *v1, f.model, g, dt, ScalarOps, air)
         assert all(_bits(getattr(p1, k)) == _bits(getattr(p2, k)) for k in rphys.RoverState.FIELDS)
+
+
+def test_scalar_forms_keep_their_source_lines():
+    """Tracebacks and line profiles of a scalar form point into the core's own source."""
+    import inspect
+    for core in (ccore.step, ccore.mix, ccore.relax, shaping.shape_xy, shaping.shape_z, mc.step, rcore.step,
+                 rphys.step, _rules):
+        src, first = inspect.getsourcelines(core.__wrapped__)
+        lines = {n for _, _, n in core.scalar().__code__.co_lines() if n}
+        assert first < min(lines) and max(lines) < first + len(src), core.__qualname__
