@@ -53,6 +53,7 @@ from bridge.telemetry import MSG_LOCAL_POSITION_NED, MSG_POSITION_TARGET_LOCAL_N
 from bridge.links import Link, Packet
 from bridge.node_desk import NodeDesk
 from bridge.lockstep_desk import LockstepDesk
+from bridge.node_lockstep import NodeLockstep
 from bridge.origins import OriginDesk, origin_frame
 from bridge.pairing import VehicleFrames
 from bridge.timeline import Timeline
@@ -120,8 +121,13 @@ class Bridge:
                                  grace=cfg.time_grace)
         # what decides behaviour (goal retries, follow checks and retries, stream re-requests)
         # runs on this clock: the world's lockstep barrier (sim s) with --lockstep, else wall
+        # nodes in lockstep answer the bridge, which answers the world once they settled
+        self.node_lockstep = NodeLockstep(self.node_links[0], self.codec.pack_own, cfg.lockstep_nodes, self.log,
+                                          clock) if cfg.lockstep and self.node_links else None
         self.lockstep = LockstepDesk(self.vehicles, self.codec.pack_own, self.tower.send,
-                                     self.on_sim_tick, self.log, clock) if cfg.lockstep else None
+                                     self.on_sim_tick, self.log, clock,
+                                     hold=self.node_lockstep.hold if self.node_lockstep else None) \
+            if cfg.lockstep else None
         self.behaviour_clock = (lambda: self.lockstep.sim_now) if self.lockstep else clock
         self.clocks = ClockDesk(self.timeline, self.command, lambda v, m: v.link.send(self.codec.pack_own(m)),
                                 self.log, self.warn_once, clock)
@@ -286,6 +292,11 @@ class Bridge:
             # a node's frame: judged, stored and republished on our stream; never echoed to vehicles
             self.node_desk.on_transform(link, pkt, self._decode(link, pkt))
             return
+        elif mid == MSG_TL_LOCKSTEP and link in self.node_links:
+            msg = self._decode(link, pkt)       # a node's: the bridge's own participant, never routed
+            if msg is not None and self.node_lockstep is not None:
+                self.node_lockstep.on_message(pkt.sysid, pkt.compid, msg)
+            return
         elif mid == MSG_TL_LOCKSTEP and link is self.tower and self.lockstep is not None:
             msg = self._decode(link, pkt)
             if msg is not None:
@@ -378,6 +389,7 @@ class Bridge:
 
     def on_sim_tick(self, t: float) -> None:
         """The lockstep barrier reached sim time t (s): the sim-time upkeep, before the ACK."""
+        self.telemetry.ask_origins(t)
         # the rover's clock is live by construction (the world ticked): stale is judged on stamps
         self.sim_checks(lambda rover: (self.timeline.newest(rover.name)[0], t))
 
@@ -386,11 +398,14 @@ class Bridge:
         for link in self.links:
             link.poll()
         self.telemetry.release_held()
-        self.telemetry.ask_origins(now)
+        if self.lockstep is None:       # with lockstep at barriers (on_sim_tick): a sim time the data fixes
+            self.telemetry.ask_origins(now)
         if self.lockstep is None:
             self.sim_checks(lambda rover: self.timeline.newest(rover.name))
         else:
             self.lockstep.upkeep(now)
+            if self.node_lockstep is not None:
+                self.node_lockstep.upkeep()
         bnow = self.behaviour_clock()
         if self._due("hb", now, 1.0):
             data = self.codec.pack_own(tl.MAVLink_heartbeat_message(
@@ -538,4 +553,6 @@ def summary(b: Bridge) -> str:
                      f"tower {'joined' if b.lockstep.tower_joined else 'not joined'}; "
                      f"TICKs sent to the tower again {b.lockstep.tick_resends}; "
                      f"the world's TICKs answered again {b.lockstep.tick_resends_seen}")
+    if b.node_lockstep is not None:
+        parts.append(b.node_lockstep.summary())
     return "\n".join(parts)

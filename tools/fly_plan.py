@@ -176,6 +176,8 @@ class FlyPlan:
             cmd += ["--follow-frame", self.follow_frame]
         if self.nodes:
             cmd += ["--nodes", f"udpin:{h}:{self.ports['nodes']}", "--route-only"]
+            if self.lockstep:           # the nodes join the lockstep through the bridge
+                cmd += ["--lockstep-nodes", str(len(self.nodes))]
         if self.follow_with == "ardupilot":
             cmd += ["--no-follow"]          # the rover follows in its own FOLLOW mode
         if self.signing_key:                # the vehicles sign too: the bridge checks them as well
@@ -186,6 +188,11 @@ class FlyPlan:
         """A tf2_ros node of --nodes DIR, connected to the bridge's node link."""
         return [sys.executable, str(path), "--connect", f"udpout:{self.host}:{self.ports['nodes']}",
                 "--follow-frame", self.followed_frame]
+
+    def node_env(self) -> dict[str, str]:
+        """What a node's environment adds: with lockstep, common.tf2_ros nodes join it."""
+        from common.tf2_ros.node import LOCKSTEP_ENV
+        return {LOCKSTEP_ENV: "1" if self.lockstep else "0"}
 
     def tower_url(self) -> str:
         """Where the tower connects: the bridge's tower link, or the loss proxy in front of it."""

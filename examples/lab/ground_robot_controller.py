@@ -13,7 +13,6 @@ edge the bridge publishes from the rover's GPS_GLOBAL_ORIGIN; without it, no goa
     python examples/lab/ground_robot_controller.py --connect udpout:127.0.0.1:14620 --follow-frame drone_yaw
 """
 import argparse
-import time
 
 from common.mavlink.dialect import towerlink as tl
 from common.frames import LATEST, Buffer, PointStamped, TransformException
@@ -31,19 +30,19 @@ class GroundRobotController:
         self.buffer = Buffer()
         self.listener = TransformListener(self.buffer, node)
         self.rover_state = None                            # its newest HEARTBEAT
-        self._asked = 0.0
+        self._asked = -1e9
         node.subscribe("HEARTBEAT", lambda m: setattr(self, "rover_state", m), sysid=rover)
 
     def keep_guided_and_armed(self) -> None:
-        h = self.rover_state
-        if h is None or time.monotonic() - self._asked < 0.5:
+        h, now = self.rover_state, self.node.now()        # sim time in lockstep
+        if h is None or now - self._asked < 0.5:
             return
         if h.custom_mode != ROVER_GUIDED:
-            self._asked = time.monotonic()
+            self._asked = now
             self.node.send(tl.MAVLink_command_long_message(self.rover, 1, tl.MAV_CMD_DO_SET_MODE, 0,
                                                            tl.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ROVER_GUIDED, 0, 0, 0, 0, 0))
         if not h.base_mode & tl.MAV_MODE_FLAG_SAFETY_ARMED:
-            self._asked = time.monotonic()
+            self._asked = now
             self.node.send(tl.MAVLink_command_long_message(self.rover, 1, tl.MAV_CMD_COMPONENT_ARM_DISARM, 0,
                                                            1, 0, 0, 0, 0, 0, 0))
 
