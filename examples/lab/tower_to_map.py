@@ -1,55 +1,70 @@
 #!/usr/bin/env python3
 """tower_to_map: the lab's node that turns the tower's goals (tower frame) into the drone's (world).
 
-Listens for the tower's SET_POSITION_TARGET_LOCAL_NED (MAV_FRAME_LOCAL_NED in the tower
-frame; `towerlink bridge --route-only` routes it here untranslated), looks up
-world <- tower in the transform stream (the scenario's static frame, the lab's
-static_transform_publisher), and sends the goal in world to the drone.
+Checkpoint 1. The tower sends each goal as SET_POSITION_TARGET_LOCAL_NED in its own frame
+(the lab's /tower/goal; `towerlink bridge --route-only` routes it here untranslated) and sends
+it again until the drone is there. This node looks up world <- tower (the static transform of
+fly.launch), transforms the goal into world and sends it to the drone (the lab's
+/uav/input/goal).
 
-    python examples/lab/tower_to_map.py --connect udpout:127.0.0.1:14620
+    python tower_to_map.py --connect udpout:127.0.0.1:14620
 """
 import argparse
 
 from common.mavlink.dialect import towerlink as tl
-from common.frames import LATEST, Buffer, InvalidArgumentException, PointStamped, TransformException
-from common.tf2_ros import DEFAULT_URL, Node, TransformListener
+from common.frames import InvalidArgumentException
+from common.tf2_ros import (DEFAULT_URL, LATEST, Buffer, Node, PointStamped, TransformException,
+                            TransformListener, do_transform_point)
 
-TOWER_SYSID = 255
-IGNORE_YAW = 1 << 10
+TOWER_SYSID = 255                   # the tower: its goals come from this system
+DRONE_SYSID = 1                     # the drone: its goals go to this system
+POSITION_ONLY = 0b1101_1111_1000    # type_mask: use x, y, z; ignore velocity, acceleration, yaw
 
 
 class TowerToMap:
-    def __init__(self, node: Node, drone: int = 1) -> None:
-        self.node, self.drone = node, drone
-        self.goal = None                                   # set by the callback for the tower's goals
+    def __init__(self, node: Node) -> None:
+        self.node = node
+        # Used by the callback for the tower's goals
+        self.goal = None
+        # Instantiate the Buffer and TransformListener
         self.buffer = Buffer()
         self.listener = TransformListener(self.buffer, node)
+        # Tower goal subscriber: the tower's SET_POSITION_TARGET_LOCAL_NED
         node.subscribe("SET_POSITION_TARGET_LOCAL_NED", self.on_goal, sysid=TOWER_SYSID)
 
     def on_goal(self, msg) -> None:
-        if msg.target_system == self.drone and msg.coordinate_frame == tl.MAV_FRAME_LOCAL_NED:
+        """Callback for the tower's goals: msg.x, msg.y, msg.z in the tower frame (NED, m)."""
+        if msg.target_system == DRONE_SYSID and msg.coordinate_frame == tl.MAV_FRAME_LOCAL_NED:
             self.goal = msg
 
     def mainloop(self) -> None:
-        rate = self.node.rate(20)
+        rate = self.node.rate(20)       # Set the rate of this loop (sim time)
         while self.node.ok():
-            g = self.goal
-            if g is not None:
+            if self.goal is not None:
                 try:
-                    T = self.buffer.lookup_transform("world", "tower", LATEST)
-                    p = self.buffer.transform_point(PointStamped("tower", LATEST, (g.x, g.y, g.z)), "world").point
-                    yaw = g.yaw if g.type_mask & IGNORE_YAW else g.yaw + T.transform.yaw_pitch_roll()[0]
-                    self.node.send(tl.MAVLink_set_position_target_local_ned_message(
-                        g.time_boot_ms, self.drone, 1, tl.MAV_FRAME_LOCAL_NED, g.type_mask,
-                        *p, 0, 0, 0, 0, 0, 0, yaw, 0))
-                    self.node.log(f"Publishing Transformed Goal {[round(float(v), 2) for v in p[:2]]}")
-                    self.goal = None        # the tower re-sends its goal until the drone is there
-                except InvalidArgumentException as exc:       # NaN/inf from the wire: not a goal
+                    # Lookup the tower to world transform
+                    transform = self.buffer.lookup_transform("world", "tower", LATEST)
+                    # Convert the goal to a PointStamped
+                    point = PointStamped("tower", LATEST, (self.goal.x, self.goal.y, self.goal.z))
+                    # Use the do_transform_point function to convert the point using the transform
+                    new_point = do_transform_point(point, transform)
+                    # Publish the goal to the drone, in world
+                    self.send_goal(new_point)
+                    # The tower sends its goal again until the drone is there: Reset the goal
+                    self.goal = None
+                except InvalidArgumentException as exc:     # NaN or inf from the wire: not a goal
                     self.node.log(f"goal dropped: {exc}")
                     self.goal = None
                 except TransformException as exc:
                     self.node.log(f"tf2 exception, continuing: {exc}")
             rate.sleep()
+
+    def send_goal(self, point: PointStamped) -> None:
+        """The drone's goal: `point` in world (NED, m) as SET_POSITION_TARGET_LOCAL_NED."""
+        x, y, z = (float(v) for v in point.point)
+        self.node.send(tl.MAVLink_set_position_target_local_ned_message(
+            0, DRONE_SYSID, 1, tl.MAV_FRAME_LOCAL_NED, POSITION_ONLY, x, y, z, 0, 0, 0, 0, 0, 0, 0, 0))
+        self.node.log(f"Publishing Transformed Goal {[round(x, 2), round(y, 2)]}")
 
 
 if __name__ == "__main__":

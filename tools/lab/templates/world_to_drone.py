@@ -1,0 +1,56 @@
+#!/usr/bin/env python3
+"""world_to_drone: broadcast the drone's frames from its pose.
+
+Checkpoints 2 and 3. From the drone's LOCAL_POSITION_NED (its position in world, NED: the
+lab's /uav/sensors/gps) and ATTITUDE_QUATERNION, broadcast two dynamic transforms, stamped
+with the time of the position on the drone's own clock:
+
+  world -> drone      the full attitude: the frame tilts as the drone flies (checkpoint 2)
+  world -> drone_yaw  roll and pitch zeroed, yaw kept: the level frame (checkpoint 3)
+
+    python world_to_drone.py --connect udpout:127.0.0.1:14620
+"""
+import argparse
+
+from common.tf2_ros import (DEFAULT_URL, Node, Transform, TransformBroadcaster, TransformException,
+                            TransformStamped, euler_from_quaternion, quaternion_from_euler)
+
+DRONE_SYSID = 1
+
+
+class WorldToDrone:
+    def __init__(self, node: Node) -> None:
+        self.attitude = None                    # the drone's newest attitude quaternion (x, y, z, w)
+        # TODO: Instantiate the Broadcaster
+        node.subscribe("ATTITUDE_QUATERNION", self.on_attitude, sysid=DRONE_SYSID)
+        # TODO: Drone position subscriber: the drone's LOCAL_POSITION_NED, to self.on_position
+
+    def on_attitude(self, m) -> None:
+        self.attitude = (m.q2, m.q3, m.q4, m.q1)      # MAVLink's quaternion is w, x, y, z
+
+    def on_position(self, m) -> None:
+        """Callback for the drone's position: m.x, m.y, m.z in world (NED, m) at m.time_boot_ms."""
+        if self.attitude is None:
+            return
+        try:
+            # TODO: the stamp: the time of this position on the drone's clock, in seconds
+            # TODO: world -> drone: a TransformStamped(frame_id, child_frame_id, stamp, Transform(...)),
+            #       translation from the position, rotation from the attitude
+            # TODO (checkpoint 3): world -> drone_yaw: the same with roll and pitch zeroed
+            #       (euler_from_quaternion, then quaternion_from_euler(0, 0, yaw))
+            pass
+        except TransformException:              # NaN or a zero quaternion on the wire
+            return
+        # TODO: Broadcast the transforms (sendTransform takes one or a list)
+
+
+if __name__ == "__main__":
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--connect", default=DEFAULT_URL, help="the bridge's node link (default %(default)s)")
+    args, _ = ap.parse_known_args()
+    with Node("world_to_drone", args.connect) as node:
+        WorldToDrone(node)
+        try:
+            node.spin()                         # the callbacks broadcast, in the node's thread
+        except KeyboardInterrupt:
+            pass
