@@ -68,6 +68,13 @@ def component_for(name: str) -> int:
     return MAV_COMP_ID_USER1 + zlib.crc32(name.encode()) % 75
 
 
+def _where(exc: BaseException) -> str:
+    """' at FILE line N': the deepest frame of the exception's traceback (where the callback broke)."""
+    import traceback
+    tb = traceback.extract_tb(exc.__traceback__)
+    return f" at {os.path.basename(tb[-1].filename)} line {tb[-1].lineno}" if tb else ""
+
+
 class Rate:
     """rospy.Rate: sleep() keeps a loop at `hz` (no catch-up burst after a stall): wall time, or
     with a lockstep node the node's sim time."""
@@ -254,7 +261,7 @@ class Node:
         except Exception as exc:  # noqa: BLE001 - one bad callback must not stop the node
             self.callback_errors += 1
             if self.callback_errors <= 5:
-                self.log(f"callback {getattr(fn, '__name__', fn)!s} failed: {exc!r}")
+                self.log(f"callback {getattr(fn, '__name__', fn)!s} failed: {exc!r}{_where(exc)}")
 
     def _spin(self) -> None:
         while not self._closed.is_set():

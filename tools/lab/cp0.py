@@ -161,9 +161,18 @@ def judge(launch: LaunchLine) -> Checkpoint:
                              for w, x, y, e in r], "rows_ok": n_ok, "worst_error": worst})
     details += _table(r)
     ok = n_ok == len(r) and ts.frame_id == PARENT and ts.child_frame_id == CHILD
-    measured = f"{n_ok}/{len(r)} rows within {TOLERANCE:g} m (worst {worst:.2f} m)"
+    measured = f"{n_ok}/{len(r)} rows within {TOLERANCE:g} m (worst {worst:.2f} m); {both_ways(ts)}"
     hints = [] if ok else diagnose(a, where)
     return Checkpoint(0, ok, measured, figures, hints=hints, details=details)
+
+
+def both_ways(ts: TransformStamped) -> str:
+    """tf_echo both ways, in short: translation and yaw of parent->child and child->parent."""
+    def one(a: str, b: str, tr: Transform) -> str:
+        t = tr.translation
+        return f"tf_echo {a} {b}: [{t[0]:.2f}, {t[1]:.2f}, {t[2]:.2f}] yaw {math.degrees(tr.yaw_pitch_roll()[0]):.1f} deg"
+    return (f"{one(ts.frame_id, ts.child_frame_id, ts.transform)}, "
+            f"{one(ts.child_frame_id, ts.frame_id, ts.transform.inverse())}")
 
 
 def _args_as_given(text: str) -> Args:

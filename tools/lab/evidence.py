@@ -29,6 +29,7 @@ class Crash:
     file: str
     line: int | None
     error: str
+    stopped: bool = True        # the node ended; False: a callback raised and the node went on
 
 
 def _target_rows(msgs, sink: list):
@@ -39,11 +40,19 @@ def _target_rows(msgs, sink: list):
         yield m
 
 
+CALLBACK_FAILED = re.compile(r"callback (\S+) failed: (.*?)(?: at (\S+) line (\d+))?$", re.M)
+
+
 def crash_in(log: str, node_file: str) -> Crash | None:
-    """The traceback in a node's log (the last one), pinned to the student's file when it is in it."""
+    """The traceback in a node's log (the last one), pinned to the student's file when it is in it;
+    else the first callback that failed (the node goes on, but that callback never does its job)."""
     i = log.rfind("Traceback (most recent call last):")
     if i < 0:
-        return None
+        m = CALLBACK_FAILED.search(log)
+        if m is None:
+            return None
+        return Crash(m.group(3) or node_file, int(m.group(4)) if m.group(4) else None,
+                     f"{m.group(2)} in the callback {m.group(1)}", stopped=False)
     tb = log[i:].splitlines()
     frames = [(m.group(1), int(m.group(2))) for m in (re.match(r'\s*File "(.*)", line (\d+)', ln) for ln in tb) if m]
     error = next((ln.strip() for ln in reversed(tb) if ln.strip() and not ln.startswith((" ", "\t"))), "")

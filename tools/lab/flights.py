@@ -23,7 +23,7 @@ from common.scenario import DEFAULT_SCENARIO, load_scenario
 
 #: the lab's three goals, world [x, y] (m, NED): the house with the package, then a 30 m and a 10 m leg
 LAB_GOALS_WORLD = ((-4.0, -2.0), (26.0, -2.0), (26.0, 8.0))
-GOAL_TIMEOUT = 30.0         # sim s the tower waits for each goal
+GOAL_TIMEOUT = 20.0         # sim s the tower waits for each goal
 FLIGHT_TIMEOUT = 300.0      # wall s for a whole flight (a machine far too busy, or a hang)
 SEED = 1
 

@@ -20,7 +20,9 @@ def _line(src: Source, *patterns: str) -> int | None:
 
 
 def crashed(node: str, crash: Crash) -> Hint:
-    return Hint(crash.file, crash.line, f"{node} stopped with an exception: {crash.error}")
+    if crash.stopped:
+        return Hint(crash.file, crash.line, f"{node} stopped with an exception: {crash.error}")
+    return Hint(crash.file, crash.line, f"{node} raised {crash.error}: it did nothing else each time")
 
 
 def syntax(src: Source) -> Hint:
@@ -29,7 +31,7 @@ def syntax(src: Source) -> Hint:
 
 def never_sent_goal(src: Source) -> Hint:
     send = src.calls("send_goal")
-    line = send[0].line if send else _line(src, r"TODO.*[Pp]ublish", r"def mainloop")
+    line = send[0].line if send else _line(src, r"TODO.*[Pp]ublish", r"#.*[Pp]ublish", r"def mainloop")
     return Hint(src.name, line, "tower_to_map never sent the drone a goal: after the tower's goal came, "
                                 "nothing reached send_goal (is the goal kept by on_goal, the transform looked "
                                 "up, the point sent?)")
@@ -68,7 +70,7 @@ def goal_off(src: Source, got, want) -> Hint:
 
 def never_broadcast(src: Source, child: str) -> Hint:
     sends = src.calls("sendTransform") + src.calls("send_transform")
-    line = sends[0].line if sends else _line(src, r"TODO.*[Bb]roadcast", r"def on_position")
+    line = sends[0].line if sends else _line(src, r"TODO.*[Bb]roadcast", r"#.*[Bb]roadcast", r"def on_position")
     return Hint(src.name, line, f"world_to_drone never broadcast world -> {child}: nothing reached sendTransform "
                                 f"with that frame (is the position callback subscribed, the transform built?)")
 
