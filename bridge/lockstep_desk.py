@@ -1,4 +1,4 @@
-"""The bridge as a lockstep participant (issue 11, `towerlink bridge --lockstep`).
+"""The bridge as a lockstep participant (`towerlink bridge --lockstep`).
 
 The world (``towerlink sitl --lockstep N``) sends TOWERLINK_LOCKSTEP TICK(t) on each
 vehicle link after everything it sent up to sim time t. UDP keeps order per socket pair,
@@ -12,7 +12,7 @@ packet up to t (the loop handles packets in arrival order). Then, at that barrie
    bridge to the world like any broadcast, on the same socket as its goals, so a goal sent
    before the tower's ACK reaches the vehicle before it).
 
-With nodes in lockstep (--nodes with --lockstep, bridge.node_lockstep) `hold` keeps steps 2 and 3
+With nodes in lockstep (--nodes with --lockstep, bridge.node_lockstep) `nodes` holds steps 2 and 3
 until the nodes have settled at t; a TICK the world sends again meanwhile is answered with the
 newest barrier already released, never the held one.
 
@@ -38,14 +38,14 @@ TICK_RESEND = 0.5               # wall s without the tower's ACK of its newest T
 
 
 class LockstepDesk:
-    def __init__(self, vehicles: dict, pack_own, send_tower, on_barrier, log, wall, hold=None) -> None:
+    def __init__(self, vehicles: dict, pack_own, send_tower, on_barrier, log, wall, nodes=None) -> None:
         self.wall = wall                    # () -> wall s (only for JOIN resends)
         self.tick_wall: dict[str, float] = {}
         self.vehicles = vehicles            # sysid -> VehicleRecord
         self.pack_own = pack_own            # message -> bytes (the bridge's own packet)
         self.send_tower = send_tower        # bytes -> None
         self.on_barrier = on_barrier        # (t seconds) -> None: the sim-time upkeep
-        self.hold = hold                    # (t us, release) -> True to release later (the nodes)
+        self.nodes = nodes                  # bridge.node_lockstep.NodeLockstep, or None
         self.released_usec = -1             # the newest barrier ACKed to the world
         self.log = log
         self.ticks: dict[str, int] = {}     # vehicle link name -> newest TICK, us
@@ -65,7 +65,14 @@ class LockstepDesk:
         """The barrier's sim time (s): the bridge's behaviour clock in lockstep."""
         return max(self.barrier_usec, 0) / 1e6
 
+    def on_node(self, sysid: int, compid: int, msg) -> None:
+        """A TOWERLINK_LOCKSTEP from a node on the node link (the bridge's participant, not the world's)."""
+        if self.nodes is not None:
+            self.nodes.on_message(sysid, compid, msg)
+
     def upkeep(self, wall: float) -> None:
+        if self.nodes is not None:
+            self.nodes.upkeep()
         if self.tower_joined and self.released_usec > self.tower_acked and \
                 wall - self.tower_tick_wall > TICK_RESEND:
             self.tick_resends += 1
@@ -107,7 +114,7 @@ class LockstepDesk:
         self.barrier_usec = barrier
         self.barriers += 1
         self.on_barrier(barrier / 1e6)
-        if self.hold is None or not self.hold(barrier, lambda: self._release(barrier)):
+        if self.nodes is None or not self.nodes.hold(barrier, lambda: self._release(barrier)):
             self._release(barrier)
 
     def _release(self, barrier: int) -> None:
