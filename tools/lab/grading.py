@@ -22,10 +22,11 @@ def check_one(spec: tuple) -> dict[str, Any]:
     folder, asked, out, plot = spec
     try:
         from tools.lab.checker import check
-        return check(folder, asked, out, plot=plot)
+        return {**check(folder, asked, out, plot=plot), "worker_pid": os.getpid()}
     except Exception as exc:  # noqa: BLE001 - one student's broken folder must not stop the class
         from tools.lab.result import TITLES
         return {"name": Path(folder).name, "dir": str(folder), "report_dir": str(out), "passed": False,
+                "worker_pid": os.getpid(),
                 "error": f"{type(exc).__name__}: {exc}", "wall_s": 0.0, "flights": {}, "plots": {},
                 "checkpoints": [{"number": n, "title": TITLES[n], "passed": False, "verdict": "FAIL",
                                  "measured": "the check could not run", "hints": [], "notes": [str(exc)]}
