@@ -74,15 +74,16 @@ class FlightRun:
     sim: float = 0.0
 
 
-def fly(f: Flight, run_dir: Path, timeout: float = FLIGHT_TIMEOUT) -> FlightRun:
-    """Fly `f` in lockstep at --speedup max into run_dir; never raises for what the nodes do."""
+def fly(f: Flight, run_dir: Path, timeout: float = FLIGHT_TIMEOUT, speedup: float = float("inf")) -> FlightRun:
+    """Fly `f` in lockstep (at --speedup max unless told) into run_dir; never raises for what
+    the nodes do."""
     from tools.fly_launch import Launch
     run_dir = Path(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     scenario = write_scenario(f.static, run_dir / "scenario.toml")
     res = FlightRun(f, run_dir)
     t0 = time.monotonic()
-    launch = Launch(run_dir, scenario=str(scenario), speedup=float("inf"), lockstep=True, seed=SEED,
+    launch = Launch(run_dir, scenario=str(scenario), speedup=speedup, lockstep=True, seed=SEED,
                     follow_frame=f.follow_frame, goals=goals_arg(), finish="none", goal_timeout=GOAL_TIMEOUT,
                     nodes=list(f.nodes))
     try:
