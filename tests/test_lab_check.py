@@ -181,7 +181,7 @@ def test_the_hints_name_the_line_of_the_call_they_are_about(tmp_path):
     src = Source(d / "tower_to_map.py")
     h = hints.lookup_direction(src, "world", "tower", "the tower's goal")
     assert h.line == line_of(d / "tower_to_map.py", 'lookup_transform("tower", "world"') and "('world', 'tower')" in h.text
-    assert hints.not_transformed(src).line == line_of(d / "tower_to_map.py", "self.send_goal(new_point)")
+    assert hints.not_transformed(src).line == line_of(d / "tower_to_map.py", "self.goal_pub.publish(new_point)")
     d = planted(tmp_path, "world_to_drone.py", "stamp = m.time_boot_ms / 1000.0", "stamp = time.time()", "w")
     h = hints.wall_clock_stamp(Source(d / "world_to_drone.py"), 1.7e9)
     assert h.line == line_of(d / "world_to_drone.py", "time.time()") and "time.time()" in h.text

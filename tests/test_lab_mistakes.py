@@ -28,13 +28,13 @@ ROOT = Path(__file__).resolve().parent.parent
 LAB = ROOT / "examples" / "lab"
 
 PLANTS = {
-    "raw_goal": [("tower_to_map.py", "self.send_goal(new_point)", "self.send_goal(point)"),
+    "raw_goal": [("tower_to_map.py", "self.goal_pub.publish(new_point)", "self.goal_pub.publish(point)"),
                  ("world_to_drone.py", "stamp = m.time_boot_ms / 1000.0", "stamp = time.time()"),
                  ("world_to_drone.py", "import argparse\n", "import argparse\nimport time\n")],
     "inverse": [("tower_to_map.py", 'lookup_transform("world", "tower", LATEST)',
                  'lookup_transform("tower", "world", LATEST)'),
-                ("ground_robot_controller.py", "PointStamped(self.frame, t, (0.0, 0.0, h))",
-                 "PointStamped(self.frame, t, (0.0, 0.0, 0.0))")],
+                ("ground_robot_controller.py", "PointStamped(self.frame, transform.stamp, (0.0, 0.0, h))",
+                 "PointStamped(self.frame, transform.stamp, (0.0, 0.0, 0.0))")],
     "crash": [("tower_to_map.py", 'transform = self.buffer.lookup_transform(', 'transform = self.bufer.lookup_transform('),
               ("world_to_drone.py", "        self.br.sendTransform([drone, drone_yaw])\n", "")],
     "yaw_sign": [("fly.launch", " -0.5235987756 0 0 world tower", " 0.5235987756 0 0 world tower"),
@@ -91,34 +91,30 @@ def test_the_class_ran_in_one_command_and_every_planted_mistake_failed(graded):
     assert "CP0  static transform       FAIL" in card and "hint: fly.launch line" in card
 
 
-def test_a_goal_sent_untransformed_and_stamps_from_the_wall_clock(graded):
+# (student, checkpoint): the file the hint names, a phrase of it, the line it names (a fragment of it)
+EXPECTED = [
+    ("raw_goal", 1, "tower_to_map.py", "tower's own coordinates", "self.goal_pub.publish(point)"),
+    ("raw_goal", 2, "world_to_drone.py", "stamped with time.time()", "stamp = time.time()"),
+    ("inverse", 1, "tower_to_map.py", "ask for ('world', 'tower')", 'lookup_transform("tower", "world"'),
+    ("inverse", 2, "ground_robot_controller.py", "at the drone's height", "PointStamped(self.frame"),
+    ("crash", 1, "tower_to_map.py", "stopped with an exception: AttributeError", "self.bufer.lookup_transform"),
+    ("crash", 2, "world_to_drone.py", "never broadcast world -> drone", "# Broadcast the transforms"),
+]
+
+
+@pytest.mark.parametrize("student, n, file, phrase, fragment", EXPECTED,
+                         ids=[f"{e[0]}-cp{e[1]}" for e in EXPECTED])
+def test_each_planted_mistake_fails_its_checkpoint_with_its_hint_and_line(graded, student, n, file, phrase, fragment):
     dirs, reps, _, _ = graded
-    h = hint(reps["raw_goal"], 1)
-    assert h["file"] == "tower_to_map.py" and "tower's own coordinates" in h["text"]
-    assert h["line"] == line_of(dirs["raw_goal"] / "tower_to_map.py", "self.send_goal(point)")
-    h = hint(reps["raw_goal"], 2)
-    assert h["file"] == "world_to_drone.py" and "time.time()" in h["text"] and "drone's clock" in h["text"]
-    assert h["line"] == line_of(dirs["raw_goal"] / "world_to_drone.py", "stamp = time.time()")
+    h = hint(reps[student], n)
+    assert h["file"] == file and phrase in h["text"], h
+    assert h["line"] == line_of(dirs[student] / file, fragment), h
 
 
-def test_a_lookup_the_wrong_way_round_and_a_goal_at_the_drones_height(graded):
-    dirs, reps, _, _ = graded
-    h = hint(reps["inverse"], 1)
-    assert h["file"] == "tower_to_map.py" and "inverse transform" in h["text"] and "('world', 'tower')" in h["text"]
-    assert h["line"] == line_of(dirs["inverse"] / "tower_to_map.py", 'lookup_transform("tower", "world"')
-    h = hint(reps["inverse"], 2)
-    assert h["file"] == "ground_robot_controller.py" and "at the drone's height" in h["text"]
-    assert h["line"] == line_of(dirs["inverse"] / "ground_robot_controller.py", "PointStamped(self.frame")
-
-
-def test_a_node_that_crashes_and_a_node_that_never_publishes(graded):
-    dirs, reps, _, _ = graded
-    h = hint(reps["crash"], 1)
-    assert h["file"] == "tower_to_map.py" and "AttributeError" in h["text"] and "stopped" in h["text"]
-    assert h["line"] == line_of(dirs["crash"] / "tower_to_map.py", "self.bufer.lookup_transform")
-    assert reps["crash"]["flights"]["cp1"]["sim_s"] < 15          # the flight ended with the node
-    h = hint(reps["crash"], 2)
-    assert h["file"] == "world_to_drone.py" and "never broadcast world -> drone" in h["text"]
+def test_a_crashing_node_ends_its_flight(graded):
+    _dirs, reps, _, _ = graded
+    assert reps["crash"]["flights"]["cp1"]["sim_s"] < 15
+    assert "node-tower_to_map exited" in reps["crash"]["flights"]["cp1"]["failure"]
 
 
 def test_a_yaw_of_the_wrong_sign_and_a_level_frame_that_still_tilts(graded):

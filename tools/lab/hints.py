@@ -29,16 +29,20 @@ def syntax(src: Source) -> Hint:
     return Hint(src.name, src.error_line, f"{src.error}: the node cannot start")
 
 
+def _publishes(src: Source):
+    return src.calls("publish")
+
+
 def never_sent_goal(src: Source) -> Hint:
-    send = src.calls("send_goal")
+    send = _publishes(src)
     line = send[0].line if send else _line(src, r"TODO.*[Pp]ublish", r"#.*[Pp]ublish", r"def mainloop")
     return Hint(src.name, line, "tower_to_map never sent the drone a goal: after the tower's goal came, "
-                                "nothing reached send_goal (is the goal kept by on_goal, the transform looked "
-                                "up, the point sent?)")
+                                "nothing reached the publisher (is the goal kept by on_goal, the transform looked "
+                                "up, the point published?)")
 
 
 def not_transformed(src: Source) -> Hint:
-    send = src.calls("send_goal")
+    send = _publishes(src)
     return Hint(src.name, send[0].line if send else _line(src, r"def mainloop"),
                 "the drone was sent the tower's own coordinates: the goal goes out as it came, in the tower "
                 "frame. Transform it into world first (do_transform_point with the world <- tower transform)")
@@ -62,7 +66,7 @@ def static_transform_off(launch_file: str, line: int | None, got, want) -> Hint:
 
 
 def goal_off(src: Source, got, want) -> Hint:
-    send = src.calls("send_goal")
+    send = _publishes(src)
     return Hint(src.name, send[0].line if send else None,
                 f"the drone's first goal was [{got[0]:.1f}, {got[1]:.1f}] in world; the tower meant the house "
                 f"at [{want[0]:.1f}, {want[1]:.1f}]")
@@ -70,7 +74,7 @@ def goal_off(src: Source, got, want) -> Hint:
 
 def never_broadcast(src: Source, child: str) -> Hint:
     sends = src.calls("sendTransform") + src.calls("send_transform")
-    line = sends[0].line if sends else _line(src, r"TODO.*[Bb]roadcast", r"#.*[Bb]roadcast", r"def on_position")
+    line = sends[0].line if sends else _line(src, r"#.*[Bb]roadcast the", r"def on_position")
     return Hint(src.name, line, f"world_to_drone never broadcast world -> {child}: nothing reached sendTransform "
                                 f"with that frame (is the position callback subscribed, the transform built?)")
 
@@ -100,25 +104,27 @@ def roll_pitch_kept(src: Source, tilt_deg: float) -> Hint:
 
 
 def never_drove(src: Source) -> Hint:
-    line = _line(src, r"return None", r"TODO.*[Pp]ublish", r"def ground_point")
-    return Hint(src.name, line, "ground_robot_controller never sent the rover a goal: ground_point gave no point "
-                                "(is the Buffer made, the transform looked up, the point returned?)")
+    send = _publishes(src)
+    line = send[0].line if send else _line(src, r"TODO.*[Pp]ublish", r"#.*[Pp]ublish", r"def mainloop")
+    return Hint(src.name, line, "ground_robot_controller never sent the rover a goal: nothing reached the "
+                                "publisher (is the Buffer made, the transform looked up, the point published?)")
 
 
 def goal_at_drone_height(src: Source, z: float) -> Hint:
     ps = src.calls("PointStamped")
-    return Hint(src.name, ps[0].line if ps else _line(src, r"def ground_point"),
+    return Hint(src.name, ps[0].line if ps else _line(src, r"def mainloop"),
                 f"the rover's goal is {-z:.1f} m up, at the drone's height: (0, 0, 0) in the drone frame is the "
                 f"drone itself. The ground under the drone is h metres further down its z axis")
 
 
 def goal_not_through_tilt(src: Source, frame: str) -> Hint:
-    return Hint(src.name, _line(src, r"lookup_transform", r"def ground_point"),
+    return Hint(src.name, _line(src, r"lookup_transform", r"def mainloop"),
                 f"the rover's goals stay right under the drone: checkpoint 2's goal is written in the tilting "
                 f"frame {frame!r} (self.frame, from --follow-frame), where (0, 0, h) swings with the attitude")
 
 
 def rover_far(src: Source, rms: float) -> Hint:
-    return Hint(src.name, _line(src, r"def ground_point"),
+    ps = src.calls("PointStamped")
+    return Hint(src.name, ps[0].line if ps else _line(src, r"def mainloop"),
                 f"the rover stays {rms:.1f} m (RMS) from the ground point under the drone: check the point "
-                f"ground_point returns (world x, y; z down)")
+                f"your node publishes (world x, y; z down)")

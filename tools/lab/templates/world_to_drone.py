@@ -1,14 +1,9 @@
 #!/usr/bin/env python3
-"""world_to_drone: broadcast the drone's frames from its pose.
+"""world_to_drone: your node for checkpoints 2 and 3 (README.md, steps 4 and 6).
 
-Checkpoints 2 and 3. From the drone's LOCAL_POSITION_NED (its position in world, NED: the
-lab's /uav/sensors/gps) and ATTITUDE_QUATERNION, broadcast two dynamic transforms, stamped
-with the time of the position on the drone's own clock:
-
-  world -> drone      the full attitude: the frame tilts as the drone flies (checkpoint 2)
-  world -> drone_yaw  roll and pitch zeroed, yaw kept: the level frame (checkpoint 3)
-
-    python world_to_drone.py --connect udpout:127.0.0.1:14620
+Broadcast where the drone is, each time its position comes (the lab's /uav/sensors/gps):
+world -> drone with its full attitude (checkpoint 2), then world -> drone_yaw with roll and
+pitch zeroed (checkpoint 3). Fill in the TODOs; try it: `towerlink lab check . --checkpoint 2`.
 """
 import argparse
 
