@@ -75,6 +75,8 @@ def judge(sub: Submission, ev: Evidence) -> Checkpoint:
         cp.hints += _why_off(sub, given[0, 1:4], np.array(tower[0]), np.array(world[0]))
     if ev.run.failure and crash is None:
         cp.notes.append(f"the flight ended early: {ev.run.failure}")
+    elif not cp.hints:
+        cp.notes.append("the drone was given the lab's goals but did not reach them all")
     return cp
 
 

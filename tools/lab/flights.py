@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -76,7 +77,16 @@ class FlightRun:
 
 def fly(f: Flight, run_dir: Path, timeout: float = FLIGHT_TIMEOUT, speedup: float = float("inf")) -> FlightRun:
     """Fly `f` in lockstep (at --speedup max unless told) into run_dir; never raises for what
-    the nodes do."""
+    the nodes do. A flight that never got going for a reason of the machine's (no sim time passed
+    and no node ended it: a port taken meanwhile by another program) is flown once more."""
+    res = _fly_once(f, run_dir, timeout, speedup)
+    if res.sim <= 0 and res.failure and not res.exited:
+        shutil.rmtree(run_dir, ignore_errors=True)
+        res = _fly_once(f, run_dir, timeout, speedup)
+    return res
+
+
+def _fly_once(f: Flight, run_dir: Path, timeout: float, speedup: float) -> FlightRun:
     from tools.fly_launch import Launch
     run_dir = Path(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
@@ -100,8 +110,7 @@ def fly(f: Flight, run_dir: Path, timeout: float = FLIGHT_TIMEOUT, speedup: floa
             res.sim = float(launch.monitor.snapshot().get("sim") or 0.0)
         launch.stop()
         for p in f.nodes:
-            rc = launch.processes.exited(f"node-{p.stem}")
-            if rc is not None and res.failure and f"node-{p.stem} exited" in res.failure:
-                res.exited[p.stem] = rc
+            if res.failure and f"node-{p.stem} exited" in res.failure:
+                res.exited[p.stem] = launch.processes.exited(f"node-{p.stem}")
         res.wall = time.monotonic() - t0
     return res

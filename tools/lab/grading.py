@@ -8,6 +8,7 @@ row with its error, never the end of the grading.
 from __future__ import annotations
 
 import os
+import random
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any, Callable
@@ -20,6 +21,7 @@ def cpus_per_check(asked) -> float:
 def check_one(spec: tuple) -> dict[str, Any]:
     """`check(folder, asked, out)` that never raises: a failure is the row's error."""
     folder, asked, out, plot = spec
+    random.seed()       # a forked worker has its parent's RNG: free_udp_ports would pick its sibling's ports
     try:
         from tools.lab.checker import check
         return {**check(folder, asked, out, plot=plot), "worker_pid": os.getpid()}
