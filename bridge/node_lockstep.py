@@ -27,7 +27,7 @@ from common.mavlink import lockstep as ls
 from common.mavlink.dialect import towerlink as tl
 
 JOIN_TIMEOUT = 15.0     # wall s, from the first barrier, to wait for the expected nodes
-SILENT_AFTER = 5.0      # wall s without a word from a node that owes an ACK: dropped
+SILENT_AFTER = 10.0     # wall s without a word from a node that owes an ACK: dropped (the world: 10 too)
 TICK_RESEND = 0.5       # wall s without the ACKs of a round: TICK again (UDP may drop one)
 
 
