@@ -17,7 +17,7 @@ from tools.lab import hints
 from tools.lab.evidence import Evidence
 from tools.lab.flights import lab_goals
 from tools.lab.result import Checkpoint, Hint, not_done, not_flown
-from tools.lab.submission import Submission
+from tools.lab.submission import NODES, Submission
 
 REACH = 0.75        # m: the tower's radius (0.5 m, on the estimate) and a margin for truth
 SAME = 0.5          # m: a goal the drone was given "is" a prediction within this
@@ -34,11 +34,11 @@ def static_transforms(args: str) -> tuple:
 
 def precheck(sub: Submission, cp0: Checkpoint) -> Checkpoint | None:
     """The verdict without a flight (not done, cannot run), or None: fly it."""
-    src = sub.sources[NODE]
     if sub.untouched(NODE):
         return not_done(1, f"{NODE}.py is still the skeleton")
-    if src.error:
-        return Checkpoint(1, False, "tower_to_map does not start", hints=[hints.syntax(src)])
+    broken = [hints.syntax(sub.sources[n]) for n in NODES if sub.sources[n].error]
+    if broken:          # the flight runs all three: one that cannot start stops it
+        return Checkpoint(1, False, "a node does not start", hints=broken)
     if sub.launch.args is None:
         return not_done(1, "it flies your static transform, and fly.launch has none yet (checkpoint 0)")
     if "args" not in cp0.figures:               # there but it does not parse
@@ -49,7 +49,7 @@ def precheck(sub: Submission, cp0: Checkpoint) -> Checkpoint | None:
 
 def judge(sub: Submission, ev: Evidence) -> Checkpoint:
     idle = not_flown(1, ev.run)
-    if idle is not None and ev.crash(NODE) is None:
+    if idle is not None and not any(ev.crash(n) for n in NODES):
         return idle
     world, tower = lab_goals()
     closest = [ev.closest(g) for g in world]
@@ -67,8 +67,11 @@ def judge(sub: Submission, ev: Evidence) -> Checkpoint:
         return cp
     src = sub.sources[NODE]
     crash = ev.crash(NODE)
+    ended = [(n, c) for n, c in ((n, ev.crash(n)) for n in NODES if n != NODE) if c is not None and c.stopped]
     if crash is not None:
         cp.hints.append(hints.crashed(NODE, crash))
+    elif ended:                             # another node stopped, and the flight with it
+        cp.hints += [hints.crashed(n, c) for n, c in ended]
     elif not len(given):
         cp.hints.append(hints.never_sent_goal(src))
     else:
