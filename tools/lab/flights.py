@@ -79,6 +79,7 @@ def fly(f: Flight, run_dir: Path, timeout: float = FLIGHT_TIMEOUT, speedup: floa
     """Fly `f` in lockstep (at --speedup max unless told) into run_dir; never raises for what
     the nodes do. A flight that never got going for a reason of the machine's (no sim time passed
     and no node ended it: a port taken meanwhile by another program) is flown once more."""
+    shutil.rmtree(run_dir, ignore_errors=True)       # a check run again starts from nothing
     res = _fly_once(f, run_dir, timeout, speedup)
     if res.sim <= 0 and res.failure and not res.exited:
         shutil.rmtree(run_dir, ignore_errors=True)

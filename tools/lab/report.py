@@ -12,11 +12,6 @@ from typing import Any
 
 from tools.lab.result import Checkpoint
 
-QUESTION = ("How do the two directions relate? They are inverses: the rotation is transposed (the "
-            "quaternion conjugated) and the translation becomes -R^T t, so tf_echo tower world is "
-            "tf_echo world tower undone.")
-
-
 def write_report(sub, results: dict[int, Checkpoint], evidence: dict, out: Path, *, wall: float,
                  plot: bool = True) -> dict[str, Any]:
     """report.json, report.md and tracks*.png into `out`; returns the report."""
@@ -74,7 +69,7 @@ def _markdown(rep: dict[str, Any], results: dict[int, Checkpoint]) -> str:
         md += ["", f"## Checkpoint {c.number}: {c.title} ({c.verdict})", "", c.measured, ""]
         md += [f"- **hint** {h}" for h in c.hints] + [f"- note: {n}" for n in c.notes]
         if c.number == 0 and c.details:
-            md += ["", "Your static transform, both ways, as tf_echo prints it:", "", c.details, "", QUESTION]
+            md += ["", "Your static transform, both ways, as tf_echo prints it:", "", c.details]
         elif c.details:
             md += ["", c.details]
         flight = c.figures.get("flight")
@@ -91,6 +86,7 @@ def _markdown(rep: dict[str, Any], results: dict[int, Checkpoint]) -> str:
 def _plots(evidence: dict, out: Path) -> dict[str, str]:
     """tracks.png for the first flight, tracks-<flight>.png for the others (name -> file)."""
     from common.scenario import load_scenario
+    from tools.lab.flights import lab_goals
     from tools.plot_tracks import plot
     done: dict[str, str] = {}
     seen: dict[int, str] = {}
@@ -102,7 +98,6 @@ def _plots(evidence: dict, out: Path) -> dict[str, str]:
             done[k] = seen[id(ev)]
             continue
         name = "tracks.png" if not done else f"tracks-{k}.png"
-        from tools.lab.flights import lab_goals
         goals = [(g, bool(c is not None and c <= 0.75)) for g, c in
                  ((g, ev.closest(g)) for g in lab_goals()[0])]
         try:
