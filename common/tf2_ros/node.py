@@ -218,7 +218,7 @@ class Node:
     def _heartbeat(self) -> None:
         tl = self.tl
         self._send_now(tl.MAVLink_heartbeat_message(tl.MAV_TYPE_ONBOARD_CONTROLLER, tl.MAV_AUTOPILOT_INVALID,
-                                               0, 0, tl.MAV_STATE_ACTIVE, 3))
+                                                    0, 0, tl.MAV_STATE_ACTIVE, 3))
 
     def _lockstep_send(self, kind: int, t_usec: int, round_no: int = 0) -> None:
         """TOWERLINK_LOCKSTEP to the bridge; an ACK carries the round number of the TICK it answers
