@@ -71,7 +71,7 @@ def _init(args) -> int:
 
 def _check(args) -> int:
     from tools.lab.grading import grade
-    from tools.lab.report import card, class_table
+    from tools.lab.report import card, class_markdown, class_table
     folders = [Path(d) for d in args.dirs if Path(d).is_dir()]
     for d in args.dirs:
         if not Path(d).is_dir():
@@ -98,7 +98,7 @@ def _check(args) -> int:
         table = class_table(reps)
         root = Path(args.out) if args.out else Path("lab-check")
         root.mkdir(parents=True, exist_ok=True)
-        (root / "class.md").write_text("```\n" + table + "\n```\n")
+        (root / "class.md").write_text(class_markdown(reps))
         (root / "class.json").write_text(json.dumps(reps, indent=2, default=str))
         print("\n" + table + f"\n\n({how}; reports in {root}/<student>, the table in {root}/class.md)")
     return 0 if all(r["passed"] for r in reps) else 1

@@ -117,7 +117,7 @@ def diagnose(a: Args, where: Hint) -> list[Hint]:
                    "child's origin in the parent: where the tower's origin is in the world")
     if "degrees" in found or "degrees+sign" in found or abs(a.yaw) > 2 * math.pi:
         out.append(f"yaw {a.yaw:g} looks like degrees: static_transform_publisher takes radians "
-                   f"({a.yaw:g} deg = {math.radians(a.yaw):.4f} rad)")
+                   f"(radians = degrees x pi / 180)")
     if "sign" in found or "degrees+sign" in found:
         out.append("the yaw's sign: in NED a positive yaw turns x (north) towards y (east), clockwise seen "
                    "from above; the tower's axes are turned counter-clockwise from the world's")

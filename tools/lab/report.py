@@ -61,6 +61,21 @@ def class_table(reps: list[dict[str, Any]]) -> str:
     return "\n".join(rows)
 
 
+def class_markdown(reps: list[dict[str, Any]]) -> str:
+    """class.md: the table, then each student's failing checkpoints with their first hint or note."""
+    md = ["# Lab check: the class", "", "```", class_table(reps), "```", ""]
+    for r in sorted(reps, key=lambda r: r["name"]):
+        bad = [c for c in r["checkpoints"] if not c["passed"]]
+        if not bad:
+            continue
+        md += [f"## {r['name']}", "", f"Report: `{r['report_dir']}/report.md`", ""]
+        for c in bad:
+            why = c["hints"][0]["where"] if c["hints"] else (c["notes"][0] if c["notes"] else "")
+            md.append(f"- CP{c['number']} {c['measured']}" + (f": {why}" if why else ""))
+        md.append("")
+    return "\n".join(md)
+
+
 def _markdown(rep: dict[str, Any], results: dict[int, Checkpoint]) -> str:
     md = [f"# Lab check: {rep['name']}", "", f"Folder `{rep['dir']}`, checked in {rep['wall_s']:.1f} s.", "",
           "| checkpoint | verdict | measured |", "|---|---|---|"]
