@@ -30,7 +30,7 @@ LAB = ROOT / "examples" / "lab"
 PLANTS = {
     "raw_goal": [("tower_to_map.py", "self.goal_pub.publish(new_point)", "self.goal_pub.publish(point)"),
                  ("world_to_drone.py", "stamp = m.time_boot_ms / 1000.0", "stamp = time.time()"),
-                 ("world_to_drone.py", "import argparse\n", "import argparse\nimport time\n")],
+                 ("world_to_drone.py", '"""\nfrom common', '"""\nimport time\n\nfrom common')],
     "inverse": [("tower_to_map.py", 'lookup_transform("world", "tower", LATEST)',
                  'lookup_transform("tower", "world", LATEST)'),
                 ("ground_robot_controller.py", "PointStamped(self.frame, transform.stamp, (0.0, 0.0, h))",

@@ -38,10 +38,10 @@ from .geometry import do_transform_point
 from .goal_publishers import DroneGoalPublisher, RoverGoalPublisher
 from .listener import TransformListener
 from .message_filter import FilterFailureReason, FilterQueue, MessageFilter
-from .node import DEFAULT_URL, Node, Rate
+from .node import DEFAULT_URL, Node, Rate, node_args
 from .stream import TransformStream
 
-__all__ = ["Node", "Rate", "DEFAULT_URL", "TransformBroadcaster", "StaticTransformBroadcaster",
+__all__ = ["Node", "Rate", "DEFAULT_URL", "node_args", "TransformBroadcaster", "StaticTransformBroadcaster",
            "TransformListener", "TransformStream", "MessageFilter", "FilterQueue",
            "FilterFailureReason", "do_transform_point", "DroneGoalPublisher", "RoverGoalPublisher",
            # re-exported from common.frames, for nodes written the ROS way

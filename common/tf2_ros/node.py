@@ -58,6 +58,19 @@ JOIN_PERIOD = 0.5           # wall s between JOINs while no TICK comes
 REJOIN_AFTER = 1.0          # wall s without a TICK before JOINing again (a restarted bridge)
 
 
+def node_args(doc: str | None = None, follow_frame: bool = False):
+    """A node program's options: --connect URL (the bridge's node link, default DEFAULT_URL) and
+    with `follow_frame` --follow-frame drone|drone_yaw. Options meant for other nodes (a launcher
+    gives every node the same ones) are left alone."""
+    import argparse
+    ap = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--connect", default=DEFAULT_URL, help="the bridge's node link (default %(default)s)")
+    if follow_frame:
+        ap.add_argument("--follow-frame", choices=("drone", "drone_yaw"), default="drone_yaw",
+                        help="the drone frame the goal is written in (default %(default)s)")
+    return ap.parse_known_args()[0]
+
+
 def lockstep_from_env() -> bool:
     """Does the environment (a launcher in lockstep) ask nodes to join the lockstep?"""
     return os.environ.get(LOCKSTEP_ENV, "") not in ("", "0")
@@ -211,8 +224,10 @@ class Node:
     def __enter__(self) -> "Node":
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, exc_type, *exc) -> bool:
+        """Close; Ctrl-C (KeyboardInterrupt) ends a node quietly, as rospy's shutdown does."""
         self.close()
+        return exc_type is not None and issubclass(exc_type, KeyboardInterrupt)
 
     # ------------------------------------------------------------------ the thread
     def _heartbeat(self) -> None:

@@ -9,10 +9,8 @@ to the ground robot (the lab's /ground_robot/goal) 20 times a second of sim time
 
     python ground_robot_controller.py --connect udpout:127.0.0.1:14620 --follow-frame drone_yaw
 """
-import argparse
-
-from common.tf2_ros import (DEFAULT_URL, LATEST, Buffer, Node, PointStamped, RoverGoalPublisher,
-                            TransformException, TransformListener, do_transform_point)
+from common.tf2_ros import (LATEST, Buffer, Node, PointStamped, RoverGoalPublisher, TransformException,
+                            TransformListener, do_transform_point, node_args)
 
 
 class GroundRobotController:
@@ -44,13 +42,6 @@ class GroundRobotController:
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--connect", default=DEFAULT_URL, help="the bridge's node link (default %(default)s)")
-    ap.add_argument("--follow-frame", choices=("drone", "drone_yaw"), default="drone_yaw",
-                    help="the drone frame the goal is written in (default %(default)s)")
-    args, _ = ap.parse_known_args()
+    args = node_args(__doc__, follow_frame=True)
     with Node("ground_robot_controller", args.connect) as node:
-        try:
-            GroundRobotController(node, args.follow_frame).mainloop()
-        except KeyboardInterrupt:
-            pass
+        GroundRobotController(node, args.follow_frame).mainloop()

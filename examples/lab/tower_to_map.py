@@ -9,12 +9,10 @@ fly.launch), transforms the goal into world and publishes it to the drone (the l
 
     python tower_to_map.py --connect udpout:127.0.0.1:14620
 """
-import argparse
-
 from common.mavlink.dialect import towerlink as tl
 from common.frames import InvalidArgumentException
-from common.tf2_ros import (DEFAULT_URL, LATEST, Buffer, DroneGoalPublisher, Node, PointStamped,
-                            TransformException, TransformListener, do_transform_point)
+from common.tf2_ros import (LATEST, Buffer, DroneGoalPublisher, Node, PointStamped, TransformException,
+                            TransformListener, do_transform_point, node_args)
 
 TOWER_SYSID = 255                   # the tower: its goals come from this system
 DRONE_SYSID = 1
@@ -62,11 +60,5 @@ class TowerToMap:
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--connect", default=DEFAULT_URL, help="the bridge's node link (default %(default)s)")
-    args, _ = ap.parse_known_args()          # a launcher may pass options meant for other nodes
-    with Node("tower_to_map", args.connect) as node:
-        try:
-            TowerToMap(node).mainloop()
-        except KeyboardInterrupt:
-            pass
+    with Node("tower_to_map", node_args(__doc__).connect) as node:
+        TowerToMap(node).mainloop()

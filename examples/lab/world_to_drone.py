@@ -10,10 +10,8 @@ clock (time_boot_ms, sim seconds), two dynamic transforms:
 
     python world_to_drone.py --connect udpout:127.0.0.1:14620
 """
-import argparse
-
-from common.tf2_ros import (DEFAULT_URL, Node, Transform, TransformBroadcaster, TransformException,
-                            TransformStamped, euler_from_quaternion, quaternion_from_euler)
+from common.tf2_ros import (Node, Transform, TransformBroadcaster, TransformException, TransformStamped,
+                            euler_from_quaternion, quaternion_from_euler, node_args)
 
 DRONE_SYSID = 1
 
@@ -53,12 +51,6 @@ class WorldToDrone:
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--connect", default=DEFAULT_URL, help="the bridge's node link (default %(default)s)")
-    args, _ = ap.parse_known_args()
-    with Node("world_to_drone", args.connect) as node:
+    with Node("world_to_drone", node_args(__doc__).connect) as node:
         WorldToDrone(node)
-        try:
-            node.spin()                         # the callbacks broadcast, in the node's thread
-        except KeyboardInterrupt:
-            pass
+        node.spin()                             # the callbacks broadcast, in the node's thread

@@ -6,10 +6,8 @@ h metres down its z axis. Fill in the TODOs. The checker runs this with --follow
 (checkpoint 2) and drone_yaw (checkpoint 3): `towerlink lab check . --checkpoint 2`.
 """
 # ruff: noqa: F401  (the skeleton imports the names its TODOs need)
-import argparse
-
-from common.tf2_ros import (DEFAULT_URL, LATEST, Buffer, Node, PointStamped, RoverGoalPublisher,
-                            TransformException, TransformListener, do_transform_point)
+from common.tf2_ros import (LATEST, Buffer, Node, PointStamped, RoverGoalPublisher, TransformException,
+                            TransformListener, do_transform_point, node_args)
 
 
 class GroundRobotController:
@@ -34,13 +32,6 @@ class GroundRobotController:
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--connect", default=DEFAULT_URL, help="the bridge's node link (default %(default)s)")
-    ap.add_argument("--follow-frame", choices=("drone", "drone_yaw"), default="drone_yaw",
-                    help="the drone frame the goal is written in (default %(default)s)")
-    args, _ = ap.parse_known_args()
+    args = node_args(__doc__, follow_frame=True)
     with Node("ground_robot_controller", args.connect) as node:
-        try:
-            GroundRobotController(node, args.follow_frame).mainloop()
-        except KeyboardInterrupt:
-            pass
+        GroundRobotController(node, args.follow_frame).mainloop()

@@ -6,11 +6,9 @@ keep each tower goal (on_goal), and in the loop look it up, transform it into wo
 publish it to the drone. Try it: `towerlink lab check . --checkpoint 1`.
 """
 # ruff: noqa: F401  (the skeleton imports the names its TODOs need)
-import argparse
-
 from common.mavlink.dialect import towerlink as tl
-from common.tf2_ros import (DEFAULT_URL, LATEST, Buffer, DroneGoalPublisher, Node, PointStamped,
-                            TransformException, TransformListener, do_transform_point)
+from common.tf2_ros import (LATEST, Buffer, DroneGoalPublisher, Node, PointStamped, TransformException,
+                            TransformListener, do_transform_point, node_args)
 
 TOWER_SYSID = 255                   # the tower: its goals come from this system
 DRONE_SYSID = 1
@@ -47,11 +45,5 @@ class TowerToMap:
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--connect", default=DEFAULT_URL, help="the bridge's node link (default %(default)s)")
-    args, _ = ap.parse_known_args()          # the checker passes options meant for other nodes too
-    with Node("tower_to_map", args.connect) as node:
-        try:
-            TowerToMap(node).mainloop()
-        except KeyboardInterrupt:
-            pass
+    with Node("tower_to_map", node_args(__doc__).connect) as node:
+        TowerToMap(node).mainloop()

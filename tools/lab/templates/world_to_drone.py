@@ -6,10 +6,8 @@ world -> drone with its full attitude (checkpoint 2), then world -> drone_yaw wi
 pitch zeroed (checkpoint 3). Fill in the TODOs; try it: `towerlink lab check . --checkpoint 2`.
 """
 # ruff: noqa: F401  (the skeleton imports the names its TODOs need)
-import argparse
-
-from common.tf2_ros import (DEFAULT_URL, Node, Transform, TransformBroadcaster, TransformException,
-                            TransformStamped, euler_from_quaternion, quaternion_from_euler)
+from common.tf2_ros import (Node, Transform, TransformBroadcaster, TransformException, TransformStamped,
+                            euler_from_quaternion, quaternion_from_euler, node_args)
 
 DRONE_SYSID = 1
 
@@ -41,12 +39,6 @@ class WorldToDrone:
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--connect", default=DEFAULT_URL, help="the bridge's node link (default %(default)s)")
-    args, _ = ap.parse_known_args()
-    with Node("world_to_drone", args.connect) as node:
+    with Node("world_to_drone", node_args(__doc__).connect) as node:
         WorldToDrone(node)
-        try:
-            node.spin()                         # the callbacks broadcast, in the node's thread
-        except KeyboardInterrupt:
-            pass
+        node.spin()                             # the callbacks broadcast, in the node's thread
