@@ -24,6 +24,7 @@ from vehicle.link import VehicleLink
 from vehicle.link.link_core import Intake
 from vehicle.network_plan import NetworkPlan
 from vehicle.physics.wind import WindParams
+from vehicle.vehicle_root import vehicle_root
 from vehicle.world_config import WorldConfig
 
 
@@ -105,7 +106,8 @@ def build(cfg: WorldConfig, plan: NetworkPlan, clock: Callable[[], float], unix_
             missions = PersistentMissionStore(missions_path(saves[k])) if saves[k] else MissionStore()
             ap = ap_cls(fleet, k, stores[k], cfg.home, starts[k], push_params=push, missions=missions)
             link = VehicleLink(ap, clock, unix_start_us, list(plan.vehicles[index].endpoints),
-                               signing_key=cfg.signing_key, params_changed=push, intake=intake(index))
+                               signing_key=cfg.signing_key, params_changed=push, intake=intake(index),
+                               files_root=vehicle_root(cfg.state_dir, index) if cfg.state_dir else None)
             out.vehicles.append(Vehicle(index, kind, j, ap, link))
             if index in cfg.missions:        # --mission I=FILE: as if uploaded at start
                 ap.missions.replace_all(MISSION, cfg.missions[index])

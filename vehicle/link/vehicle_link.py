@@ -6,7 +6,7 @@ of an ArduPilot vehicle plugged in, as MAVSDK's plugins sit on its core.
   commands    vehicle/link/command_link.py    COMMAND_LONG / COMMAND_INT, SET_MODE, reboot
   params      vehicle/link/param_link.py      PARAM_*
   missions    vehicle/link/mission_link.py    MISSION_* (missions, fences, rally points)
-  files       vehicle/link/ftp_link.py        MAVFTP
+  files       vehicle/link/ftp_link.py        MAVFTP (the vehicle's root directory, @PARAM/param.pck)
   positions   vehicle/link/position_link.py   position targets, the EKF origin, FOLLOW's lead
 
 Each registers with the core the message types and commands it answers; STATUSTEXT and
@@ -14,6 +14,7 @@ MISSION_ITEM_REACHED come from the autopilot's outbox, to which the link subscri
 """
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Mapping
 
 from vehicle.link.command_link import CommandLink
@@ -30,10 +31,12 @@ class VehicleLink(LinkCore):
     def __init__(self, ap, clock: Callable[[], float], unix_start_us: int, endpoints: list[str],
                  signing_key: bytes | None = None,
                  params_changed: Callable[[Mapping[str, float]], None] | None = None,
-                 intake: Intake | None = None) -> None:
+                 intake: Intake | None = None, files_root: str | os.PathLike | None = None) -> None:
         """ap: the autopilot; clock() the world's sim time (s); unix_start_us: the unix time of
         sim t = 0; endpoints: pymavlink connection strings; params_changed({name: value})
-        after an accepted PARAM_SET; intake: what sees the UDP datagrams first (lockstep)."""
+        after an accepted PARAM_SET; intake: what sees the UDP datagrams first (lockstep);
+        files_root: the directory MAVFTP serves (vehicle/vehicle_root.py), None for a
+        temporary one removed at close()."""
         super().__init__(ap.sysid, clock, endpoints, signing_key, intake)
         self.ap = ap
         self.telemetry = Telemetry(ap, self.framer, clock, unix_start_us)
@@ -41,6 +44,6 @@ class VehicleLink(LinkCore):
         self.streams = StreamLink(self, ap.params, self.telemetry, self.commands)
         self.params = ParamLink(self, ap.params, self.streams, params_changed)
         self.missions = MissionLink(self, ap, self.telemetry, self.commands)
-        self.files = FtpLink(self, ap.params)
+        self.files = FtpLink(self, ap.params, files_root)
         self.positions = PositionLink(self, ap, self.telemetry)
         ap.outbox.subscribe(text=self.statustext)
