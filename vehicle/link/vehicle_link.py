@@ -479,6 +479,9 @@ class VehicleLink:
         self.ap.position_target_global(m.coordinate_frame, m.type_mask, m.lat_int, m.lon_int, m.alt,
                                        (m.vx, m.vy, m.vz), (m.afx, m.afy, m.afz), m.yaw, m.yaw_rate)
 
+    def on_SET_ATTITUDE_TARGET(self, m, ch) -> None:
+        self.ap.attitude_target(m.type_mask, m.q, (m.body_roll_rate, m.body_pitch_rate, m.body_yaw_rate), m.thrust)
+
     def on_GLOBAL_POSITION_INT(self, m, ch) -> None:
         """Another vehicle's position: FOLLOW's lead, when FOLL_ENABLE is set (AP_Follow)."""
         self.ap.follow.on_global_position(m.get_srcSystem(), m, self.ap.t, self.ap.home_lla()[2])
