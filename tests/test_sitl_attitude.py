@@ -46,11 +46,16 @@ def texts_until_ack(m, cmd: int, timeout: float = 5.0) -> tuple[int, list[str]]:
             texts.append(msg.text)
 
 
+def drone(processes, tmp_path):
+    """A world of one drone at 5x, connected, ready to arm."""
+    m = connect(Sitl(processes, tmp_path, drones=1, rovers=0, speedup=5).udp[0])
+    wait_armable(m, 30)
+    return m
+
+
 @pytest.mark.timeout(150)
 def test_attitude_targets_over_the_wire(processes, tmp_path):
-    sitl = Sitl(processes, tmp_path, drones=1, rovers=0, speedup=5)
-    m = connect(sitl.udp[0])
-    wait_armable(m, 30)
+    m = drone(processes, tmp_path)
     # GUIDED_NOGPS is a mode of this vehicle by pymavlink's name (20)
     assert set_mode(m, "GUIDED_NOGPS") == mav.MAV_RESULT_ACCEPTED
     recv(m, "HEARTBEAT", 5, cond=lambda h: h.custom_mode == 20)
@@ -82,9 +87,7 @@ def test_attitude_targets_over_the_wire(processes, tmp_path):
 
 @pytest.mark.timeout(90)
 def test_auto_corner_cases_unknown_modes_and_gripper_over_the_wire(processes, tmp_path):
-    sitl = Sitl(processes, tmp_path, drones=1, rovers=0, speedup=5)
-    m = connect(sitl.udp[0])
-    wait_armable(m, 30)
+    m = drone(processes, tmp_path)
     # disarmed, no mission: AUTO accepted (ArduCopter's ignore_checks = !armed)...
     assert set_mode(m, "AUTO") == mav.MAV_RESULT_ACCEPTED
     recv(m, "HEARTBEAT", 5, cond=lambda h: h.custom_mode == 3)

@@ -17,7 +17,7 @@ import pytest
 
 
 def client(port: int) -> int:
-    from mavsdk_client import autopilot, step, wait
+    from mavsdk_client import autopilot, land_and_finish, step, wait
     from mavsdk.plugins.action import Action
     from mavsdk.plugins.offboard import Attitude, Offboard
     from mavsdk.plugins.telemetry import Telemetry
@@ -52,11 +52,7 @@ def client(port: int) -> int:
     off.set_attitude(Attitude(0.0, 0.0, 0.0, 0.5))
     wait(lambda: abs(tel.attitude_euler().roll_deg) < 1.0, 20, "level")
     off.stop()
-    act.land()
-    wait(lambda: not tel.armed(), 60, "landed and disarmed")
-    step("landed")
-    print("MAVSDK OK", flush=True)
-    return 0
+    return land_and_finish(act, tel)
 
 
 @pytest.mark.timeout(150)

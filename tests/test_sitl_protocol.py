@@ -50,7 +50,9 @@ def test_command_ack_each_result(drone):
     assert command(drone, 203) == mav.MAV_RESULT_UNSUPPORTED                  # DO_DIGICAM_CONTROL
     assert command(drone, mav.MAV_CMD_DO_SET_MODE, 0, 4) == mav.MAV_RESULT_DENIED   # no CUSTOM flag
     assert command(drone, mav.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 5) == mav.MAV_RESULT_FAILED  # disarmed
-    assert command(drone, mav.MAV_CMD_DO_SET_MODE, 1, 3) == mav.MAV_RESULT_FAILED    # AUTO: no mission
+    # AUTO with no mission: disarmed, accepted (ArduCopter: ignore_checks = !armed)
+    assert command(drone, mav.MAV_CMD_DO_SET_MODE, 1, 3) == mav.MAV_RESULT_ACCEPTED
+    assert command(drone, mav.MAV_CMD_DO_SET_MODE, 1, 15) == mav.MAV_RESULT_FAILED   # AUTOTUNE: no such mode
     assert command(drone, mav.MAV_CMD_DO_SET_MODE, 1, 4) == mav.MAV_RESULT_ACCEPTED  # GUIDED
     assert command(drone, mav.MAV_CMD_DO_CHANGE_SPEED, 0, 4, -1) == mav.MAV_RESULT_ACCEPTED
     assert command(drone, mav.MAV_CMD_DO_CHANGE_SPEED, 0, -5, -1) == mav.MAV_RESULT_FAILED
