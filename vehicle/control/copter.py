@@ -22,6 +22,7 @@ from common.frames.batch import wrap_pi, yaw_of
 from vehicle.control import shaping
 from vehicle.physics import NumpyOps
 from vehicle.physics.multicopter import GRAVITY
+from vehicle.physics.scalar_form import generic
 
 D2R = math.pi / 180.0
 
@@ -104,6 +105,7 @@ class CopterCtrlState:
         self.yaw_half = None
 
 
+@generic
 def _half_yaw(c: CopterCtrlState, xp):
     """(cos, sin) of c.yaw / 2, kept while the yaw reference does not change: a held
     heading is the common case, and a sin/cos pair is the dearest thing in the step."""
@@ -116,15 +118,15 @@ def _half_yaw(c: CopterCtrlState, xp):
     return c.yaw_half
 
 
+@generic
 def relax(c: CopterCtrlState, est, mask, xp=NumpyOps) -> None:
     """Where mask: reset the reference to the estimate at rest and clear integrators
     (ArduPilot relaxes its controllers while landed)."""
-    w = xp.where
-    c.px, c.py, c.pz = w(mask, est.px, c.px), w(mask, est.py, c.py), w(mask, est.pz, c.pz)
+    c.px, c.py, c.pz = xp.where(mask, est.px, c.px), xp.where(mask, est.py, c.py), xp.where(mask, est.pz, c.pz)
     for f in ("vx", "vy", "vz", "ax", "ay", "az", "ivx", "ivy", "ivz", "evx", "evy", "dvx", "dvy",
               "irx", "iry", "irz", "erx", "ery", "erz", "drx", "dry", "drz"):
-        setattr(c, f, w(mask, 0.0, getattr(c, f)))
-    c.yaw = w(mask, yaw_of(est.qx, est.qy, est.qz, est.qw, xp.atan2), c.yaw)
+        setattr(c, f, xp.where(mask, 0.0, getattr(c, f)))
+    c.yaw = xp.where(mask, yaw_of(est.qx, est.qy, est.qz, est.qw, xp.atan2), c.yaw)
 
 
 _ALPHA = {}
@@ -137,12 +139,12 @@ def _filter_alphas(dt: float) -> tuple[float, float]:
     return a
 
 
+@generic
 def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float, xp=NumpyOps):
     """One controller step on the estimate ``est`` (attributes px..vz, qx..qw, wx..wz).
 
     Returns the four rotor-speed fractions (0..1; multiply by omega_max) and stores the
     collective thrust fraction in c.coll."""
-    w = xp.where
     level = sp.level
     att = sp.att
     any_att = xp.any(att)
@@ -155,16 +157,16 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     any_level = xp.any(level)
     if any_level:
         # level mode: no horizontal control; the reference rides on the estimate
-        c.px, c.py = w(level, est.px, c.px), w(level, est.py, c.py)
-        c.vx, c.vy = w(level, est.vx, c.vx), w(level, est.vy, c.vy)
-        c.ax, c.ay = w(level, 0.0, c.ax), w(level, 0.0, c.ay)
+        c.px, c.py = xp.where(level, est.px, c.px), xp.where(level, est.py, c.py)
+        c.vx, c.vy = xp.where(level, est.vx, c.vx), xp.where(level, est.vy, c.vy)
+        c.ax, c.ay = xp.where(level, 0.0, c.ax), xp.where(level, 0.0, c.ay)
     # yaw reference: slew to the target yaw, or integrate a yaw rate
     ymax = g.rate_y_max
     if xp.any(sp.use_yaw):
         dy = wrap_pi(sp.yaw - c.yaw)
         # an attitude target's heading moves at its yaw rate: the reference's feed-forward
-        ff = w(att, sp.yaw_rate, 0.0) if any_att else 0.0
-        yr = w(sp.use_yaw, xp.clip(dy * g.ang_y + ff, -ymax, ymax), xp.clip(sp.yaw_rate, -ymax, ymax))
+        ff = xp.where(att, sp.yaw_rate, 0.0) if any_att else 0.0
+        yr = xp.where(sp.use_yaw, xp.clip(dy * g.ang_y + ff, -ymax, ymax), xp.clip(sp.yaw_rate, -ymax, ymax))
     else:                     # no yaw targets: the wrap (np.remainder, dear) is not needed
         yr = xp.clip(sp.yaw_rate, -ymax, ymax)
     c.yaw = wrap_pi(c.yaw + yr * dt)
@@ -183,9 +185,9 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     atx = c.ax + g.kv_xy * evx + c.ivx + g.kd_xy * c.dvx
     aty = c.ay + g.kv_xy * evy + c.ivy + g.kd_xy * c.dvy
     if any_level:
-        atx = w(level, 0.0, atx)
-        aty = w(level, 0.0, aty)
-        c.ivx, c.ivy = w(level, 0.0, c.ivx), w(level, 0.0, c.ivy)
+        atx = xp.where(level, 0.0, atx)
+        aty = xp.where(level, 0.0, aty)
+        c.ivx, c.ivy = xp.where(level, 0.0, c.ivx), xp.where(level, 0.0, c.ivy)
 
     vtz = c.vz + g.kp_z * (c.pz - est.pz)
     evz = vtz - est.vz
@@ -213,12 +215,12 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     a_r = -atx * sy + aty * cy
     tp = -a_f / g_eff                         # tan(pitch); g_eff >= 0.2 g, |pitch| < pi/2
     if any_att:
-        tp = w(att, sp.tan_pitch, tp)         # an attitude target's own lean angles
+        tp = xp.where(att, sp.tan_pitch, tp)  # an attitude target's own lean angles
     cpf = 1.0 / xp.sqrt(1.0 + tp * tp)        # cos(pitch)
     cp, spp = _half_angle(cpf, tp * cpf, xp)
     tr = a_r * cpf / g_eff                    # tan(roll)
     if any_att:
-        tr = w(att, sp.tan_roll, tr)
+        tr = xp.where(att, sp.tan_roll, tr)
     crf = 1.0 / xp.sqrt(1.0 + tr * tr)
     cr, sr = _half_angle(crf, tr * crf, xp)
     dw = cr * cp * cyy + sr * spp * syy
@@ -230,7 +232,7 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     ex = qw * dx - qx * dw - qy * dz + qz * dyq
     ey = qw * dyq + qx * dz - qy * dw - qz * dx
     ez = qw * dz - qx * dyq + qy * dx - qz * dw
-    sgn = w(ew < 0.0, -2.0, 2.0)
+    sgn = xp.where(ew < 0.0, -2.0, 2.0)
     rpm = g.rate_rp_max
     rtx = xp.clip(g.ang_r * sgn * ex, -rpm, rpm)
     rty = xp.clip(g.ang_p * sgn * ey, -rpm, rpm)
@@ -266,19 +268,21 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     return mix(coll, u_r, u_p, u_y, g.spin_min, xp)
 
 
+@generic
 def _attitude_collective(c, est, sp, g, g_eff, r33, coll, xp=NumpyOps):
     """The collective where an attitude target flies (elsewhere `coll` as it was): the
     vertical loop's force over the current tilt, or the target's thrust, both boosted by
     1/cos(tilt) (faded out past 84 deg, as ArduPilot's angle boost). In thrust lanes the
     vertical loop rides on the estimate, so climb-rate control resumes without a jump."""
-    w = xp.where
     boost = xp.clip(10.0 * r33, 0.0, 1.0) / xp.maximum(r33, 0.1)
     ut = sp.use_thrust
-    c.pz, c.vz, c.az, c.ivz = w(ut, est.pz, c.pz), w(ut, est.vz, c.vz), w(ut, 0.0, c.az), w(ut, 0.0, c.ivz)
-    want = w(ut, sp.thrust, g.hover * g_eff / GRAVITY) * boost
-    return w(sp.att, xp.clip(want, 0.0, 1.0), coll)
+    c.pz, c.vz = xp.where(ut, est.pz, c.pz), xp.where(ut, est.vz, c.vz)
+    c.az, c.ivz = xp.where(ut, 0.0, c.az), xp.where(ut, 0.0, c.ivz)
+    want = xp.where(ut, sp.thrust, g.hover * g_eff / GRAVITY) * boost
+    return xp.where(sp.att, xp.clip(want, 0.0, 1.0), coll)
 
 
+@generic
 def _half_angle(c, s, xp=NumpyOps):
     """(cos, sin) of theta/2 from (cos, sin) of theta, for |theta| < pi/2 (c > 0, so
     cos(theta/2) >= 0.707 and neither formula cancels)."""
@@ -286,6 +290,7 @@ def _half_angle(c, s, xp=NumpyOps):
     return ch, s / (2.0 * ch)
 
 
+@generic
 def mix(coll, u_r, u_p, u_y, spin_min, xp=NumpyOps):
     """Quad-X mixer with saturation handling; returns 4 rotor-speed fractions."""
     hr, hp = 0.5 * u_r, 0.5 * u_p
