@@ -27,6 +27,7 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 
 from common.frames.batch import quat_mul, rotate
+from vehicle.innovations import InnovationLog
 
 G = np.array([0.0, 0.0, 9.80665])
 
@@ -84,6 +85,7 @@ class BatchedKF:
         PHT = self.P @ H.T
         S = H @ PHT + R
         K = PHT @ np.linalg.inv(S)
+        self.y, self.S = y, S          # the innovations, as filterpy keeps them
         self.x = self.x + np.einsum("nij,nj->ni", K, y)
         I_KH = self._I - K @ H
         self.P = I_KH @ self.P @ I_KH.transpose(0, 2, 1) + K @ R @ K.transpose(0, 2, 1)
@@ -122,6 +124,7 @@ class Estimator:
         self.gps_count = np.zeros(n, dtype=int)
         self.ok = np.zeros(n, dtype=bool)
         self.k = 0
+        self.innovations = InnovationLog(n)     # read by EKF_STATUS_REPORT
 
     def _setup(self, dt: float) -> None:
         sp = self.spec
@@ -175,8 +178,10 @@ class Estimator:
             b.predict(acc_w)
             if gps:
                 b.update(np.hstack([sensors.gps_pos, sensors.gps_vel]))
+                self.innovations.gps_all(b.y, b.S, k)
             if baro:
                 b.update(-sensors.baro_alt[:, None], R=self.R_baro, H=self.H_baro)
+                self.innovations.baro_all(b.y, b.S)
             self.pos = b.x[:, 0:3].copy()
             self.vel = b.x[:, 3:6].copy()
             self.bias = b.x[:, 6:9].copy()
@@ -190,8 +195,10 @@ class Estimator:
             kf.predict(u=acc_w[i])
             if gps:
                 kf.update(np.concatenate([sensors.gps_pos[i], sensors.gps_vel[i]]))
+                self.innovations.gps(i, kf.y, kf.S, k)
             if baro:
                 kf.update(np.array([-sensors.baro_alt[i]]), R=self.R_baro, H=self.H_baro)
+                self.innovations.baro(i, kf.y, kf.S)
             x = kf.x
             self.pos[i] = x[0:3]
             self.vel[i] = x[3:6]

@@ -44,7 +44,7 @@ from vehicle.link.endpoints import Channel, Endpoint, make_endpoint
 from vehicle.link.framing import Framer
 from vehicle.link.mission_link import MISSION_MESSAGES, MissionLink
 from vehicle.link.paced_queue import PacedQueue
-from vehicle.link.telemetry import DATA_STREAMS, STREAM_GROUPS, Telemetry
+from vehicle.link.telemetry import DATA_STREAMS, Telemetry
 
 COMP_ID = mav.MAV_COMP_ID_AUTOPILOT1
 
@@ -161,7 +161,7 @@ class VehicleLink:
     # ----- streams ----------------------------------------------------------------------
     def _rebuild_schedule(self) -> None:
         sched: dict[int, float] = {mav.MAVLINK_MSG_ID_HEARTBEAT: 1.0}
-        for group, ids in STREAM_GROUPS.items():
+        for group, ids in self.telemetry.groups.items():
             hz = float(self.ap.params.get(group, 0) or 0)
             if hz > 0:
                 for i in ids:

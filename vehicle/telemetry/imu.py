@@ -1,0 +1,118 @@
+"""Raw sensors as ArduPilot reports them: RAW_IMU (IMU 0), SCALED_IMU2 (IMU 1),
+SCALED_PRESSURE (barometer 0) and VIBRATION.
+
+Readings are sampled when the message is built, from the true state (the fleet's
+`truth_row`) through the sensor models of vehicle/sensors.py: IMU 0 is the estimator's
+accelerometer and gyro (their constant biases, the spec's white noise); IMU 1 is a second
+unit of the same model with its own biases (ArduPilot SITL simulates two IMUs as well).
+The noise of these telemetry samples comes from the vehicle's own generator, so reading
+telemetry never disturbs the estimator's noise streams.
+
+- Specific force body FRD, m/s^2 -> milli-g (x 1000 / 9.80665; at rest z is about -1000).
+- Rates body FRD rad/s -> mrad/s.
+- Magnetic field: an axial dipole Earth field (0.3 G at the equator, no declination) at the
+  world origin's latitude, rotated into the body, in milligauss (ArduPilot's compass units).
+- Temperatures: 25 degC for the IMUs and the barometer's air at ISA, cdegC.
+- Pressure: the ISA pressure at the barometer's altitude (true altitude AMSL + the spec's
+  baro noise), hPa; no airspeed sensor, so press_diff is 0.
+- Vibration: ArduPilot's vibration level (the 2 Hz mean square of the accelerometer minus
+  its 5 Hz low-pass) of the accelerometer's white noise: its standard deviation, m/s^2, on
+  each axis; the simulated motors do not shake the airframe. No clipping (the IMU range
+  is never reached in the simulation).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from common.frames.batch import rotate
+from vehicle.telemetry.wire import boot_ms, usec, wire_clamp
+
+GRAVITY = 9.80665
+MG_PER_MS2 = 1000.0 / GRAVITY
+DIPOLE_MG = 300.0
+IMU_TEMP_CDEG = 2500
+I16 = (-32768, 32767)
+
+
+def dipole_field_ned(lat_deg: float) -> tuple[float, float, float]:
+    """An axial dipole's field at latitude lat_deg, NED, milligauss."""
+    lat = math.radians(lat_deg)
+    return (DIPOLE_MG * math.cos(lat), 0.0, 2.0 * DIPOLE_MG * math.sin(lat))
+
+
+def isa_pressure_pa(alt_m: float) -> float:
+    """International Standard Atmosphere pressure (Pa) at alt_m AMSL (troposphere)."""
+    return 101325.0 * (1.0 - 2.25577e-5 * alt_m) ** 5.25588
+
+
+def isa_temperature_c(alt_m: float) -> float:
+    """ISA air temperature (degC) at alt_m AMSL (troposphere)."""
+    return 15.0 - 0.0065 * alt_m
+
+
+class ImuTelemetry:
+    """The raw-sensor messages of one vehicle (`ap`: its autopilot; clock: sim s)."""
+
+    def __init__(self, ap, clock) -> None:
+        self.ap = ap
+        self.clock = clock
+        self._rng: np.random.Generator | None = None
+        self._imu1_bias: np.ndarray | None = None
+        self._field = dipole_field_ned(ap.origin[0])
+
+    def _noise(self, k: int) -> np.ndarray:
+        if self._rng is None:       # per vehicle, seeded by its index and sysid: reproducible
+            self._rng = np.random.default_rng([0x746C, self.ap.i, self.ap.sysid])
+        return self._rng.standard_normal(k)
+
+    def _spec(self):
+        return self.ap.fleet.spec
+
+    def _imu(self, unit: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(specific force m/s^2, rates rad/s, field mG), body FRD, of IMU `unit` now."""
+        fleet, i, sp = self.ap.fleet, self.ap.i, self._spec()
+        row = fleet.truth_row(i)
+        q = np.array([row[6:10], row[6:10]])
+        f_world = (row[13], row[14], row[15] - GRAVITY)
+        f_body, field = rotate(q, np.array([f_world, self._field]), inverse=True)
+        if unit == 0:
+            s = getattr(fleet, "sensors", None)
+            a_bias = s.accel_bias[i] if s is not None else np.zeros(3)
+            g_bias = s.gyro_bias[i] if s is not None else np.zeros(3)
+        else:
+            if self._imu1_bias is None:
+                b = self._noise(6)
+                self._imu1_bias = np.concatenate([b[:3] * sp.accel_bias_sigma, b[3:] * sp.gyro_bias_sigma])
+            a_bias, g_bias = self._imu1_bias[:3], self._imu1_bias[3:]
+        z = self._noise(6)
+        acc = f_body + a_bias + sp.accel_sigma * z[:3]
+        gyro = np.array(row[10:13]) + g_bias + sp.gyro_sigma * z[3:]
+        return acc, gyro, field
+
+    def _scaled(self, unit: int) -> list[int]:
+        acc, gyro, field = self._imu(unit)
+        return ([wire_clamp(a * MG_PER_MS2, *I16) for a in acc.tolist()]
+                + [wire_clamp(w * 1000.0, *I16) for w in gyro.tolist()]
+                + [wire_clamp(m, *I16) for m in field.tolist()])
+
+    def raw_imu_fields(self) -> tuple:
+        """RAW_IMU: IMU 0 (ArduPilot fills it with scaled units, as here), id 0."""
+        return (usec(self.clock()), *self._scaled(0), 0, IMU_TEMP_CDEG)
+
+    def scaled_imu2_fields(self) -> tuple:
+        """SCALED_IMU2: IMU 1 and the compass."""
+        return (boot_ms(self.clock()), *self._scaled(1), IMU_TEMP_CDEG)
+
+    def scaled_pressure_fields(self) -> tuple:
+        """SCALED_PRESSURE: barometer 0, hPa and cdegC; no differential pressure sensor."""
+        row = self.ap.fleet.truth_row(self.ap.i)
+        alt = self.ap.origin[2] - row[2] + self._spec().baro_sigma * float(self._noise(1)[0])
+        temp = wire_clamp(isa_temperature_c(alt) * 100.0, *I16)
+        return (boot_ms(self.clock()), isa_pressure_pa(alt) / 100.0, 0.0, temp, 0)
+
+    def vibration_fields(self) -> tuple:
+        """VIBRATION: the accelerometer's noise level on each axis (m/s^2), no clipping."""
+        v = float(self._spec().accel_sigma)
+        return (usec(self.clock()), v, v, v, 0, 0, 0)
