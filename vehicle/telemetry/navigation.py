@@ -24,7 +24,7 @@ import math
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from vehicle.telemetry.wire import boot_ms, e7, wire_clamp
+from vehicle.telemetry.wire import boot_ms, e7
 
 _T = mav
 POSITION_ONLY = (_T.POSITION_TARGET_TYPEMASK_VX_IGNORE | _T.POSITION_TARGET_TYPEMASK_VY_IGNORE
@@ -32,7 +32,6 @@ POSITION_ONLY = (_T.POSITION_TARGET_TYPEMASK_VX_IGNORE | _T.POSITION_TARGET_TYPE
                  | _T.POSITION_TARGET_TYPEMASK_AY_IGNORE | _T.POSITION_TARGET_TYPEMASK_AZ_IGNORE
                  | _T.POSITION_TARGET_TYPEMASK_YAW_IGNORE | _T.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE
                  | 0xF000)                    # ArduPilot also sets the unused top bits
-I16 = (-32768, 32767)
 
 
 def _finite(*v: float) -> bool:
@@ -82,20 +81,19 @@ class NavigationTelemetry:
         ap = self.ap
         dest = self._destination()
         bearing, dist = self._to_destination(dest)
-        wp_dist = wire_clamp(dist, 0, 65535)
+        wp_dist = int(min(dist, 65535.0))              # ArduPilot's float -> uint16 truncates
         if ap.kind == "rover":
             if not ap.flightmode.is_autopilot():
                 return None
             v_cmd, speed, _ = ap.fleet.drive_outputs(ap.i)
             nav_bearing = bearing if dest is not None else math.degrees(ap.yaw) % 360.0
-            return (0.0, 0.0, wire_clamp(nav_bearing, *I16), wire_clamp(bearing, *I16), wp_dist,
-                    0.0, v_cmd - speed, 0.0)
+            return (0.0, 0.0, int(nav_bearing), int(bearing), wp_dist, 0.0, v_cmd - speed, 0.0)
         c = ap.fleet.controller_of(ap.i)
         pn, pe, pd = (float(v) for v in ap.pos)
         xtrack = crosstrack(pn, pe, c.px, c.py, c.vx, c.vy) if dest is not None else 0.0
         yaw = math.degrees(math.atan2(math.sin(c.yaw), math.cos(c.yaw)))
         return (math.degrees(math.atan(c.tan_roll_t)), math.degrees(math.atan(c.tan_pitch_t)),
-                wire_clamp(yaw, *I16), wire_clamp(bearing, *I16), wp_dist, pd - c.pz, 0.0, xtrack)
+                int(yaw), int(bearing), wp_dist, pd - c.pz, 0.0, xtrack)
 
     def position_target_global_int_fields(self) -> tuple | None:
         ap = self.ap
