@@ -74,8 +74,9 @@ class Telemetry:
             mav.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN: self.gps_global_origin_fields,
         }
         # sensors, estimator health, outputs, navigation, board (vehicle/telemetry/)
-        self.builders.update(message_builders(link.ap, link.clock))
-        self.groups = stream_groups(link.ap.kind)      # SR0_* -> the message ids they schedule
+        ap = link.ap if link is not None else None
+        self.builders.update(message_builders(ap, lambda: self.link.clock()))
+        self.groups = stream_groups(ap.kind if ap is not None else "copter")   # SR0_* -> message ids
 
     def build(self, msgid: int):
         """The message object with this id, or None if not available now (unknown id, home unset)."""

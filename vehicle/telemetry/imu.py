@@ -60,7 +60,8 @@ class ImuTelemetry:
         self.clock = clock
         self._rng: np.random.Generator | None = None
         self._imu1_bias: np.ndarray | None = None
-        self._field = dipole_field_ned(ap.origin[0])
+        self._field: tuple[float, float, float] | None = None
+        self._samples: dict[str, tuple[float, object]] = {}
 
     def _noise(self, k: int) -> np.ndarray:
         if self._rng is None:       # per vehicle, seeded by its index and sysid: reproducible
@@ -70,12 +71,22 @@ class ImuTelemetry:
     def _spec(self):
         return self.ap.fleet.spec
 
+    def _sample(self, key: str, t: float, draw):
+        """One sample per sensor and sim instant: a message built twice at one time (a
+        request and a stream in the same tick) carries the same reading."""
+        hit = self._samples.get(key)
+        if hit is None or hit[0] != t:
+            hit = self._samples[key] = (t, draw())
+        return hit[1]
+
     def _imu(self, unit: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(specific force m/s^2, rates rad/s, field mG), body FRD, of IMU `unit` now."""
         fleet, i, sp = self.ap.fleet, self.ap.i, self._spec()
         row = fleet.truth_row(i)
         q = np.array([row[6:10], row[6:10]])
         f_world = (row[13], row[14], row[15] - GRAVITY)
+        if self._field is None:
+            self._field = dipole_field_ned(self.ap.origin[0])
         f_body, field = rotate(q, np.array([f_world, self._field]), inverse=True)
         if unit == 0:
             s = getattr(fleet, "sensors", None)
@@ -91,26 +102,33 @@ class ImuTelemetry:
         gyro = np.array(row[10:13]) + g_bias + sp.gyro_sigma * z[3:]
         return acc, gyro, field
 
-    def _scaled(self, unit: int) -> list[int]:
-        acc, gyro, field = self._imu(unit)
+    def _scaled(self, unit: int, t: float) -> list[int]:
+        acc, gyro, field = self._sample(f"imu{unit}", t, lambda: self._imu(unit))
         return ([wire_clamp(a * MG_PER_MS2, *I16) for a in acc.tolist()]
                 + [wire_clamp(w * 1000.0, *I16) for w in gyro.tolist()]
                 + [wire_clamp(m, *I16) for m in field.tolist()])
 
     def raw_imu_fields(self) -> tuple:
         """RAW_IMU: IMU 0 (ArduPilot fills it with scaled units, as here), id 0."""
-        return (usec(self.clock()), *self._scaled(0), 0, IMU_TEMP_CDEG)
+        t = self.clock()
+        return (usec(t), *self._scaled(0, t), 0, IMU_TEMP_CDEG)
 
     def scaled_imu2_fields(self) -> tuple:
         """SCALED_IMU2: IMU 1 and the compass."""
-        return (boot_ms(self.clock()), *self._scaled(1), IMU_TEMP_CDEG)
+        t = self.clock()
+        return (boot_ms(t), *self._scaled(1, t), IMU_TEMP_CDEG)
 
     def scaled_pressure_fields(self) -> tuple:
         """SCALED_PRESSURE: barometer 0, hPa and cdegC; no differential pressure sensor."""
-        row = self.ap.fleet.truth_row(self.ap.i)
-        alt = self.ap.origin[2] - row[2] + self._spec().baro_sigma * float(self._noise(1)[0])
+        t = self.clock()
+        alt = self._sample("baro", t, self._baro_alt)
         temp = wire_clamp(isa_temperature_c(alt) * 100.0, *I16)
-        return (boot_ms(self.clock()), isa_pressure_pa(alt) / 100.0, 0.0, temp, 0)
+        return (boot_ms(t), isa_pressure_pa(alt) / 100.0, 0.0, temp, 0)
+
+    def _baro_alt(self) -> float:
+        """The barometer's altitude (m AMSL): the truth plus the spec's noise."""
+        row = self.ap.fleet.truth_row(self.ap.i)
+        return self.ap.origin[2] - row[2] + self._spec().baro_sigma * float(self._noise(1)[0])
 
     def vibration_fields(self) -> tuple:
         """VIBRATION: the accelerometer's noise level on each axis (m/s^2), no clipping."""

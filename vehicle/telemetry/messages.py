@@ -22,7 +22,8 @@ Builder = Callable[[], "tuple | None"]
 
 
 def message_builders(ap, clock: Callable[[], float]) -> dict[int, Builder]:
-    """msgid -> field builder for vehicle `ap` (its autopilot); clock() is sim time (s)."""
+    """msgid -> field builder for vehicle `ap` (its autopilot); clock() is sim time (s).
+    Nothing of `ap` is read before a builder runs."""
     imu, ekf = ImuTelemetry(ap, clock), EkfTelemetry(ap)
     out, nav, board = OutputsTelemetry(ap, clock), NavigationTelemetry(ap, clock), SystemTelemetry(ap)
     builders: dict[int, Builder] = {
@@ -40,7 +41,7 @@ def message_builders(ap, clock: Callable[[], float]) -> dict[int, Builder]:
         mav.MAVLINK_MSG_ID_POWER_STATUS: board.power_status_fields,
         mav.MAVLINK_MSG_ID_MEMINFO: board.meminfo_fields,
         mav.MAVLINK_MSG_ID_FENCE_STATUS: board.fence_status_fields,
+        # Rover's SERVO_OUT (ArduCopter accepts the id too, and has nothing to send)
+        mav.MAVLINK_MSG_ID_RC_CHANNELS_SCALED: out.rc_channels_scaled_fields,
     }
-    if ap.kind == "rover":
-        builders[mav.MAVLINK_MSG_ID_RC_CHANNELS_SCALED] = out.rc_channels_scaled_fields
     return builders
