@@ -50,27 +50,29 @@ def counts_over(m, seconds: int) -> tuple[dict[str, int], float]:
 
 @pytest.fixture(scope="module")
 def sitl(tmp_path_factory):
+    """A copter and a rover; the copter over TCP, fence on, flying a GUIDED leg (so every
+    message has content): (Sitl, the copter's connection)."""
     procs = Processes()
     try:
-        yield Sitl(procs, tmp_path_factory.mktemp("telem"), drones=1, rovers=1, speedup=5)
+        s = Sitl(procs, tmp_path_factory.mktemp("telem"), drones=1, rovers=1, speedup=5)
+        m = connect(s.tcp[0], tcp=True)
+        wait_armable(m)
+        set_param(m, "FENCE_ENABLE", 1)
+        set_param(m, "FENCE_ACTION", 0)
+        assert set_mode(m, "GUIDED") == C.MAV_RESULT_ACCEPTED
+        assert command(m, C.MAV_CMD_COMPONENT_ARM_DISARM, 1) == C.MAV_RESULT_ACCEPTED
+        assert command(m, C.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 5) == C.MAV_RESULT_ACCEPTED
+        recv(m, "GLOBAL_POSITION_INT", 30, cond=lambda g: g.relative_alt > 4500)
+        goto_local(m, 40, 30, -5)
+        yield s, m
+        m.close()
     finally:
         procs.stop_all()
 
 
 @pytest.fixture(scope="module")
 def flying(sitl):
-    """The copter over TCP, fence on, flying a GUIDED leg (so every message has content)."""
-    m = connect(sitl.tcp[0], tcp=True)
-    wait_armable(m)
-    set_param(m, "FENCE_ENABLE", 1)
-    set_param(m, "FENCE_ACTION", 0)
-    assert set_mode(m, "GUIDED") == C.MAV_RESULT_ACCEPTED
-    assert command(m, C.MAV_CMD_COMPONENT_ARM_DISARM, 1) == C.MAV_RESULT_ACCEPTED
-    assert command(m, C.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 5) == C.MAV_RESULT_ACCEPTED
-    recv(m, "GLOBAL_POSITION_INT", 30, cond=lambda g: g.relative_alt > 4500)
-    goto_local(m, 40, 30, -5)
-    yield m
-    m.close()
+    return sitl[1]
 
 
 def test_set_message_interval_sends_each_message_at_its_interval(flying):
@@ -116,7 +118,7 @@ def test_banner_and_version_hash(sitl, flying):
     assert command(m, C.MAV_CMD_REQUEST_MESSAGE, msgid("AUTOPILOT_VERSION")) == C.MAV_RESULT_ACCEPTED
     av = recv(m, "AUTOPILOT_VERSION", 5)
     assert bytes(av.flight_custom_version).decode("ascii") == match.group(1)
-    rover = connect(sitl.tcp[1], tcp=True)
+    rover = connect(sitl[0].tcp[1], tcp=True)
     assert command(rover, C.MAV_CMD_DO_SEND_BANNER) == C.MAV_RESULT_ACCEPTED
     assert recv(rover, "STATUSTEXT", 5).text == f"ArduRover V4.5.0 ({match.group(1)})"
     rover.close()
@@ -128,7 +130,7 @@ def test_request_data_stream_all_brings_ardupilots_set(sitl, flying):
     counts, _ = counts_over(m, 3)
     assert ARDUPILOT_SET <= set(counts), ARDUPILOT_SET - set(counts)
     assert counts["EKF_STATUS_REPORT"] >= 9 and counts["RAW_IMU"] >= 9
-    rover = connect(sitl.tcp[1], tcp=True)
+    rover = connect(sitl[0].tcp[1], tcp=True)
     rover.mav.request_data_stream_send(rover.target_system, rover.target_component, C.MAV_DATA_STREAM_ALL, 4, 1)
     counts, _ = counts_over(rover, 3)
     rover_set = (ARDUPILOT_SET - {"FENCE_STATUS", "NAV_CONTROLLER_OUTPUT"}) | {"RC_CHANNELS_SCALED"}

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from auto_world import Flight
+from auto_world import Flight, airborne, goto
 from vehicle.autopilot import modes
 from vehicle.link.framing import Framer, layout
 from vehicle.telemetry import version
@@ -16,7 +16,6 @@ from vehicle.telemetry.ekf_status import CONST_POS, HEALTHY_GPS, POS_ABS, VEL_HO
 from vehicle.telemetry.imu import dipole_field_ned, isa_pressure_pa
 
 C = mav
-POS_ONLY = 0b110111111000
 NEW = ["RAW_IMU", "SCALED_IMU2", "SCALED_PRESSURE", "SERVO_OUTPUT_RAW", "RC_CHANNELS", "NAV_CONTROLLER_OUTPUT",
        "POSITION_TARGET_GLOBAL_INT", "EKF_STATUS_REPORT", "VIBRATION", "FENCE_STATUS", "POWER_STATUS", "MEMINFO",
        "AHRS", "AHRS2"]
@@ -24,18 +23,6 @@ NEW = ["RAW_IMU", "SCALED_IMU2", "SCALED_PRESSURE", "SERVO_OUTPUT_RAW", "RC_CHAN
 
 def build(f: Flight, name: str):
     return f.v.link.telemetry.build(getattr(C, "MAVLINK_MSG_ID_" + name))
-
-
-def airborne(f: Flight, alt: float = 10.0) -> None:
-    f.settle()
-    assert f.ap.set_mode(modes.GUIDED)
-    assert f.ap.arm() == C.MAV_RESULT_ACCEPTED
-    assert f.ap.command(C.MAV_CMD_NAV_TAKEOFF, [0, 0, 0, 0, 0, 0, alt]) == C.MAV_RESULT_ACCEPTED
-    f.until(lambda: f.ap.pos[2] < f.ap.home[2] - alt + 0.3, 30, "takeoff")
-
-
-def goto(f: Flight, n: float, e: float, d: float) -> bool:
-    return f.ap.position_target_local(C.MAV_FRAME_LOCAL_NED, POS_ONLY, [n, e, d], [0, 0, 0], [0, 0, 0], 0, 0)
 
 
 @pytest.mark.parametrize("kind", ["copter", "rover"])
