@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from common.frames.batch import rotate
+from common.frames.batch import rotate_one
 from vehicle.telemetry.wire import boot_ms, usec, wire_clamp
 
 GRAVITY = 9.80665
@@ -59,7 +59,7 @@ class ImuTelemetry:
         self.ap = ap
         self.clock = clock
         self._rng: np.random.Generator | None = None
-        self._imu1_bias: np.ndarray | None = None
+        self._imu1_bias: list[float] | None = None
         self._field: tuple[float, float, float] | None = None
         self._samples: dict[str, tuple[float, object]] = {}
 
@@ -79,34 +79,33 @@ class ImuTelemetry:
             hit = self._samples[key] = (t, draw())
         return hit[1]
 
-    def _imu(self, unit: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _imu(self, unit: int) -> tuple[tuple, tuple, tuple]:
         """(specific force m/s^2, rates rad/s, field mG), body FRD, of IMU `unit` now."""
         fleet, i, sp = self.ap.fleet, self.ap.i, self._spec()
         row = fleet.truth_row(i)
-        q = np.array([row[6:10], row[6:10]])
-        f_world = (row[13], row[14], row[15] - GRAVITY)
+        qx, qy, qz, qw = row[6:10]
         if self._field is None:
             self._field = dipole_field_ned(self.ap.origin[0])
-        f_body, field = rotate(q, np.array([f_world, self._field]), inverse=True)
+        f_body = rotate_one(qx, qy, qz, qw, row[13], row[14], row[15] - GRAVITY, -1.0)
+        field = rotate_one(qx, qy, qz, qw, *self._field, -1.0)
         if unit == 0:
             s = getattr(fleet, "sensors", None)
-            a_bias = s.accel_bias[i] if s is not None else np.zeros(3)
-            g_bias = s.gyro_bias[i] if s is not None else np.zeros(3)
+            bias = (s.accel_bias[i].tolist() + s.gyro_bias[i].tolist()) if s is not None else [0.0] * 6
         else:
             if self._imu1_bias is None:
-                b = self._noise(6)
-                self._imu1_bias = np.concatenate([b[:3] * sp.accel_bias_sigma, b[3:] * sp.gyro_bias_sigma])
-            a_bias, g_bias = self._imu1_bias[:3], self._imu1_bias[3:]
-        z = self._noise(6)
-        acc = f_body + a_bias + sp.accel_sigma * z[:3]
-        gyro = np.array(row[10:13]) + g_bias + sp.gyro_sigma * z[3:]
+                b = self._noise(6).tolist()
+                self._imu1_bias = [v * sp.accel_bias_sigma for v in b[:3]] + [v * sp.gyro_bias_sigma for v in b[3:]]
+            bias = self._imu1_bias
+        z = self._noise(6).tolist()
+        acc = tuple(f + b + sp.accel_sigma * n for f, b, n in zip(f_body, bias[:3], z[:3]))
+        gyro = tuple(w + b + sp.gyro_sigma * n for w, b, n in zip(row[10:13], bias[3:], z[3:]))
         return acc, gyro, field
 
     def _scaled(self, unit: int, t: float) -> list[int]:
         acc, gyro, field = self._sample(f"imu{unit}", t, lambda: self._imu(unit))
-        return ([wire_clamp(a * MG_PER_MS2, *I16) for a in acc.tolist()]
-                + [wire_clamp(w * 1000.0, *I16) for w in gyro.tolist()]
-                + [wire_clamp(m, *I16) for m in field.tolist()])
+        return ([wire_clamp(a * MG_PER_MS2, *I16) for a in acc]
+                + [wire_clamp(w * 1000.0, *I16) for w in gyro]
+                + [wire_clamp(m, *I16) for m in field])
 
     def raw_imu_fields(self) -> tuple:
         """RAW_IMU: IMU 0 (ArduPilot fills it with scaled units, as here), id 0."""
