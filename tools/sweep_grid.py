@@ -46,6 +46,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping
 
+from tools.vehicle_params import param_table
+
 NAMED_FACTORS = ("seed", "wind", "tower_loss", "follow_frame", "finish")
 FOLLOW_FRAMES = ("drone", "drone_yaw")
 FINISH = ("land", "rtl", "none")
@@ -153,15 +155,6 @@ def parse_seeds(spec: str | int | Iterable[int]) -> list[int]:
 
 
 # ----------------------------------------------------------------------------- factors
-
-
-def param_table() -> dict[str, Any]:
-    """Every vehicle parameter a run may set: name -> ParamDef (copter and rover tables)."""
-    from vehicle.autopilot.params import COPTER_TABLE, ROVER_TABLE, core_table
-    table: dict[str, Any] = {}
-    for d in [*core_table("copter"), *COPTER_TABLE, *core_table("rover"), *ROVER_TABLE]:
-        table.setdefault(d.name, d)
-    return table
 
 
 def factor_kind(name: str, scenario_data: Mapping[str, Any]) -> str:
