@@ -103,8 +103,9 @@ class LinkDirection:
     def receive(self, units: Iterable[Unit], now: float = 0.0) -> list[Unit]:
         """Frames from the sender at `now` (wall s; ignored in lockstep). Returns what goes on now."""
         units = list(units)
-        if not self.settings.active and not self._heap and not self._batch:
-            self.counts["passed"] += len(units)         # a perfect link holding nothing: at once
+        if not self.settings.active and not self._batch:
+            self.counts["passed"] += len(units)         # a perfect link: at once (frames still in flight may
+            return units                                # arrive after: they were sent on a slower link)
             return units
         if self.lockstep:
             if self.clock is None:                      # before the world's first frame
@@ -159,21 +160,23 @@ class LinkDirection:
                                                        (msgid & 0xFFFFFF)))
             lost, twice, jit, held = _four(sh, eh, k)
             copies = 2 if twice < s.duplicate else 1
-            ready = t1
-            if s.bandwidth > 0:
+            readies = [t1] * copies
+            if s.bandwidth > 0:         # each copy takes its turn on the link
                 start = max(self._busy, t0)
                 if start - t0 > QUEUE_LIMIT:
                     counts["overflow"] += 1
                     continue
-                self._busy = start + copies * len(u.data) / s.bandwidth
-                ready = max(self._busy, t1)
+                for c in range(copies):
+                    start += len(u.data) / s.bandwidth
+                    readies[c] = max(start, t1)
+                self._busy = start
             if lost < s.loss:
                 counts["dropped"] += 1
                 continue
             counts["passed"] += 1
-            due = ready + s.latency + jit * s.jitter + (REORDER_HOLD if held < s.reorder else 0.0)
-            for _ in range(copies):
-                heapq.heappush(self._heap, (due, self._order, u))
+            delay = s.latency + jit * s.jitter + (REORDER_HOLD if held < s.reorder else 0.0)
+            for ready in readies:
+                heapq.heappush(self._heap, (ready + delay, self._order, u))
                 self._order += 1
             if copies == 2:
                 counts["duplicated"] += 1
