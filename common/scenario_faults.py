@@ -7,7 +7,7 @@ Each table is one fault::
     target = "tower_link"      # the tower's link to the bridge
     loss = 1.0                 # link settings (common/link_settings.py): both directions,
     up.latency = 0.3           # or one (up: towards the vehicles, down: back)
-    until = 20.0               # optional: sim s when it is cleared
+    until = 20.0               # optional: sim s when it is cleared (or duration = 8.0: s after t)
 
     [[faults]]
     t = 30.0
@@ -106,6 +106,13 @@ def _fault(k: int, table: dict[str, Any], vehicles, fail) -> Fault:
         raise fail(f"{where}: no target ({TOWER_LINK!r} or a vehicle: a name, or 'vehicle:0' for sysid 1)")
     t = _time(table["t"], f"{where}.t", fail)
     until = None
+    if "until" in table and "duration" in table:
+        raise fail(f"{where}: give until (sim s) or duration (s after t), not both")
+    if "duration" in table:
+        duration = _time(table["duration"], f"{where}.duration", fail)
+        if duration <= 0:
+            raise fail(f"{where}: duration must be > 0 s")
+        until = t + duration
     if "until" in table:
         until = _time(table["until"], f"{where}.until", fail)
         if until <= t:
@@ -114,7 +121,7 @@ def _fault(k: int, table: dict[str, Any], vehicles, fail) -> Fault:
         sysid = resolve_target(table["target"], vehicles)
     except ValueError as exc:
         raise fail(f"{where}: {exc}") from None
-    rest = {key: v for key, v in table.items() if key not in ("t", "target", "until")}
+    rest = {key: v for key, v in table.items() if key not in ("t", "target", "until", "duration")}
     if sysid is None:
         link = _link_changes(rest, where, fail)
         return Fault(k, t, TOWER_LINK, None, link=link, until=until)

@@ -47,6 +47,8 @@ def test_faults_are_parsed(tmp_path):
     assert a.describe() == "t 12 tower_link loss=1 up.latency=0.3 down.bandwidth=4000 until 20"
     assert (b.sysid, b.params, b.until) == (1, (("SIM_BATT_VOLTAGE", 10.0),), None)
     assert (c.sysid, c.target) == (2, "vehicle:1")
+    d = scenario(tmp_path, '[[faults]]\nt = 4\nduration = 2.5\ntarget = "rover"\nX = 1\n').faults[0]
+    assert d.until == 6.5
     assert load_scenario().faults == ()
 
 
@@ -63,6 +65,8 @@ def test_faults_of_a_family_name_its_vehicles(tmp_path):
     ('[[faults]]\nt = -1\ntarget = "drone"\nX = 1', r"faults\[0\].t -1 s is outside"),
     ('[[faults]]\nt = "soon"\ntarget = "drone"\nX = 1', r"faults\[0\].t must be a finite number"),
     ('[[faults]]\nt = 5\nuntil = 5\ntarget = "drone"\nX = 1', "until 5 s is not after t 5 s"),
+    ('[[faults]]\nt = 5\nduration = 0\ntarget = "drone"\nX = 1', "duration must be > 0 s"),
+    ('[[faults]]\nt = 5\nduration = 1\nuntil = 9\ntarget = "drone"\nX = 1', "until .* or duration .*, not both"),
     ('[[faults]]\nt = 1\ntarget = "plane"\nX = 1', "target 'plane' is not 'tower_link', 'drone', 'rover'"),
     ('[[faults]]\nt = 1\ntarget = "vehicle:2"\nX = 1', "target 'vehicle:2' is not"),
     ('[[faults]]\nt = 1\ntarget = "drone"', "sets at least one parameter"),

@@ -53,10 +53,16 @@ def test_flatten_gives_only_finite_floats(d):
 def test_key_figures_use_the_frame_the_rover_followed():
     k = t.key_figures(SUMMARY)
     assert k == {"follow_rms": 0.5, "wobble_rms": 1.4, "ratio_mean": pytest.approx(1.1), "ratio_max": 1.25,
-                 "mission_s": 30.5}
+                 "mission_s": 30.5, "failsafe_s": None}
     yaw = dict(SUMMARY, wobble=dict(SUMMARY["wobble"], follow_frame="drone_yaw"))
     assert t.key_figures(yaw)["wobble_rms"] == 0.0
     assert t.key_figures({}) == dict.fromkeys(t.KEY_FIGURES)
+    # the fault section: the earliest fault -> failsafe delay of the run
+    faults = {"faults": [{"failsafes": [{"after": 4.5}, {"after": 6.0}]}, {"failsafes": [{"after": 2.25}]}]}
+    assert t.key_figures(dict(SUMMARY, faults=faults))["failsafe_s"] == 2.25
+    rows = [t.make_row("a", {}, dict(SUMMARY, faults=faults), wall_s=1.0), t.make_row("b", {}, SUMMARY, wall_s=1.0)]
+    assert t.effect_figures(rows) == ("follow_rms", "wobble_rms", "ratio_mean", "failsafe_s")
+    assert t.effect_figures(rows[1:]) == ("follow_rms", "wobble_rms", "ratio_mean")
 
 
 def test_rows_pass_and_fail_with_their_reason():
