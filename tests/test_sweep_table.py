@@ -70,6 +70,11 @@ def test_rows_pass_and_fail_with_their_reason():
     assert (ok["pass"], ok["reason"], ok["seed"], ok["wind"], ok["follow_rms"]) == (True, "", 3, "[8.0,270.0,1.0]", 0.5)
     missed = dict(SUMMARY, ok=False, goals_reached=1)
     assert t.make_row("r2", {}, missed, wall_s=1.0)["reason"] == "1/2 goals reached"
+    failsafes = [{"vehicle": "rover", "text": "GCS Failsafe On: Hold", "t": 24.5},
+                 {"vehicle": "drone", "text": "GCS Failsafe On: RTL", "t": 24.26}]
+    lost = dict(missed, faults={"faults": [], "failsafes": failsafes})
+    assert t.make_row("r2", {}, lost, wall_s=1.0)["reason"] == \
+        "1/2 goals reached; after drone: 'GCS Failsafe On: RTL' at 24.26 s"
     tower = dict(SUMMARY, ok=False, tower_error="goal 2 not reached in 120 s")
     assert t.make_row("r3", {}, tower, wall_s=1.0)["reason"] == "goal 2 not reached in 120 s"
     timed = t.make_row("r4", {"seed": 1}, SUMMARY, wall_s=700.0, reason="timed out after 600 s wall")
@@ -175,8 +180,11 @@ def test_a_failed_missions_reason_is_flys_last_word_not_its_list_of_files(tmp_pa
                    "tower: TakeoffError: command MAV_CMD_NAV_TAKEOFF rejected: FAILED\n"
                    f"run folder {tmp_path}: bridge.log bridge.tlog fly.log summary.json tower.log\n")
     assert sweep_run._fly_reason(log) == "tower: TakeoffError: command MAV_CMD_NAV_TAKEOFF rejected: FAILED"
+    # with a summary, only fly's own word: the row says the rest (the goals, the first failsafe)
+    assert sweep_run._fly_reason(log, own_only=True) is None
     log.write_text("towerlink fly: timed out after 300 s wall; all processes stopped\nrun folder x: a b\n")
     assert sweep_run._fly_reason(log) == "timed out after 300 s wall"
+    assert sweep_run._fly_reason(log, own_only=True) == "timed out after 300 s wall"
 
 
 def test_finished_needs_a_complete_row_and_summary(tmp_path):

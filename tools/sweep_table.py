@@ -83,7 +83,8 @@ def make_row(run_id: str, factors: Mapping[str, Any], summary: Mapping[str, Any]
             reason = "no summary"
         else:
             reason = summary.get("tower_error") or summary.get("error") or \
-                f"{summary.get('goals_reached', 0)}/{summary.get('goals_total', '?')} goals reached"
+                f"{summary.get('goals_reached', 0)}/{summary.get('goals_total', '?')} goals reached" + \
+                _first_failsafe(summary)
     row.update({"pass": ok, "reason": "" if ok else str(reason), "wall_s": wall_s})
     if summary:
         row.update(key_figures(summary))
@@ -92,6 +93,15 @@ def make_row(run_id: str, factors: Mapping[str, Any], summary: Mapping[str, Any]
     else:
         row.update({k: None for k in KEY_FIGURES})
     return row
+
+
+def _first_failsafe(summary: Mapping[str, Any]) -> str:
+    """'; after drone: 'GCS Failsafe On: RTL' at 24.26 s' (the run's first failsafe), or ''."""
+    events = (summary.get("faults") or {}).get("failsafes") or []
+    if not events:
+        return ""
+    e = min(events, key=lambda x: x["t"])
+    return f"; after {e['vehicle']}: {e['text']!r} at {e['t']:.2f} s"
 
 
 def columns(rows: list[Mapping[str, Any]], factor_names: Iterable[str]) -> list[str]:
