@@ -1,7 +1,8 @@
 """Faults as code on the full system: a scenario's fault timeline flown in lockstep.
 
 The lab's short mission over a lossy, slow, jittery, narrow tower link (10 % loss, 0.2 s
-latency, reordering, duplicates, 20 kB/s down), with a battery sag on the drone at t = 2 s and
+latency, reordering, duplicates, 12 kB/s down: below the telemetry's rate, so the
+queue fills and drops), with a battery sag on the drone at t = 2 s and
 a 2 s outage of the tower link at t = 14 s. The mission still completes, and the summary says
 which failsafe the sag caused and when. Flown twice, at --speedup 2 beside a CPU-burning
 process and at --speedup max: every figure of the two summaries is equal, the faults' times,
@@ -30,7 +31,7 @@ latency = 0.2
 jitter = 0.05
 reorder = 0.02
 duplicate = 0.02
-down.bandwidth = 20000
+down.bandwidth = 12000
 
 [[faults]]
 t = 2
@@ -72,6 +73,7 @@ def test_a_fault_timeline_gives_the_same_summary_at_2x_under_load_and_at_max(tmp
     assert link["failsafes"] == outage["failsafes"] == []             # FS_GCS_ENABLE is 0
     p = fast["proxy"]
     assert p["dropped"]["down"] > 100 and p["dropped"]["up"] > 0 and p["duplicated"]["down"] > 0, p
+    assert p["overflow"]["down"] > 100, p                          # the narrow link's queue overflowed
     assert fast["tower_link"] is None or fast["tower_link"] == slow["tower_link"]
     text = (tmp_path / "max" / "summary.txt").read_text()
     assert "-> drone: 'Battery Failsafe' at" in text and "[2] t 14 tower_link loss=1 until 16: applied 14.00" in text
