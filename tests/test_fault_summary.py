@@ -79,12 +79,12 @@ def test_each_fault_with_its_failsafes_from_a_recorded_run(tmp_path):
     # the battery failsafe 10 s after the voltage dropped is the battery fault's, although the
     # tower link went down in between: a GCS failsafe is put down to the link, the rest to the vehicle
     assert [(x["text"], x["mode"], round(x["after"], 2)) for x in battery["failsafes"]] == \
-        [("Battery Failsafe", "GUIDED", 10.06)]
+        [("Battery 1 is low 9.34V used 98 mAh", "GUIDED", 10.06), ("Battery Failsafe", "GUIDED", 10.06)]
     assert (link["applied"], link["cleared"], link["goals_reached_after"]) == (20.0, 28.0, 1)
     assert [(x["vehicle"], x["text"], x["mode"], round(x["after"], 2)) for x in link["failsafes"]] == \
         [("drone", "GCS Failsafe On: RTL", "RTL", 4.26), ("rover", "GCS Failsafe On: Hold", "HOLD", 4.26)]
     assert late["applied"] is None and late["failsafes"] == []
-    assert [x["fault"] for x in f["failsafes"]] == [0, 1, None, 1]      # drone's two, then the rover's two
+    assert [x["fault"] for x in f["failsafes"]] == [0, 0, 1, None, 1]   # the drone's three, then the rover's two
     assert f["goals_reached_after_first_fault"] == 2
     assert round(first_failsafe_delay(f), 2) == 4.26
     text = format_summary(s)
@@ -99,4 +99,5 @@ def test_a_run_without_faults_has_no_section():
     assert format_faults({"faults": [], "failsafes": [], "goals_reached_after_first_fault": None}) == []
     assert first_failsafe_delay(None) is None
     assert is_failsafe("GCS Failsafe On: RTL") and is_failsafe("Battery Failsafe")
-    assert not is_failsafe("GCS Failsafe Cleared") and not is_failsafe("Battery 1 is low 9.3V")
+    assert is_failsafe("Battery 1 is low 9.34V used 98 mAh") and is_failsafe("Battery 2 is critical 9.0V used 1 mAh")
+    assert not is_failsafe("GCS Failsafe Cleared") and not is_failsafe("Battery 1 is fine")

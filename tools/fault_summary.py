@@ -5,7 +5,8 @@ Inputs: the scenario's faults (common.scenario_faults.Fault), when the link prox
 cleared each (faults.json, sim s: in lockstep the first lockstep frame at or after the fault's
 time), the vehicles' STATUSTEXTs and mode changes (tools.run_data: texts, modes; sim s) and the
 tower's goals. A failsafe is a vehicle's STATUSTEXT that says so (ArduPilot's words: "GCS
-Failsafe On: RTL", "Battery Failsafe", ...; a "... Cleared" is not one). It is put down to the
+Failsafe On: RTL", "Battery Failsafe", the monitor's "Battery 1 is low ..."; a "... Cleared" is
+not one). It is put down to the
 latest fault applied before it of the kind that can cause it: a GCS failsafe (the ground
 station fell silent) to a tower-link fault, any other to a fault on that vehicle; failing that,
 to the latest fault on either (none: a failsafe without a fault). Its mode is the vehicle's
@@ -13,6 +14,7 @@ mode a heartbeat period (HEARTBEAT_S) later, when its HEARTBEAT has told it.
 """
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -23,10 +25,15 @@ EPS = 1e-6
 HEARTBEAT_S = 1.0       # s between a vehicle's HEARTBEATs (ArduPilot's 1 Hz)
 
 
+_BATTERY_LEVEL = re.compile(r"^Battery \d+ is (low|critical)\b")
+
+
 def is_failsafe(text: str) -> bool:
-    """Does this STATUSTEXT report a failsafe (not its clearing)?"""
+    """Does this STATUSTEXT report a failsafe (not its clearing)? The vehicle's own ("GCS Failsafe
+    On: RTL", "Battery Failsafe") and the battery monitor's level ("Battery 1 is low 10.20V ...",
+    which a vehicle whose BATT_FS_LOW_ACT is 0 says alone)."""
     t = text.lower()
-    return "failsafe" in t and "cleared" not in t
+    return ("failsafe" in t and "cleared" not in t) or bool(_BATTERY_LEVEL.match(text))
 
 
 def fault_section(faults: Sequence[Fault], applied: Sequence[Mapping[str, Any]], data: RunData,

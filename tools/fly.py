@@ -32,6 +32,7 @@ run folder (--out, default runs/<timestamp>):
   vehicles.tlog bridge.tlog tower.tlog   one tlog per link
   tower.json meta.json                   the tower's result; how the run was made
   summary.json summary.txt               the scores (also printed)
+  faults.json                            with faults: when each took effect and was cleared
   tracks.png                             drone, rover, goals, tower; follow error and wobble
   frames.pdf frames.png frames.yaml      the frame tree, as view-frames draws it
   sitl.log bridge.log tower.log          each process's output
@@ -69,6 +70,16 @@ load. --no-lockstep runs the old free-running world (figures then depend on the 
   towerlink fly --speedup max            # lockstep, as fast as the machine allows
   towerlink fly family --speedup max
   towerlink fly --no-lockstep            # free-running world
+
+Faults: --tower-loss 0.2 or --tower-link loss=0.1,latency=0.3,down.bandwidth=20000 makes the tower's
+link lossy, slow, jittery, narrow for the whole run (tools/link_proxy.py); a scenario's [[faults]]
+(common/scenario_faults.py) add a timeline: at sim time t, parameters on a vehicle (SITL's SIM_*
+faults, SIM_BATT_VOLTAGE, ...) or the tower link's settings, cleared at `until`. In lockstep each
+takes effect at the first lockstep frame at or after its t, so a seed gives the same run at any
+speed and load. The summary lists each fault, the failsafes it caused and when (faults.json holds
+when each took effect):
+
+  towerlink fly examples/sweep/faults_lab.toml --param FS_GCS_ENABLE=1 --speedup max
 
 MAVLink 2 signing: --signing-key PASSPHRASE|HEX64 runs the whole chain signed. The world's
 vehicles sign, drop unsigned packets and check the lockstep JOIN/ACK/LEAVE (sitl

@@ -2,7 +2,9 @@
 driver, ArduPilot's follow driver, the live view) started in order, watched, stopped.
 
 Used by `towerlink fly` (tools.fly) and by the full-system tests, which also kill and restart
-the bridge or put a faulty link (tools.link_proxy) between the tower and the bridge. `stop()` always leaves nothing behind.
+the bridge. When the tower link has faults, or the scenario a fault timeline, the tower talks
+through tools.link_proxy, which also applies the vehicles' faults. `stop()` always leaves
+nothing behind.
 """
 from __future__ import annotations
 
