@@ -48,7 +48,8 @@ def record(run, scenario) -> None:
             events.append((k * 0.02, sysid, tl.MAVLink_attitude_message(k * 20, 0, 0, 0, 0, 0, 0)))
     texts = [(20.06, 1, "Battery 1 is low 9.34V used 98 mAh"), (20.06, 1, "Battery Failsafe"),
              (24.26, 1, "GCS Failsafe On: RTL"), (24.26, 2, "GCS Failsafe On: Hold"),
-             (28.2, 2, "GCS Failsafe Cleared"), (5.0, 2, "Battery Failsafe")]
+             (28.2, 2, "GCS Failsafe Cleared"), (5.0, 2, "Battery Failsafe"),
+             (39.5, 2, "GCS Failsafe On: Hold")]       # after the tower ended (35 s): not the run's
     for t, sysid, text in texts:
         events.append((t + 1e-4, sysid, tl.MAVLink_statustext_message(4, text.encode())))
     with open(run / "vehicles.tlog", "wb") as f:
@@ -62,7 +63,7 @@ def record(run, scenario) -> None:
              {"index": 2, "goal": [-105.058, 88.524, -9.0], "frame": "tower", "reached": True, "reached_sim": 21.0,
               "sent_sim": 13.2, "time_to_reach": 7.8},
              {"index": 3, "goal": [-120.058, 114.504, -9.0], "frame": "tower", "reached": False, "sent_sim": 21.0}]
-    (run / "tower.json").write_text(json.dumps({"ok": False, "goals": goals, "end_sim": 40.0}))
+    (run / "tower.json").write_text(json.dumps({"ok": False, "goals": goals, "end_sim": 35.0}))
     (run / "meta.json").write_text(json.dumps({"scenario": str(scenario)}))
 
 

@@ -37,13 +37,16 @@ def is_failsafe(text: str) -> bool:
 
 
 def fault_section(faults: Sequence[Fault], applied: Sequence[Mapping[str, Any]], data: RunData,
-                  names: Mapping[int, str], goals: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
-    """{"faults": [...], "failsafes": [...], "goals_reached_after_first_fault": n | None} (see the module doc)."""
+                  names: Mapping[int, str], goals: Sequence[Mapping[str, Any]],
+                  end: float | None = None) -> dict[str, Any]:
+    """{"faults": [...], "failsafes": [...], "goals_reached_after_first_fault": n | None} (see the
+    module doc). `end`: the tower's end (sim s): what the vehicles said after it, while fly
+    stopped the processes, lasted as long as the machine took, so it is no failsafe of the run's."""
     at = {(a["fault"], a["kind"]): float(a["at"]) for a in applied}
     events = []
     for sysid in sorted(data.texts):
         for t, severity, text in data.texts[sysid]:
-            if is_failsafe(text):
+            if is_failsafe(text) and (end is None or t <= end + EPS):
                 events.append({"vehicle": names.get(sysid, f"sysid {sysid}"), "sysid": sysid, "text": text,
                                "t": t, "mode": _mode_at(data, sysid, t), "fault": None})
     rows = []

@@ -91,7 +91,8 @@ def _family_faults(plan: FlyPlan, tower: dict, data) -> dict:
     from tools.run_summary import read_applied
     goals = [g for d in tower.get("drones", []) for g in d.get("goals", [])]
     names = {sysid: name for name, sysid, _kind in plan.sc.vehicles}
-    return fault_section(plan.sc.faults, read_applied(plan.dir), data, names, goals)
+    ends = [d["end_sim"] for d in tower.get("drones", []) if d.get("end_sim") is not None]
+    return fault_section(plan.sc.faults, read_applied(plan.dir), data, names, goals, end=max(ends) if ends else None)
 
 
 def _draw(plan: FlyPlan) -> None:

@@ -46,7 +46,9 @@ SIM_POLL = 0.02         # wall s between readings of sim_time() (without lockste
 
 
 class LinkProxy(threading.Thread):
-    """The proxy thread (see the module doc). `counts()` and `applied` are read after stop()."""
+    """The proxy thread (see the module doc). `up`/`down`: the settings of a link without a
+    `timeline` (a timeline carries the link's own settings). `counts()` and `applied` are read
+    after stop()."""
 
     def __init__(self, listen_port: int, upstream: tuple[str, int], *, up: LinkSettings | None = None,
                  down: LinkSettings | None = None, seed: int = 1, host: str = "127.0.0.1",

@@ -140,7 +140,8 @@ def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
     hover["wind"] = list(sc.wind) if sc.wind else None
 
     names = {sysid: name for name, sysid, _kind in sc.vehicles}
-    faults = fault_section(sc.faults, read_applied(run_dir), data, names, tower.get("goals", []))
+    faults = fault_section(sc.faults, read_applied(run_dir), data, names, tower.get("goals", []),
+                           end=tower.get("end_sim"))
     reached = sum(g["reached"] for g in goals_out)
     out = {
         "ok": bool(tower.get("ok")) and reached == len(goals_out) and reached > 0,
