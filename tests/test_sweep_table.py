@@ -276,6 +276,11 @@ def test_sweep_dry_run_lists_the_runs():
     lines = p.stdout.splitlines()
     assert lines[-1] == "12 runs of default.toml; varying: follow_frame, tower_loss, seed"
     assert len({ln.split()[0] for ln in lines[:-1]}) == 12
+    # the faults example: its scenario file lies beside it (a sweep file's relative scenario)
+    p = towerlink("sweep", "--dry-run", "--grid", "examples/sweep/faults.toml")
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.splitlines()[-1] == \
+        "8 runs of faults_lab.toml; varying: FS_GCS_ENABLE, faults.0.duration, tower_link.latency"
 
 
 @pytest.mark.parametrize("lib, only", [("ray", ["tools/sweep.py"]), ("tqdm", ["tools/sweep_progress.py"])])
