@@ -597,6 +597,26 @@ class CopterFleet(_FleetBase):
         p = mc.rotor_power(s, self.airframe)
         return float(p if self.scalar else p[i])
 
+    def motor_outputs(self, i: int) -> tuple[float, float, float, float]:
+        """Vehicle i's rotor speeds as fractions of full speed (0..1), ArduPilot's motor
+        order (front-right, back-left, front-left, back-right): SERVO_OUTPUT_RAW's motors."""
+        s = self._ps[i] if self.scalar else self._phys
+        k = 1.0 / self.airframe.omega_max
+        if self.scalar:
+            return (s.m0 * k, s.m1 * k, s.m2 * k, s.m3 * k)
+        return (float(s.m0[i]) * k, float(s.m1[i]) * k, float(s.m2[i]) * k, float(s.m3[i]) * k)
+
+    def controller_of(self, i: int) -> ccore.CopterCtrlState:
+        """Vehicle i's controller memory as floats (read only): the position controller's
+        target (px..az, yaw) and the attitude target (tan_roll_t, tan_pitch_t), for
+        NAV_CONTROLLER_OUTPUT."""
+        if self.scalar:
+            return self._cs[i]
+        out = ccore.CopterCtrlState(None)
+        for f in ccore.CopterCtrlState.FIELDS:
+            setattr(out, f, float(getattr(self._ctrl, f)[i]))
+        return out
+
     @property
     def thrust_demand(self) -> np.ndarray:
         """Collective thrust fraction the controller asked for (0..1; 0 when idle)."""
@@ -680,6 +700,14 @@ class RoverFleet(_FleetBase):
 
     def landed(self, i: int) -> bool:
         return True
+
+    def drive_outputs(self, i: int) -> tuple[float, float, float]:
+        """Vehicle i's drive: (commanded speed, speed, turn rate) in m/s, m/s and rad/s
+        (positive turns right), for SERVO_OUTPUT_RAW and NAV_CONTROLLER_OUTPUT."""
+        if self.scalar:
+            s, sp = self._ps[i], self._ss[i]
+            return (float(sp.v_cmd), float(s.speed), float(s.rate))
+        return (float(self.sp.v_cmd[i]), float(self._phys.speed[i]), float(self._phys.rate[i]))
 
     def step(self, dt: float) -> None:
         """Controller (on the estimate) -> kinematics -> sensors -> estimator."""

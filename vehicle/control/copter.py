@@ -95,7 +95,8 @@ class CopterCtrlState:
     """Controller memory: shaped reference, yaw reference, integrators, D filters."""
     FIELDS = ("px", "py", "pz", "vx", "vy", "vz", "ax", "ay", "az", "yaw",
               "ivx", "ivy", "ivz", "evx", "evy", "dvx", "dvy",
-              "irx", "iry", "irz", "erx", "ery", "erz", "drx", "dry", "drz", "coll")
+              "irx", "iry", "irz", "erx", "ery", "erz", "drx", "dry", "drz", "coll",
+              "tan_roll_t", "tan_pitch_t")
     __slots__ = FIELDS + ("yaw_seen", "yaw_half")
 
     def __init__(self, n: int | None):
@@ -265,6 +266,7 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     if any_att:
         coll = _attitude_collective(c, est, sp, g, g_eff, r33, coll, xp)
     c.coll = coll
+    c.tan_roll_t, c.tan_pitch_t = tr, tp      # the attitude target (NAV_CONTROLLER_OUTPUT)
     return mix(coll, u_r, u_p, u_y, g.spin_min, xp)
 
 
