@@ -27,6 +27,10 @@ class Setpoint:
     yaw: float | None = None
     yaw_rate: float | None = None
     level: bool = False
+    roll: float | None = None        # attitude target (rad, with pitch): see vehicle/fleet.py's docstring
+    pitch: float | None = None
+    rates: Sequence[float] | None = None    # body roll, pitch rate feed-forward (rad/s)
+    thrust: float | None = None      # collective 0..1 in place of the climb rate (attitude only)
 
 
 @dataclass

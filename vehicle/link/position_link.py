@@ -20,6 +20,7 @@ class PositionLink:
         self._origin_sent: tuple | None = None
         core.register("SET_POSITION_TARGET_LOCAL_NED", self.on_set_position_target_local_ned)
         core.register("SET_POSITION_TARGET_GLOBAL_INT", self.on_set_position_target_global_int)
+        core.register("SET_ATTITUDE_TARGET", self.on_set_attitude_target)
         core.register("GLOBAL_POSITION_INT", self.on_global_position_int)
         core.register("SET_GPS_GLOBAL_ORIGIN", self.on_set_gps_global_origin)
         core.on_tick(self.update)
@@ -45,6 +46,9 @@ class PositionLink:
     def on_set_position_target_global_int(self, m, ch) -> None:
         self.ap.position_target_global(m.coordinate_frame, m.type_mask, m.lat_int, m.lon_int, m.alt,
                                        (m.vx, m.vy, m.vz), (m.afx, m.afy, m.afz), m.yaw, m.yaw_rate)
+
+    def on_set_attitude_target(self, m, ch) -> None:
+        self.ap.attitude_target(m.type_mask, m.q, (m.body_roll_rate, m.body_pitch_rate, m.body_yaw_rate), m.thrust)
 
     def on_global_position_int(self, m, ch) -> None:
         """Another vehicle's position: FOLLOW's lead, when FOLL_ENABLE is set (AP_Follow)."""

@@ -2,7 +2,7 @@
 requests that change it (the link core sends what is due, framed by the telemetry).
 
 The schedule: HEARTBEAT at 1 Hz, each SR0_* stream group at its parameter's rate
-(vehicle/link/telemetry.py: STREAM_GROUPS), and MAV_CMD_SET_MESSAGE_INTERVAL's per-message
+(vehicle/telemetry/stream_groups.py, per vehicle kind), and MAV_CMD_SET_MESSAGE_INTERVAL's per-message
 intervals over both (-1 disables a message, 0 restores its default). REQUEST_DATA_STREAM sets
 the SR0_* parameters (not saved), as ArduPilot does. MAV_CMD_GET_MESSAGE_INTERVAL,
 MAV_CMD_REQUEST_MESSAGE and MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES answer after their ACK.
@@ -13,20 +13,24 @@ endpoint has someone to hear them. A reboot forgets the message intervals.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from vehicle.link.command_link import Command, CommandLink
-from vehicle.link.link_core import LinkCore
-from vehicle.link.telemetry import DATA_STREAMS, STREAM_GROUPS, Telemetry
+from vehicle.link.link_core import LinkCore, statustext_message
+from vehicle.link.telemetry import DATA_STREAMS, Telemetry
 
 MAX_INTERVAL_US = 2**31 - 1   # MESSAGE_INTERVAL.interval_us is an int32
 
 
 class StreamLink:
-    def __init__(self, core: LinkCore, params, telemetry: Telemetry, commands: CommandLink) -> None:
-        """params: the vehicle's ParamStore (SR0_* rates); telemetry builds the messages."""
+    def __init__(self, core: LinkCore, params, telemetry: Telemetry, commands: CommandLink,
+                 banner: Callable[[], list[str]]) -> None:
+        """params: the vehicle's ParamStore (SR0_* rates); telemetry builds the messages;
+        banner() the lines MAV_CMD_DO_SEND_BANNER answers with."""
         self.core = core
+        self.banner = banner
         self.params = params
         self.telemetry = telemetry
         self.intervals: dict[int, float] = {}     # msgid -> seconds; <0 disabled (SET_MESSAGE_INTERVAL)
@@ -36,12 +40,13 @@ class StreamLink:
         for cmd in (mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAV_CMD_GET_MESSAGE_INTERVAL,
                     mav.MAV_CMD_REQUEST_MESSAGE, mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES):
             commands.register(cmd, self.command)
+        commands.register(mav.MAV_CMD_DO_SEND_BANNER, self.send_banner)
         core.on_reboot(self.forget)
 
     def rebuild(self) -> None:
         """The schedule from the SR0_* parameters and the message intervals (after either changed)."""
         sched: dict[int, float] = {mav.MAVLINK_MSG_ID_HEARTBEAT: 1.0}
-        for group, ids in STREAM_GROUPS.items():
+        for group, ids in self.telemetry.groups.items():
             hz = float(self.params.get(group, 0) or 0)
             if hz > 0:
                 for i in ids:
@@ -66,6 +71,11 @@ class StreamLink:
             if g is not None:
                 self.params.set(g, min(max(rate, 0), 50), save=False)
         self.rebuild()
+
+    def send_banner(self, c: Command) -> int:
+        """MAV_CMD_DO_SEND_BANNER: ArduPilot's banner STATUSTEXTs, on the asking link only."""
+        c.after_ack.extend(statustext_message(mav.MAV_SEVERITY_INFO, line) for line in self.banner())
+        return mav.MAV_RESULT_ACCEPTED
 
     def command(self, c: Command) -> int:
         """MAV_CMD_SET_MESSAGE_INTERVAL, GET_MESSAGE_INTERVAL, REQUEST_MESSAGE and

@@ -25,6 +25,7 @@ from vehicle.link.param_link import ParamLink
 from vehicle.link.position_link import PositionLink
 from vehicle.link.stream_link import StreamLink
 from vehicle.link.telemetry import Telemetry
+from vehicle.telemetry import version
 
 
 class VehicleLink(LinkCore):
@@ -41,7 +42,8 @@ class VehicleLink(LinkCore):
         self.ap = ap
         self.telemetry = Telemetry(ap, self.framer, clock, unix_start_us)
         self.commands = CommandLink(self, ap)
-        self.streams = StreamLink(self, ap.params, self.telemetry, self.commands)
+        self.streams = StreamLink(self, ap.params, self.telemetry, self.commands,
+                                  banner=lambda: version.banner(ap.kind, ap.sysid))
         self.params = ParamLink(self, ap.params, self.streams, params_changed)
         self.missions = MissionLink(self, ap, self.telemetry, self.commands)
         self.files = FtpLink(self, ap.params, files_root)
