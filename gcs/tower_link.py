@@ -4,15 +4,15 @@ A family's tower used to open one connection per drone. The bridge's tower link 
 whole system's telemetry to every peer, so N connections decoded N times everything (N**2
 work) and past 64 peers the link's peer table (common.mavlink.peers) dropped some. A GCS flying many
 drones holds one link: :class:`SharedClient` is a gcs.client.Client whose socket only one
-thread, the pump, reads; each drone's gcs.tower.Mission runs in its own thread on the same
+thread, the pump, reads; each drone's gcs.tower_mission.Mission runs in its own thread on the same
 object, and its blocking helpers (set_mode, arm, takeoff, wait_reached, ...) park in
 ``poll`` until the pump has handled the next batch of messages.
 
 Lockstep (issue 11) with a family: the pump is the tower's one participant. After a TICK
 it wakes every mission thread and ACKs the TICK only once each registered thread has acted
 on it and parked again (a barrier), so what the family decides depends on sim time alone.
-A thread that waits on something else than the link (a gate) waits with :meth:`wait_until`,
-which parks in ``poll`` too.
+A thread that waits on something else than the link (a gate) waits with the link's
+``wait_until``, which parks in ``poll`` too.
 """
 from __future__ import annotations
 
@@ -53,7 +53,7 @@ class SharedClient(Client):
 
     # -- the pump
 
-    def start(self) -> "SharedClient":
+    def start(self) -> SharedClient:
         """Start the pump thread (the only reader of the socket)."""
         self._pump = threading.Thread(target=self._run_pump, name="tower-link", daemon=True)
         self._pump.start()
@@ -127,13 +127,9 @@ class SharedClient(Client):
             raise ClientTimeout(f"the tower link stopped: {self.pump_error}")
         return 1
 
-    def wait_until(self, cond: Callable[[], Any], timeout: float) -> Any:
-        """cond() once truthy, or None after `timeout` s (sim s with lockstep), parked in poll."""
-        return self._wait(cond, timeout)
-
-    def _send(self, fn: Callable[[], None]) -> None:
+    def send(self, fn: Callable[[], None]) -> None:
         with self._send_lock:                        # one MAVLink sequence, one datagram at a time
-            super()._send(fn)
+            super().send(fn)
 
     def _send_heartbeat(self) -> None:
         with self._send_lock:

@@ -6,14 +6,14 @@ import json
 import time
 from pathlib import Path
 
-from tools.fly import Launch
+from tools.fly_launch import Launch
 
 # world [-4, -2] (the lab's house), world [26, -2] (a 30 m leg: full cruise at 5 m/s),
 # world [26, 8]; as tower coordinates through the default scenario's static frame.
 def tower_goals(world_xy, scenario=None) -> str:
     import numpy as np
     from common.scenario import load_scenario
-    from gcs.tower import format_goals
+    from gcs.tower_mission import format_goals
     sc = load_scenario(scenario)
     T = sc.buffer().lookup_transform("tower", "world").transform
     return format_goals([tuple(T.apply_point(np.array([x, y, -sc.altitude]))) for x, y in world_xy])
@@ -41,7 +41,7 @@ def wait_goal(launch: Launch, n: int, what: str, timeout: float) -> None:
     end = time.monotonic() + timeout
     while time.monotonic() < end:
         gs = launch.goal_state
-        if gs["n"] > n or (gs["n"] == n and (what == "sent" or gs["last"] == what)):
+        if gs.n > n or (gs.n == n and (what == "sent" or gs.last == what)):
             return
         if launch.procs["tower"].poll() is not None:
             raise AssertionError("tower ended early:\n" + "\n".join(launch.tower_lines[-15:]))

@@ -12,9 +12,10 @@ from hypothesis import given, settings, strategies as st
 from common.mavlink.dialect import towerlink as tl
 from common.frames import Transform
 from common.scenario import ScenarioError, load_scenario
-from gcs.tower_family import SeparationWatch, TowerFrames
+from gcs.tower_family import SeparationWatch
+from gcs.tower_frames import TowerFrames
 from tools.family_summary import closest_approach, format_family_summary, summarize_family
-from tools.run_summary import RunData, Track
+from tools.run_data import RunData, Track
 
 
 def write(tmp_path: Path, text: str) -> Path:
@@ -171,8 +172,8 @@ def test_family_figures_end_with_the_tower(tmp_path):
 
 
 def test_fly_family_command_lines_give_every_vehicle_its_port_and_the_bridge_each_one(tmp_path):
-    from tools.fly import Launch
-    launch = Launch(tmp_path, scenario="family")
+    from tools.fly_plan import FlyPlan
+    launch = FlyPlan(tmp_path, scenario="family")
     sitl, bridge = launch.sitl_cmd(), launch.bridge_cmd()
     assert sitl[sitl.index("--drones") + 1] == "3" and sitl[sitl.index("--rovers") + 1] == "3"
     eps = [sitl[i + 1] for i, a in enumerate(sitl) if a == "--endpoint"]
@@ -184,19 +185,19 @@ def test_fly_family_command_lines_give_every_vehicle_its_port_and_the_bridge_eac
     assert "--drone" not in bridge and "--rover" not in bridge
     assert "--lockstep" not in sitl and "--lockstep" not in bridge
     # lockstep: the world waits for two participants, the bridge and the family's one tower link
-    locked = Launch(tmp_path / "l", scenario="family", lockstep=True)
+    locked = FlyPlan(tmp_path / "l", scenario="family", lockstep=True)
     sitl = locked.sitl_cmd()
     assert sitl[sitl.index("--lockstep") + 1] == "2"
     assert "--lockstep" in locked.bridge_cmd() and "--lockstep" in locked.tower_cmd()
-    van = Launch(tmp_path / "v", scenario="van", lockstep=True).sitl_cmd()
+    van = FlyPlan(tmp_path / "v", scenario="van", lockstep=True).sitl_cmd()
     assert van[van.index("--lockstep") + 1] == "3"           # bridge, the tower link, the van's driver
 
 
 def test_fly_van_route_is_a_looped_mission_on_the_van(tmp_path):
     from common.geo import lla_to_ned
     from common.wpl import read
-    from tools.fly import SITL_HOME, Launch
-    launch = Launch(tmp_path, scenario="van")
+    from tools.fly_plan import SITL_HOME, FlyPlan
+    launch = FlyPlan(tmp_path, scenario="van")
     sitl = launch.sitl_cmd()
     missions = [sitl[i + 1] for i, a in enumerate(sitl) if a == "--mission"]
     assert missions == [f"2={tmp_path / 'van.waypoints'}"]          # the van is vehicle 2 (sysid 3)

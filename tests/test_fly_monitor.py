@@ -6,7 +6,9 @@ import socket
 
 from common.mavlink.dialect import towerlink as tl
 from support import free_ports, wait_until
-from tools.fly import DRONE, ROVER, SCORING_PARAMS, Monitor
+from tools.fly_monitor import Monitor
+from tools.run_data import DRONE, ROVER
+from tools.run_figures import SCORING_PARAMS
 
 
 def _vehicle(sysid: int):

@@ -137,6 +137,9 @@ class FakeCopter(threading.Thread):
                 self.ack(m.command, apm.MAV_RESULT_UNSUPPORTED)
         elif t == "SET_POSITION_TARGET_LOCAL_NED" and self.mode == 4:
             self.target = [m.x, m.y, m.z]
+        elif t == "PARAM_REQUEST_READ" and m.param_id == "WPNAV_SPEED":
+            self.send(apm.MAVLink_param_value_message(b"WPNAV_SPEED", 100.0 * self.speed,
+                                                      apm.MAV_PARAM_TYPE_REAL32, 1, 0))
 
 
 @pytest.fixture
@@ -328,3 +331,70 @@ def test_command_retry_is_paced_on_the_vehicle_clock(copter):
     assert sent_at[1] - sent_at[0] >= 30_000, sent_at
     # ... which the vehicle's own clock confirms: it cannot have been read ahead of it
     assert fc.command_sims[1] >= sent_at[0] / 1000 + 30.0, (sent_at, fc.command_sims)
+
+
+def test_the_plugins_fly_the_sequence_and_read_a_parameter(copter):
+    """The capability plugins on their own (c.telemetry, c.action, c.goals, c.param), as MAVSDK's."""
+    fc, url = copter
+    with Client.connect(url) as c:
+        st = c.telemetry.wait_heartbeat(1, timeout=5)
+        assert st is c.system(1) and st.mav_type == apm.MAV_TYPE_QUADROTOR
+        assert c.param.get_param("WPNAV_SPEED", 1, timeout=5) == pytest.approx(100.0 * fc.speed)
+        c.action.set_mode("GUIDED", 1, timeout=5)
+        c.action.arm(1, timeout=10, retry_interval=0.1)
+        p = c.action.takeoff(3.0, 1, timeout=10)
+        assert p.z <= -2.5 and c.telemetry.position(1).t >= p.t
+        c.goals.goto(2.0, 1.0, -3.0, 1)
+        hit = c.goals.wait_reached((2.0, 1.0, -3.0), 0.5, 10, sysid=1)
+        assert hit.distance <= 0.5 and c.telemetry.sim_time(1) >= hit.position.t
+        assert [t for _, _, t in c.telemetry.statustexts_since(0, 1)] == ["PreArm: Need Position Estimate"] * 2
+        c.action.disarm(1, force=True)
+        assert not c.system(1).armed and not fc.armed
+
+
+def test_the_clients_calls_are_its_plugins_calls():
+    """c.takeoff is c.action.takeoff: same signature and docstring, nothing of its own."""
+    import inspect
+
+    from gcs.client import Action, Goals, Param, Telemetry
+    from gcs.client.commands import Commands
+    for name, plugin in [("takeoff", Action), ("set_mode", Action), ("land", Action), ("rtl", Action),
+                         ("arm", Action), ("disarm", Action), ("goto", Goals), ("goto_named", Goals),
+                         ("wait_reached", Goals), ("get_param", Param), ("wait_heartbeat", Telemetry),
+                         ("wait_position", Telemetry), ("sim_time", Telemetry), ("position", Telemetry),
+                         ("statustexts_since", Telemetry), ("set_message_interval", Telemetry),
+                         ("command_long", Commands)]:
+        ours, theirs = getattr(Client, name), getattr(plugin, name)
+        assert ours.__doc__ == theirs.__doc__ and ours.__wrapped__ is theirs, name
+        assert inspect.signature(ours) == inspect.signature(theirs), name
+
+
+def test_the_tracker_notes_each_system_and_follows_a_reboot():
+    """gcs.client.state.SystemTracker, pure: the client's clock is only the stamp it is given."""
+    from gcs.client.state import SystemTracker
+    rx = apm.MAVLink(None)
+
+    def msg(m, sysid=1):
+        return rx.parse_buffer(m.pack(apm.MAVLink(None, srcSystem=sysid, srcComponent=1)))[0]
+
+    stamp = [7.5]
+    tr = SystemTracker(lambda: stamp[0])
+    hb = msg(apm.MAVLink_heartbeat_message(apm.MAV_TYPE_QUADROTOR, apm.MAV_AUTOPILOT_ARDUPILOTMEGA,
+                                           apm.MAV_MODE_FLAG_SAFETY_ARMED, 4, apm.MAV_STATE_ACTIVE, 3))
+    assert tr.note(hb, "HEARTBEAT") is None
+    st = tr.system(1)
+    assert st.armed and st.mode_name == "GUIDED" and st.heartbeat_wall == 7.5
+    gcs_hb = msg(apm.MAVLink_heartbeat_message(apm.MAV_TYPE_GCS, apm.MAV_AUTOPILOT_INVALID, 0, 0, 4, 3), 2)
+    tr.note(gcs_hb, "HEARTBEAT")
+    assert tr.system(2).heartbeat_wall is None           # a GCS is not a vehicle
+    for ms in (9000, 8000):                              # a late sample: not the newest
+        tr.note(msg(apm.MAVLink_local_position_ned_message(ms, 1.0, 2.0, -3.0, 0, 0, 0)), "LOCAL_POSITION_NED")
+    assert st.position.time_boot_ms == 9000 and st.sim_time == 9.0 and st.reboots == 0
+    said = tr.note(msg(apm.MAVLink_local_position_ned_message(1000, 0, 0, 0, 0, 0, 0)), "LOCAL_POSITION_NED")
+    assert "system 1 rebooted" in said and st.reboots == 1 and st.position.time_boot_ms == 1000
+    for text in (b"one", b"two"):
+        tr.note(msg(apm.MAVLink_statustext_message(apm.MAV_SEVERITY_INFO, text)), "STATUSTEXT")
+    tr.note(msg(apm.MAVLink_statustext_message(apm.MAV_SEVERITY_INFO, b"other"), 3), "STATUSTEXT")
+    assert tr.text_serial == 3
+    assert tr.statustexts_since(1, 1) == [(2, apm.MAV_SEVERITY_INFO, "two")]
+    assert [t for _, _, t in tr.statustexts_since(0)] == ["one", "two", "other"]

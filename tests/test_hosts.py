@@ -14,7 +14,8 @@ import pytest
 import netns
 from tools import hosts
 from tools.cli import main
-from tools.fly import Launch
+from tools.fly_launch import Launch
+from tools.fly_plan import FlyPlan
 from tools.hosts import WorldHost
 
 NETNS = WorldHost(addr="10.9.8.1", local="10.9.8.2", prefix=("ip", "netns", "exec", "simA"))
@@ -66,7 +67,7 @@ def test_ssh_gets_one_quoted_towerlink_command_the_remote_shell_splits_back(ssh)
 
 
 def test_world_on_another_host_listens_on_all_its_interfaces_and_pushes_here(tmp_path):
-    launch = Launch(tmp_path, world=NETNS, lockstep=True)
+    launch = FlyPlan(tmp_path, world=NETNS, lockstep=True)
     p = launch.ports
     sitl, bridge = launch.sitl_cmd(), launch.bridge_cmd()
     words = shlex.join(sitl)
@@ -82,7 +83,7 @@ def test_world_on_another_host_listens_on_all_its_interfaces_and_pushes_here(tmp
 
 
 def test_a_family_world_on_another_host(tmp_path):
-    launch = Launch(tmp_path, scenario="family", world=NETNS)
+    launch = FlyPlan(tmp_path, scenario="family", world=NETNS)
     sitl, bridge = shlex.join(launch.sitl_cmd()), shlex.join(launch.bridge_cmd())
     for _name, sysid, _kind in launch.sc.vehicles:
         port = launch.ports[f"vehicle{sysid}"]
@@ -96,9 +97,9 @@ def test_attach_prints_the_world_command_and_starts_nothing(tmp_path, capsys):
     launch.start_world()
     out = capsys.readouterr().out
     assert out.startswith("towerlink fly: start the world on 10.9.8.1:\n  towerlink sitl ")
-    assert shlex.split(out.splitlines()[1]) == ["towerlink", *launch.sitl_cmd()[3:]]
+    assert shlex.split(out.splitlines()[1]) == ["towerlink", *launch.plan.sitl_cmd()[3:]]
     assert launch.procs == {}
-    assert launch.world_cmd()[:2] == ["towerlink", "sitl"]          # meta.json's record of it
+    assert launch.plan.world_cmd()[:2] == ["towerlink", "sitl"]          # meta.json's record of it
 
 
 def test_fly_refuses_a_prefix_without_a_world_host(tmp_path, capsys):

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from tools.hover_stats import HOVER_MIN_S, format_hover, hover_figures, hover_segments
-from tools.run_summary import FOLLOW_FIELDS, RunData, Track, format_summary, load_messages, summarize
+from tools.run_data import FOLLOW_FIELDS, RunData, Track, load_messages
+from tools.run_summary import format_summary, summarize
 
 
 def _run(tilt_deg=7.0, wobble=0.05, seed=0) -> RunData:

@@ -15,7 +15,7 @@ import pytest
 
 from common.tf2_ros.node import component_for
 from system_support import MISSION_WORLD, finish, launched, tower_goals, tower_result
-from tools.run_summary import read_tlog
+from tools.run_data import read_tlog
 
 pytestmark = pytest.mark.slow
 LAB = Path(__file__).resolve().parent.parent / "examples" / "lab"

@@ -466,11 +466,26 @@ def test_client_acks_a_repeated_tick_again():
     msg = tl.MAVLink_towerlink_lockstep_message(40000, 0, TICK, L.WORLD, 40000)
     msg._header = SimpleNamespace(srcSystem=250, srcComponent=191)
     c._handle(msg)                             # a new TICK: ACKed at the next poll, not here
-    assert mav.sent == [] and c._ack_due == 40000
-    c._lockstep_send(ACK, c._ack_due)          # what poll does first
-    c._acked, c._ack_due = c._ack_due, None
+    assert mav.sent == [] and c.ticks.ack_due == 40000 and c.tick_usec == 40000
+    c._send_due_ack()                          # what poll does first
+    assert mav.sent == [(ACK, 40000)] and c.ticks.ack_due is None
     c._handle(msg)                             # the same TICK again: our ACK was lost
     assert mav.sent == [(ACK, 40000), (ACK, 40000)]
+
+
+def test_tick_clock_acks_each_tick_once_acted_on_and_a_repeated_one_again():
+    """gcs.client.lockstep.TickClock, the client's books of the handshake (pure)."""
+    from gcs.client.lockstep import TickClock
+    ticks = TickClock()
+    assert ticks.now() == 0.0 and ticks.take_ack() is None
+    assert ticks.on_tick(40000) is None and ticks.now() == 0.04 and ticks.ack_due == 40000
+    assert ticks.on_tick(40000) is None        # again before our ACK went out: nothing to repeat
+    assert ticks.take_ack() == 40000 and ticks.take_ack() is None
+    assert ticks.on_tick(40000) == 40000       # again after it: our ACK was lost, ACK at once
+    assert ticks.on_tick(0) == 40000           # an older one: the newest ACK covers it
+    assert ticks.on_tick(80000) is None and ticks.ack_due == 80000
+    assert ticks.on_tick(40000) is None        # a late old TICK while 80000 is due: no ACK yet
+    assert ticks.now() == 0.08
 
 
 def test_bridge_desk_barrier_needs_a_tick_on_every_vehicle_link_then_upkeep_ack_and_relay():

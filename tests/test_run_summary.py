@@ -9,8 +9,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from common.geo import ned_to_lla
-from tools.run_summary import (Track, format_summary, ground_point_errors, horizontal_error,
-                               load_messages, minimum_time, rms)
+from tools.run_data import Track, load_messages
+from tools.run_figures import ground_point_errors, horizontal_error, minimum_time, rms
+from tools.run_summary import format_summary
 
 
 def test_minimum_time_long_leg_is_the_design_formula():

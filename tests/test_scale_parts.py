@@ -302,7 +302,7 @@ def test_a_tower_goal_is_handled_before_a_burst_of_telemetry_and_between_its_bat
 
 
 def test_bench_counts_messages_per_coalesced_datagram():
-    from tools.bench_bridge import BRIDGE_SYSID, messages_in
+    from tools.bench_bridge_probe import BRIDGE_SYSID, messages_in
     own = bytes(tl.MAVLink_heartbeat_message(0, 0, 0, 0, 0, 3).pack(tl.MAVLink(None, BRIDGE_SYSID, 191)))
     v1 = tl.MAVLink(None, 3, 1)
     v1.WIRE_PROTOCOL_VERSION = "1.0"

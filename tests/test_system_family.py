@@ -94,7 +94,7 @@ def test_van_goals_resolved_at_their_stamp_and_the_time_travel_figure_shown(tmp_
     # the drone reached each goal's world point as resolved at its stamp (world NED, m):
     # where the van's tower pointed when it spoke, checked here against the recorded van
     # track (truth) at that stamp, not against the tower's own arithmetic
-    from tools.run_summary import load_run
+    from tools.run_data import load_run
     data = load_run(tmp_path)
     van, dr = data.truth[3], data.truth[1]
     for g in goals:

@@ -21,7 +21,7 @@ DRONES = 100
 def test_generated_family_every_drone_reaches_its_goal_and_separation_holds(tmp_path):
     from common.family_plan import LanePlan, scenario_toml
     from tools.family_summary import closest_approach
-    from tools.run_summary import RunData, load_messages, read_tlog
+    from tools.run_data import RunData, load_messages, read_tlog
     plan = LanePlan(drones=DRONES, legs=1)
     path = tmp_path / "family.toml"
     path.write_text(scenario_toml(plan))

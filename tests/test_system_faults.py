@@ -46,7 +46,7 @@ def test_bridge_killed_and_restarted_mid_mission(tmp_path):
         assert min(heights) > 7.0, "the drone stayed in the air"
         (t0, p0), (t1, p1) = samples[-6], samples[-1]
         assert math.dist(p0[:2], p1[:2]) / max(t1 - t0, 1e-3) < 0.5, "and held its position"
-        assert launch.goal_state["n"] == 2 and launch.goal_state["last"] == "sent"
+        assert launch.goal_state.n == 2 and launch.goal_state.last == "sent"
         launch.restart_bridge()
         s = finish(launch, timeout=90)
     assert s["ok"] and s["goals_reached"] == 3
@@ -139,6 +139,6 @@ def test_garbage_on_every_bridge_port_is_counted_and_dropped(tmp_path):
     for link in ("tower", "drone", "rover"):
         assert status[link]["malformed"] > 0, (link, status)
     # the bogus 500 m target (bad CRC) never reached the drone: it flew only the mission
-    from tools.run_summary import load_run
+    from tools.run_data import load_run
     d = load_run(tmp_path)
     assert max(abs(x) for x in d.truth[1].xyz[:, :2].ravel()) < 15.0

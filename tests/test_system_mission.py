@@ -81,7 +81,7 @@ def test_checkpoint1_goals_sent_in_tower_frame_are_reached(run):
         assert g["distance"] <= t["radius"]
         assert math.dist(g["position"], g["goal"]) <= t["radius"] + 1e-6
     # and the truth agrees: the drone really was at the world goal at the sim time of arrival
-    from tools.run_summary import load_run
+    from tools.run_data import load_run
     d = load_run(run_dir)
     for g, want in zip(t["goals"], MISSION_WORLD):
         p = d.truth[1].at(g["reached_sim"])
@@ -98,7 +98,7 @@ def test_checkpoint2_rover_follows_the_drone_to_the_goals(run):
     # at each goal arrival the rover is close to the ground point under the drone
     assert max(errs) < 2.0, errs
     # and it went the whole way: its track passes near every goal
-    from tools.run_summary import load_run
+    from tools.run_data import load_run
     rv = load_run(run_dir).truth[2]
     for want in MISSION_WORLD:
         assert np.min(np.hypot(rv.xyz[:, 0] - want[0], rv.xyz[:, 1] - want[1])) < 1.5

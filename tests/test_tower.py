@@ -6,7 +6,7 @@ import math
 import pytest
 
 from gcs.client import GoalTimeout, Position, Reached
-from gcs.tower import Mission, format_goals, parse_goals
+from gcs.tower_mission import Mission, format_goals, parse_goals
 
 
 def test_parse_goals_defaults_z_to_minus_altitude():

@@ -84,7 +84,7 @@ def test_everything_a_signing_client_sends_is_signed_on_its_own_link_id():
     vehicle, port = udp_listener(2.0)
     c = Client.connect(f"udpout:127.0.0.1:{port}", signing_key=KEY)
     try:
-        c._send(lambda: c.mav.command_long_send(1, 1, tl.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0))
+        c.send(lambda: c.mav.command_long_send(1, 1, tl.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0))
         frames = []
         parser = tl.MAVLink(None)
         while len(frames) < 2:
@@ -263,26 +263,29 @@ def test_masked_argv_hides_the_key_in_every_spelling():
 
 
 def test_fly_passes_the_key_to_every_process_and_never_writes_it(tmp_path):
-    from tools.fly import Launch
+    from tools.fly_plan import FlyPlan
+    from tools.fly_processes import ProcessGroup
+    from tools.fly_run_folder import write_meta
     secret = "correct horse battery staple"
-    launch = Launch(tmp_path, signing_key=secret, lockstep=True)
+    launch = FlyPlan(tmp_path, signing_key=secret, lockstep=True)
     for cmd in (launch.sitl_cmd(), launch.bridge_cmd(), launch.tower_cmd()):
         i = cmd.index("--signing-key")
         assert cmd[i + 1] == secret
     assert "--vehicle-signing" in launch.bridge_cmd()
-    launch.write_meta()
+    write_meta(launch)
     meta = json.loads((tmp_path / "meta.json").read_text())
     assert meta["signed"] is True and secret not in json.dumps(meta)
     assert "--signing-key '***'" in meta["commands"]["tower"]
-    p = launch._start("echo", [sys.executable, "-c", "pass", "--signing-key", secret])
+    procs = ProcessGroup(tmp_path)
+    p = procs.start("echo", [sys.executable, "-c", "pass", "--signing-key", secret])
     p.wait(10)
-    launch.logs["echo"].close()
+    procs.close_logs()
     text = (tmp_path / "echo.log").read_text()
     assert secret not in text and "--signing-key '***'" in text
-    family = Launch(tmp_path / "f", scenario="family", signing_key=secret, lockstep=True)
+    family = FlyPlan(tmp_path / "f", scenario="family", signing_key=secret, lockstep=True)
     assert family.sitl_cmd()[family.sitl_cmd().index("--signing-key") + 1] == secret
     with pytest.raises(ValueError, match="--nodes"):
-        Launch(tmp_path / "n", signing_key=secret, nodes="examples/lab")
+        FlyPlan(tmp_path / "n", signing_key=secret, nodes="examples/lab")
 
 
 def test_bridge_vehicle_signing_needs_a_key(capsys):
@@ -292,14 +295,16 @@ def test_bridge_vehicle_signing_needs_a_key(capsys):
 
 
 def test_a_world_on_another_host_gets_the_key_and_no_record_shows_it(tmp_path, capsys):
-    from tools.fly import Launch
+    from tools.fly_launch import Launch
+    from tools.fly_plan import FlyPlan
+    from tools.fly_run_folder import write_meta
     from tools.hosts import WorldHost
     secret = "remote world secret"
-    ssh = Launch(tmp_path / "ssh", world=WorldHost("10.9.8.1", "10.9.8.2", ("ssh", "-tt", "sim-box")),
+    ssh = FlyPlan(tmp_path / "ssh", world=WorldHost("10.9.8.1", "10.9.8.2", ("ssh", "-tt", "sim-box")),
                  signing_key=secret, lockstep=True)
     remote = shlex.split(ssh.world_cmd()[-1])                        # what the remote shell runs
     assert remote[remote.index("--signing-key") + 1] == secret
-    ssh.write_meta()
+    write_meta(ssh)
     assert secret not in (tmp_path / "ssh" / "meta.json").read_text()
     attach = Launch(tmp_path / "attach", world=WorldHost("10.9.8.1", "10.9.8.2"), signing_key=secret,
                     lockstep=True)

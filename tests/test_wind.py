@@ -252,13 +252,13 @@ def test_sitl_wind_option():
 
 
 def test_fly_passes_the_scenario_wind_to_the_world(tmp_path):
-    from tools.fly import Launch
+    from tools.fly_plan import FlyPlan
     sc = tmp_path / "wind.toml"
     sc.write_text('wind = {speed = 8, direction = 270, turbulence = 1}\n'
                   'static_transforms = ["0 0 0 0 0 0 world tower"]\n')
-    cmd = Launch(tmp_path / "run", scenario=str(sc)).sitl_cmd()
+    cmd = FlyPlan(tmp_path / "run", scenario=str(sc)).sitl_cmd()
     assert cmd[cmd.index("--wind") + 1] == "8,270,1"
-    assert "--wind" not in Launch(tmp_path / "run2").sitl_cmd()
+    assert "--wind" not in FlyPlan(tmp_path / "run2").sitl_cmd()
 
 
 def test_scenario_wind_table(tmp_path):

@@ -31,9 +31,7 @@ from __future__ import annotations
 
 import argparse
 import os
-import shutil
 import socket
-import subprocess
 import sys
 import tempfile
 import threading
@@ -42,61 +40,12 @@ from contextlib import contextmanager
 
 from common.ports import free_port
 from common.mavlink.dialect import towerlink as tl
-from tools.benchtable import machine, table, stop_process
+from tools.bench_bridge_probe import (ADDED_P99_TARGET_MS, bridge_args, cpu_seconds, first_heartbeat_from,
+                                      hello_tower, latency, mavproxy_exe, mavproxy_router_args, messages_in,
+                                      percentile, pinned_process, place_drone, split_cpus, udp_socket)
+from tools.benchtable import machine, table
 
-ADDED_P99_TARGET_MS = 1.0
 RATE_TARGET = 20_000.0
-BRIDGE_SYSID = 250
-
-
-def _cpu_seconds(pid: int) -> float:
-    with open(f"/proc/{pid}/stat") as f:
-        fields = f.read().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-
-
-def _runqueue_wait(pid: int) -> float:
-    """Seconds process `pid` has spent runnable but waiting for a CPU (/proc/PID/schedstat)."""
-    try:
-        with open(f"/proc/{pid}/schedstat") as f:
-            return int(f.read().split()[1]) / 1e9
-    except (OSError, IndexError, ValueError):
-        return float("nan")
-
-
-def _cpus() -> tuple[int, set[int]]:
-    """(the CPU for the process under test, the CPUs left for this process)."""
-    cpus = sorted(os.sched_getaffinity(0))
-    return cpus[-1], (set(cpus[:-1]) or set(cpus))
-
-
-
-def _udp(port: int = 0, rcvbuf: int = 8 << 20) -> socket.socket:
-    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, rcvbuf)
-    s.bind(("127.0.0.1", port))
-    return s
-
-
-@contextmanager
-def _pinned_process(args: list[str], cpu: int, cwd: str | None = None):
-    """A child process pinned to `cpu` (os.sched_setaffinity before exec); always stopped.
-
-    Its stderr goes to a temporary file (a pipe nobody reads could fill and stall it);
-    `proc.stderr_tail()` returns the end of it, for error messages."""
-    err = tempfile.TemporaryFile()
-    proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=err, stdin=subprocess.DEVNULL,
-                            cwd=cwd, start_new_session=True, preexec_fn=lambda: os.sched_setaffinity(0, {cpu}))
-
-    def stderr_tail(n: int = 2000) -> str:
-        err.seek(0)
-        return err.read().decode(errors="replace")[-n:]
-    proc.stderr_tail = stderr_tail
-    try:
-        yield proc
-    finally:
-        stop_process(proc)
-        err.close()
 
 
 @contextmanager
@@ -105,88 +54,18 @@ def _bridge(cpu: int):
 
     Yields (proc, tower socket, drone socket, address of the bridge's drone link,
     address of its tower link)."""
-    tower, drone = _udp(), _udp()
+    tower, drone = udp_socket(), udp_socket()
     tport = free_port()
-    args = [sys.executable, "-m", "tools.cli", "bridge", "--tower", f"udpin:127.0.0.1:{tport}",
-            "--drone", f"udpout:127.0.0.1:{drone.getsockname()[1]}", "--rover", "none",
-            "--no-follow", "--telemetry-rate", "0", "-q"]
+    args = bridge_args(tport, "--drone", f"udpout:127.0.0.1:{drone.getsockname()[1]}", "--rover", "none")
     try:
-        with _pinned_process(args, cpu) as proc:
-            drone.settimeout(15.0)
-            try:
-                _data, link_addr = drone.recvfrom(65535)   # the bridge's first heartbeat
-            except socket.timeout:
-                raise RuntimeError(f"`towerlink bridge` sent nothing in 15 s:\n{proc.stderr_tail()}") from None
-            # as a vehicle does once its EKF origin is set: the bridge places the drone's
-            # frame (drone_origin) in world with it, so tower goals have somewhere to go
-            drone.sendto(bytes(tl.MAVLink_gps_global_origin_message(-353632610, 1491652300, 584000, 0)
-                               .pack(tl.MAVLink(None, 1, 1))), link_addr)
-            hb = bytes(tl.MAVLink_heartbeat_message(tl.MAV_TYPE_GCS, tl.MAV_AUTOPILOT_INVALID, 0, 0, 0, 3)
-                       .pack(tl.MAVLink(None, 255, 190)))
-            tower.settimeout(0.2)
-            deadline = time.monotonic() + 15.0
-            while True:                                    # until the bridge knows the tower
-                tower.sendto(hb, ("127.0.0.1", tport))
-                try:
-                    tower.recv(65535)
-                    break
-                except socket.timeout:
-                    if time.monotonic() > deadline or proc.poll() is not None:
-                        raise RuntimeError(f"the bridge did not answer the tower:\n{proc.stderr_tail()}") from None
+        with pinned_process(args, cpu) as proc:
+            link_addr = first_heartbeat_from(drone, proc)
+            place_drone(drone, link_addr)
+            hello_tower(tower, ("127.0.0.1", tport), proc)
             yield proc, tower, drone, link_addr, ("127.0.0.1", tport)
     finally:
         tower.close()
         drone.close()
-
-
-# ----------------------------------------------------------------------------- latency
-
-def _goal(mav, k: int) -> bytes:
-    """A tower goal whose time_boot_ms carries the sample number k."""
-    return bytes(tl.MAVLink_set_position_target_local_ned_message(
-        k, 1, 1, tl.MAV_FRAME_LOCAL_NED, 0b0000_1101_1111_1000, -131.0, 73.5, -9.0,
-        0, 0, 0, 0, 0, 0, 0, 0).pack(mav))
-
-
-def _is_goal(data: bytes, k: int) -> bool:
-    if len(data) < 14 or data[0] != 0xFD or data[7:10] != b"\x54\x00\x00":   # msgid 84
-        return False
-    return int.from_bytes(data[10:14].ljust(4, b"\0"), "little") == k
-
-
-def latency(bridge: tuple, samples: int) -> dict[str, list[float]]:
-    """One-way times (s) of tower goals through the bridge and over a direct link."""
-    mav = tl.MAVLink(None, 255, 190)
-    out: dict[str, list[float]] = {"bridge": [], "direct": [], "lost": [0, 0], "wait": [0.0]}
-    proc, tower, drone, _link, tower_link = bridge
-    drone.settimeout(1.0)
-    direct = drone.getsockname()
-    clock = time.perf_counter
-    for i in range(samples + 200):                     # the first 200 of each warm up
-        if i == 200:
-            out["wait"][0] = -_runqueue_wait(proc.pid)
-        for j, (name, dest) in enumerate((("bridge", tower_link), ("direct", direct))):
-            k = 2 * i + j + 1
-            frame = _goal(mav, k)
-            t0 = clock()
-            tower.sendto(frame, dest)
-            while True:
-                try:
-                    data = drone.recv(65535)
-                except socket.timeout:
-                    out["lost"][j] += 1
-                    break
-                if _is_goal(data, k):
-                    if i >= 200:
-                        out[name].append(clock() - t0)
-                    break
-    out["wait"][0] += _runqueue_wait(proc.pid)
-    return out
-
-
-def _pct(xs: list[float], q: float) -> float:
-    s = sorted(xs)
-    return s[min(len(s) - 1, int(round(q / 100.0 * (len(s) - 1))))]
 
 
 # ----------------------------------------------------------------------------- rate
@@ -228,24 +107,6 @@ def _vehicle_msgs(ms: int, sysid: int) -> list:
             tl.MAVLink_vfr_hud_message(1.0, 1.0, 30, 50, 9.0, 0.0),
             tl.MAVLink_sys_status_message(1, 1, 1, 500, 12000, -1, 90, 0, 0, 0, 0, 0, 0),
             tl.MAVLink_gps_raw_int_message(ms * 1000, 3, 473977420, 85455940, 600000, 100, 100, 100, 0, 12)]
-
-
-def messages_in(data: bytes, skip_sysid: int = BRIDGE_SYSID) -> int:
-    """How many MAVLink packets a datagram holds (the bridge coalesces forwarded telemetry),
-    not counting those from `skip_sysid` (the bridge's own)."""
-    n, i = 0, 0
-    while i + 6 <= len(data):
-        if data[i] == 0xFD:
-            size = 12 + data[i + 1] + (13 if data[i + 2] & 1 else 0)
-            sysid = data[i + 5]
-        elif data[i] == 0xFE:
-            size, sysid = 8 + data[i + 1], data[i + 3]
-        else:
-            break
-        if sysid != skip_sysid:
-            n += 1
-        i += size
-    return n
 
 
 class _Sink(threading.Thread):
@@ -293,9 +154,9 @@ def _measure_rate(proc, dest, sink_sock, frames, seconds: float) -> tuple[float,
     sender.start()
     try:
         time.sleep(min(1.0, seconds / 2))       # benchmark warm-up, not a test wait
-        c0, w0, n0, s0 = _cpu_seconds(proc.pid), time.perf_counter(), sink.count, sent.value
+        c0, w0, n0, s0 = cpu_seconds(proc.pid), time.perf_counter(), sink.count, sent.value
         time.sleep(seconds)
-        c1, w1, n1, s1 = _cpu_seconds(proc.pid), time.perf_counter(), sink.count, sent.value
+        c1, w1, n1, s1 = cpu_seconds(proc.pid), time.perf_counter(), sink.count, sent.value
     finally:
         stop.set()
         sender.join(5)
@@ -313,29 +174,16 @@ def bridge_rate(bridge: tuple, frames: list[bytes], seconds: float) -> tuple[flo
     return _measure_rate(proc, link_addr, tower, frames, seconds)
 
 
-def mavproxy_exe() -> str | None:
-    """MAVProxy's script beside this Python (or on PATH); None when it is not installed."""
-    exe = shutil.which("mavproxy.py") or os.path.join(os.path.dirname(sys.executable), "mavproxy.py")
-    return exe if os.path.exists(exe) else None
-
-
-def mavproxy_router_args(master_port: int, out_port: int, state_dir: str) -> list[str]:
-    """MAVProxy as a plain router, the peer of the bridge: udpin master on loopback, one udpout."""
-    return [sys.executable, mavproxy_exe() or "mavproxy.py", f"--master=udpin:127.0.0.1:{master_port}",
-            f"--out=udpout:127.0.0.1:{out_port}", "--daemon", "--non-interactive",
-            "--state-basedir", state_dir, "--no-state"]
-
-
 def mavproxy_rate(frames: list[bytes], seconds: float, cpu: int) -> tuple[float, float, float] | None:
     """The same traffic through MAVProxy (--master udpin, --out udpout); None if absent."""
     if mavproxy_exe() is None:
         return None
-    sink = _udp()
+    sink = udp_socket()
     mport = free_port()
     with tempfile.TemporaryDirectory() as tmp:
         args = mavproxy_router_args(mport, sink.getsockname()[1], tmp)
         try:
-            with _pinned_process(args, cpu, cwd=tmp) as proc:
+            with pinned_process(args, cpu, cwd=tmp) as proc:
                 probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
                 sink.settimeout(0.2)
                 deadline = time.monotonic() + 30.0
@@ -371,7 +219,7 @@ def main(argv: list[str] | None = None) -> int:
     fleet_samples = a.fleet_samples if a.fleet_samples is not None else (100 if a.quick else 2000)
     samples = a.samples or (300 if a.quick else 5000)
     seconds = a.seconds or (0.5 if a.quick else 5.0)
-    cpu, mine = _cpus()
+    cpu, mine = split_cpus()
     old = os.sched_getaffinity(0)
     os.sched_setaffinity(0, mine)
     try:
@@ -391,7 +239,7 @@ def main(argv: list[str] | None = None) -> int:
     b, d = lat["bridge"], lat["direct"]
     rows = []
     for q in (50, 99):
-        pb, pd = _pct(b, q) * 1e3, _pct(d, q) * 1e3
+        pb, pd = percentile(b, q) * 1e3, percentile(d, q) * 1e3
         added = pb - pd
         rows.append([f"goal tower -> drone socket, p{q}", f"{pb:.3f} ms", "direct UDP link, same datagrams",
                      f"{pd:.3f} ms", f"{pb / pd:.1f}x", "", ""])

@@ -1,4 +1,4 @@
-"""The bridge's added latency with 1,000 vehicles' telemetry flowing (issue 14).
+"""The bridge's added latency with 1,000 vehicles' telemetry flowing.
 
 A real world of 1,000 vehicles does not fit on 2 cores beside the bridge, so a fake traffic
 source (a child process) replays realistic telemetry: 1,000 vehicles in 4 MAVLink networks of
@@ -16,8 +16,9 @@ knows at most one network's vehicles; the other systems behind each link are rou
 received, as mavlink-router does). Every forwarded message goes to the tower's socket, where a
 child process counts them.
 
-The latency probe is tools.bench_bridge's: a goal from the tower's socket to the drone's,
-through the bridge and over a direct link, interleaved, while the load runs.
+The latency probe is tools.bench_bridge_probe's, as in tools.bench_bridge: a goal from the
+tower's socket to the drone's, through the bridge and over a direct link, interleaved, while
+the load runs.
 Peer: MAVProxy as a router (--master udpin, the 4 networks into its one master; --out udpout
 to the tower socket) pinned to the same CPU, same traffic, same probe.
 """
@@ -33,8 +34,9 @@ from contextlib import contextmanager
 
 from common.mavlink.dialect import towerlink as tl
 from common.ports import free_port
-from tools.bench_bridge import (_pinned_process, _udp, latency, mavproxy_exe, mavproxy_router_args,
-                                messages_in)
+from tools.bench_bridge_probe import (ADDED_P99_TARGET_MS, bridge_args, cpu_seconds, first_heartbeat_from,
+                                      hello_tower, latency, mavproxy_exe, mavproxy_router_args, messages_in,
+                                      percentile, pinned_process, place_drone, split_cpus, udp_socket)
 
 SOURCE_NOTE = ("1,000 vehicles' telemetry: a fake source (not a world: 1,000 simulated vehicles do not fit on "
                "2 cores beside the bridge) replays ArduPilot's default stream rates, 4 networks x 250 "
@@ -168,19 +170,13 @@ def _load(dests: list[tuple], rounds, tower_sock: socket.socket, send_sock: sock
                 p.join()
 
 
-def _cpu_seconds(pid: int) -> float:
-    with open(f"/proc/{pid}/stat") as f:
-        fields = f.read().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-
-
 def _measured(proc, tower, drone, tower_link, samples: int, rounds, dests, send_sock) -> dict:
     """Latency samples and rates while the fleet's traffic flows (1 s of warm-up first)."""
     with _load(dests, rounds, tower, send_sock) as (sent, got):
         time.sleep(1.0)                          # benchmark warm-up, not a test wait
-        c0, w0, s0, g0 = _cpu_seconds(proc.pid), time.perf_counter(), sent.value, got.value
+        c0, w0, s0, g0 = cpu_seconds(proc.pid), time.perf_counter(), sent.value, got.value
         lat = latency((proc, tower, drone, None, tower_link), samples)
-        c1, w1, s1, g1 = _cpu_seconds(proc.pid), time.perf_counter(), sent.value, got.value
+        c1, w1, s1, g1 = cpu_seconds(proc.pid), time.perf_counter(), sent.value, got.value
     wall = w1 - w0
     return {"lat": lat, "offered": (s1 - s0) / wall, "forwarded": (g1 - g0) / wall, "cpu": (c1 - c0) / wall,
             "wall": wall}
@@ -188,57 +184,33 @@ def _measured(proc, tower, drone, tower_link, samples: int, rounds, dests, send_
 
 def bridge_under_fleet(cpu: int, samples: int, rounds) -> dict:
     """One `towerlink bridge` with NETWORKS vehicle links; the probe and the load as above."""
-    tower, drone = _udp(), _udp()
-    nets = [drone] + [_udp() for _ in range(NETWORKS - 1)]
+    tower, drone = udp_socket(), udp_socket()
+    nets = [drone] + [udp_socket() for _ in range(NETWORKS - 1)]
     tport = free_port()
-    args = [sys.executable, "-m", "tools.cli", "bridge", "--tower", f"udpin:127.0.0.1:{tport}",
-            "--no-follow", "--telemetry-rate", "0", "-q"]
+    links = []
     for g, s in enumerate(nets):
-        args += ["--vehicle", f"{g + 1}=udpout:127.0.0.1:{s.getsockname()[1]}"]
+        links += ["--vehicle", f"{g + 1}=udpout:127.0.0.1:{s.getsockname()[1]}"]
     try:
-        with _pinned_process(args, cpu) as proc:
-            links = []
-            for s in nets:                               # each link's address: its first heartbeat
-                s.settimeout(15.0)
-                try:
-                    _d, addr = s.recvfrom(65535)
-                except socket.timeout:
-                    raise RuntimeError(f"`towerlink bridge` sent nothing in 15 s:\n{proc.stderr_tail()}") from None
-                links.append(addr)
-            drone.sendto(bytes(tl.MAVLink_gps_global_origin_message(-353632610, 1491652300, 584000, 0)
-                               .pack(tl.MAVLink(None, 1, 1))), links[0])
-            _hello_tower(tower, ("127.0.0.1", tport), proc)
-            return _measured(proc, tower, drone, ("127.0.0.1", tport), samples, rounds, links, drone)
+        with pinned_process(bridge_args(tport, *links), cpu) as proc:
+            addrs = [first_heartbeat_from(s, proc) for s in nets]   # each link's address: its first heartbeat
+            place_drone(drone, addrs[0])
+            hello_tower(tower, ("127.0.0.1", tport), proc)
+            return _measured(proc, tower, drone, ("127.0.0.1", tport), samples, rounds, addrs, drone)
     finally:
         for s in [tower, *nets]:
             s.close()
-
-
-def _hello_tower(tower: socket.socket, addr: tuple, proc) -> None:
-    hb = bytes(tl.MAVLink_heartbeat_message(tl.MAV_TYPE_GCS, tl.MAV_AUTOPILOT_INVALID, 0, 0, 0, 3)
-               .pack(tl.MAVLink(None, 255, 190)))
-    tower.settimeout(0.2)
-    deadline = time.monotonic() + 15.0
-    while True:
-        tower.sendto(hb, addr)
-        try:
-            tower.recv(65535)
-            return
-        except socket.timeout:
-            if time.monotonic() > deadline or proc.poll() is not None:
-                raise RuntimeError(f"no answer on the tower link:\n{proc.stderr_tail()}") from None
 
 
 def mavproxy_under_fleet(cpu: int, samples: int, rounds) -> dict | None:
     """MAVProxy (--master udpin <- every network, --out udpout -> tower) under the same load."""
     if mavproxy_exe() is None:
         return None
-    tower, drone = _udp(), _udp()
+    tower, drone = udp_socket(), udp_socket()
     mport = free_port()
     with tempfile.TemporaryDirectory() as tmp:
         args = mavproxy_router_args(mport, tower.getsockname()[1], tmp)
         try:
-            with _pinned_process(args, cpu, cwd=tmp) as proc:
+            with pinned_process(args, cpu, cwd=tmp) as proc:
                 hb = bytes(tl.MAVLink_heartbeat_message(tl.MAV_TYPE_QUADROTOR, tl.MAV_AUTOPILOT_ARDUPILOTMEGA,
                                                         0, 0, 0, 3).pack(tl.MAVLink(None, 1, 1)))
                 tower.settimeout(0.2)
@@ -262,14 +234,13 @@ def mavproxy_under_fleet(cpu: int, samples: int, rounds) -> dict | None:
 
 def rows(cpu: int, samples: int, peer: bool = True) -> tuple[list[list[str]], dict]:
     """The table rows of the fleet case (bridge, then MAVProxy under the same load)."""
-    from tools.bench_bridge import ADDED_P99_TARGET_MS, _pct
     rounds = fleet_rounds()
     b = bridge_under_fleet(cpu, samples, rounds)
     m = mavproxy_under_fleet(cpu, samples, rounds) if peer else None
     out = []
 
     def added(r, q):
-        return (_pct(r["lat"]["bridge"], q) - _pct(r["lat"]["direct"], q)) * 1e3 if r and r["lat"]["bridge"] else None
+        return (percentile(r["lat"]["bridge"], q) - percentile(r["lat"]["direct"], q)) * 1e3 if r and r["lat"]["bridge"] else None
     for q in (50, 99):
         ab, am = added(b, q), added(m, q)
         out.append([f"added latency p{q}, {NETWORKS * PER_NETWORK:,} vehicles' telemetry flowing",
@@ -293,14 +264,13 @@ def rows(cpu: int, samples: int, peer: bool = True) -> tuple[list[list[str]], di
 
 def main(argv: list[str] | None = None) -> int:
     import argparse
-    from tools.bench_bridge import _cpus
     from tools.benchtable import machine, table
     ap = argparse.ArgumentParser(prog="python -m tools.bench_bridge_fleet", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--samples", type=int, default=2000, help="latency samples per link (default 2000)")
     ap.add_argument("--no-peer", action="store_true", help="skip MAVProxy")
     a = ap.parse_args(argv)
-    cpu, mine = _cpus()
+    cpu, mine = split_cpus()
     old = os.sched_getaffinity(0)
     os.sched_setaffinity(0, mine)
     try:

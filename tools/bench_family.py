@@ -1,4 +1,4 @@
-"""Benchmark: the tower's family of 100 drones, end to end (issue 14).
+"""Benchmark: the tower's family of 100 drones, end to end.
 
 `towerlink fly family100` in whole-system lockstep at --speedup max (lockstep period 0.1 s
 sim): the world (100 drones, one process: lockstep refuses --workers), the bridge with 100
@@ -8,9 +8,9 @@ closest approach of two airborne drones (truth, SIM_STATE) against min_separatio
 each process used, and the machine's load average.
 
 Peer: none measured side by side. ArduPilot needs a process per drone (100 SITL copters
-would not run on these 2 cores), and the family tower before issue 14 opened one link per
-drone, which the bridge's peer table (64) cannot hold at 100. The figure to compare with
-is real time: a ratio of 1.0 is a GCS keeping up with 100 drones.
+would not run on these 2 cores), and a family tower with one link per drone (as the tower
+once had) would need more links than the bridge's peer table (64) holds. The figure to
+compare with is real time: a ratio of 1.0 is a GCS keeping up with 100 drones.
 
   python -m tools.bench_family [--drones N] [--legs K]
 """
@@ -37,7 +37,7 @@ def fly_family(run_dir: Path, drones: int, legs: int, period: float = 0.1, timeo
     """Fly a generated family once; the figures as a dict."""
     from common.family_plan import LanePlan, scenario_toml
     from tools.family_summary import summarize_family
-    from tools.fly import Launch
+    from tools.fly_launch import Launch
     plan = LanePlan(drones=drones, legs=legs)
     path = run_dir / f"family{drones}.toml"
     path.write_text(scenario_toml(plan))

@@ -1,6 +1,6 @@
 """The summary of a family or van run: a row per vehicle, a row per goal, separation.
 
-Read from the run folder (tlogs as tools.run_summary reads them, tower.json as
+Read from the run folder (tlogs as tools.run_data reads them, tower.json as
 gcs.tower.run_family writes it). All positions are world NED, m, from truth
 (SIM_STATE) when recorded, else the vehicles' LOCAL_POSITION_NED; times are sim s. Every
 figure ends with the tower (its last drone's end_sim), not with the recording.
@@ -22,7 +22,8 @@ from typing import Any
 
 import numpy as np
 
-from tools.run_summary import RunData, Track, horizontal_error, load_run, rms
+from tools.run_data import RunData, Track, load_run
+from tools.run_figures import horizontal_error, rms
 
 AIRBORNE_M = 1.0
 

@@ -1,4 +1,4 @@
-"""The world on another host (issue 11, "Across machines"): `towerlink fly --world-host`.
+"""The world on another host ("Across machines"): `towerlink fly --world-host`.
 
 `towerlink fly` normally starts the world, the bridge and the tower on 127.0.0.1. With
 `--world-host ADDR` the world (`towerlink sitl`) runs on another host, as roslaunch's

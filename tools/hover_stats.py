@@ -12,7 +12,7 @@ vertical speed under HOVER_VSPEED: holding a position, so a slow LAND descent (L
   it, so the full-attitude frame's ground point sits off by about h tan(tilt) and moves
   with the gusts, while the yaw-only frame's does not.
 
-Pure data work on tools.run_summary's RunData; `python -m tools.hover_stats` also flies an
+Pure data work on tools.run_data's RunData; `python -m tools.hover_stats` also flies an
 in-process hover with and without wind (vehicle.world) and prints the figures side by side.
 """
 from __future__ import annotations
@@ -22,6 +22,8 @@ import math
 from typing import Any
 
 import numpy as np
+
+from tools.run_figures import ground_point_errors, stat
 
 HOVER_SPEED = 0.3       # m/s, horizontal
 HOVER_VSPEED = 1.0      # m/s, vertical
@@ -56,14 +58,6 @@ def _mask(ts: np.ndarray, segs, settle: float = 0.0) -> np.ndarray:
     return m
 
 
-def _stat(x) -> dict[str, Any]:
-    x = np.asarray(x, float)
-    x = x[np.isfinite(x)]
-    if not x.size:
-        return {"rms": None, "max": None, "n": 0}
-    return {"rms": float(np.sqrt(np.mean(x * x))), "max": float(x.max()), "n": int(x.size)}
-
-
 def hover_figures(data, drone: int = 1, until: float | None = None) -> dict[str, Any]:
     """Hover error and wobble of `drone` (sysid) from a RunData, up to sim time `until` (s; the
     mission's end: what the recording holds after it, while the launcher stops the processes,
@@ -87,21 +81,20 @@ def hover_figures(data, drone: int = 1, until: float | None = None) -> dict[str,
     mt = _mask(tr.t, segs, SETTLE_S)
     out: dict[str, Any] = {
         "segments": [[a, b] for a, b in segs], "seconds": float(sum(b - a for a, b in segs)),
-        "error": _stat(np.concatenate(errs) if errs else []),
+        "error": stat(np.concatenate(errs) if errs else []),
         "tilt_mean_deg": float(tilt[mt].mean()) if mt.any() else None,
     }
     f = data.follow
     if f:
         m = _mask(f["t"], segs, SETTLE_S)
-        out["wobble"] = {"source": "bridge follow ticks", "drone": _stat(f["err_full"][m]),
-                         "drone_yaw": _stat(f["err_yaw"][m])}
+        out["wobble"] = {"source": "bridge follow ticks", "drone": stat(f["err_full"][m]),
+                         "drone_yaw": stat(f["err_yaw"][m])}
     else:
-        from tools.run_summary import ground_point_errors
         wob = {}
         for child in ("drone", "drone_yaw"):
             ts, e = ground_point_errors(data.transforms.get(("world", child), []))
             if ts.size:
-                wob[child] = _stat(e[_mask(ts, segs, SETTLE_S)])
+                wob[child] = stat(e[_mask(ts, segs, SETTLE_S)])
         if wob:
             out["wobble"] = {"source": "recorded world->drone transforms", **wob}
     return out

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tools.run_summary import DRONE, ROVER, RunData, load_messages, load_run, read_tlog
+from tools.run_data import DRONE, ROVER, RunData, load_messages, load_run, read_tlog
 
 
 def _goals_world(run_dir: Path | None, scenario: str | None):

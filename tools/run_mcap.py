@@ -18,6 +18,7 @@ import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
+from common.mavlink.ids import TOWER_SYSID
 from tools.scene_feed import TOPICS, Record, SceneFeed, records_of, schema_of
 
 RUN_MCAP = "run.mcap"
@@ -26,11 +27,11 @@ RUN_MCAP = "run.mcap"
 def _tlog_messages(run_dir: Path) -> Iterator:
     """bridge.tlog (frames, follow, vehicles) and the tower's own sends from tower.tlog,
     merged in arrival order (the tlogs' wall stamps)."""
-    from tools.run_summary import read_tlog
+    from tools.run_data import read_tlog
 
     def tower_sends():
         for m in read_tlog(run_dir / "tower.tlog"):
-            if m.get_srcSystem() == 255:
+            if m.get_srcSystem() == TOWER_SYSID:
                 yield m
 
     streams = []

@@ -1,304 +1,26 @@
-"""Scoring a run: minimum times, follow error and the wobble figure, from the run's tlogs.
+"""Scoring a run: the summary of one `towerlink fly` run, and its text.
 
-A run folder (written by `towerlink fly`) holds:
-
-  vehicles.tlog  the fly launcher's own link to the SITL world: both vehicles'
-                 telemetry incl. SIM_STATE (truth), PARAM_VALUE, HOME_POSITION
-  bridge.tlog    the bridge's transform stream: TOWERLINK_TRANSFORM,
-                 TOWERLINK_FOLLOW_STATUS, TOWERLINK_BRIDGE_STATUS
-  tower.tlog     the tower's link to the bridge (both directions, tower frame)
-  tower.json     the tower's mission result (goals, sim times)
-
-Everything here is pure data work (no sockets) so it is unit-tested and re-run
-offline: `summarize(run_dir)` returns a dict (summary.json) and
-`format_summary(d)` the text a person reads.
-
-Times are sim seconds from the vehicles' clocks (time_boot_ms); a message without
-its own stamp (SIM_STATE) takes the newest time_boot_ms its system sent before it.
+The run folder's tlogs (read by tools.run_data) and tower.json (the tower's mission result:
+goals, sim times) give per goal its tower and world coordinates, time to reach and the ratio
+to the minimum time; the rover's follow error; the wobble figure; the hover figures.
+`summarize(run_dir)` returns a dict (summary.json) and `format_summary(d)` the text a
+person reads. Pure data work (no sockets): unit-tested and re-run offline.
 """
 from __future__ import annotations
 
 import json
-import math
 import os
-from collections import defaultdict
-from collections.abc import Iterable, Iterator
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from common.frames.batch import ground_point
-from common.geo import lla_to_ned, ned_to_lla
-from common.mavlink.mavstr import mav_str
-
-os.environ.setdefault("MAVLINK20", "1")
-
-DRONE, ROVER = 1, 2
-# ArduPilot Copter defaults, used when the tlog holds no PARAM_VALUE for them.
-PARAM_DEFAULTS = {"WPNAV_SPEED": 500.0, "WPNAV_ACCEL": 250.0, "PSC_JERK_XY": 5.0}
-
-
-# ----------------------------------------------------------------------------- minimum time
-
+from tools.hover_stats import format_hover, hover_figures
+from tools.run_data import DRONE, ROVER, RunData, Track, load_run
+from tools.run_figures import (PARAM_DEFAULTS, ground_point_errors, horizontal_error, in_window, minimum_time,
+                               stat, world_transforms)
 
 RESOLUTION_M = 1e-3   # m: errors below this are reported as "below 1 mm"
-
-
-def minimum_time(d: float, v: float, a: float, j: float) -> float:
-    """Shortest rest-to-rest time over distance d with speed v, acceleration a, jerk j limits.
-
-    The symmetric jerk-limited (S-curve) profile. For long moves (the cruise speed v
-    and the acceleration a are both reached) this is the design's d/v + v/a + a/j;
-    shorter moves peak below v (and, shorter still, below a), and the time is
-    solved exactly for those cases so the ratio stays meaningful on short legs.
-    """
-    if d < 0 or v <= 0 or a <= 0 or j <= 0:
-        raise ValueError("minimum_time needs d >= 0 and v, a, j > 0")
-    if d == 0:
-        return 0.0
-
-    def t_acc(vp: float) -> float:   # time to go from rest to vp (and the same to stop)
-        return vp / a + a / j if vp >= a * a / j else 2.0 * math.sqrt(vp / j)
-
-    # distance of accelerating to vp and back to rest: vp * t_acc(vp)
-    if v * t_acc(v) <= d:
-        return d / v + t_acc(v)
-    # no cruise: the peak speed vp solves vp * t_acc(vp) = d
-    vp = a / 2.0 * (-(a / j) + math.sqrt((a / j) ** 2 + 4.0 * d / a))
-    if vp < a * a / j:                          # acceleration limit not reached either
-        vp = (d * math.sqrt(j) / 2.0) ** (2.0 / 3.0)
-    return 2.0 * t_acc(vp)
-
-
-# ----------------------------------------------------------------------------- tlogs
-
-
-def read_tlog(path: str | os.PathLike) -> Iterator[Any]:
-    """Every message of a tlog, decoded with the towerlink dialect (ardupilotmega if absent)."""
-    try:
-        from common.mavlink.dialect import mavlink_connection
-    except ImportError:  # pragma: no cover
-        from pymavlink.mavutil import mavlink_connection
-    conn = mavlink_connection(str(path))
-    try:
-        while True:
-            m = conn.recv_msg()
-            if m is None:
-                return
-            if m.get_type() != "BAD_DATA":
-                yield m
-    finally:
-        conn.close()
-
-
-@dataclass
-class Track:
-    """A time series for one system: t (N,), xyz (N,3) world NED, extra columns by name."""
-    t: np.ndarray
-    xyz: np.ndarray
-    extra: dict[str, np.ndarray] = field(default_factory=dict)
-
-    def __len__(self) -> int:
-        return len(self.t)
-
-    def at(self, t: float | np.ndarray) -> np.ndarray:
-        """Position interpolated linearly at sim time(s) t (clamped to the ends)."""
-        return np.stack([np.interp(t, self.t, self.xyz[:, k]) for k in range(3)], axis=-1)
-
-    def window(self, t0: float | None, t1: float | None) -> "Track":
-        m = np.ones(len(self.t), bool)
-        if t0 is not None:
-            m &= self.t >= t0
-        if t1 is not None:
-            m &= self.t <= t1
-        return Track(self.t[m], self.xyz[m], {k: v[m] for k, v in self.extra.items()})
-
-
-def _track(rows: list[tuple], extra_names: tuple[str, ...] = ()) -> Track:
-    if not rows:
-        return Track(np.zeros(0), np.zeros((0, 3)), {n: np.zeros(0) for n in extra_names})
-    a = np.array(rows, dtype=float)
-    order = np.argsort(a[:, 0], kind="stable")
-    a = a[order]
-    # drop duplicate stamps (keep the last)
-    keep = np.append(np.diff(a[:, 0]) > 0, True)
-    a = a[keep]
-    return Track(a[:, 0], a[:, 1:4], {n: a[:, 4 + i] for i, n in enumerate(extra_names)})
-
-
-@dataclass
-class RunData:
-    """What the scorer reads from a run's tlogs."""
-    truth: dict[int, Track] = field(default_factory=dict)      # SIM_STATE, world NED
-    estimate: dict[int, Track] = field(default_factory=dict)   # LOCAL_POSITION_NED, world
-    params: dict[int, dict[str, float]] = field(default_factory=dict)
-    follow: dict[str, np.ndarray] = field(default_factory=dict)  # TOWERLINK_FOLLOW_STATUS columns
-    transforms: dict[tuple[str, str], list[tuple[float, tuple]]] = field(default_factory=dict)
-    statics: dict[tuple[str, str], tuple] = field(default_factory=dict)
-    bridge_status: dict[str, dict[str, int]] = field(default_factory=dict)
-    follow_frame: int | None = None
-
-
-FOLLOW_FIELDS = ("t", "ref_x", "ref_y", "full_x", "full_y", "yaw_x", "yaw_y", "goal_x", "goal_y",
-                 "rover_x", "rover_y", "height", "tilt", "err_full", "err_yaw", "follow_frame", "state")
-
-
-def load_messages(msgs: Iterable[Any], data: RunData | None = None) -> RunData:
-    """Fold a message stream (one tlog, or several one after the other) into RunData."""
-    data = data or RunData()
-    last_ms: dict[int, int] = defaultdict(int)
-    origin: dict[int, tuple[float, float, float]] = {}
-    home: dict[int, tuple[tuple[float, float, float], tuple[float, float, float]]] = {}
-    truth_lla: dict[int, list] = defaultdict(list)
-    est_rows: dict[int, list] = defaultdict(list)
-    follow_rows: list = []
-    for m in msgs:
-        t = m.get_type()
-        src = m.get_srcSystem()
-        ms = getattr(m, "time_boot_ms", None)
-        if isinstance(ms, int) and t != "SET_POSITION_TARGET_LOCAL_NED" and t != "TOWERLINK_POSITION_TARGET":
-            last_ms[src] = max(last_ms[src], ms) if ms + 5000 > last_ms[src] else ms
-        if t == "SIM_STATE":
-            lat = m.lat_int * 1e-7 if getattr(m, "lat_int", 0) else m.lat
-            lon = m.lon_int * 1e-7 if getattr(m, "lon_int", 0) else m.lon
-            truth_lla[src].append((last_ms[src] / 1000.0, lat, lon, m.alt, m.roll, m.pitch, m.yaw,
-                                   m.vn, m.ve, m.vd))
-        elif t == "LOCAL_POSITION_NED":
-            est_rows[src].append((m.time_boot_ms / 1000.0, m.x, m.y, m.z, m.vx, m.vy, m.vz))
-        elif t == "GPS_GLOBAL_ORIGIN":
-            origin[src] = (m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3)
-        elif t == "HOME_POSITION":
-            home[src] = ((m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3), (m.x, m.y, m.z))
-        elif t == "PARAM_VALUE":
-            data.params.setdefault(src, {})[mav_str(m.param_id)] = float(m.param_value)
-        elif t == "TOWERLINK_FOLLOW_STATUS":
-            follow_rows.append((m.time_usec * 1e-6, m.ref_x, m.ref_y, m.full_x, m.full_y, m.yaw_x,
-                                m.yaw_y, m.goal_x, m.goal_y, m.rover_x, m.rover_y, m.height, m.tilt,
-                                m.err_full, m.err_yaw, m.follow_frame, m.state))
-        elif t == "TOWERLINK_TRANSFORM":
-            key = (mav_str(m.frame_id), mav_str(m.child_frame_id))
-            v = tuple(float(x) for x in (*m.translation, *m.rotation))
-            if m.flags & 1:
-                data.statics[key] = v
-            else:
-                data.transforms.setdefault(key, []).append((m.time_usec * 1e-6, v))
-        elif t == "TOWERLINK_BRIDGE_STATUS":
-            data.bridge_status[mav_str(m.link)] = {k: int(getattr(m, k)) for k in
-                                              ("rx_packets", "tx_packets", "malformed", "unroutable",
-                                               "translated", "deferred")}
-    # each vehicle's local NED is centred on its own EKF origin; world is the first vehicle's
-    # (the drone's), as the bridge's world is by default
-    local0 = {src: _local_origin(origin.get(src), home.get(src)) for src in set(origin) | set(home)}
-    local0 = {k: v for k, v in local0.items() if v is not None}
-    ref = local0[min(local0)] if local0 else None
-    for src, rows in truth_lla.items():
-        if ref is None or src not in local0:
-            continue
-        out = []
-        for (tt, lat, lon, alt, r, p, y, vn, ve, vd) in rows:
-            n, e, d = lla_to_ned(ref, lat, lon, alt)
-            out.append((tt, n, e, d, r, p, y, vn, ve, vd))
-        data.truth[src] = _track(out, ("roll", "pitch", "yaw", "vn", "ve", "vd"))
-    for src, rows in est_rows.items():
-        if ref is not None and src in local0:
-            off = lla_to_ned(ref, *local0[src])
-            rows = [(tt, x + off[0], y + off[1], z + off[2], *v) for (tt, x, y, z, *v) in rows]
-        data.estimate[src] = _track(rows, ("vx", "vy", "vz"))
-    if follow_rows:
-        a = np.array(follow_rows, dtype=float)
-        a = a[np.argsort(a[:, 0], kind="stable")]
-        data.follow = {k: a[:, i] for i, k in enumerate(FOLLOW_FIELDS)}
-        data.follow_frame = int(a[-1, FOLLOW_FIELDS.index("follow_frame")])
-    return data
-
-
-def _local_origin(origin, home):
-    """Where a vehicle's local NED is centred (lat, lon, alt): its GPS_GLOBAL_ORIGIN, else
-    HOME_POSITION's lla less its local x, y, z; None if neither was logged."""
-    if origin is not None:
-        return origin
-    if home is not None:
-        lla, xyz = home
-        return ned_to_lla(lla, (-xyz[0], -xyz[1], -xyz[2]))
-    return None
-
-
-def load_run(run_dir: str | os.PathLike) -> RunData:
-    """Read every tlog of a run folder (vehicles, bridge, tower) into one RunData."""
-    run_dir = Path(run_dir)
-    data = RunData()
-    vehicles = run_dir / "vehicles.tlog"
-    if vehicles.exists():
-        load_messages(read_tlog(vehicles), data)
-    bridge = run_dir / "bridge.tlog"
-    if bridge.exists():
-        msgs = read_tlog(bridge)
-        if vehicles.exists():  # the bridge's out link repeats the vehicles' traffic: take its own
-            msgs = (m for m in msgs if m.get_type().startswith("TOWERLINK_"))
-        load_messages(msgs, data)
-    return data
-
-
-# ----------------------------------------------------------------------------- scoring
-
-
-def rms(x: np.ndarray) -> float:
-    x = np.asarray(x, float)
-    return float(np.sqrt(np.mean(x * x))) if x.size else float("nan")
-
-
-def horizontal_error(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.hypot(a[..., 0] - b[..., 0], a[..., 1] - b[..., 1])
-
-
-def _follow_error(drone_truth, rover_truth, t0, t1) -> dict[str, Any]:
-    """Horizontal distance from a rover to the point under the drone, on truth, over the mission."""
-    if drone_truth is None or rover_truth is None or not len(drone_truth) or not len(rover_truth):
-        return {}
-    rt = rover_truth.window(t0, t1)
-    keep = (rt.t >= drone_truth.t[0]) & (rt.t <= drone_truth.t[-1])
-    rt = Track(rt.t[keep], rt.xyz[keep])
-    err = horizontal_error(rt.xyz, drone_truth.at(rt.t))
-    return {"source": "truth (SIM_STATE)", **_stat(err)}
-
-
-def world_transforms(data: RunData, child: str, vehicle: str = "drone") -> list[tuple[float, tuple]]:
-    """The recorded transforms world -> `child`: the bridge's <vehicle>_origin -> child moved by
-    the static world -> <vehicle>_origin (a translation, from GPS_GLOBAL_ORIGIN); tlogs from
-    before the origin frames have world -> child itself."""
-    origin = vehicle + "_origin"
-    rows = data.transforms.get((origin, child))
-    off = data.statics.get(("world", origin))
-    if not rows or off is None:
-        return data.transforms.get(("world", child), [])
-    ox, oy, oz = off[:3]
-    return [(t, (v[0] + ox, v[1] + oy, v[2] + oz, *v[3:])) for t, v in rows]
-
-
-def ground_point_errors(transforms: list[tuple[float, tuple]]) -> tuple[np.ndarray, np.ndarray]:
-    """Attitude-caused ground-point error of each recorded world -> drone-frame transform.
-
-    The ground point is (0, 0, h) in the drone frame, h = the drone's height (-z of its
-    origin in world), mapped to world (common.frames.batch.ground_point, the follow's own);
-    its horizontal distance from the frame's own origin is what the attitude adds
-    (h·sin(tilt) for a full-attitude frame, 0 for a yaw-only one). Returns (stamps, errors).
-    """
-    if not transforms:
-        return np.zeros(0), np.zeros(0)
-    a = np.array([(t, *v) for t, v in transforms], float)
-    t, xyz, q = a[:, 0], a[:, 1:4], a[:, 4:8]
-    gp = ground_point(xyz, q, -xyz[:, 2])
-    return t, np.hypot(gp[:, 0] - xyz[:, 0], gp[:, 1] - xyz[:, 1])
-
-
-def _stat(x: np.ndarray) -> dict[str, float | int]:
-    x = np.asarray(x, float)
-    x = x[np.isfinite(x)]
-    if not x.size:
-        return {"rms": None, "max": None, "n": 0}
-    return {"rms": rms(x), "max": float(np.max(x)), "n": int(x.size)}
 
 
 def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
@@ -375,15 +97,15 @@ def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
         follow["by"] = "ArduPilot FOLLOW (sysid 2)" if ap_sysid == ROVER else "bridge tf follow (sysid 2)"
     elif data.follow:  # no truth recorded: the bridge's view (telemetry estimates)
         f = data.follow
-        m = _in(f["t"], t0, t1) & np.isfinite(f["rover_x"])
+        m = in_window(f["t"], t0, t1) & np.isfinite(f["rover_x"])
         err = np.hypot(f["rover_x"][m] - f["ref_x"][m], f["rover_y"][m] - f["ref_y"][m])
-        follow = {"source": "bridge telemetry", **_stat(err)}
+        follow = {"source": "bridge telemetry", **stat(err)}
 
     wobble: dict[str, Any] = {}
     if data.follow:
         f = data.follow
-        m = _in(f["t"], t0, t1)
-        full, yaw = _stat(f["err_full"][m]), _stat(f["err_yaw"][m])
+        m = in_window(f["t"], t0, t1)
+        full, yaw = stat(f["err_full"][m]), stat(f["err_yaw"][m])
         wobble = {"source": "bridge follow ticks (TOWERLINK_FOLLOW_STATUS)", "drone": full,
                   "drone_yaw": yaw, "height_mean": _mean(f["height"][m]),
                   "tilt_max_deg": _max(np.degrees(f["tilt"][m]))}
@@ -394,7 +116,7 @@ def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
     for child in ("drone", "drone_yaw"):
         ts, e = ground_point_errors(world_transforms(data, child))
         if ts.size:
-            tfw[child] = _stat(e[_in(ts, t0, t1)])
+            tfw[child] = stat(e[in_window(ts, t0, t1)])
     if tfw:
         wobble["from_transforms"] = tfw
         if "drone" not in wobble and "drone" in tfw:
@@ -412,7 +134,6 @@ def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
             flight = {"max_speed": float(sp.max()), "mean_height": float(-dt.xyz[:, 2].mean()),
                       "max_tilt_deg": float(tilt.max())}
 
-    from tools.hover_stats import hover_figures
     hover = hover_figures(data, DRONE, until=tower.get("end_sim"))     # not the tail fly records while stopping
     hover["wind"] = list(sc.wind) if sc.wind else None
 
@@ -430,13 +151,15 @@ def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
     return out
 
 
-def _in(t: np.ndarray, t0, t1) -> np.ndarray:
-    m = np.ones(len(t), bool)
-    if t0 is not None:
-        m &= t >= t0
-    if t1 is not None:
-        m &= t <= t1
-    return m
+def _follow_error(drone_truth, rover_truth, t0, t1) -> dict[str, Any]:
+    """Horizontal distance from a rover to the point under the drone, on truth, over the mission."""
+    if drone_truth is None or rover_truth is None or not len(drone_truth) or not len(rover_truth):
+        return {}
+    rt = rover_truth.window(t0, t1)
+    keep = (rt.t >= drone_truth.t[0]) & (rt.t <= drone_truth.t[-1])
+    rt = Track(rt.t[keep], rt.xyz[keep])
+    err = horizontal_error(rt.xyz, drone_truth.at(rt.t))
+    return {"source": "truth (SIM_STATE)", **stat(err)}
 
 
 def _mean(x):
@@ -540,7 +263,6 @@ def format_summary(s: dict) -> str:
     else:
         lines.append("wobble: not measured (no follow ticks or drone transforms recorded)")
     if s.get("hover") is not None:
-        from tools.hover_stats import format_hover
         h = dict(s["hover"])
         wind = h.pop("wind", None)
         lines.extend(format_hover(h, wind))

@@ -36,9 +36,9 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
+from common.mavlink.ids import TOWER_SYSID
 from common.mavlink.mavstr import mav_str
 
-TOWER_SYSID = 255
 DISPLAY_FRAME = "world_enu"
 ENU_TO_NED_Q = (math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0)   # x, y, z, w: the NED axes seen in ENU
 FRAME_COLORS = {"drone": (0.15, 0.45, 0.95, 1.0), "rover": (0.95, 0.55, 0.1, 1.0)}

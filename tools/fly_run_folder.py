@@ -1,0 +1,96 @@
+"""What `towerlink fly` writes into the run folder besides the tlogs and the logs.
+
+meta.json (how the run was made, written at the start), then after the run: summary.json and
+summary.txt (the scores), tracks.png, frames.pdf / frames.png (the frame tree), run.mcap. A
+drawing or a recording that fails never hides the summary: it is left out.
+"""
+from __future__ import annotations
+
+import json
+import math
+import shlex
+
+from common.mavlink.lockstep import speedup_text
+from common.mavlink.signing import masked_argv
+from tools.fly_plan import FlyPlan
+
+
+def write_meta(plan: FlyPlan) -> None:
+    """meta.json: the options, the ports and every command line (the signing key masked)."""
+    meta = {"scenario": plan.scenario, "speedup": speedup_text(plan.speedup), "lockstep": plan.lockstep,
+            "seed": plan.seed, "signed": bool(plan.signing_key),
+            "follow_frame": plan.follow_frame, "goals": plan.goals, "tower_loss": plan.tower_loss,
+            "follow_with": plan.follow_with, "ardupilot_follower": plan.ap_follower,
+            "ports": plan.ports, "world_host": plan.world.describe() if plan.world else None,
+            "commands": {k: shlex.join(masked_argv(v)) for k, v in plan.commands().items()}}
+    (plan.dir / "meta.json").write_text(json.dumps(meta, indent=2))
+
+
+def write_summary(plan: FlyPlan, tower_rc: int | None, *, bridge_restarts: int = 0,
+                  proxy: dict | None = None, achieved_speedup: float | None = None) -> dict:
+    """Score the run, draw it, record it; returns the summary dict (its text under "text").
+
+    `proxy`: the loss proxy's counts ({"passed", "dropped"}); `achieved_speedup`: sim s per
+    wall s (None if the sim clock never moved)."""
+    from tools.run_summary import format_summary, summarize
+    tj = plan.dir / "tower.json"
+    tower = json.loads(tj.read_text()) if tj.exists() else {"ok": False, "goals": [],
+                                                            "error": "the tower wrote no result"}
+    meta = {"seed": plan.seed, "speedup": plan.speedup if math.isfinite(plan.speedup) else "max",
+            "lockstep": plan.lockstep, "signed": bool(plan.signing_key),
+            "tower_exit": tower_rc, "follow_frame": plan.followed_frame,
+            "run_dir": str(plan.dir), "bridge_restarts": bridge_restarts,
+            "tower_loss": plan.tower_loss}
+    if plan.nodes:
+        meta["nodes"] = [p.stem for p in plan.nodes]
+    if proxy is not None:
+        meta["proxy"] = proxy
+    if achieved_speedup is not None:
+        meta["achieved_speedup"] = achieved_speedup
+    if plan.family:
+        from tools.family_summary import format_family_summary, summarize_family
+        s = summarize_family(plan.dir, tower=tower, scenario_path=plan.scenario, meta=meta)
+    else:
+        s = summarize(plan.dir, tower=tower, scenario_path=plan.scenario, meta=meta)
+    s["ok"] = bool(s["ok"]) and tower_rc == 0
+    (plan.dir / "summary.json").write_text(json.dumps(s, indent=2, default=_json_default))
+    text = format_family_summary(s) if plan.family else format_summary(s)
+    _draw(plan)
+    files = sorted(p.name for p in plan.dir.iterdir())
+    text += f"\nrun folder {plan.dir}: {' '.join(files)}"
+    (plan.dir / "summary.txt").write_text(text + "\n")
+    s["text"] = text
+    return s
+
+
+def _draw(plan: FlyPlan) -> None:
+    """tracks.png, the frame tree and run.mcap, each as far as it goes."""
+    try:
+        from tools.plot_tracks import plot_run
+        plot_run(plan.dir, scenario=plan.scenario)
+    except Exception:  # noqa: BLE001 - a plot failure must not hide the summary
+        pass
+    try:
+        from tools.view_frames import buffer_from_tlog, write_drawing
+        buf, now = buffer_from_tlog(plan.dir / "bridge.tlog")
+        if buf.edge_stats():
+            title = f"view_frames: {plan.dir.name}"
+            write_drawing(buf, plan.dir / "frames.pdf", now=now, title=title)
+            write_drawing(buf, plan.dir / "frames.png", now=now, title=title)
+    except Exception:  # noqa: BLE001
+        pass
+    try:
+        from tools.run_mcap import write_run_mcap
+        write_run_mcap(plan.dir)
+    except Exception:  # noqa: BLE001 - the recording must not hide the summary
+        pass
+
+
+def _json_default(o):
+    try:
+        import numpy as np
+        if isinstance(o, np.generic):
+            return o.item()
+    except ImportError:  # pragma: no cover
+        pass
+    return str(o)

@@ -1,0 +1,199 @@
+"""A run folder's tlogs read back: every vehicle's track and what the bridge recorded.
+
+A run folder (written by `towerlink fly`) holds:
+
+  vehicles.tlog  the fly launcher's own link to the SITL world: every vehicle's
+                 telemetry incl. SIM_STATE (truth), PARAM_VALUE, HOME_POSITION
+  bridge.tlog    the bridge's transform stream: TOWERLINK_TRANSFORM,
+                 TOWERLINK_FOLLOW_STATUS, TOWERLINK_BRIDGE_STATUS
+  tower.tlog     the tower's link to the bridge (both directions, tower frame)
+
+`load_run(run_dir)` folds them into a RunData. Positions are world NED, m (world is the
+first vehicle's EKF origin, as the bridge's); times are sim seconds from the vehicles' clocks
+(time_boot_ms); a message without its own stamp (SIM_STATE) takes the newest time_boot_ms
+its system sent before it. Pure data work: no sockets.
+"""
+from __future__ import annotations
+
+import os
+from collections import defaultdict
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from common.geo import lla_to_ned, ned_to_lla
+from common.mavlink.mavstr import mav_str
+
+os.environ.setdefault("MAVLINK20", "1")
+
+#: the lab's system ids: `towerlink sitl`'s vehicle 0 (the drone) and 1 (the rover)
+DRONE, ROVER = 1, 2
+
+
+def read_tlog(path: str | os.PathLike) -> Iterator[Any]:
+    """Every message of a tlog, decoded with the towerlink dialect (ardupilotmega if absent)."""
+    try:
+        from common.mavlink.dialect import mavlink_connection
+    except ImportError:  # pragma: no cover
+        from pymavlink.mavutil import mavlink_connection
+    conn = mavlink_connection(str(path))
+    try:
+        while True:
+            m = conn.recv_msg()
+            if m is None:
+                return
+            if m.get_type() != "BAD_DATA":
+                yield m
+    finally:
+        conn.close()
+
+
+@dataclass
+class Track:
+    """A time series for one system: t (N,), xyz (N,3) world NED, extra columns by name."""
+    t: np.ndarray
+    xyz: np.ndarray
+    extra: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def at(self, t: float | np.ndarray) -> np.ndarray:
+        """Position interpolated linearly at sim time(s) t (clamped to the ends)."""
+        return np.stack([np.interp(t, self.t, self.xyz[:, k]) for k in range(3)], axis=-1)
+
+    def window(self, t0: float | None, t1: float | None) -> "Track":
+        m = np.ones(len(self.t), bool)
+        if t0 is not None:
+            m &= self.t >= t0
+        if t1 is not None:
+            m &= self.t <= t1
+        return Track(self.t[m], self.xyz[m], {k: v[m] for k, v in self.extra.items()})
+
+
+def _track(rows: list[tuple], extra_names: tuple[str, ...] = ()) -> Track:
+    if not rows:
+        return Track(np.zeros(0), np.zeros((0, 3)), {n: np.zeros(0) for n in extra_names})
+    a = np.array(rows, dtype=float)
+    order = np.argsort(a[:, 0], kind="stable")
+    a = a[order]
+    # drop duplicate stamps (keep the last)
+    keep = np.append(np.diff(a[:, 0]) > 0, True)
+    a = a[keep]
+    return Track(a[:, 0], a[:, 1:4], {n: a[:, 4 + i] for i, n in enumerate(extra_names)})
+
+
+@dataclass
+class RunData:
+    """What the scorer reads from a run's tlogs."""
+    truth: dict[int, Track] = field(default_factory=dict)      # SIM_STATE, world NED
+    estimate: dict[int, Track] = field(default_factory=dict)   # LOCAL_POSITION_NED, world
+    params: dict[int, dict[str, float]] = field(default_factory=dict)
+    follow: dict[str, np.ndarray] = field(default_factory=dict)  # TOWERLINK_FOLLOW_STATUS columns
+    transforms: dict[tuple[str, str], list[tuple[float, tuple]]] = field(default_factory=dict)
+    statics: dict[tuple[str, str], tuple] = field(default_factory=dict)
+    bridge_status: dict[str, dict[str, int]] = field(default_factory=dict)
+    follow_frame: int | None = None
+
+
+FOLLOW_FIELDS = ("t", "ref_x", "ref_y", "full_x", "full_y", "yaw_x", "yaw_y", "goal_x", "goal_y",
+                 "rover_x", "rover_y", "height", "tilt", "err_full", "err_yaw", "follow_frame", "state")
+
+
+def load_messages(msgs: Iterable[Any], data: RunData | None = None) -> RunData:
+    """Fold a message stream (one tlog, or several one after the other) into RunData."""
+    data = data or RunData()
+    last_ms: dict[int, int] = defaultdict(int)
+    origin: dict[int, tuple[float, float, float]] = {}
+    home: dict[int, tuple[tuple[float, float, float], tuple[float, float, float]]] = {}
+    truth_lla: dict[int, list] = defaultdict(list)
+    est_rows: dict[int, list] = defaultdict(list)
+    follow_rows: list = []
+    for m in msgs:
+        t = m.get_type()
+        src = m.get_srcSystem()
+        ms = getattr(m, "time_boot_ms", None)
+        if isinstance(ms, int) and t != "SET_POSITION_TARGET_LOCAL_NED" and t != "TOWERLINK_POSITION_TARGET":
+            last_ms[src] = max(last_ms[src], ms) if ms + 5000 > last_ms[src] else ms
+        if t == "SIM_STATE":
+            lat = m.lat_int * 1e-7 if getattr(m, "lat_int", 0) else m.lat
+            lon = m.lon_int * 1e-7 if getattr(m, "lon_int", 0) else m.lon
+            truth_lla[src].append((last_ms[src] / 1000.0, lat, lon, m.alt, m.roll, m.pitch, m.yaw,
+                                   m.vn, m.ve, m.vd))
+        elif t == "LOCAL_POSITION_NED":
+            est_rows[src].append((m.time_boot_ms / 1000.0, m.x, m.y, m.z, m.vx, m.vy, m.vz))
+        elif t == "GPS_GLOBAL_ORIGIN":
+            origin[src] = (m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3)
+        elif t == "HOME_POSITION":
+            home[src] = ((m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3), (m.x, m.y, m.z))
+        elif t == "PARAM_VALUE":
+            data.params.setdefault(src, {})[mav_str(m.param_id)] = float(m.param_value)
+        elif t == "TOWERLINK_FOLLOW_STATUS":
+            follow_rows.append((m.time_usec * 1e-6, m.ref_x, m.ref_y, m.full_x, m.full_y, m.yaw_x,
+                                m.yaw_y, m.goal_x, m.goal_y, m.rover_x, m.rover_y, m.height, m.tilt,
+                                m.err_full, m.err_yaw, m.follow_frame, m.state))
+        elif t == "TOWERLINK_TRANSFORM":
+            key = (mav_str(m.frame_id), mav_str(m.child_frame_id))
+            v = tuple(float(x) for x in (*m.translation, *m.rotation))
+            if m.flags & 1:
+                data.statics[key] = v
+            else:
+                data.transforms.setdefault(key, []).append((m.time_usec * 1e-6, v))
+        elif t == "TOWERLINK_BRIDGE_STATUS":
+            data.bridge_status[mav_str(m.link)] = {k: int(getattr(m, k)) for k in
+                                              ("rx_packets", "tx_packets", "malformed", "unroutable",
+                                               "translated", "deferred")}
+    # each vehicle's local NED is centred on its own EKF origin; world is the first vehicle's
+    # (the drone's), as the bridge's world is by default
+    local0 = {src: _local_origin(origin.get(src), home.get(src)) for src in set(origin) | set(home)}
+    local0 = {k: v for k, v in local0.items() if v is not None}
+    ref = local0[min(local0)] if local0 else None
+    for src, rows in truth_lla.items():
+        if ref is None or src not in local0:
+            continue
+        out = []
+        for (tt, lat, lon, alt, r, p, y, vn, ve, vd) in rows:
+            n, e, d = lla_to_ned(ref, lat, lon, alt)
+            out.append((tt, n, e, d, r, p, y, vn, ve, vd))
+        data.truth[src] = _track(out, ("roll", "pitch", "yaw", "vn", "ve", "vd"))
+    for src, rows in est_rows.items():
+        if ref is not None and src in local0:
+            off = lla_to_ned(ref, *local0[src])
+            rows = [(tt, x + off[0], y + off[1], z + off[2], *v) for (tt, x, y, z, *v) in rows]
+        data.estimate[src] = _track(rows, ("vx", "vy", "vz"))
+    if follow_rows:
+        a = np.array(follow_rows, dtype=float)
+        a = a[np.argsort(a[:, 0], kind="stable")]
+        data.follow = {k: a[:, i] for i, k in enumerate(FOLLOW_FIELDS)}
+        data.follow_frame = int(a[-1, FOLLOW_FIELDS.index("follow_frame")])
+    return data
+
+
+def _local_origin(origin, home):
+    """Where a vehicle's local NED is centred (lat, lon, alt): its GPS_GLOBAL_ORIGIN, else
+    HOME_POSITION's lla less its local x, y, z; None if neither was logged."""
+    if origin is not None:
+        return origin
+    if home is not None:
+        lla, xyz = home
+        return ned_to_lla(lla, (-xyz[0], -xyz[1], -xyz[2]))
+    return None
+
+
+def load_run(run_dir: str | os.PathLike) -> RunData:
+    """Read every tlog of a run folder (vehicles, bridge, tower) into one RunData."""
+    run_dir = Path(run_dir)
+    data = RunData()
+    vehicles = run_dir / "vehicles.tlog"
+    if vehicles.exists():
+        load_messages(read_tlog(vehicles), data)
+    bridge = run_dir / "bridge.tlog"
+    if bridge.exists():
+        msgs = read_tlog(bridge)
+        if vehicles.exists():  # the bridge's out link repeats the vehicles' traffic: take its own
+            msgs = (m for m in msgs if m.get_type().startswith("TOWERLINK_"))
+        load_messages(msgs, data)
+    return data
