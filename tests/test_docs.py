@@ -189,13 +189,26 @@ def path_problem(path: str, root: Path = ROOT) -> str | None:
     return None
 
 
+def _module_file(parts: list[str], root: Path) -> Path | None:
+    base = root.joinpath(*parts)
+    if base.with_suffix(".py").is_file():
+        return base.with_suffix(".py")
+    if (base / "__init__.py").is_file():
+        return base / "__init__.py"
+    return None
+
+
 @functools.lru_cache(maxsize=None)
-def _definitions(file: Path) -> tuple[set[str], dict[str, set[str]]]:
-    """Top-level names a module defines or imports, and per class the names its body or its
-    methods (self.NAME = ...) define."""
+def _definitions(file: Path) -> tuple[set[str], dict[str, set[str]], dict[str, list[str]], dict[str, str]]:
+    """What one module defines: its top-level names (defined or imported), per class the names
+    its body or its methods (self.NAME = ...) define and its base classes' names, and where
+    each name imported with `from X import NAME` comes from (X made absolute)."""
     tree = ast.parse(file.read_text())
+    package = file.parent.relative_to(ROOT).parts if file.is_relative_to(ROOT) else ()
     top: set[str] = set()
     classes: dict[str, set[str]] = {}
+    bases: dict[str, list[str]] = {}
+    imported: dict[str, str] = {}
     for node in tree.body:
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
             top.add(node.name)
@@ -204,6 +217,12 @@ def _definitions(file: Path) -> tuple[set[str], dict[str, set[str]]]:
             top |= {n.id for t in targets for n in ast.walk(t) if isinstance(n, ast.Name)}
         elif isinstance(node, (ast.Import, ast.ImportFrom)):
             top |= {(a.asname or a.name).split(".")[0] for a in node.names}
+            if isinstance(node, ast.ImportFrom):
+                mod = node.module or ""
+                if node.level:
+                    up = package[:len(package) - (node.level - 1)]
+                    mod = ".".join([*up, *([mod] if mod else [])])
+                imported.update({a.asname or a.name: mod for a in node.names})
         if isinstance(node, ast.ClassDef):
             names = set()
             for sub in ast.walk(node):
@@ -214,34 +233,56 @@ def _definitions(file: Path) -> tuple[set[str], dict[str, set[str]]]:
                 elif isinstance(sub, ast.Name) and isinstance(sub.ctx, ast.Store):
                     names.add(sub.id)
             classes[node.name] = names
-    return top, classes
+            bases[node.name] = [b.id if isinstance(b, ast.Name) else ast.unparse(b) for b in node.bases]
+    return top, classes, bases, imported
+
+
+def _has_member(file: Path, cls: str, member: str, root: Path, depth: int = 0) -> bool:
+    """Does class `cls` of `file` define `member`, itself or through a base class of ours? A base
+    we cannot read (another package's) gives the benefit of the doubt."""
+    _, classes, bases, imported = _definitions(file)
+    if member in classes.get(cls, ()):
+        return True
+    for base in bases.get(cls, ()):
+        if depth > 8:
+            return True
+        if base in classes:
+            where = file
+        elif base in imported and (where := _module_file(imported[base].split("."), root)) is not None:
+            pass
+        else:
+            return True
+        if _has_member(where, base, member, root, depth + 1):
+            return True
+    return False
 
 
 def dotted_problem(name: str, root: Path = ROOT) -> str | None:
-    """`common.tf2_ros` must be a module; `gcs.tower_family.TowerFrames` a module and a name it
-    defines; `gcs.client.Client.connect` a method of that class. Deeper parts are not checked."""
+    """`common.tf2_ros` must be a module; `gcs.tower_family.run_family` a module and a name it
+    defines; `gcs.client.Client.connect` a member of that class (or of a base class of ours).
+    Deeper parts are not checked."""
     parts = name.split(".")
     if parts[-1] in FILE_SUFFIXES:
         return None
     k, file = 0, None
     for i in range(len(parts), 0, -1):
-        base = root.joinpath(*parts[:i])
-        if base.with_suffix(".py").is_file():
-            k, file = i, base.with_suffix(".py")
-            break
-        if (base / "__init__.py").is_file():
-            k, file = i, base / "__init__.py"
+        if (file := _module_file(parts[:i], root)) is not None:
+            k = i
             break
     if file is None:
         return f"{name}: no module {parts[0]}"
     rest = parts[k:]
     if not rest:
         return None
-    top, classes = _definitions(file)
+    top, classes, _, imported = _definitions(file)
     if rest[0] not in top:
         return f"{name}: {'.'.join(parts[:k])} defines no {rest[0]!r}"
-    if len(rest) > 1 and rest[0] in classes and rest[1] not in classes[rest[0]]:
-        return f"{name}: class {rest[0]} has no {rest[1]!r}"
+    if len(rest) > 1:
+        where, cls = file, rest[0]
+        if cls not in classes and cls in imported:      # a class the module re-exports
+            where = _module_file(imported[cls].split("."), root)
+        if where is not None and cls in _definitions(where)[1] and not _has_member(where, cls, rest[1], root):
+            return f"{name}: class {cls} has no {rest[1]!r}"
     return None
 
 
