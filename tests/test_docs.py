@@ -41,7 +41,8 @@ FILE_SUFFIXES = {"py", "md", "tlog", "log", "json", "toml", "yaml", "png", "pdf"
                  "mcap", "parm", "txt", "xml", "csv", "parquet", "waypoints"}
 SHELL_STOPS = {"|", "||", "&", "&&", ";", ">", ">>", "2>&1"}
 
-FENCE = re.compile(r"^```[^\n]*\n(.*?)^```", re.M | re.S)
+FENCE = re.compile(r"^```([^\n]*)\n(.*?)^```", re.M | re.S)
+OUTPUT_BLOCKS = {"text", "output"}      # ```text: what a program printed, not commands to run
 SPAN = re.compile(r"(`+)(.+?)\1", re.S)
 TOWERLINK = re.compile(r"(?:^|(?<=[\s/(=]))towerlink[ \t]+(.*)")
 PATH = re.compile(r"(?<![\w./-])((?:%s)/[\w.*{},/-]*)" % "|".join(PATH_ROOTS))
@@ -54,8 +55,10 @@ ISSUE = re.compile(r"\bissues?\s+#?\d+", re.I)
 # ----------------------------------------------------------------------------- the code in a page
 
 def code_of(text: str) -> list[str]:
-    """Each line of every fenced block, and every inline code span (newlines made spaces)."""
-    out = [line for block in FENCE.findall(text) for line in block.splitlines()]
+    """Each line of every fenced block but an output one (```text), and every inline code span
+    (newlines made spaces)."""
+    out = [line for info, block in FENCE.findall(text) if info.strip() not in OUTPUT_BLOCKS
+           for line in block.splitlines()]
     prose = FENCE.sub("\n", text)
     out += [m.group(2).replace("\n", " ") for m in SPAN.finditer(prose) if "\n\n" not in m.group(2)]
     return out
@@ -381,6 +384,10 @@ Run `towerlink fly family --speedup max` or `towerlink frames convert --from wor
 ```sh
 towerlink sitl --drones 2 --rovers 0 &     # comments and operators end a command
 towerlink tf-echo world tower --tlog runs/<run>/bridge.tlog
+```
+
+```text
+towerlink track plot: what a program printed is not a command
 ```
 
 The code is in vehicle/autopilot/ and common/mavlink/{signing,ids}.py (tools/sweep*.py); see
