@@ -4,7 +4,7 @@ The default gen-0 threshold (700 allocations) runs a collection every few millis
 router or a world of hundreds of vehicles, and the older generations' passes walk everything
 the process holds (frame buffers, a thousand autopilots). The messages these processes make
 form no reference cycles, so collecting rarely loses nothing; what was built at start-up is
-frozen out of the walk. Measured: 66,000 msg/s through the bridge (issue 14, its p99 latency),
+frozen out of the walk. Measured: 66,000 msg/s through the bridge (its p99 latency),
 and about 4 % of a 500-vehicle world's autopilot and telemetry time.
 """
 from __future__ import annotations

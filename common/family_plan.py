@@ -1,4 +1,4 @@
-"""A family of N drones generated from a rule: lanes and a few altitude layers (issue 14).
+"""A family of N drones generated from a rule: lanes and a few altitude layers.
 
 The shipped three-drone family (common/scenarios/family.toml) gives every drone its own
 altitude layer, min_separation apart. That does not scale: 100 drones would need 300 m of

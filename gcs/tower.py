@@ -86,7 +86,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--result", default=None, help="write the mission result as JSON here")
     parser.add_argument("--tlog", default=None, help="record this link (both ways) as a tlog")
     parser.add_argument("--lockstep", action="store_true",
-                        help="whole-system lockstep (issue 11): join the world's TOWERLINK_LOCKSTEP handshake "
+                        help="whole-system lockstep: join the world's TOWERLINK_LOCKSTEP handshake "
                              "through the bridge (`towerlink bridge --lockstep`, `towerlink sitl --lockstep N`); "
                              "every timeout, retry and --resend then counts sim seconds of the world's TICKs")
     add_signing_argument(parser, "MAVLink 2 signing, for a bridge started with --signing-key: {forms}. Everything the "

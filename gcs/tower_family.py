@@ -1,4 +1,4 @@
-"""The tower's family of drones (issue 12): every drone of a scenario at once, on one link.
+"""The tower's family of drones: every drone of a scenario at once, on one link.
 
 * :class:`SeparationWatch`: the closest 3-D approach of two airborne drones, logged when
   below the scenario's min_separation.

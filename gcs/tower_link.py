@@ -1,4 +1,4 @@
-"""One tower link shared by every drone's mission thread (issue 14: a family of 100).
+"""One tower link shared by every drone's mission thread.
 
 A family's tower used to open one connection per drone. The bridge's tower link sends the
 whole system's telemetry to every peer, so N connections decoded N times everything (N**2
@@ -8,7 +8,7 @@ thread, the pump, reads; each drone's gcs.tower_mission.Mission runs in its own 
 object, and its blocking helpers (set_mode, arm, takeoff, wait_reached, ...) park in
 ``poll`` until the pump has handled the next batch of messages.
 
-Lockstep (issue 11) with a family: the pump is the tower's one participant. After a TICK
+Lockstep with a family: the pump is the tower's one participant. After a TICK
 it wakes every mission thread and ACKs the TICK only once each registered thread has acted
 on it and parked again (a barrier), so what the family decides depends on sim time alone.
 A thread that waits on something else than the link (a gate) waits with the link's

@@ -4,7 +4,7 @@ The simulated vehicle may not import the generated dialect module (common.mavlin
 world packs and reads this one message here; tests/test_lockstep.py checks these bytes
 against common.mavlink.dialect.towerlink (the same CRC_EXTRA, field order and lengths).
 
-The handshake (issue 11, docs/ARCHITECTURE.md "Lockstep"):
+The handshake (docs/ARCHITECTURE.md "Lockstep"):
 
 * a participant (bridge, tower) sends JOIN until the first TICK arrives;
 * the world, at every lockstep frame (sim time t), sends TICK(t) after everything else it

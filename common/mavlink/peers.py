@@ -1,6 +1,6 @@
 """The UDP peers of a listening link (pure: addresses and the wall times given to it).
 
-One rule for every udpin port of the project, the vehicles' and the bridge's (issue 8):
+One rule for every udpin port of the project, the vehicles' and the bridge's:
 a udpin link answers every peer that wrote to it, and peers are bounded so that
 short-lived or spoofed clients cannot make it send to thousands of addresses:
 

@@ -67,7 +67,7 @@ _FENCE_ALT = [
     _d("FENCE_ALT_MIN", -10, -100, 100, False, "minimum altitude above home (m)"),
 ]
 
-# battery and wind (issue 10): ArduPilot's AP_BattMonitor and SITL parameters, one block
+# battery and wind: ArduPilot's AP_BattMonitor and SITL parameters, one block
 # (vehicle/autopilot/battery.py and vehicle/physics/wind.py do what they say)
 def _battery_wind(kind: str) -> list[ParamDef]:
     acts = ("0 none, 1 Land, 2 RTL, 3 SmartRTL or RTL, 4 SmartRTL or Land, 5 Terminate, "
