@@ -4,7 +4,7 @@ A goal arrives on the tower link as SET_POSITION_TARGET_LOCAL_NED (LOCAL_NED or
 LOCAL_OFFSET_NED, in the tower frame) or TOWERLINK_POSITION_TARGET (in the frame it
 names). :meth:`GoalDesk.try_goal` is the whole path::
 
-    fresh_lookup(world <- goal frame)     # bridge.frame_tree: LATEST, never a stale chain
+    fresh_lookup(<name>_origin <- goal frame)   # the target's local frame; LATEST, never stale
     -> translate (bridge.translate)       # point, vectors, heading into world
     -> pack as the tower's own packet     # same sysid, compid, seq (bridge.codec)
     -> send to the vehicle named by target_system

@@ -1,6 +1,6 @@
 """towerlink's frame library: rigid transforms and a tf2-grade, time-aware buffer.
 
-Pure (numpy/scipy only): no sockets, no clocks, no MAVLink. tf2 names and
+Pure (numpy only): no sockets, no clocks, no MAVLink. tf2 names and
 semantics; quaternions are (x, y, z, w). See :mod:`common.frames.buffer` for the
 buffer's semantics, :mod:`common.frames.transform` for the math of one transform and
 :mod:`common.frames.batch` for the same math on (n, 4) / (n, 3) arrays.
