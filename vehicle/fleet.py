@@ -332,6 +332,17 @@ class _FleetBase:
             snap = self._est_snap = (self.sim_time, *arrays)
         return snap[1][i], snap[2][i], snap[3][i], snap[4][i]
 
+    def gps_fix(self, i: int) -> list[float] | None:
+        """Vehicle i's latest GPS sample as [n, e, d, vn, ve, vd] (world NED m, m/s; the
+        noisy receiver the estimator fuses), None before the first one; the truth when
+        the fleet flies without an estimator (no GPS model)."""
+        if not self.use_estimator:
+            return self.truth_row(i)[0:6]
+        s = self.sensors
+        if s.gps_pos is None:
+            return None
+        return [*s.gps_pos[i].tolist(), *s.gps_vel[i].tolist()]
+
     def estimate_ok(self, i: int) -> bool:
         """Position estimate good (pre-arm): always True when flying on truth."""
         return True if not self.use_estimator else bool(self.estimator.ok[i])
@@ -569,6 +580,19 @@ class CopterFleet(_FleetBase):
         """Collective thrust fraction the controller asked for (0..1; 0 when idle)."""
         return np.where(np.array(self._run, dtype=bool), self.ctrl.coll, 0.0)
 
+    def control_row(self, i: int) -> list[float]:
+        """What the onboard log records of vehicle i's controller: its reference down
+        position pz (world NED m) and down velocity vz (m/s), reference acceleration
+        ax, ay, az (world NED m/s^2) and yaw (rad), the collective thrust fraction (0..1)
+        and the four rotor speed fractions (0..1), in that order."""
+        if self.scalar:
+            c, s = self._cs[i], self._ps[i]
+            return [c.pz, c.vz, c.ax, c.ay, c.az, c.yaw, c.coll, s.m0, s.m1, s.m2, s.m3]
+        c, s = self._ctrl, self._phys
+        return [float(c.pz[i]), float(c.vz[i]), float(c.ax[i]), float(c.ay[i]), float(c.az[i]),
+                float(c.yaw[i]), float(c.coll[i]), float(s.m0[i]), float(s.m1[i]), float(s.m2[i]),
+                float(s.m3[i])]
+
     def step(self, dt: float) -> None:
         """Controller (on the estimate) -> physics -> sensors -> estimator -> land detector."""
         if self.scalar:
@@ -647,6 +671,15 @@ class RoverFleet(_FleetBase):
 
     def landed(self, i: int) -> bool:
         return True
+
+    def control_row(self, i: int) -> list[float]:
+        """What the onboard log records of rover i's controller: its speed command (m/s),
+        its true speed (m/s) and turn rate (rad/s)."""
+        if self.scalar:
+            s = self._ps[i]
+            return [float(self._ss[i].v_cmd), float(s.speed), float(s.rate)]
+        s = self._phys
+        return [float(self.sp.v_cmd[i]), float(s.speed[i]), float(s.rate[i])]
 
     def step(self, dt: float) -> None:
         """Controller (on the estimate) -> kinematics -> sensors -> estimator."""

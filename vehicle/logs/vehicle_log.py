@@ -1,0 +1,201 @@
+"""One vehicle's onboard log, kept as ArduPilot's AP_Logger with its File backend keeps it.
+
+When a log is open (AP_Logger_File, AP_Logger_Backend):
+- a log opens at arming (LOG_DISARMED 0, the default) or at boot (LOG_DISARMED 1, 2 or 3:
+  log while disarmed too); LOG_BACKEND_TYPE 0 (no File backend bit) logs nothing;
+- it stays open until the vehicle reboots or the world stops, so flights of one boot share
+  a log; LOG_FILE_DSRMROT 1 closes it at every disarm (one log per arming; the next one
+  opens at the next arming, or at once with LOG_DISARMED);
+- records are written while armed or while LOG_DISARMED is set; with LOG_DISARMED 3 a log
+  that never saw the vehicle armed is discarded when it closes;
+- LOG_ERASE removes every log (the open one too, which then starts afresh).
+
+What a log holds: it opens with FMT / UNIT / MULT / FMTU, PARM for every parameter, MSG
+with the firmware string, ORGN (EKF origin, home) when set, the mode (MODE) and the whole
+mission (CMD); then the 10 Hz samples (vehicle/logs/sampler.py), MSG for every
+STATUSTEXT, MODE at every mode change, ARM and EV (ARMED / DISARMED) at arming, CMD when
+AUTO starts a mission item.
+
+Timestamps (TimeUS) are sim time since the world started, as every MAVLink time_boot_ms.
+The logs' bytes are written by a LogWriter thread; this class does no file I/O of its own
+beyond listing and reading (the MAVLink log download, vehicle/logs/transfer.py, reads
+through `entries` / `read` / `erase`).
+"""
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from pathlib import Path
+
+from vehicle.autopilot.mission_store import MISSION
+from vehicle.logs import messages
+from vehicle.logs.log_session import LogSession
+from vehicle.logs.sampler import Sampler
+from vehicle.logs.store import MAX_FILES, LogInfo, LogStore
+from vehicle.logs.writer import LogWriter
+
+ARM_METHOD_MAVLINK = 2          # AP_Arming::Method::MAVLINK (the ARM record's Method)
+
+
+class VehicleLog:
+    """The onboard log of one vehicle: call `update(ap, t)` every autopilot tick."""
+
+    def __init__(self, kind: str, folder: str | os.PathLike, writer: LogWriter, clock: Callable[[], float],
+                 unix_start_us: int, firmware: str, phase: int = 0, ap_rate: float = 50.0,
+                 max_files: int = MAX_FILES) -> None:
+        self.kind = kind
+        self.store = LogStore(folder, max_files)
+        self.schema = messages.schema(kind)
+        self.sampler = Sampler(kind, self.schema, phase, ap_rate)
+        self.writer = writer
+        self.clock = clock
+        self.unix_start_us = unix_start_us
+        self.firmware = firmware
+        self.session: LogSession | None = None
+        self._armed = False
+        self._mode: int | None = None
+        self._cmd_seq: int | None = None
+        self._writes = False              # records go in (open, and armed or LOG_DISARMED)
+        self._rotate = False              # LOG_FILE_DSRMROT: close at the next disarmed tick
+        self._erasing = 0                 # erases queued on the writer and not yet done
+        self._listed: list[LogInfo] = []
+
+    # ----- what the vehicle says -----------------------------------------------------
+    def text(self, severity: int, text: str) -> None:
+        """A STATUSTEXT (the autopilot's outbox): MSG while records go in."""
+        if self._writes:
+            self.session.write("MSG", self._us(), text)
+
+    def _us(self, t: float | None = None) -> int:
+        return int(round((self.clock() if t is None else t) * 1e6))
+
+    # ----- every tick ----------------------------------------------------------------
+    def update(self, ap, t: float) -> None:
+        """Open / close the log as arming and the LOG_* parameters say, then write what
+        happened this tick and the periodic samples."""
+        p = ap.params
+        backend = int(p.get("LOG_BACKEND_TYPE", 1)) & 1
+        disarmed_logging = int(p.get("LOG_DISARMED", 0)) != 0
+        armed = bool(ap.armed)
+        us = self._us(t)
+        if armed != self._armed:
+            self._armed = armed
+            self._arming(ap, armed, us, backend, p)
+        enabled = backend and (armed or disarmed_logging)
+        if self.session is not None and (not backend or (self._rotate and not armed)):
+            self._rotate = False
+            self.stop(p)
+        if self.session is None and enabled:
+            self.start(ap, t)
+        s = self.session
+        self._writes = s is not None and bool(armed or disarmed_logging)
+        if s is None:
+            return
+        if self._writes:
+            self._changes(ap, s, us)
+            if self.sampler.due():
+                s.add(self.sampler.sample(ap, us, self.unix_start_us + us))
+        s.tick(t)
+
+    def _arming(self, ap, armed: bool, us: int, backend: int, p) -> None:
+        if armed:
+            if self.session is None and backend:
+                self.start(ap, us * 1e-6)           # PrepForArming: the log opens first
+            if self.session is not None:
+                self.session.armed_seen = True
+        s = self.session
+        if s is None:
+            return
+        s.write("ARM", us, int(armed), 0, 0, ARM_METHOD_MAVLINK)
+        s.write("EV", us, messages.EV_ARMED if armed else messages.EV_DISARMED)
+        if not armed and int(p.get("LOG_FILE_DSRMROT", 0)):
+            self._rotate = True
+
+    def _changes(self, ap, s: LogSession, us: int) -> None:
+        mode = ap.mode
+        if mode != self._mode:
+            self._mode = mode
+            s.write("MODE", us, mode, mode, 0)
+        seq = ap.mission_current()[0] if ap.mode == ap.auto_mode else None
+        if seq != self._cmd_seq:
+            self._cmd_seq = seq
+            if seq is not None:
+                self._write_cmd(ap, s, us, seq)
+
+    def _write_cmd(self, ap, s: LogSession, us: int, seq: int) -> None:
+        item = ap.missions.get(seq, MISSION)
+        if item is None:
+            return
+        s.write("CMD", us, ap.missions.count(MISSION), seq, item.command, item.param1, item.param2,
+                item.param3, item.param4, item.x * 1e-7, item.y * 1e-7, item.z, item.frame)
+
+    # ----- opening and closing ---------------------------------------------------------
+    def start(self, ap, t: float) -> None:
+        """Open the next log and write what a log starts with."""
+        path = self.store.new_log()
+        s = self.session = LogSession(path, self.schema, self.writer, t)
+        us = self._us(t)
+        s.add(self.schema.header(us))
+        ps = ap.params
+        for name in ps.names:
+            s.write("PARM", us, name, float(ps[name]), float(ps.defs[name].default))
+        s.write("MSG", us, self.firmware)
+        origin = ap.ekf_origin()
+        if origin is not None:
+            s.write("ORGN", us, messages.ORIGIN_EKF, *origin)
+        if ap.home is not None:
+            s.write("ORGN", us, messages.ORIGIN_AHRS_HOME, *ap.home_lla())
+        self._mode = ap.mode
+        s.write("MODE", us, ap.mode, ap.mode, 0)
+        for item in ap.missions.items(MISSION):
+            s.write("CMD", us, ap.missions.count(MISSION), item.seq, item.command, item.param1,
+                    item.param2, item.param3, item.param4, item.x * 1e-7, item.y * 1e-7, item.z, item.frame)
+        self._cmd_seq = None
+        s.armed_seen = bool(ap.armed)
+
+    def stop(self, params=None) -> None:
+        """Close the open log (reboot, world stop, LOG_FILE_DSRMROT); with LOG_DISARMED 3
+        one that never saw arming is discarded."""
+        s, self.session = self.session, None
+        self._writes = False
+        if s is None:
+            return
+        s.close()
+        if params is not None and int(params.get("LOG_DISARMED", 0)) == 3 and not s.armed_seen:
+            path = s.path
+            self.writer.call(lambda: path.unlink(missing_ok=True))
+
+    # ----- the catalog the log download reads -------------------------------------------
+    def entries(self) -> list[LogInfo]:
+        """The logs oldest first (none while an erase is still under way)."""
+        self._listed = [] if self._erasing else self.store.entries()
+        return self._listed
+
+    def read(self, list_id: int, ofs: int, count: int) -> bytes:
+        listed = self._listed or self.entries()
+        if not 1 <= list_id <= len(listed):
+            return b""
+        return self.store.read(listed[list_id - 1].num, ofs, count)
+
+    def erase(self) -> None:
+        """Erase every log; an open log closes and, if logging goes on, starts afresh at
+        the next tick (after the erase, on the writer thread, in order)."""
+        if self.session is not None:
+            self.session.close()
+            self.session = None
+            self._writes = False
+        self._erasing += 1
+        store = self.store
+
+        def erase_all() -> None:
+            try:
+                store.erase()
+            finally:
+                self._erasing -= 1
+        self.writer.call(erase_all)
+        self._listed = []
+
+    @property
+    def path(self) -> Path | None:
+        """The open log's file, None when none is open."""
+        return None if self.session is None else self.session.path
