@@ -584,14 +584,15 @@ class CopterFleet(_FleetBase):
         """What the onboard log records of vehicle i's controller: its reference down
         position pz (world NED m) and down velocity vz (m/s), reference acceleration
         ax, ay, az (world NED m/s^2) and yaw (rad), the collective thrust fraction (0..1)
-        and the four rotor speed fractions (0..1), in that order."""
+        and the four rotor speeds as fractions of the airframe's omega_max (0..1), in that order."""
+        k = 1.0 / self.airframe.omega_max
         if self.scalar:
             c, s = self._cs[i], self._ps[i]
-            return [c.pz, c.vz, c.ax, c.ay, c.az, c.yaw, c.coll, s.m0, s.m1, s.m2, s.m3]
+            return [c.pz, c.vz, c.ax, c.ay, c.az, c.yaw, c.coll, s.m0 * k, s.m1 * k, s.m2 * k, s.m3 * k]
         c, s = self._ctrl, self._phys
         return [float(c.pz[i]), float(c.vz[i]), float(c.ax[i]), float(c.ay[i]), float(c.az[i]),
-                float(c.yaw[i]), float(c.coll[i]), float(s.m0[i]), float(s.m1[i]), float(s.m2[i]),
-                float(s.m3[i])]
+                float(c.yaw[i]), float(c.coll[i]), float(s.m0[i]) * k, float(s.m1[i]) * k,
+                float(s.m2[i]) * k, float(s.m3[i]) * k]
 
     def step(self, dt: float) -> None:
         """Controller (on the estimate) -> physics -> sensors -> estimator -> land detector."""

@@ -79,7 +79,7 @@ class Sampler:
         else:
             pn = pe = pd = 0.0
             oalt = alt
-        p = ap.params
+        p = ap.params.values
         row = ap.fleet.control_row(ap.i)
         out = []
         if self.kind == "copter":

@@ -35,6 +35,7 @@ from vehicle.logs.store import MAX_FILES, LogInfo, LogStore
 from vehicle.logs.writer import LogWriter
 
 ARM_METHOD_MAVLINK = 2          # AP_Arming::Method::MAVLINK (the ARM record's Method)
+CHECK_PERIOD = 1.0              # s: with no log open, the File backend looks once a second
 
 
 class VehicleLog:
@@ -59,6 +60,7 @@ class VehicleLog:
         self._rotate = False              # LOG_FILE_DSRMROT: close at the next disarmed tick
         self._erasing = 0                 # erases queued on the writer and not yet done
         self._listed: list[LogInfo] = []
+        self._next_check = 0.0
 
     # ----- what the vehicle says -----------------------------------------------------
     def text(self, severity: int, text: str) -> None:
@@ -73,22 +75,25 @@ class VehicleLog:
     def update(self, ap, t: float) -> None:
         """Open / close the log as arming and the LOG_* parameters say, then write what
         happened this tick and the periodic samples."""
-        p = ap.params
+        armed = bool(ap.armed)
+        s = self.session
+        if armed == self._armed and s is None and t < self._next_check:
+            return                     # idle (most vehicles of a big world): one look a second
+        self._next_check = t + CHECK_PERIOD
+        p = ap.params.values
         backend = int(p.get("LOG_BACKEND_TYPE", 1)) & 1
         disarmed_logging = int(p.get("LOG_DISARMED", 0)) != 0
-        armed = bool(ap.armed)
         us = self._us(t)
         if armed != self._armed:
             self._armed = armed
             self._arming(ap, armed, us, backend, p)
-        enabled = backend and (armed or disarmed_logging)
-        if self.session is not None and (not backend or (self._rotate and not armed)):
+        if s is not None and (not backend or (self._rotate and not armed)):
             self._rotate = False
             self.stop(p)
-        if self.session is None and enabled:
+        if self.session is None and backend and (armed or disarmed_logging) and not self._erasing:
             self.start(ap, t)
         s = self.session
-        self._writes = s is not None and bool(armed or disarmed_logging)
+        self._writes = s is not None and (armed or disarmed_logging)
         if s is None:
             return
         if self._writes:
