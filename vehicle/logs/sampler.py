@@ -53,18 +53,17 @@ class Sampler:
         self.kind = kind
         self.every = max(1, int(round(ap_rate / LOG_RATE)))
         self.phase = phase % self.every
-        self._tick = 0
+        self.ap_rate = ap_rate
         s = schema
         self.att, self.pos, self.xkf1, self.gps = s["ATT"].pack, s["POS"].pack, s["XKF1"].pack, s["GPS"].pack
         self.bat, self.rcin, self.rcou = s["BAT"].pack, s["RCIN"].pack, s["RCOU"].pack
         self.tune = s["CTUN"].pack if kind == "copter" else s["THR"].pack
         self._rcin_zero = None
 
-    def due(self) -> bool:
-        """Count one autopilot tick; True on the ticks this vehicle logs on."""
-        k = self._tick
-        self._tick = k + 1
-        return k % self.every == self.phase
+    def due(self, t: float) -> bool:
+        """True when the autopilot tick at sim time t is one this vehicle logs on (the
+        world's tick count, so samples fall on the same instants whenever a log opened)."""
+        return int(round(t * self.ap_rate)) % self.every == self.phase
 
     def sample(self, ap, time_us: int, unix_us: int) -> bytes:
         """The records of one 10 Hz sample of vehicle `ap` at `time_us` (since boot)."""

@@ -98,7 +98,7 @@ class VehicleLog:
             return
         if self._writes:
             self._changes(ap, s, us)
-            if self.sampler.due():
+            if self.sampler.due(t):
                 s.add(self.sampler.sample(ap, us, self.unix_start_us + us))
         s.tick(t)
 
@@ -121,7 +121,7 @@ class VehicleLog:
         if mode != self._mode:
             self._mode = mode
             s.write("MODE", us, mode, mode, 0)
-        seq = ap.mission_current()[0] if ap.mode == ap.auto_mode else None
+        seq = ap.mission_current()[0] if ap.mode_name == "AUTO" else None
         if seq != self._cmd_seq:
             self._cmd_seq = seq
             if seq is not None:
@@ -157,6 +157,7 @@ class VehicleLog:
                     item.param2, item.param3, item.param4, item.x * 1e-7, item.y * 1e-7, item.z, item.frame)
         self._cmd_seq = None
         s.armed_seen = bool(ap.armed)
+        s.hand_over()                   # the header is on disk at once, not a second later
 
     def stop(self, params=None) -> None:
         """Close the open log (reboot, world stop, LOG_FILE_DSRMROT); with LOG_DISARMED 3

@@ -1,0 +1,245 @@
+"""A vehicle's onboard log (vehicle/logs/vehicle_log.py) on the real World stepped in sim time:
+when logs open and close (arming, LOG_DISARMED, LOG_FILE_DSRMROT, LOG_BACKEND_TYPE, reboot,
+LOG_ERASE), what a log starts with, and its samples read back by DFReader against the
+simulation's truth."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from pymavlink import DFReader
+from pymavlink.dialects.v20 import ardupilotmega as A
+
+from common import geo
+from test_autopilot_behaviour import _until
+from vehicle.autopilot import modes
+from vehicle.autopilot.mission_store import MISSION, MissionItem
+from vehicle.logs import messages
+from vehicle.logs.vehicle_log import VehicleLog
+from vehicle.logs.writer import LogWriter
+from vehicle.world import World, WorldConfig
+
+
+class LoggedWorld:
+    """A headless World whose vehicles keep onboard logs in tmp (driven every autopilot tick
+    as the link's log capability drives them), with the truth sampled at 10 Hz."""
+
+    def __init__(self, tmp_path, drones=1, rovers=0, params=None):
+        self.w = w = World(WorldConfig(drones=drones, rovers=rovers, state_dir=None, tcp_base=None,
+                                       udp_base=None))
+        self.writer = LogWriter()
+        self.logs = []
+        for v in w.vehicles:
+            for k, val in (params or {}).items():
+                v.ap.params.set(k, val, save=False)
+            fw = "ArduCopter V4.5.0 (test)" if v.kind == "copter" else "ArduRover V4.5.0 (test)"
+            log = VehicleLog(v.kind, tmp_path / f"v{v.index}" / "logs", self.writer, w.clock, w.unix_start_us,
+                             fw, v.index)
+            v.ap.outbox.subscribe(text=log.text)
+            self.logs.append(log)
+        self.truth: list[tuple[float, list[float]]] = []      # (t, truth row of vehicle 0)
+        w.run_for = self.run_for                               # _until steps through us
+
+    def run_for(self, seconds: float) -> None:
+        w = self.w
+        end = w.steps + int(round(seconds / w.dt))
+        while w.steps < end:
+            World.step(w)
+            if w.steps % w.ap_every == 0:
+                for v, log in zip(w.vehicles, self.logs):
+                    log.update(v.ap, w.t)
+                if w.steps % (5 * w.ap_every) == 0:
+                    self.truth.append((w.t, w.fleets[0][1].truth_row(0)))
+
+    def ready(self):
+        _until(self.w, lambda: all(v.ap.est_ok and v.ap.home is not None for v in self.w.vehicles), 20)
+
+    def files(self, i=0):
+        self.writer.flush()
+        return [(e.num, e.size) for e in self.logs[i].store.entries()]
+
+    def read(self, i=0, num=None):
+        self.writer.flush()
+        store = self.logs[i].store
+        num = num if num is not None else store.entries()[-1].num
+        r = DFReader.DFReader_binary(str(store.path(num)), zero_time_base=True)
+        out = []
+        while (m := r.recv_match()) is not None:
+            out.append(m)
+        return r, out
+
+
+def of(msgs, kind):
+    return [m for m in msgs if m.get_type() == kind]
+
+
+def test_no_log_until_armed_then_one_per_boot(tmp_path):
+    lw = LoggedWorld(tmp_path)
+    lw.ready()
+    lw.run_for(2.0)
+    assert lw.files() == []                                # LOG_DISARMED 0: nothing before arming
+    ap = lw.w.vehicles[0].ap
+    assert ap.set_mode(modes.GUIDED) and ap.arm() == A.MAV_RESULT_ACCEPTED
+    lw.run_for(1.0)
+    assert ap.disarm() == A.MAV_RESULT_ACCEPTED
+    lw.run_for(2.0)
+    size = lw.files()[0][1]
+    lw.run_for(2.0)
+    assert lw.files() == [(1, size)]                       # disarmed: open, nothing written
+    assert ap.arm() == A.MAV_RESULT_ACCEPTED               # the same boot: the same log goes on
+    lw.run_for(1.0)
+    ap.disarm()
+    lw.run_for(0.5)
+    assert [n for n, _ in lw.files()] == [1]
+    _, msgs = lw.read()
+    assert [m.ArmState for m in of(msgs, "ARM")] == [1, 0, 1, 0]
+    assert [m.Id for m in of(msgs, "EV")] == [messages.EV_ARMED, messages.EV_DISARMED] * 2
+    # a reboot closes it; the next arming opens the next number
+    lw.logs[0].stop(ap.params.values)
+    ap.reboot()
+    lw.run_for(2.0)
+    assert [n for n, _ in lw.files()] == [1]
+    ap.set_mode(modes.GUIDED)
+    assert ap.arm() == A.MAV_RESULT_ACCEPTED
+    lw.run_for(0.5)
+    assert [n for n, _ in lw.files()] == [1, 2]
+    assert (lw.logs[0].store.folder / "LASTLOG.TXT").read_bytes() == b"2\r\n"
+
+
+def test_dsrmrot_gives_a_log_per_arming(tmp_path):
+    lw = LoggedWorld(tmp_path, params={"LOG_FILE_DSRMROT": 1})
+    lw.ready()
+    ap = lw.w.vehicles[0].ap
+    ap.set_mode(modes.GUIDED)
+    for _ in range(3):
+        assert ap.arm() == A.MAV_RESULT_ACCEPTED
+        lw.run_for(0.5)
+        ap.disarm()
+        lw.run_for(0.5)
+    assert [n for n, _ in lw.files()] == [1, 2, 3]
+    for num in (1, 2, 3):
+        _, msgs = lw.read(num=num)
+        assert [m.ArmState for m in of(msgs, "ARM")] == [1, 0]
+
+
+@pytest.mark.parametrize("value", [1, 3])
+def test_log_disarmed_logs_from_boot(tmp_path, value):
+    lw = LoggedWorld(tmp_path, params={"LOG_DISARMED": value})
+    lw.run_for(1.5)
+    assert [n for n, _ in lw.files()] == [1]
+    _, msgs = lw.read()
+    assert of(msgs, "ATT") and not of(msgs, "ARM")
+    ap = lw.w.vehicles[0].ap
+    lw.logs[0].stop(ap.params.values)
+    lw.writer.flush()
+    # LOG_DISARMED 3: a log that never saw arming is discarded when it closes
+    assert [n for n, _ in lw.files()] == ([1] if value == 1 else [])
+
+
+def test_backend_off_logs_nothing(tmp_path):
+    lw = LoggedWorld(tmp_path, params={"LOG_BACKEND_TYPE": 0, "LOG_DISARMED": 1})
+    lw.ready()
+    ap = lw.w.vehicles[0].ap
+    ap.set_mode(modes.GUIDED)
+    ap.arm()
+    lw.run_for(1.0)
+    assert lw.files() == []
+
+
+def test_erase_while_logging_starts_afresh(tmp_path):
+    lw = LoggedWorld(tmp_path, params={"LOG_DISARMED": 1, "LOG_FILE_DSRMROT": 1})
+    lw.ready()
+    ap = lw.w.vehicles[0].ap
+    ap.set_mode(modes.GUIDED)
+    ap.arm()
+    lw.run_for(0.5)
+    ap.disarm()
+    lw.run_for(0.5)
+    assert len(lw.files()) == 2
+    log = lw.logs[0]
+    log.erase()
+    assert log.entries() == [] or log.writer.flush()
+    lw.run_for(2.0)
+    # the erase ran on the writer thread before the new log's bytes: only a fresh log 1
+    assert [n for n, _ in lw.files()] == [1]
+    _, msgs = lw.read()
+    assert of(msgs, "FMT") and of(msgs, "PARM")
+
+
+def test_log_contents_against_the_truth(tmp_path):
+    lw = LoggedWorld(tmp_path, drones=1, rovers=1)
+    lw.ready()
+    w = lw.w
+    ap, rover = w.vehicles[0].ap, w.vehicles[1].ap
+    items = [MissionItem(0, 0, A.MAV_CMD_NAV_WAYPOINT, x=int(-35.3632621e7), y=int(149.1652374e7), z=0),
+             MissionItem(1, 3, A.MAV_CMD_NAV_TAKEOFF, z=10),
+             MissionItem(2, 3, A.MAV_CMD_NAV_WAYPOINT, x=int(-35.3630e7), y=int(149.1654e7), z=10)]
+    ap.missions.replace_all(MISSION, items)
+    ap.mission_uploaded(MISSION)
+    assert ap.set_mode(modes.GUIDED) and ap.arm() == A.MAV_RESULT_ACCEPTED
+    assert ap.command(A.MAV_CMD_NAV_TAKEOFF, [0, 0, 0, 0, 0, 0, 10]) == A.MAV_RESULT_ACCEPTED
+    _until(w, lambda: ap.pos[2] < -9.5, 30)
+    assert ap.set_mode(modes.AUTO)                # the mission's waypoint (its takeoff is done)
+    lw.run_for(15.0)
+    assert ap.set_mode(modes.LAND)
+    _until(w, lambda: not ap.armed, 60)
+    lw.run_for(1.0)
+    r, msgs = lw.read()
+    names = [m.get_type() for m in msgs]
+    # what a log starts with: formats, units, every parameter, the firmware, origin / home, mode, mission
+    assert names[:len(lw.logs[0].schema.encoders)] == ["FMT"] * len(lw.logs[0].schema.encoders)
+    assert len(of(msgs, "PARM")) == len(ap.params.names)
+    assert r.params["LOG_DISARMED"] == 0 and r.params["SYSID_THISMAV"] == ap.sysid
+    assert of(msgs, "MSG")[0].Message == "ArduCopter V4.5.0 (test)"
+    assert [o.Type for o in of(msgs, "ORGN")] == [messages.ORIGIN_EKF, messages.ORIGIN_AHRS_HOME]
+    modes_seen = [m.ModeNum for m in of(msgs, "MODE")]
+    assert modes_seen == [modes.GUIDED, modes.AUTO, modes.LAND]
+    cmds = of(msgs, "CMD")
+    assert [c.CNum for c in cmds[:3]] == [0, 1, 2] and cmds[0].CTot == 3        # the whole mission at start
+    assert any(c.CNum == 2 and c.CId == A.MAV_CMD_NAV_WAYPOINT for c in cmds[3:])   # AUTO started item 2
+    assert cmds[2].Lat == pytest.approx(-35.363, abs=1e-7) and cmds[2].Alt == 10
+    # the samples: 10 Hz, ATT and GPS close to the truth at the same instant
+    truth = dict((round(t, 3), row) for t, row in lw.truth)
+    atts, gpss = of(msgs, "ATT"), of(msgs, "GPS")
+    span = (atts[-1].TimeUS - atts[0].TimeUS) * 1e-6
+    assert len(atts) == pytest.approx(span * 10 + 1, abs=2)
+    checked = 0
+    for a in atts:
+        row = truth.get(round(a.TimeUS * 1e-6, 3))
+        if row is None:
+            continue
+        qx, qy, qz, qw = row[6:10]
+        roll = math.degrees(math.atan2(2 * (qw * qx + qy * qz), 1 - 2 * (qx * qx + qy * qy)))
+        pitch = math.degrees(math.asin(max(-1, min(1, 2 * (qw * qy - qz * qx)))))
+        yaw = math.degrees(math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))) % 360
+        assert abs(a.Roll - roll) < 2.0 and abs(a.Pitch - pitch) < 2.0, (a, roll, pitch)
+        assert abs((a.Yaw - yaw + 180) % 360 - 180) < 3.0
+        checked += 1
+    assert checked > 100
+    home = ap.home_lla()
+    errs = []
+    for g in gpss:
+        row = truth.get(round(g.TimeUS * 1e-6, 3))
+        if row is None:
+            continue
+        lat, lon, alt = geo.ned_to_lla(ap.origin, row[0:3])
+        n, e, d = geo.lla_to_ned((lat, lon, alt), g.Lat, g.Lng, g.Alt)
+        errs.append((math.hypot(n, e), abs(d)))
+    errs = np.array(errs)
+    assert len(errs) > 100 and errs[:, 0].max() < 2.0 and errs[:, 1].max() < 3.0
+    assert max(g.Alt for g in gpss) - home[2] == pytest.approx(10.0, abs=1.5)
+    assert max(g.Spd for g in gpss) > 2.0 and all(g.Status == 3 and g.GWk > 2000 for g in gpss)
+    # POS, XKF1, CTUN tell the same flight
+    pos = of(msgs, "POS")
+    assert max(p.RelHomeAlt for p in pos) == pytest.approx(10.0, abs=1.0)
+    ctun = of(msgs, "CTUN")
+    assert max(c.Alt for c in ctun) == pytest.approx(10.0, abs=1.0)
+    assert max(c.DAlt for c in ctun) == pytest.approx(10.0, abs=1.0)
+    assert 0.2 < np.median([c.ThO for c in ctun]) < 0.8
+    assert all(1000 <= o.C1 <= 2000 for o in of(msgs, "RCOU"))
+    assert max(k.PN ** 2 + k.PE ** 2 for k in of(msgs, "XKF1")) > 100
+    bat = of(msgs, "BAT")
+    assert bat[-1].CurrTot > bat[0].CurrTot and 9 < bat[-1].Volt < 13
+    # the rover never armed: no log of its own
+    assert lw.files(1) == [] and not rover.armed
