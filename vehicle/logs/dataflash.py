@@ -84,7 +84,8 @@ def _array_conv(x) -> list[int]:
 
 
 class Encoder:
-    """Packs records of one message type: `pack(*values)` -> the record's bytes."""
+    """Packs records of one message type: `pack(*values)` -> the record's bytes (too few or
+    too many values: TypeError or ValueError)."""
 
     def __init__(self, type_id: int, d: MessageDef) -> None:
         if not 0 <= type_id < MAX_TYPES:
@@ -108,8 +109,36 @@ class Encoder:
                 lo, hi = _INT_RANGES[code]
                 convs.append((i, _int_conv(scale, lo, hi)))
         self._convs = convs
+        self.pack = self._fast_packer()
 
-    def pack(self, *values) -> bytes:
+    def _fast_packer(self) -> Callable[..., bytes]:
+        """pack() for the common case, generated as one function per message (as dataclasses
+        generate __init__): each field scaled and rounded inline, no per-field call. A value
+        it cannot store as is (NaN, infinite, out of its type's range, a string) raises inside
+        and the record is packed again by the careful path (`_pack_checked`)."""
+        d = self.d
+        args = [f"v{i}" for i in range(len(d.fmt))]
+        exprs = []
+        for i, c in enumerate(d.fmt):
+            code, scale = FORMAT_CHARS[c]
+            if c in "fd":
+                exprs.append(args[i])
+            elif c in "nNZa":
+                return self._pack_checked              # strings and arrays: the careful path
+            elif scale == 1.0:
+                exprs.append(f"_round({args[i]})")
+            else:
+                exprs.append(f"_round({args[i]} * {scale!r})")
+        src = (f"def pack({', '.join(args)}):\n"
+               f"    try:\n"
+               f"        return _pack({self._head[0]}, {self._head[1]}, {self._head[2]}, {', '.join(exprs)})\n"
+               f"    except (ValueError, OverflowError, TypeError, struct.error):\n"
+               f"        return _checked({', '.join(args)})\n")
+        scope = {"_round": round, "_pack": self.struct.pack, "_checked": self._pack_checked, "struct": struct}
+        exec(src, scope)            # noqa: S102 - generated from the format string above, no input
+        return scope["pack"]
+
+    def _pack_checked(self, *values) -> bytes:
         """One record from the field values (as DFReader reads them back, see the module)."""
         if len(values) != len(self.d.fmt):
             raise ValueError(f"{self.d.name}: {len(self.d.fmt)} values expected, got {len(values)}")
