@@ -163,3 +163,18 @@ def test_armed_refuses_once_per_armed_period_and_pauses():
     # a new armed period warns again
     t.handle(req_list(), B, armed=False)
     assert t.handle(req_list(), A, armed=True)[0][0].text == "Disarm for log download"
+
+
+def test_bytes_not_on_disk_yet_are_waited_for():
+    class Late(Catalog):
+        ready = False
+
+        def read(self, list_id, ofs, count):
+            return super().read(list_id, ofs, count) if self.ready else None
+    cat = Late([bytes(range(200))])
+    t = LogTransfer(cat)
+    assert t.handle(req_data(1), A, armed=False) == [] and t.channel == A
+    assert t.pump(False) == [] and t.channel == A          # still waiting, nothing lost
+    cat.ready = True
+    got, _ = download(t, 1)
+    assert got == bytes(range(200))

@@ -42,11 +42,13 @@ class LogEntryInfo(Protocol):
 
 
 class LogCatalog(Protocol):
-    """What the protocol needs of the logs: the list oldest first, their bytes, erasing."""
+    """What the protocol needs of the logs: the list oldest first (sizes as they will be),
+    their bytes, erasing."""
 
     def entries(self) -> Sequence[LogEntryInfo]: ...
 
-    def read(self, list_id: int, ofs: int, count: int) -> bytes: ...
+    def read(self, list_id: int, ofs: int, count: int) -> bytes | None:
+        """None: those bytes exist but cannot be read yet (asked again at the next pump)."""
 
     def erase(self) -> None: ...
 
@@ -155,6 +157,8 @@ class LogTransfer:
         ch, list_id = self.channel, self._data_id
         want = min(self._remaining, SENDS_PER_PUMP * DATA_LEN)
         data = self.catalog.read(list_id, self._ofs, want) if want else b""
+        if data is None:                 # recorded, not on disk yet: again next pump
+            return out
         pos = 0
         for _ in range(SENDS_PER_PUMP):
             chunk = data[pos:pos + min(DATA_LEN, self._remaining)]

@@ -60,6 +60,7 @@ class VehicleLog:
         self._rotate = False              # LOG_FILE_DSRMROT: close at the next disarmed tick
         self._erasing = 0                 # erases queued on the writer and not yet done
         self._listed: list[LogInfo] = []
+        self._unwritten: dict[int, LogSession] = {}    # log number -> its session, until on disk
         self._next_check = 0.0
 
     # ----- what the vehicle says -----------------------------------------------------
@@ -93,7 +94,10 @@ class VehicleLog:
         if self.session is None and backend and (armed or disarmed_logging) and not self._erasing:
             self.start(ap, t)
         s = self.session
-        self._writes = s is not None and (armed or disarmed_logging)
+        writes = s is not None and (armed or disarmed_logging)
+        if self._writes and not writes and s is not None:
+            s.hand_over()               # the last records of an armed period reach the disk now
+        self._writes = writes
         if s is None:
             return
         if self._writes:
@@ -139,6 +143,7 @@ class VehicleLog:
         """Open the next log and write what a log starts with."""
         path = self.store.new_log()
         s = self.session = LogSession(path, self.schema, self.writer, t)
+        self._unwritten[int(path.stem)] = s
         us = self._us(t)
         s.add(self.schema.header(us))
         ps = ap.params
@@ -173,15 +178,39 @@ class VehicleLog:
 
     # ----- the catalog the log download reads -------------------------------------------
     def entries(self) -> list[LogInfo]:
-        """The logs oldest first (none while an erase is still under way)."""
-        self._listed = [] if self._erasing else self.store.entries()
-        return self._listed
+        """The logs oldest first (none while an erase is still under way). A log whose bytes
+        are still on their way to the disk (the open one, one just closed) is listed with
+        the size it will have: what it recorded up to now."""
+        if self._erasing:
+            self._listed = []
+            return self._listed
+        if self.session is not None:
+            self.session.hand_over()
+        listed = self.store.entries()
+        unwritten = self._unwritten
+        for k, e in enumerate(listed):
+            s = unwritten.get(e.num)
+            if s is None:
+                continue
+            if e.size >= s.bytes and s is not self.session:
+                del unwritten[e.num]            # on disk whole: no longer tracked
+            elif s.bytes > e.size:
+                listed[k] = LogInfo(e.num, s.bytes, e.mtime)
+        self._listed = listed
+        return listed
 
-    def read(self, list_id: int, ofs: int, count: int) -> bytes:
+    def read(self, list_id: int, ofs: int, count: int) -> bytes | None:
+        """Up to `count` bytes of list entry `list_id` from `ofs`; None when they are
+        recorded but not on disk yet (the download asks again next tick)."""
         listed = self._listed or self.entries()
         if not 1 <= list_id <= len(listed):
             return b""
-        return self.store.read(listed[list_id - 1].num, ofs, count)
+        num = listed[list_id - 1].num
+        data = self.store.read(num, ofs, count)
+        s = self._unwritten.get(num)
+        if s is not None and len(data) < count and ofs + len(data) < s.bytes:
+            return None
+        return data
 
     def erase(self) -> None:
         """Erase every log; an open log closes and, if logging goes on, starts afresh at
@@ -200,6 +229,7 @@ class VehicleLog:
                 self._erasing -= 1
         self.writer.call(erase_all)
         self._listed = []
+        self._unwritten.clear()
 
     @property
     def path(self) -> Path | None:
