@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import os
 import threading
+import time
 import traceback
 from collections import deque
 from collections.abc import Callable
@@ -44,6 +45,7 @@ class LogWriter:
         self.dropped = 0           # bytes dropped because the queue was full (producer)
         self._done_items = 0       # items the thread has finished (writer thread)
         self._items = 0            # items queued (producer)
+        self.cpu = 0.0             # CPU seconds the writer thread spent writing (writer thread)
 
     @property
     def pending(self) -> int:
@@ -106,6 +108,7 @@ class LogWriter:
         while True:
             self._wake.wait(IDLE_WAIT)
             self._wake.clear()
+            c0 = time.thread_time()
             while q:
                 kind, path, data = q.popleft()
                 if kind == "w":
@@ -118,6 +121,7 @@ class LogWriter:
                     except Exception:        # a failed erase must not end the writer
                         traceback.print_exc()
                 self._done_items += 1
+            self.cpu += time.thread_time() - c0
             with self._idle:
                 self._idle.notify_all()
             if self._stopping and not q:
