@@ -58,7 +58,6 @@ class Sampler:
         self.att, self.pos, self.xkf1, self.gps = s["ATT"].pack, s["POS"].pack, s["XKF1"].pack, s["GPS"].pack
         self.bat, self.rcin, self.rcou = s["BAT"].pack, s["RCIN"].pack, s["RCOU"].pack
         self.tune = s["CTUN"].pack if kind == "copter" else s["THR"].pack
-        self._rcin_zero = None
 
     def due(self, t: float) -> bool:
         """True when the autopilot tick at sim time t is one this vehicle logs on (the
