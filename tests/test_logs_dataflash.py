@@ -76,9 +76,9 @@ def test_strings_are_cut_and_padded(tmp_path):
     recs = SCHEMA["MSG"].pack(1, long_text) + SCHEMA["PARM"].pack(2, "A_VERY_LONG_PARAMETER_NAME", 1.5, 2.0)
     r = read_back(tmp_path, SCHEMA.header(0) + recs)
     got = all_messages(r)
-    msg = [m for m in got if m.get_type() == "MSG"][0]
+    msg = next(m for m in got if m.get_type() == "MSG")
     assert msg.Message == "x" * 64
-    parm = [m for m in got if m.get_type() == "PARM"][0]
+    parm = next(m for m in got if m.get_type() == "PARM")
     assert parm.Name == "A_VERY_LONG_PARA" and (parm.Value, parm.Default) == (1.5, 2.0)
 
 
@@ -117,15 +117,15 @@ def test_round_trip(tmp_path_factory, t, roll, pitch, yaw, vn, pn, lat, lon, alt
            + SCHEMA["MSG"].pack(t, text)
            + SCHEMA["MODE"].pack(t, 4, 4, 2))
     got = all_messages(read_back(tmp_path_factory.mktemp("rt"), SCHEMA.header(0) + rec))
-    k = [m for m in got if m.get_type() == "XKF1"][0]
+    k = next(m for m in got if m.get_type() == "XKF1")
     assert k.TimeUS == t
     assert k.Roll == pytest.approx(roll, abs=0.006) and k.Pitch == pytest.approx(pitch, abs=0.006)
     assert k.Yaw == pytest.approx(yaw, abs=0.006)
     assert k.VN == pytest.approx(vn, rel=1e-6, abs=1e-6) and k.PN == pytest.approx(pn, rel=1e-6, abs=1e-6)
     assert k.OH == pytest.approx(alt, abs=0.006)
-    p = [m for m in got if m.get_type() == "POS"][0]
+    p = next(m for m in got if m.get_type() == "POS")
     assert p.Lat == pytest.approx(lat, abs=1e-7) and p.Lng == pytest.approx(lon, abs=1e-7)
     assert p.Alt == pytest.approx(alt, rel=1e-6, abs=1e-4)
-    assert [m for m in got if m.get_type() == "MSG"][0].Message == text
-    mode = [m for m in got if m.get_type() == "MODE"][0]
+    assert next(m for m in got if m.get_type() == "MSG").Message == text
+    mode = next(m for m in got if m.get_type() == "MODE")
     assert (mode.ModeNum, mode.Rsn) == (4, 2) and not math.isnan(p.RelHomeAlt)

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from pymavlink import DFReader
 from pymavlink.dialects.v20 import ardupilotmega as A
+from test_autopilot_behaviour import _until
 
 from common import geo
-from test_autopilot_behaviour import _until
 from vehicle.autopilot import modes
 from vehicle.autopilot.mission_store import MISSION, MissionItem
 from vehicle.logs import messages
@@ -43,7 +43,7 @@ class LoggedWorld:
 
     def run_for(self, seconds: float) -> None:
         w = self.w
-        end = w.steps + int(round(seconds / w.dt))
+        end = w.steps + round(seconds / w.dt)
         while w.steps < end:
             World.step(w)
             if w.steps % w.ap_every == 0:
@@ -200,7 +200,7 @@ def test_log_contents_against_the_truth(tmp_path):
     assert any(c.CNum == 2 and c.CId == A.MAV_CMD_NAV_WAYPOINT for c in cmds[3:])   # AUTO started item 2
     assert cmds[2].Lat == pytest.approx(-35.363, abs=1e-7) and cmds[2].Alt == 10
     # the samples: 10 Hz, ATT and GPS close to the truth at the same instant
-    truth = dict((round(t, 3), row) for t, row in lw.truth)
+    truth = {round(t, 3): row for t, row in lw.truth}
     atts, gpss = of(msgs, "ATT"), of(msgs, "GPS")
     span = (atts[-1].TimeUS - atts[0].TimeUS) * 1e-6
     assert len(atts) == pytest.approx(span * 10 + 1, abs=2)

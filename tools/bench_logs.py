@@ -54,7 +54,7 @@ def _world(n: int, state_dir: str, logging: bool):
 
 def _run(w, sim_s: float) -> dict:
     """Step the world unpaced for sim_s; CPU of this thread, the slowest autopilot tick."""
-    steps = int(round(sim_s / w.dt))
+    steps = round(sim_s / w.dt)
     writer = getattr(w, "log_writer", None)
     c0, wt0 = time.thread_time(), (writer.cpu if writer is not None else 0.0)
     b0 = writer.queued if writer is not None else 0
@@ -62,9 +62,7 @@ def _run(w, sim_s: float) -> dict:
     for _ in range(steps):
         t0 = time.perf_counter()
         w.step()
-        dt = time.perf_counter() - t0
-        if dt > slowest:
-            slowest = dt
+        slowest = max(slowest, time.perf_counter() - t0)
     loop = time.thread_time() - c0
     out = {"loop": loop, "slowest": slowest}
     if writer is not None:
@@ -94,7 +92,9 @@ def main(argv: list[str] | None = None) -> int:
     vs = a.vehicles * a.sim
     off, on = r["off"], r["on"]
     print(machine())
-    us = lambda s: f"{s / vs * 1e6:.0f}"             # noqa: E731 - µs per vehicle-second
+
+    def us(s: float) -> str:                     # µs per vehicle-second
+        return f"{s / vs * 1e6:.0f}"
     rows = [["step loop CPU (world thread)", us(off["loop"]), us(on["loop"]), us(on["loop"] - off["loop"])],
             ["writer thread CPU", "-", us(on.get("writer", 0.0)), us(on.get("writer", 0.0))],
             ["slowest world step (ms)", f"{off['slowest'] * 1e3:.1f}", f"{on['slowest'] * 1e3:.1f}", "-"]]

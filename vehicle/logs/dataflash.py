@@ -66,10 +66,9 @@ class MessageDef:
 def _int_conv(scale: float, lo: int, hi: int) -> Callable[[float], int]:
     def conv(x) -> int:
         x = x * scale
-        if x != x or x in (math.inf, -math.inf):
+        if not math.isfinite(x):
             return 0
-        x = int(round(x))
-        return lo if x < lo else hi if x > hi else x
+        return min(max(round(x), lo), hi)
     return conv
 
 
@@ -120,7 +119,7 @@ class Encoder:
         args = [f"v{i}" for i in range(len(d.fmt))]
         exprs = []
         for i, c in enumerate(d.fmt):
-            code, scale = FORMAT_CHARS[c]
+            scale = FORMAT_CHARS[c][1]
             if c in "fd":
                 exprs.append(args[i])
             elif c in "nNZa":

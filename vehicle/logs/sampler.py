@@ -51,7 +51,7 @@ class Sampler:
 
     def __init__(self, kind: str, schema: Schema, phase: int = 0, ap_rate: float = 50.0) -> None:
         self.kind = kind
-        self.every = max(1, int(round(ap_rate / LOG_RATE)))
+        self.every = max(1, round(ap_rate / LOG_RATE))
         self.phase = phase % self.every
         self.ap_rate = ap_rate
         s = schema
@@ -62,7 +62,7 @@ class Sampler:
     def due(self, t: float) -> bool:
         """True when the autopilot tick at sim time t is one this vehicle logs on (the
         world's tick count, so samples fall on the same instants whenever a log opened)."""
-        return int(round(t * self.ap_rate)) % self.every == self.phase
+        return round(t * self.ap_rate) % self.every == self.phase
 
     def sample(self, ap, time_us: int, unix_us: int) -> bytes:
         """The records of one 10 Hz sample of vehicle `ap` at `time_us` (since boot)."""

@@ -70,7 +70,7 @@ class VehicleLog:
             self.session.write("MSG", self._us(), text)
 
     def _us(self, t: float | None = None) -> int:
-        return int(round((self.clock() if t is None else t) * 1e6))
+        return round((self.clock() if t is None else t) * 1e6)
 
     # ----- every tick ----------------------------------------------------------------
     def update(self, ap, t: float) -> None:

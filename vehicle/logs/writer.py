@@ -118,7 +118,7 @@ class LogWriter:
                 else:
                     try:
                         path()
-                    except Exception:        # a failed erase must not end the writer
+                    except Exception:  # noqa: BLE001 - a failed erase must not end the writer
                         traceback.print_exc()
                 self._done_items += 1
             self.cpu += time.thread_time() - c0
