@@ -63,6 +63,11 @@ class VehicleLog:
         self._unwritten: dict[int, LogSession] = {}    # log number -> its session, until on disk
         self._next_check = 0.0
 
+    def set_unix_start(self, unix_start_us: int) -> None:
+        """The unix time (µs) of sim t = 0 (--workers: the instant the parent hands out);
+        GPS records' week and ms of week follow it."""
+        self.unix_start_us = unix_start_us
+
     # ----- what the vehicle says -----------------------------------------------------
     def text(self, severity: int, text: str) -> None:
         """A STATUSTEXT (the autopilot's outbox): MSG while records go in."""
