@@ -5,13 +5,14 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 
-.PHONY: demo test bench sweep venv clean help
+.PHONY: demo test bench sweep venv mavsdk3 clean help
 
 help:
 	@echo "make demo   - fly the default tower -> bridge -> drone -> rover scenario"
 	@echo "make test   - run the test suite"
 	@echo "make bench  - run the benchmarks (peers side by side)"
 	@echo "make sweep  - install Ray (the sweep extra) and run the example sweep (examples/sweep)"
+	@echo "make mavsdk3 - a MAVSDK-Python 3.x environment beside the venv ($(VENV)/mavsdk3), for its tests"
 
 # setuptools warns that folders named like the packages shadow them: for this checkout's
 # editable install that is the point, so the first command a person runs stays quiet
@@ -34,10 +35,23 @@ $(SWEEP_STAMP): $(STAMP)
 
 venv: $(STAMP)
 
+# MAVSDK-Python 3.x (System() with its bundled mavsdk_server) in an environment of its own:
+# the test venv keeps 4.x, and examples/pytest/test_mavsdk3.py flies 3.x under MAVSDK3_PYTHON
+MAVSDK3 := $(VENV)/mavsdk3
+MAVSDK3_STAMP := $(MAVSDK3)/.installed
+$(MAVSDK3_STAMP): | $(STAMP)
+	$(PY) -m venv $(MAVSDK3)
+	$(MAVSDK3)/bin/python -m pip install -q 'mavsdk<4' pytest
+	touch $@
+
+mavsdk3: $(MAVSDK3_STAMP)
+
 demo: $(STAMP)
 	$(BIN)/towerlink fly
 
-test: $(SWEEP_STAMP)
+# tests/ and examples/pytest (pyproject's testpaths)
+test: export MAVSDK3_PYTHON := $(CURDIR)/$(MAVSDK3)/bin/python
+test: $(SWEEP_STAMP) $(MAVSDK3_STAMP)
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile -m "not slow"
 	$(BIN)/python -m pytest -q -m slow
 

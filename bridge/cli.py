@@ -85,7 +85,7 @@ own, no follow, and the tower's SET_POSITION_TARGET_LOCAL_NED (tower frame) goes
 received, to the node link, where the lab's tower_to_map turns it into a world goal.
 Telemetry to the tower is still mapped world -> tower (the tower's link is in its frame).
 
-A family (issue 12). With --vehicle SYSID=URL (repeatable) the bridge serves the
+A family. With --vehicle SYSID=URL (repeatable) the bridge serves the
 scenario's vehicles instead of --drone/--rover: each is named by the scenario (drone1,
 rover1, van, ...; frames <name> and <name>_yaw), and every rover a scenario drone names
 follows that drone (one follower per pair, each at --follow-rate, in its own drone's
@@ -201,7 +201,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     w.add_argument("--speedup", type=speedup_type, default=1.0, metavar="N|max",
                    help="world speedup, only for the wall-clock fallback of the follow timeout")
     p.add_argument("--lockstep", action="store_true",
-                   help="whole-system lockstep (issue 11): join the world's TOWERLINK_LOCKSTEP handshake "
+                   help="whole-system lockstep: join the world's TOWERLINK_LOCKSTEP handshake "
                         "(with `towerlink sitl --lockstep N`); goal retries and the follower's checks and "
                         "retries then run on the world's TICKs (sim time), and the tower may join through it")
     p.add_argument("--view", nargs="?", type=int, const=8765, default=None, metavar="PORT",
@@ -214,7 +214,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def config_from_args(args):
-    from bridge.config import TOWER_SYSID, BridgeConfig
+    from common.mavlink.ids import TOWER_SYSID
+    from bridge.config import BridgeConfig
     from common.mavlink.signing import key_from_text
     from common.scenario import load_scenario, parse_static_transform
 

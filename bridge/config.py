@@ -3,11 +3,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from common.mavlink.ids import TOWER_SYSID
 from bridge.links import Link
 from bridge.pairing import VehicleFrames
 from bridge.timeline import TimesyncProbe
-
-TOWER_SYSID = 255               # the tower GCS's sysid (gcs.client's default source_system)
 
 
 @dataclass
@@ -37,21 +36,21 @@ class BridgeConfig:
     max_transform_age: float = 0.5
     time_grace: float = 1.5     # wall s to wait for a vehicle's SYSTEM_TIME before presuming one world
     quiet: bool = False
-    # trust (issue 8): who may add static frames over the wire, and signing on the tower link
+    # trust: who may add static frames over the wire, and signing on the tower link
     trust_sysids: tuple = (TOWER_SYSID,)
     allow_redefine: bool = False    # may a trusted sender redefine a scenario frame?
     signing_key: bytes | None = None
     # with signing_key: the vehicle links too take only packets signed with it (else the bridge
     # trusts them, and re-signs what it translates from them for the tower)
     vehicle_signing: bool = False
-    # a family (issue 12): every vehicle as (name, url, sysid), and (drone, rover) sysid pairs to
+    # a family: every vehicle as (name, url, sysid), and (drone, rover) sysid pairs to
     # follow; empty: the lab's drone and rover above
     vehicles: list = field(default_factory=list)
     pairs: list = field(default_factory=list)
-    # nodes (issue 12): a world-frame link for tf2_ros-style nodes, and routing only
+    # nodes: a world-frame link for tf2_ros-style nodes, and routing only
     nodes: str | None = None        # e.g. udpin:127.0.0.1:14620 (common.tf2_ros.DEFAULT_URL's peer)
     route_only: bool = False        # no vehicle frames, no goal translation, no follow: nodes do them
-    lockstep: bool = False      # issue 11: a participant of the world's lockstep (bridge.lockstep_desk)
+    lockstep: bool = False      # a participant of the world's lockstep (bridge.lockstep_desk)
 
 
 @dataclass

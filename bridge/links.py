@@ -1,20 +1,14 @@
-"""MAVLink endpoints for the bridge: framing, CRC checks and non-blocking sockets.
+"""MAVLink endpoints for the bridge: non-blocking sockets, cut into packets as they arrive.
 
-One idea per class:
+:class:`Link` is one endpoint named by a pymavlink connection string (``udpin:H:P``,
+``udpout:H:P``, ``udp:H:P`` = udpin, ``tcp:H:P`` client with reconnect, ``tcpin:H:P``
+server). Sockets are non-blocking and are served by the caller's ``selectors`` loop:
+``fileobjs()`` to register, ``on_readable(sock)`` to get packets, ``send(bytes)`` to
+write. Each socket's bytes go through its own common.mavlink.frame_parser.FrameParser
+(MAVLink 1 and 2, CRC-checked, not decoded; what is not a packet is counted in
+``malformed`` and skipped).
 
-* :class:`Framer` cuts a byte stream (or one UDP datagram) into MAVLink 1/2 packets
-  without decoding payloads: header fields, CRC-16/MCRF4XX with the message's
-  CRC_EXTRA, and the ``target_system``/``target_component`` bytes read straight from
-  the payload (MAVLink 2 zero-truncation aware). Garbage runs, bad CRCs, truncated
-  packets and unknown message ids are counted in ``malformed`` and skipped; it
-  resynchronises on the next magic byte (as pymavlink's robust parser does).
-* :class:`Link` is one endpoint named by a pymavlink connection string
-  (``udpin:H:P``, ``udpout:H:P``, ``udp:H:P`` = udpin, ``tcp:H:P`` client with
-  reconnect, ``tcpin:H:P`` server). Sockets are non-blocking and are served by the
-  caller's ``selectors`` loop: ``fileobjs()`` to register, ``on_readable(sock)`` to
-  get packets, ``send(bytes)`` to write.
-
-udpin links answer their peers (bridge.peers: silent for more than 30 s wall, dropped;
+udpin links answer their peers (common.mavlink.peers: silent for more than 30 s wall, dropped;
 at most 64, the most recent kept), added only for a datagram holding a valid packet
 that passes ``Link.verify`` when one is set (MAVLink 2 signing on the tower link);
 udpout links send to their address and accept replies from anyone. A packet that fails
@@ -23,187 +17,24 @@ answer it (to ``addr`` only) and drop it.
 """
 from __future__ import annotations
 
-import binascii
 import socket
-import struct
 import time
 from dataclasses import dataclass
 
 from common.mavlink.dialect import towerlink as _tl
+from common.mavlink.frame_parser import FrameParser, MsgInfo, Packet, message_table
 from common.mavlink.peers import PeerTable
 from common.mavlink.endpoints import parse_connection as parse_url
 
-try:  # pymavlink picks fastcrc when installed
-    from pymavlink.generator.mavcrc import mcrf4xx as _fast_crc
-except Exception:  # pragma: no cover
-    _fast_crc = None
-
 TCP_RETRY = 1.0
-MAX_STREAM_BUFFER = 1 << 20
-
-_REV = bytes(int(f"{i:08b}"[::-1], 2) for i in range(256))
-
-
-def crc_mcrf4xx(data: bytes) -> int:
-    """CRC-16/MCRF4XX (MAVLink's X.25 CRC), at C speed.
-
-    Uses fastcrc when pymavlink found it; otherwise the reflected CRC is computed as
-    the bit-reversal of CRC-CCITT (binascii.crc_hqx) over bit-reversed bytes.
-    """
-    if _fast_crc is not None:
-        return _fast_crc(bytes(data))
-    c = binascii.crc_hqx(bytes(data).translate(_REV), 0xFFFF)
-    return _REV[c & 0xFF] << 8 | _REV[c >> 8]
-
-
-def _field_offsets(cls) -> dict[str, int]:
-    """Byte offset of every wire-ordered field of a pymavlink message class."""
-    fmt = cls.unpacker.format
-    if isinstance(fmt, bytes):
-        fmt = fmt.decode()
-    tokens, num = [], ""
-    for ch in fmt[1:]:
-        if ch.isdigit():
-            num += ch
-        else:
-            tokens.append(num + ch)
-            num = ""
-    out, pos = {}, 0
-    for name, tok in zip(cls.ordered_fieldnames, tokens):
-        out[name] = pos
-        pos += struct.calcsize("<" + tok)
-    return out
-
-
 BATCH_BYTES = 1400      # a coalesced datagram stays within a 1500-byte Ethernet MTU
 
-
-@dataclass(frozen=True, slots=True)
-class MsgInfo:
-    crc_extra: int
-    target_system_ofs: int      # -1: message has no target_system
-    target_component_ofs: int   # -1: none
-    name: str
+#: the towerlink dialect's messages, as the frame parser needs them
+MSG_TABLE: dict[int, MsgInfo] = message_table(_tl.mavlink_map)
 
 
-def _build_table(module=_tl) -> dict[int, MsgInfo]:
-    table = {}
-    for msgid, cls in module.mavlink_map.items():
-        ofs = _field_offsets(cls)
-        table[msgid] = MsgInfo(cls.crc_extra, ofs.get("target_system", -1),
-                               ofs.get("target_component", -1), cls.msgname)
-    return table
-
-
-MSG_TABLE: dict[int, MsgInfo] = _build_table()
-
-
-@dataclass(slots=True)
-class Packet:
-    """One CRC-checked MAVLink packet, not decoded."""
-    raw: bytes
-    msgid: int
-    sysid: int
-    compid: int
-    seq: int
-    target_system: int      # 0 when the message has none (broadcast)
-    target_component: int
-    v2: bool
-    addr: object = None             # UDP sender address (a reply path that is not a peer)
-    refused: str | None = None      # why Link.verify refused it (then it is not to be used)
-
-
-class Framer:
-    """Cut bytes into MAVLink packets; count and skip whatever is not one."""
-
-    __slots__ = ("buf", "malformed", "packets", "_skipping", "table")
-
-    def __init__(self, table: dict[int, MsgInfo] = MSG_TABLE) -> None:
-        self.buf = bytearray()
-        self.malformed = 0
-        self.packets = 0
-        self._skipping = False
-        self.table = table
-
-    def _bad(self) -> None:
-        if not self._skipping:
-            self.malformed += 1
-            self._skipping = True
-
-    def feed(self, data: bytes, datagram: bool = False) -> list[Packet]:
-        """Packets found in `data` (appended to what is pending).
-
-        datagram=True treats `data` as a whole UDP datagram: a partial packet left at
-        its end is truncated input (counted), not something to wait for.
-        """
-        buf = self.buf
-        buf += data
-        out: list[Packet] = []
-        i, n = 0, len(buf)
-        table = self.table
-        while i < n:
-            magic = buf[i]
-            if magic == 0xFD:
-                if n - i < 10:
-                    break
-                plen = buf[i + 1]
-                incompat = buf[i + 2]
-                total = 12 + plen + (13 if incompat & 0x01 else 0)
-                if incompat & ~0x01:
-                    self._bad(); i += 1; continue
-                if n - i < total:
-                    break
-                msgid = buf[i + 7] | buf[i + 8] << 8 | buf[i + 9] << 16
-                info = table.get(msgid)
-                if info is None:
-                    self._bad(); i += 1; continue
-                end_crc = i + 10 + plen
-                crc = crc_mcrf4xx(bytes(buf[i + 1:end_crc]) + bytes((info.crc_extra,)))
-                if crc != (buf[end_crc] | buf[end_crc + 1] << 8):
-                    self._bad(); i += 1; continue
-                pay0 = i + 10
-                ts = buf[pay0 + info.target_system_ofs] if 0 <= info.target_system_ofs < plen else 0
-                tc = buf[pay0 + info.target_component_ofs] if 0 <= info.target_component_ofs < plen else 0
-                out.append(Packet(bytes(buf[i:i + total]), msgid, buf[i + 5], buf[i + 6], buf[i + 4],
-                                  ts, tc, True))
-                i += total
-                self._skipping = False
-            elif magic == 0xFE:
-                if n - i < 6:
-                    break
-                plen = buf[i + 1]
-                total = 8 + plen
-                if n - i < total:
-                    break
-                msgid = buf[i + 5]
-                info = table.get(msgid)
-                if info is None:
-                    self._bad(); i += 1; continue
-                end_crc = i + 6 + plen
-                crc = crc_mcrf4xx(bytes(buf[i + 1:end_crc]) + bytes((info.crc_extra,)))
-                if crc != (buf[end_crc] | buf[end_crc + 1] << 8):
-                    self._bad(); i += 1; continue
-                pay0 = i + 6
-                ts = buf[pay0 + info.target_system_ofs] if 0 <= info.target_system_ofs < plen else 0
-                tc = buf[pay0 + info.target_component_ofs] if 0 <= info.target_component_ofs < plen else 0
-                out.append(Packet(bytes(buf[i:i + total]), msgid, buf[i + 3], buf[i + 4], buf[i + 2],
-                                  ts, tc, False))
-                i += total
-                self._skipping = False
-            else:
-                self._bad()
-                i += 1
-        del buf[:i]
-        if datagram and buf:
-            self._bad()
-            buf.clear()
-        if datagram:
-            self._skipping = False
-        if len(buf) > MAX_STREAM_BUFFER:
-            self._bad()
-            buf.clear()
-        self.packets += len(out)
-        return out
+def _parser() -> FrameParser:
+    return FrameParser(MSG_TABLE)
 
 
 @dataclass
@@ -234,7 +65,7 @@ class Link:
         self.sysids: set[int] = set()          # systems seen behind this link
         self.peers = PeerTable()               # udpin: who gets what we send
         self.verify = None                     # (Packet) -> None or the reason it is refused
-        self._framers: dict[object, Framer] = {}
+        self._framers: dict[object, FrameParser] = {}
         self._tcp_clients: list[socket.socket] = []
         self._retry_at = 0.0
         self._connecting = False
@@ -256,7 +87,7 @@ class Link:
             else:
                 s.bind(("0.0.0.0" if self.host not in ("127.0.0.1", "localhost") else "127.0.0.1", 0))
             self.sock = s
-            self._framers[s] = Framer()
+            self._framers[s] = _parser()
         elif self.kind == "tcpin":
             s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
             s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
@@ -285,7 +116,7 @@ class Link:
             return
         self.sock = s
         self._connecting = True
-        self._framers = {s: Framer()}
+        self._framers = {s: _parser()}
 
     def fileobjs(self) -> list[socket.socket]:
         """Sockets to watch for reading now (changes for tcp/tcpin; re-query each loop)."""
@@ -363,7 +194,7 @@ class Link:
                 c.setblocking(False)
                 c.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
                 self._tcp_clients.append(c)
-                self._framers[c] = Framer()
+                self._framers[c] = _parser()
         else:
             fr = self._framers.get(s)
             if fr is None:
@@ -389,7 +220,7 @@ class Link:
             self.sysids.add(p.sysid)
         return out
 
-    def _fold(self, fr: Framer) -> None:
+    def _fold(self, fr: FrameParser) -> None:
         self.stats.malformed += fr.malformed + (1 if fr.buf else 0)
 
     def queue(self, data: bytes) -> None:

@@ -1,4 +1,4 @@
-"""The bridge as a lockstep participant (issue 11, `towerlink bridge --lockstep`).
+"""The bridge as a lockstep participant (`towerlink bridge --lockstep`).
 
 The world (``towerlink sitl --lockstep N``) sends TOWERLINK_LOCKSTEP TICK(t) on each
 vehicle link after everything it sent up to sim time t. UDP keeps order per socket pair,

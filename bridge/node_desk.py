@@ -11,25 +11,30 @@
 """
 from __future__ import annotations
 
-from common.mavlink.dialect import towerlink as tl
 from common.frames import TransformException
+from common.mavlink.dialect import towerlink as tl
+from common.mavlink.frame_parser import Packet
 from common.mavlink.mavstr import mav_str
-from bridge.codec import statustext_message
 from common.tf2_ros.wire import transform_from_message, transform_message
-from bridge.links import Link, Packet
+from bridge.codec import Codec, statustext_message
+from bridge.frame_tree import FrameTree
+from bridge.links import Link
+from bridge.log import BridgeLog
 from bridge.node_frames import NodeFrames, publisher
+from bridge.router import Router
+from bridge.trust import StaticTrust
 
 REFUSAL_TELL_PERIOD = 5.0       # wall s between STATUSTEXTs for one sender and frame
 
 
 class NodeDesk:
-    def __init__(self, bridge) -> None:
-        b = bridge
-        self.frames = NodeFrames(b.trust, b.tree)
-        self.node_links = b.node_links
-        self.codec = b.codec
-        self.send_own_to_gcs, self.statustext = b.send_own_to_gcs, b.statustext
-        self.log, self.warn_once = b.log, b.warn_once
+    def __init__(self, trust: StaticTrust, tree: FrameTree, node_links: list[Link], codec: Codec,
+                 router: Router, log: BridgeLog) -> None:
+        self.frames = NodeFrames(trust, tree)
+        self.node_links = node_links
+        self.codec = codec
+        self.send_own_to_gcs, self.statustext = router.send_own_to_gcs, router.statustext
+        self.log, self.warn_once = log.log, log.warn_once
 
     def on_transform(self, link: Link, pkt: Packet, msg) -> None:
         """TOWERLINK_TRANSFORM from a node: judged, stored, republished; or refused and told."""

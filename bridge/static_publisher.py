@@ -3,10 +3,9 @@ from __future__ import annotations
 
 import time
 
-from common.tf2_ros.wire import static_transform_message
 from common.frames import TransformStamped
-
-TOWER_SYSID = 255       # a GCS's sysid, the one a bridge trusts by default (--trust-sysid)
+from common.mavlink.ids import TOWER_SYSID
+from common.tf2_ros.wire import static_transform_message
 
 
 def publish_static(url: str, ts: TransformStamped, timeout: float = 3.0, interval: float = 0.5,

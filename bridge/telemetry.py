@@ -11,14 +11,19 @@ One vehicle message, one hop each (the loop decoded it and still routes it):
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 
 from common.mavlink.dialect import towerlink as tl
 from common.frames import TransformException
 from common.tf2_ros.wire import transform_message
-from bridge.config import VehicleRecord
-from bridge.frame_tree import ORIGIN
-from bridge.origins import origin_from_message
+from bridge.clock_desk import ClockDesk
+from bridge.config import BridgeConfig, VehicleRecord
+from bridge.frame_tree import ORIGIN, FrameTree
+from bridge.log import BridgeLog
+from bridge.origins import OriginDesk, origin_from_message
+from bridge.router import Router
+from bridge.timeline import Timeline
 
 MSG_HEARTBEAT = 0
 MSG_SYSTEM_TIME = 2
@@ -34,16 +39,18 @@ STREAM_REQUEST_PERIOD = 5.0     # wall s between re-asking a vehicle whose telem
 
 
 class TelemetryDesk:
-    def __init__(self, bridge) -> None:
-        b = bridge
-        self.cfg = b.cfg
-        self.clock = b.behaviour_clock     # sim time (the lockstep barrier) with --lockstep, else wall
-        self.wall = b.clock                 # the timeline's readings are always wall-stamped
-        self.clocks, self.timeline, self.tree, self.followers = b.clocks, b.timeline, b.tree, b.followers
-        self.vehicles = b.vehicles
-        self.origins = b.origins
-        self.command, self.send_own_to_gcs, self.send_out = b.command, b.send_own_to_gcs, b.send_out
-        self.log, self.warn_once = b.log, b.warn_once
+    def __init__(self, cfg: BridgeConfig, vehicles: dict[int, VehicleRecord], clocks: ClockDesk,
+                 timeline: Timeline, tree: FrameTree, origins: OriginDesk, followers: dict,
+                 router: Router, log: BridgeLog, clock: Callable[[], float], wall: Callable[[], float]) -> None:
+        self.cfg = cfg
+        self.clock = clock                  # sim time (the lockstep barrier) with --lockstep, else wall
+        self.wall = wall                    # the timeline's readings are always wall-stamped
+        self.clocks, self.timeline, self.tree = clocks, timeline, tree
+        self.followers = followers          # drone sysid -> (Follower, rover sysid)
+        self.vehicles = vehicles
+        self.origins = origins
+        self.command, self.send_own_to_gcs, self.send_out = router.command, router.send_own_to_gcs, router.send_out
+        self.log, self.warn_once = log.log, log.warn_once
 
     def on_message(self, v: VehicleRecord, mid: int, compid: int, msg) -> bool:
         """Take in a decoded vehicle message; False if it must not be forwarded."""

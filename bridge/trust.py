@@ -1,4 +1,4 @@
-"""Who may change the bridge's frame tree over the wire (issue 8, item 6).
+"""Who may change the bridge's frame tree over the wire.
 
 A TOWERLINK_STATIC_TRANSFORM moves frames every later tower goal goes through, so the
 bridge accepts one only when all of these hold, checked in this order; the first that

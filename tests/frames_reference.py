@@ -5,8 +5,8 @@ generates per path shape. This is the same computation written as the plain loop
 helper functions in common/frames/transform.py: sample each edge (exact stamp, or linear
 translation + shortest-path SLERP between the two samples around t), compose each side up to
 the common ancestor, then inv(target side) * (source side). It reads the buffer's stored edges
-(through Buffer._path, which also raises Lookup/Connectivity errors exactly as a lookup does),
-so a test inserts once and asks both.
+(through the buffer's FrameGraph.path, which also raises Lookup/Connectivity errors exactly as
+a lookup does), so a test inserts once and asks both.
 """
 from __future__ import annotations
 
@@ -14,16 +14,15 @@ from bisect import bisect_left
 from typing import Any
 
 from common.frames import LATEST, Buffer, Transform, TransformStamped
-from common.frames.buffer import _extrapolation
 from common.frames.stamped import check_time
 from common.frames.transform import IDENTITY7, _compose, _interpolate, _inv_compose, _inverse
 
 
 def sample_edge(e, t: float, target: str, source: str) -> tuple:
     """One edge's 7-tuple at time t; raises the buffer's extrapolation error outside its data."""
-    stamps = e.stamps
-    if stamps is None:
+    if e.is_static:
         return e.value
+    stamps = e.stamps
     i = bisect_left(stamps, t)
     if i < len(stamps):
         s1 = stamps[i]
@@ -32,7 +31,7 @@ def sample_edge(e, t: float, target: str, source: str) -> tuple:
         if i:
             s0 = stamps[i - 1]
             return _interpolate(e.values[i - 1], e.values[i], (t - s0) / (s1 - s0))
-    raise _extrapolation(e, t, target, source)
+    raise e.error_at(t, target, source)
 
 
 def evaluate(src: tuple, tgt: tuple, t: float, target: str, source: str) -> tuple:
@@ -57,7 +56,7 @@ def reference_lookup(buf: Buffer, target: str, source: str, time: Any = LATEST) 
     if time is not LATEST:
         time = check_time(time)
     with buf._lock:
-        src, tgt, dyn, _ = buf._path(target, source, "lookupTransform")
+        src, tgt, dyn, _ = buf._graph.path(target, source, "lookupTransform")
         if time is LATEST:
             t = min((e.stamps[-1] for e in dyn), default=0.0)
         else:

@@ -272,7 +272,7 @@ def test_waypoint_radius_is_wpnav_radius_and_param2_is_ignored_as_arducopter():
     """ArduCopter keeps only param1 (hold time) of a NAV_WAYPOINT: a 15 m param2 does not make
     the waypoint reached early; WPNAV_RADIUS (cm) does."""
     f = Flight("copter", params={"WPNAV_RADIUS": 500})
-    assert f.ap.auto.wp_radius() == 5.0
+    assert f.ap.auto.mission.wp_radius() == 5.0
     wp = f.at(40, 0, 10, param2=15.0)
     f.upload([f.at(0, 0, 10, C.MAV_CMD_NAV_TAKEOFF), wp, f.at(40, 40, 10)])
     armed_in_guided(f)
@@ -282,7 +282,7 @@ def test_waypoint_radius_is_wpnav_radius_and_param2_is_ignored_as_arducopter():
     d = np.linalg.norm(f.pos_at(t) - f.ned(wp))
     assert 4.0 < d <= 5.05                                   # at WPNAV_RADIUS, not at 15 m
     r = Flight("rover", params={"WP_RADIUS": 3.5})
-    assert r.ap.auto.wp_radius() == 3.5
+    assert r.ap.auto.mission.wp_radius() == 3.5
 
 
 def test_set_mission_current_jumps_now_in_auto_and_sets_the_resume_point_outside():

@@ -75,8 +75,8 @@ def test_rover_guided_velocity_target_times_out(rover):
     t_send = w.t
     _until(w, lambda: ap.vel[0] > 1.5, 3)
     w.run_for(2.5 - (w.t - t_send))
-    assert ap.vel[0] > 1.5 and ap.target is not None          # 2.5 s: still driving
-    _until(w, lambda: ap.target is None, 1.0)                   # dropped at GUID_TIMEOUT
+    assert ap.vel[0] > 1.5 and ap.guided.targets.target is not None          # 2.5 s: still driving
+    _until(w, lambda: ap.guided.targets.target is None, 1.0)                   # dropped at GUID_TIMEOUT
     assert 3.0 <= w.t - t_send <= 3.1
     _until(w, lambda: np.linalg.norm(ap.vel[:2]) < 0.05, 3)
     assert ap.mode == modes.ROVER_GUIDED and ap.armed
@@ -85,7 +85,7 @@ def test_rover_guided_velocity_target_times_out(rover):
     assert ap.position_target_local(A.MAV_FRAME_LOCAL_NED, VEL_BITS | ACC_BITS | YAW_IGNORE | YAW_RATE_IGNORE,
                                     (x0 + 30, ap.pos[1], 0), (0, 0, 0), (0, 0, 0), 0, 0)
     w.run_for(6)
-    assert ap.target is not None and ap.pos[0] > x0 + 20
+    assert ap.guided.targets.target is not None and ap.pos[0] > x0 + 20
 
 
 @pytest.mark.parametrize("action, mode, text", [(0, modes.ROVER_GUIDED, "GCS Failsafe"),
@@ -100,11 +100,11 @@ def test_rover_gcs_failsafe_actions(rover, action, mode, text):
     assert ap.set_mode(modes.ROVER_GUIDED) and ap.arm() == A.MAV_RESULT_ACCEPTED
     ap.gcs_heartbeat()
     t_hb = w.t
-    took = _until(w, lambda: ap.gcs_failsafe, 5)
+    took = _until(w, lambda: ap.failsafe.gcs_failsafe, 5)
     assert 2.0 <= took <= 2.1 and w.t - t_hb <= 2.1
     assert ap.mode == mode and ap.armed and text in texts
     ap.gcs_heartbeat()
-    assert not ap.gcs_failsafe and texts[-1] == "GCS Failsafe Cleared"
+    assert not ap.failsafe.gcs_failsafe and texts[-1] == "GCS Failsafe Cleared"
 
 
 def test_rover_failsafe_off_by_default(rover):
@@ -113,7 +113,7 @@ def test_rover_failsafe_off_by_default(rover):
     assert ap.set_mode(modes.ROVER_GUIDED) and ap.arm() == A.MAV_RESULT_ACCEPTED
     ap.gcs_heartbeat()
     w.run_for(20)
-    assert not ap.gcs_failsafe and ap.mode == modes.ROVER_GUIDED and ap.armed
+    assert not ap.failsafe.gcs_failsafe and ap.mode == modes.ROVER_GUIDED and ap.armed
     assert not any("Failsafe" in t for t in texts)
 
 
@@ -180,7 +180,7 @@ def test_copter_fs_gcs_enable_actions(enable, mode):
     for name, v in (("FS_GCS_ENABLE", enable), ("FS_GCS_TIMEOUT", 2)):
         assert ap.params.set(name, v, save=False) is None
     ap.gcs_heartbeat()
-    took = _until(w, lambda: ap.gcs_failsafe, 5)
+    took = _until(w, lambda: ap.failsafe.gcs_failsafe, 5)
     assert 2.0 <= took <= 2.1
     assert ap.mode == mode and ap.armed
     assert texts[0] == {modes.LAND: "GCS Failsafe On: LAND", modes.RTL: "GCS Failsafe On: RTL",
@@ -198,7 +198,7 @@ def test_copter_fs_gcs_smartrtl_falls_back_without_a_path(enable, fallback, why)
     for name, v in (("FS_GCS_ENABLE", enable), ("FS_GCS_TIMEOUT", 2)):
         assert ap.params.set(name, v, save=False) is None
     ap.gcs_heartbeat()
-    _until(w, lambda: ap.gcs_failsafe, 5)
+    _until(w, lambda: ap.failsafe.gcs_failsafe, 5)
     assert ap.mode == fallback and ap.armed
     assert texts[:4] == ["SmartRTL deactivated: bad position", "GCS Failsafe On: SmartRTL",
                          "Mode change to SMART_RTL failed: init failed", why]
@@ -212,7 +212,7 @@ def test_copter_fs_gcs_on_the_ground_disarms():
     assert ap.set_mode(modes.GUIDED) and ap.arm() == A.MAV_RESULT_ACCEPTED
     ap.gcs_heartbeat()
     _until(w, lambda: not ap.armed, 7)
-    assert ap.gcs_failsafe and ap.mode == modes.GUIDED
+    assert ap.failsafe.gcs_failsafe and ap.mode == modes.GUIDED
 
 
 def test_copter_fs_gcs_disabled_silent_gcs_changes_nothing():
@@ -224,7 +224,7 @@ def test_copter_fs_gcs_disabled_silent_gcs_changes_nothing():
     ap.gcs_heartbeat()
     here = ap.pos.copy()
     w.run_for(30)                       # six FS_GCS_TIMEOUTs of silence
-    assert not ap.gcs_failsafe and ap.mode == modes.GUIDED and ap.armed
+    assert not ap.failsafe.gcs_failsafe and ap.mode == modes.GUIDED and ap.armed
     assert np.linalg.norm(ap.pos - here) < 0.3 and texts == []
     assert ap.system_status() == A.MAV_STATE_ACTIVE
 

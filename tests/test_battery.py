@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from test_autopilot_behaviour import _fly, _goto, _until
 from test_sitl_support import Sitl, command, connect, mav, recv, set_mode, wait_armable
 from vehicle.autopilot import modes
-from vehicle.autopilot.base import BATTERY_PERIOD
+from vehicle.autopilot.failsafe import BATTERY_PERIOD
 from vehicle.autopilot.battery import (AVIONICS_W, CELL_RESISTANCE, CRITICAL, LOW, NONE, OCV_CURVE,
                                        Battery, cell_ocv)
 from vehicle.world import World, WorldConfig
@@ -151,22 +151,22 @@ def _world(drones=1, rovers=0, **params) -> World:
 def test_copter_current_follows_thrust():
     w = _world()
     ap = w.vehicles[0].ap
-    disarmed = ap.current_a
+    disarmed = ap.battery.current
     ap.set_mode(modes.GUIDED)
     ap.arm()
     w.run_for(0.5)
-    idle = ap.current_a
+    idle = ap.battery.current
     assert ap.command(mav.MAV_CMD_NAV_TAKEOFF, [0, 0, 0, 0, 0, 0, 20]) == mav.MAV_RESULT_ACCEPTED
     w.run_for(3.0)
-    climb = ap.current_a                                  # climbing at WPNAV_SPEED_UP
+    climb = ap.battery.current                                  # climbing at WPNAV_SPEED_UP
     _until(w, lambda: ap.pos[2] < -19.8, 30)
     w.run_for(5.0)
-    hover = ap.current_a
+    hover = ap.battery.current
     assert disarmed < 0.5 and disarmed < idle < 2 < hover < climb
     assert 12 < hover < 30                                 # a 1.8 kg quad on 3S: ~19 A
-    used = ap.consumed_mah
+    used = ap.battery.consumed_mah
     w.run_for(10.0)
-    assert (ap.consumed_mah - used) == pytest.approx(hover * 10 / 3.6, rel=0.1)
+    assert (ap.battery.consumed_mah - used) == pytest.approx(hover * 10 / 3.6, rel=0.1)
 
 
 def test_copter_low_then_critical_capacity_failsafe_rtl_then_land():

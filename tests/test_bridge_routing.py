@@ -61,6 +61,22 @@ def test_raw_bytes_forwarded_unchanged(world):
     assert bytes(got.get_msgbuf()) == raw
 
 
+def test_a_system_behind_a_vehicle_link_is_routed_as_that_links_traffic(world):
+    """A camera (sysid 7) behind the drone's link: its packets reach the tower as sent, and the
+    tower's packets for it go down the link it was heard on (learned), not to the rover."""
+    bridge, tower, drone, rover = world
+    camera = tl.MAVLink(None, 7, tl.MAV_COMP_ID_CAMERA)
+    raw = bytes(tl.MAVLink_heartbeat_message(tl.MAV_TYPE_CAMERA, tl.MAV_AUTOPILOT_INVALID, 0, 0, 4, 3)
+                .pack(camera))
+    drone.send_bytes(raw)
+    got = tower.wait("HEARTBEAT", lambda m: m.get_srcSystem() == 7)
+    assert bytes(got.get_msgbuf()) == raw
+    tower.mav.command_long_send(7, tl.MAV_COMP_ID_CAMERA, tl.MAV_CMD_REQUEST_MESSAGE, 0, 0, 0, 0, 0, 0, 0, 0)
+    drone.wait("COMMAND_LONG", lambda m: m.target_system == 7)
+    sync(tower, rover)
+    assert not rover.of_type("COMMAND_LONG", lambda m: m.target_system == 7)
+
+
 def test_unknown_target_is_unroutable(world):
     bridge, tower, drone, rover = world
     before = bridge.tower.stats.unroutable

@@ -82,7 +82,7 @@ def world():
 
 
 def _state(v):
-    return v.ap.armed, v.ap.mode, v.ap.sysid, v.ap.speed_override, tuple(v.ap.home), v.link.reboots \
+    return v.ap.armed, v.ap.mode, v.ap.sysid, v.ap.speed.override, tuple(v.ap.home), v.link.reboots \
         if hasattr(v.link, "reboots") else v.link.stats["reboots"]
 
 
@@ -121,7 +121,7 @@ def test_set_mode_message_and_handler_bug_still_acked(world, capfd, monkeypatch)
     v = world.vehicles[0]
     gcs = Gcs(v.link)
     # a bug inside a handler: exactly one ACK (FAILED), the vehicle keeps serving
-    monkeypatch.setattr(v.ap, "cmd_change_speed", lambda p: 1 / 0)
+    monkeypatch.setattr(v.ap.speed, "change", lambda speed: 1 / 0)
     assert gcs.command(C.MAV_CMD_DO_CHANGE_SPEED, [0, 3, -1, 0, 0, 0, 0]) == C.MAV_RESULT_FAILED
     assert v.link.stats["handler_error"] == 1
     assert "ZeroDivisionError" in capfd.readouterr().err

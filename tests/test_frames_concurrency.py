@@ -1,10 +1,9 @@
 """Timeouts wake on inserts; one writer and many readers see consistent transforms.
 
-The timeout tests run on an injected clock (the buffer's `_monotonic`), moved by the
+The timeout tests run on a clock passed to the buffer (Buffer(clock=...)), moved by the
 test: they check the deadline exactly and never wait out wall time."""
 from __future__ import annotations
 
-import importlib
 import threading
 
 import pytest
@@ -20,7 +19,7 @@ def ts(parent, child, stamp, tf=None):
 
 
 class FakeClock:
-    """Stands in for the buffer's wall clock (common.frames.buffer._monotonic): it moves only
+    """Stands in for the buffer's wall clock (Buffer's `clock`): it moves only
     when the test moves it, and counts how often the buffer read it."""
 
     def __init__(self, now: float = 100.0) -> None:
@@ -39,10 +38,8 @@ class FakeClock:
 
 
 @pytest.fixture
-def clock(monkeypatch):
-    c = FakeClock()
-    monkeypatch.setattr(importlib.import_module("common.frames.buffer"), "_monotonic", c)
-    return c
+def clock():
+    return FakeClock()
 
 
 class Waiter(threading.Thread):
@@ -52,7 +49,7 @@ class Waiter(threading.Thread):
         super().__init__(daemon=True)
         self.b, self.fn, self.result, self.error = b, fn, None, None
         self.start()
-        wait_until(lambda: b._waiting > 0 or not self.is_alive(), 5.0, "the call to block", interval=0.001)
+        wait_until(lambda: b.waiting > 0 or not self.is_alive(), 5.0, "the call to block", interval=0.001)
 
     def run(self) -> None:
         try:
@@ -72,7 +69,7 @@ def _poke(b: Buffer, k: int = 0) -> None:
 
 
 def test_lookup_with_timeout_returns_as_soon_as_data_arrives(clock):
-    b = Buffer()
+    b = Buffer(clock=clock)
     b.set_transform(ts("world", "drone", 1.0))
     w = Waiter(b, lambda: b.lookup_transform("world", "drone", 2.0, timeout=10.0))
     assert w.is_alive() and w.error is None
@@ -84,7 +81,7 @@ def test_lookup_with_timeout_returns_as_soon_as_data_arrives(clock):
 
 
 def test_lookup_with_timeout_waits_for_new_frame_and_can_transform(clock):
-    b = Buffer()
+    b = Buffer(clock=clock)
     w = Waiter(b, lambda: b.can_transform("world", "rover", LATEST, timeout=10.0))
     assert w.is_alive()
     b.set_transform_static(ts("world", "rover", 0.0))
@@ -94,7 +91,7 @@ def test_lookup_with_timeout_waits_for_new_frame_and_can_transform(clock):
 @pytest.mark.parametrize("timeout", [0.2, 0.5])
 @pytest.mark.parametrize("call", ["lookup_transform", "can_transform"])
 def test_timeout_expires_at_the_deadline_not_before(clock, timeout, call):
-    b = Buffer()
+    b = Buffer(clock=clock)
     b.set_transform(ts("world", "drone", 1.0))
     w = Waiter(b, lambda: getattr(b, call)("world", "drone", 5.0, timeout=timeout))
     # just before the deadline, woken: it looks at the clock again and keeps waiting
@@ -102,7 +99,7 @@ def test_timeout_expires_at_the_deadline_not_before(clock, timeout, call):
     n = clock.calls
     _poke(b)
     wait_until(lambda: clock.calls > n, 5.0, "the waiter to re-read the clock", interval=0.001)
-    assert w.is_alive() and w.error is None and b._waiting == 1
+    assert w.is_alive() and w.error is None and b.waiting == 1
     # at the deadline: it gives up
     clock.advance_to(100.0 + timeout)
     _poke(b, 1)
@@ -113,11 +110,11 @@ def test_timeout_expires_at_the_deadline_not_before(clock, timeout, call):
         assert isinstance(w.error, TimeoutException), w.error
         assert f"Timed out after {timeout:.3f} s" in str(w.error)
         assert isinstance(w.error.last_error, ExtrapolationException)
-    assert b._waiting == 0
+    assert b.waiting == 0
 
 
 def test_unrelated_inserts_do_not_end_the_wait_early(clock):
-    b = Buffer()
+    b = Buffer(clock=clock)
     b.set_transform(ts("world", "drone", 1.0))
     w = Waiter(b, lambda: b.lookup_transform("world", "drone", 5.0, timeout=0.3))
     n = clock.calls

@@ -102,6 +102,30 @@ def test_a_frame_to_itself_still_needs_a_string_id():
         Buffer().lookup_transform(None, None)
 
 
+# ---------------------------------------------------------------- validation order
+
+@pytest.mark.parametrize("target,source,error,argument", [
+    ("ghost", "", LookupException, "target_frame"),          # the unknown target, first
+    ("ghost", "/drone", LookupException, "target_frame"),
+    ("ghost", "nobody", LookupException, "target_frame"),
+    ("", "ghost", InvalidArgumentException, "target_frame"),
+    ("world", "", InvalidArgumentException, "source_frame"),
+    ("world", "ghost", LookupException, "source_frame"),
+])
+def test_lookup_validates_the_target_frame_fully_before_the_source(target, source, error, argument):
+    """tf2's lookupTransformImpl: validateFrameId(target) (empty or '/' -> InvalidArgument,
+    unknown -> Lookup), then validateFrameId(source); canTransform in the same order."""
+    buf = two_trees()
+    with pytest.raises(error, match=argument) as e:
+        buf.lookup_transform(target, source, 1.5)
+    if error is LookupException:
+        assert e.value.argument == argument
+    with pytest.raises(error, match=argument):
+        buf.lookup_transform(target, source)                   # LATEST: same order
+    ok, why = buf.can_transform(target, source, 1.5, return_debug_tuple=True)
+    assert not ok and f"canTransform argument {argument}" in why
+
+
 # ---------------------------------------------------------------- 3. lookup_transform_full
 
 def test_full_lookup_validates_all_three_ids_before_any_lookup():
@@ -137,10 +161,10 @@ def test_after_clear_the_frames_are_still_known():
     version = buf.structure_version
     buf.clear()
     assert buf.frames() == ["drone", "map", "rover", "tower", "world"]
-    assert buf.structure_version == version
+    assert buf.structure_version > version            # the emptied edges' parents are forgotten
     with pytest.raises(ExtrapolationException, match="holds no data") as e:
         buf.lookup_transform("world", "drone", 1.5)
-    assert type(e.value) is ExtrapolationException and e.value.edge == ("world", "drone")
+    assert type(e.value) is ExtrapolationException
     with pytest.raises(ConnectivityException):
         buf.lookup_transform("world", "drone", LATEST)
     with pytest.raises(ConnectivityException):
@@ -154,10 +178,45 @@ def test_after_clear_the_frames_are_still_known():
                                           "Frame rover exists with parent NO_PARENT.\n"
                                           "Frame tower exists with parent world.\n")
     assert "drone" not in buf.all_frames_as_yaml() and "tower" in buf.all_frames_as_yaml()
+    assert sorted(buf.edge_stats()) == ["tower"]      # an emptied edge has no parent to report
     # new data flows again through the same edge
     buf.set_transform(ts("world", "drone", 30.0, 3.0))
     assert buf.lookup_transform("world", "drone").stamp == 30.0
     assert buf.edge_stats()["drone"].samples == 1
+
+
+def test_after_clear_the_extrapolation_error_names_no_parent():
+    """tf2 keeps the parent with each sample, so a cleared cache has none: its error
+    (NoDataForExtrapolation, "but only time 0 is in the buffer") names no parent edge."""
+    buf = two_trees()
+    buf.clear()
+    for target, source in (("world", "drone"), ("drone", "world")):
+        with pytest.raises(ExtrapolationException) as e:
+            buf.lookup_transform(target, source, 1.5)
+        assert e.value.edge == (None, "drone")
+        assert "[drone] holds no data" in str(e.value) and "[world] -> [drone]" not in str(e.value)
+        assert (e.value.target_frame, e.value.source_frame) == (target, source)
+
+
+def test_after_clear_a_frame_may_take_its_old_parent_as_child():
+    """After clear() tf2 knows no parent for the emptied frame, so the old parent may hang
+    below it: no loop. The old edge's new data then would close one, and is refused."""
+    buf = two_trees()
+    buf.clear()
+    assert buf.set_transform(ts("drone", "world", 3.0, 1.0))
+    assert buf.lookup_transform("drone", "world", 3.0).transform.translation[0] == 1.0
+    assert buf.chain("drone", "world") == ["world", "drone"]
+    with pytest.raises(InvalidArgumentException, match="loop"):
+        buf.set_transform(ts("world", "drone", 3.0))
+
+
+def test_yaml_after_clear_of_every_dynamic_edge_is_empty_not_an_empty_list():
+    """tf2's allFramesAsYAML prints "[]" only when it knows no frame at all."""
+    buf = two_trees()
+    assert "drone: " in buf.all_frames_as_yaml()
+    buf.clear()
+    assert buf.all_frames_as_yaml() == ""
+    assert Buffer().all_frames_as_yaml() == "[]"
 
 
 def test_clear_through_a_cached_path():

@@ -64,11 +64,11 @@ def test_guided_fly_to_item_current_2(world):
         return recv(m, "MISSION_ACK", 5).type
 
     assert fly_to() == mav.MAV_MISSION_ERROR                   # STABILIZE: refused
-    assert ap.target is None
+    assert ap.guided.targets.target is None
     wait_armable(m)                                            # GUIDED needs a position estimate
     assert set_mode(m, "GUIDED") == mav.MAV_RESULT_ACCEPTED
     assert fly_to() == mav.MAV_MISSION_ACCEPTED
-    tgt = ap.target
+    tgt = ap.guided.targets.target
     assert tgt is not None and tgt.pos[0] == pytest.approx(10.0, abs=0.2) and tgt.pos[1] == pytest.approx(0.0, abs=0.2)
     assert -tgt.pos[2] == pytest.approx(12.0, abs=0.5)
     assert ap.missions.count() == 0                            # not a mission item

@@ -67,7 +67,7 @@ def test_brake_stops_from_5_m_s_within_arducopters_deceleration():
     # a LOITER-like slowdown at WPNAV_ACCEL (2.5 m/s/s) would need >= 2 s and 5 m: BRAKE is harder
     assert took < 5.0 / 2.5 + 0.3
     assert abs(ap.pos[2] - z0) < 0.3
-    _until(w, lambda: ap.brake_stop_time is not None, 5)
+    _until(w, lambda: ap.flightmodes[modes.BRAKE].stop.stop_time is not None, 5)
     w.run_for(5)                                   # then it holds the stopping point
     assert np.linalg.norm(ap.pos[:2] - ap.hold_pos[:2]) < 0.5
     assert np.linalg.norm(ap.vel) < 0.2
@@ -103,7 +103,7 @@ def test_poshold_brakes_then_holds_where_it_stopped():
     t_ideal, _ = brake_bound(5.0, G * math.tan(math.radians(30)), G * math.radians(8))
     print(f"POSHOLD from 5 m/s: {took:.2f} s to < 0.1 m/s (ideal {t_ideal:.2f} s)")
     assert t_ideal - 1.0 <= took <= t_ideal + 0.6      # gentler than BRAKE (about 2 s)
-    _until(w, lambda: ap.brake_stop_time is not None, 15)
+    _until(w, lambda: ap.flightmodes[modes.POSHOLD].stop.stop_time is not None, 15)
     p1 = ap.hold_pos.copy()
     w.run_for(10)
     assert np.linalg.norm(ap.pos[:2] - p1[:2]) < 1.0
@@ -144,7 +144,7 @@ def test_leaving_smart_rtl_puts_the_unreached_point_back():
     _until(w, lambda: np.linalg.norm(ap.pos - [30, 30, -5]) < 0.5, 40)
     assert ap.set_mode(modes.SMART_RTL)
     w.run_for(0.5)
-    popped = ap.srtl_popped.copy()
+    popped = ap.flightmodes[modes.SMART_RTL].popped.copy()
     n = len(ap.srtl.points)
     assert ap.set_mode(modes.LOITER)                  # ArduCopter's ModeSmartRTL::exit()
     assert len(ap.srtl.points) == n + 1 and np.allclose(ap.srtl.points[-1], popped)
@@ -166,9 +166,8 @@ def test_smart_rtl_refused_without_a_path_as_arducopter():
 def test_every_built_in_mode_accepted_disarmed():
     w = _world(drones=1, rovers=1)
     cap, rap = w.vehicles[0].ap, w.vehicles[1].ap
-    for ap, table, follow in ((cap, modes.COPTER_SUPPORTED, modes.FOLLOW),
-                              (rap, modes.ROVER_SUPPORTED, modes.ROVER_FOLLOW)):
-        table = table - {modes.AUTO if ap.kind == "copter" else modes.ROVER_AUTO, follow}   # needs a mission
+    for ap, named, follow in ((cap, modes.COPTER_MODES, modes.FOLLOW), (rap, modes.ROVER_MODES, modes.ROVER_FOLLOW)):
+        table = set(named) - {modes.AUTO if ap.kind == "copter" else modes.ROVER_AUTO, follow}   # needs a mission
         for m in sorted(table):
             assert ap.set_mode(m), (ap.kind, m)
             w.run_for(0.1)
@@ -195,7 +194,7 @@ def test_copter_fence_actions_smartrtl_and_brake(action, usable, mode, said):
     if not usable:
         ap.srtl.deactivate("bad position")
         texts.clear()
-    ap.fence_action_copter(action, False)
+    ap.failsafe.fence_action(action, False)
     assert ap.mode == mode
     assert [t for t in texts if "Unavailable" in t] == said
 
@@ -222,10 +221,10 @@ def test_rover_failsafe_smartrtl_falls_back_without_a_path():
     ap = w.vehicles[0].ap
     assert ap.set_mode(modes.ROVER_GUIDED) and ap.arm() == A.MAV_RESULT_ACCEPTED
     ap.srtl.deactivate("bad position")
-    ap.fence_action_rover(3)
+    ap.failsafe.fence_action(3, False)
     assert ap.mode == modes.ROVER_RTL
     ap.set_mode(modes.ROVER_GUIDED)
-    ap.fence_action_rover(4)
+    ap.failsafe.fence_action(4, False)
     assert ap.mode == modes.ROVER_HOLD
 
 
@@ -369,14 +368,14 @@ def test_prune_cuts_a_loop():
 def test_path_records_at_accuracy_and_deactivates_when_full():
     said = []
     path = SmartRTLPath(accuracy=2.0, points_max=10, text=lambda s, m: said.append(m))
-    path.update(np.zeros(3), True, True, 0.0)
+    path.record(np.zeros(3), True, True, False, 0.0)
     assert len(path.points) == 1 and path.active
-    path.update(np.array([1.0, 0, 0]), True, True, 0.1)
+    path.record(np.array([1.0, 0, 0]), True, True, False, 0.1)
     assert len(path.points) == 1                     # under SRTL_ACCURACY from the last point
     t = 0.2
     for k in range(200):                              # a zig-zag that cannot be simplified away
         t += 0.5
-        path.update(np.array([3.0 * k, 10.0 * (k % 2), 0]), True, True, t)
+        path.record(np.array([3.0 * k, 10.0 * (k % 2), 0]), True, True, False, t)
         if not path.active:
             break
     assert said == ["SmartRTL deactivated: buffer full"]

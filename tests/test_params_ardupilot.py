@@ -131,9 +131,9 @@ def test_rtl_loit_time_and_rtl_alt_final(loit_ms, final_cm):
     _goto(ap, 20, 0, -10)
     _until(w, lambda: np.linalg.norm(ap.pos - [20, 0, -10]) < 0.5, 40)
     assert ap.set_mode(modes.RTL)
-    _until(w, lambda: ap.rtl_stage == "loiter", 40)
+    _until(w, lambda: ap.flightmodes[modes.RTL].stage == "loiter", 40)
     t_over = w.t
-    _until(w, lambda: ap.rtl_stage != "loiter", 70)
+    _until(w, lambda: ap.flightmodes[modes.RTL].stage != "loiter", 70)
     assert abs((w.t - t_over) - loit_ms / 1000.0) < 0.1            # RTL_LOIT_TIME above home
     if final_cm == 0:
         _until(w, lambda: not ap.armed, 60)                         # then lands and disarms

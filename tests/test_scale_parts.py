@@ -261,7 +261,7 @@ def _readable(sock) -> bool:
 
 
 def test_a_tower_goal_is_handled_before_a_burst_of_telemetry_and_between_its_batches():
-    from bridge import loop as bl
+    from bridge import socket_loop as sl
     from bridge.config import BridgeConfig
     from bridge.loop import Bridge
     tport, vport = free_port(), free_port()
@@ -271,31 +271,36 @@ def test_a_tower_goal_is_handled_before_a_burst_of_telemetry_and_between_its_bat
                        vehicles=[("drone1", f"udpout:127.0.0.1:{vport}", 1)], follow=False)
     b = Bridge(cfg)
     tower = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    order = []
+
+    def recorded(on):
+        def handle(link, pkt):
+            order.append(link.name)
+            if link.name == "drone1" and order.count("drone1") == sl.VEHICLE_BATCH:
+                tower.sendto(_packet(255, 2), ("127.0.0.1", tport))       # arrives mid-burst
+                wait_until(lambda: _readable(b.tower.sock), 2, "the mid-burst goal at the bridge")
+            on(link, pkt)
+        return handle
+    # the bridge's own loop, its two sides recorded on their way in
+    loop = sl.PacketLoop(b.router.gcs_links, [v.link for v in b.vehicles.values()],
+                         recorded(b.gcs_side.on_packet), recorded(b.vehicle_side.on_packet),
+                         b.upkeep.tick, b.clock, b.warn_once)
     try:
         b.vehicles[1].link.send(b"\xfe\x00\x00\xfa\xbf\x00\x00\x00")   # so vsock learns its address
         vsock.settimeout(2.0)
         _d, link_addr = vsock.recvfrom(65535)
-        order = []
-        handled = b._handle
-
-        def record(link, pkts):
-            order.extend(link.name for _p in pkts)
-            if link.name == "drone1" and order.count("drone1") == bl.VEHICLE_BATCH:
-                tower.sendto(_packet(255, 2), ("127.0.0.1", tport))       # arrives mid-burst
-                wait_until(lambda: _readable(b.tower.sock), 2, "the mid-burst goal at the bridge")
-            handled(link, pkts)
-        b._handle = record
         for k in range(100):
             vsock.sendto(_packet(1 + k % 50, k), link_addr)
         tower.sendto(_packet(255, 1), ("127.0.0.1", tport))
         wait_until(lambda: _readable(b.tower.sock) and _readable(b.vehicles[1].link.sock), 2,
                    "the goal and the burst at the bridge")
-        b.run_once(0.5)
+        loop.run_once(0.5)
         assert order[0] == "tower"                         # the tower's first, though both were ready
         second = order.index("tower", 1)
-        assert second == 1 + bl.VEHICLE_BATCH, order       # right after the batch it arrived in
+        assert second == 1 + sl.VEHICLE_BATCH, order       # right after the batch it arrived in
         assert order.count("drone1") == 100
     finally:
+        loop.close()
         b.close()
         tower.close()
         vsock.close()

@@ -1,16 +1,19 @@
-"""pymavlink exactly as an ArduPilot SITL script: GUIDED, arm, takeoff, goal, land; rover goal."""
+"""pymavlink exactly as an ArduPilot SITL script: GUIDED, arm, takeoff, goal, land; rover goal.
+
+The world is the towerlink_sitl fixture's (towerlink's pytest plugin), at speedup 10 as a
+script's wall-clock deadlines expect."""
 from __future__ import annotations
 
 import pytest
 
-from test_sitl_support import Sitl, command, connect, goto_local, local_pos, mav, recv, set_mode, \
+from test_sitl_support import command, connect, goto_local, local_pos, mav, recv, set_mode, \
     wait_armable, wait_position
 
 
 @pytest.mark.timeout(120)
-def test_copter_takeoff_goto_land_udp(processes, tmp_path):
-    sitl = Sitl(processes, tmp_path, drones=1, rovers=1, speedup=10)
-    m = connect(sitl.udp[0])
+@pytest.mark.towerlink(drones=1, rovers=1, speedup=10)
+def test_copter_takeoff_goto_land_udp(towerlink_sitl):
+    m = connect(towerlink_sitl.udp_port(0))
     assert m.target_system == 1
     assert m.messages["HEARTBEAT"].type == mav.MAV_TYPE_QUADROTOR
     assert m.messages["HEARTBEAT"].autopilot == mav.MAV_AUTOPILOT_ARDUPILOTMEGA
@@ -37,9 +40,9 @@ def test_copter_takeoff_goto_land_udp(processes, tmp_path):
 
 
 @pytest.mark.timeout(120)
-def test_rover_guided_goal_tcp(processes, tmp_path):
-    sitl = Sitl(processes, tmp_path, drones=1, rovers=1, speedup=10)
-    m = connect(sitl.tcp[1], tcp=True)
+@pytest.mark.towerlink(drones=1, rovers=1, speedup=10)
+def test_rover_guided_goal_tcp(towerlink_sitl):
+    m = connect(towerlink_sitl.tcp_port(1), tcp=True)
     assert m.target_system == 2
     assert m.messages["HEARTBEAT"].type == mav.MAV_TYPE_GROUND_ROVER
     assert m.mode_mapping()["GUIDED"] == 15

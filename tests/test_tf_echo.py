@@ -113,6 +113,18 @@ def test_offline_from_tlog(tmp_path):
     assert rc == 1 and "Frame tower exists with parent world." in err
 
 
+@pytest.mark.parametrize("name, says", [
+    ("missing.tlog", "file does not exist"),
+    ("missing", "file does not exist"),          # pymavlink would take it for a serial port
+    ("run.mcap", "file does not exist"),
+    ("", "is a directory, not a tlog or .mcap recording"),
+])
+def test_offline_recording_that_is_not_a_file_is_one_line_and_exit_2(tmp_path, name, says):
+    path = str(tmp_path / name) if name else str(tmp_path)
+    rc, out, err = tfecho("world", "drone", "--tlog", path)
+    assert (rc, out, err) == (2, "", f"tf-echo: {path}: {says}\n")
+
+
 def test_live_from_running_bridge(processes):
     tport, dport, oport = free_ports(3)
     drone = FakeVehicle(1, dport, name="drone")

@@ -116,6 +116,16 @@ def test_from_tlog_and_cli(tmp_path, capsys):
     assert main(["view-frames", "--scenario", "-o", str(tmp_path / "s.svg"), "--no-dot"]) == 0
 
 
+@pytest.mark.parametrize("name", ["missing.tlog", "missing", "run.mcap"])
+def test_a_missing_recording_is_one_line_and_exit_2(tmp_path, capsys, name):
+    from tools.cli import main
+    path = str(tmp_path / name)
+    assert main(["view-frames", "--tlog", path, "-o", str(tmp_path / "f.svg"), "--no-dot"]) == 2
+    out, err = capsys.readouterr()
+    assert (out, err) == ("", f"view-frames: {path}: file does not exist\n")
+    assert not (tmp_path / "f.svg").exists()
+
+
 def test_live_listen_with_nothing_there_fails_cleanly(capsys):
     from support import free_port
     from tools.cli import main

@@ -17,7 +17,6 @@ import numpy as np
 
 from tools.hover_stats import format_hover, hover_figures
 from tools.run_data import DRONE, ROVER, RunData, Track, load_run
-from tools.run_data import read_tlog  # noqa: F401 - tools.view_frames still reads tlogs through here
 from tools.run_figures import (PARAM_DEFAULTS, ground_point_errors, horizontal_error, in_window, minimum_time,
                                stat, world_transforms)
 

@@ -24,6 +24,7 @@ import numpy as np
 
 from common.mavlink.signing import add_signing_argument
 from common.frames import InvalidArgumentException, TransformStamped
+from common.frames.arguments import checked_insert
 from common.scenario import STATIC_TRANSFORM_USAGE, ScenarioError, parse_static_transform
 from tools.tf_format import format_number, format_tf_echo
 
@@ -70,6 +71,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     try:
         ts = parse_static_transform(args.values)
+        # the buffer's own checks of what it stores: ids, and no transform from a frame to
+        # itself (tf2's static_transform_publisher refuses that too)
+        checked_insert(ts, "static transform")
     except (ScenarioError, InvalidArgumentException) as exc:
         print(f"towerlink static-transform: {type(exc).__name__}: {exc}", file=sys.stderr)
         return 2

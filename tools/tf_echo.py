@@ -87,7 +87,10 @@ def read_mcap(path: str):
 def run_offline(args) -> int:
     from common.frames import LATEST, TransformException
 
+    from tools.recording_file import require_recording
+
     try:
+        require_recording(args.tlog)
         lis = read_mcap(args.tlog) if str(args.tlog).endswith(".mcap") else read_tlog(args.tlog)
     except OSError as exc:
         print(f"tf-echo: {exc}", file=sys.stderr)

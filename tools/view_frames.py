@@ -55,7 +55,7 @@ def buffer_from_tlog(path: str | os.PathLike, cache_time: float = 10.0):
         from tools.run_mcap import buffer_from_mcap
         buf, _stamps, latest = buffer_from_mcap(path, cache_time)
         return buf, latest
-    from tools.run_summary import read_tlog
+    from tools.run_data import read_tlog
     return buffer_from_messages(read_tlog(path), cache_time)
 
 
@@ -323,6 +323,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if args.tlog:
+        from tools.recording_file import require_recording
+        try:
+            require_recording(args.tlog)
+        except OSError as exc:
+            print(f"view-frames: {exc}", file=sys.stderr)
+            return 2
         buf, now = buffer_from_tlog(args.tlog, args.cache_time)
         title = f"view_frames: {args.tlog}"
     elif args.scenario is not None:

@@ -14,18 +14,17 @@ computation written as the plain loop over the helper functions; the buffer test
 check the generated code against it (bit for bit) and chains against independent
 matrix products.
 SLERP constants per segment come from ``E.segs`` (computed on insert, see
-``buffer._segment``). Edges are read at call time (``E.value``, ``E.stamps``,
-``E.values``, ``E.segs``), so new
-samples and updated static values are seen without regenerating; a change of
-tree structure drops the path cache and so rebinds.
+``time_cache.segment``). Edges are read at call time (``E.value`` of a StaticCache,
+``E.stamps``, ``E.values``, ``E.segs`` of a TimeCache), so new samples and updated
+static values are seen without regenerating; a change of tree structure drops the
+path cache (graph.FrameGraph) and so rebinds. Outside its samples an edge raises
+``E.error_at(t, TGT, SRC)``.
 """
 from __future__ import annotations
 
 import math
 from bisect import bisect_left
 from typing import Callable
-
-from .transform import SLERP_NLERP_DOT
 
 _cache: dict[tuple[tuple[bool, ...], tuple[bool, ...]], Callable] = {}
 
@@ -70,7 +69,7 @@ def _sample(lines: list[str], k: int, static: bool, o: str) -> None:
         f"        {o}1 = y0 + (y1 - y0) * s",
         f"        {o}2 = z0 + (z1 - z0) * s",
         "    else:",
-        f"        raise _extrap(E{k}, t, TGT, SRC)",
+        f"        raise E{k}.error_at(t, TGT, SRC)",
     ]
 
 
@@ -151,13 +150,12 @@ def source(src: tuple[bool, ...], tgt: tuple[bool, ...]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def factory(src: tuple[bool, ...], tgt: tuple[bool, ...], extrap: Callable) -> Callable:
+def factory(src: tuple[bool, ...], tgt: tuple[bool, ...]) -> Callable:
     """The compiled ``make`` for this shape (cached per shape)."""
     key = (src, tgt)
     f = _cache.get(key)
     if f is None:
-        ns = {"_bl": bisect_left, "_acos": math.acos, "_sin": math.sin, "_sqrt": math.sqrt,
-              "_NL": SLERP_NLERP_DOT, "_extrap": extrap}
+        ns = {"_bl": bisect_left, "_sin": math.sin, "_sqrt": math.sqrt}
         exec(compile(source(src, tgt), f"<frames path {key}>", "exec"), ns)
         f = ns["make"]
         _cache[key] = f

@@ -49,11 +49,12 @@ class ExtrapolationException(TransformException):
 
     Attributes: ``target_frame``, ``source_frame`` (of the lookup), ``edge``
     ``(parent, child)`` whose data was missing, ``requested`` time, and
-    ``earliest`` / ``latest`` stamps stored on that edge.
+    ``earliest`` / ``latest`` stamps stored on that edge. For an edge emptied by
+    ``Buffer.clear()`` the parent is None (unknown, as in tf2) and there are no stamps.
     """
 
     def __init__(self, message: str, target_frame: str | None = None,
-                 source_frame: str | None = None, edge: tuple[str, str] | None = None,
+                 source_frame: str | None = None, edge: tuple[str | None, str] | None = None,
                  requested: float | None = None, earliest: float | None = None,
                  latest: float | None = None):
         super().__init__(message)

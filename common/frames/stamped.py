@@ -12,7 +12,7 @@ from typing import Any, Union
 import numpy as np
 
 from .errors import InvalidArgumentException
-from .transform import Transform, _as_floats, _checked_quat, _readonly
+from .transform import Transform, _as_floats, _checked_quat, _compose, _readonly
 
 
 class _Latest:
@@ -134,5 +134,50 @@ class PoseStamped:
         return Transform._of(tuple(self.position.tolist()) + tuple(self.orientation.tolist()))
 
 
+_new = object.__new__
+_set_v = Transform.__dict__["_v"].__set__
+_set_frame_id = TransformStamped.__dict__["frame_id"].__set__
+_set_child_frame_id = TransformStamped.__dict__["child_frame_id"].__set__
+_set_stamp = TransformStamped.__dict__["stamp"].__set__
+_set_transform = TransformStamped.__dict__["transform"].__set__
+
+
+def stamped_of(frame_id: str, child_frame_id: str, stamp: float, v: tuple) -> TransformStamped:
+    """TransformStamped(frame_id, child_frame_id, stamp, Transform of the 7-tuple v) from
+    values already checked, without checking them again (the buffer's lookup results)."""
+    tr = _new(Transform)
+    _set_v(tr, v)
+    ts = _new(TransformStamped)
+    _set_frame_id(ts, frame_id)
+    _set_child_frame_id(ts, child_frame_id)
+    _set_stamp(ts, stamp)
+    _set_transform(ts, tr)
+    return ts
+
+
+def _built(cls: type, **fields: Any) -> Any:
+    """A frozen stamped value from fields already checked, without copying them."""
+    obj = _new(cls)
+    for k, val in fields.items():
+        object.__setattr__(obj, k, val)
+    return obj
+
+
+def transformed(data: "PointStamped | VectorStamped | PoseStamped",
+                ts: TransformStamped) -> "PointStamped | VectorStamped | PoseStamped":
+    """``data`` (in ts.child_frame_id) expressed in ts.frame_id, stamped ts.stamp: a
+    point moves by the whole transform, a vector is only rotated, a pose is composed."""
+    tr = ts.transform
+    if isinstance(data, PointStamped):
+        return _built(PointStamped, frame_id=ts.frame_id, stamp=ts.stamp,
+                      point=_readonly(tr.apply_point(data.point)))
+    if isinstance(data, VectorStamped):
+        return _built(VectorStamped, frame_id=ts.frame_id, stamp=ts.stamp,
+                      vector=_readonly(tr.apply_vector(data.vector)))
+    v = _compose(tr._v, data.as_transform()._v)
+    return _built(PoseStamped, frame_id=ts.frame_id, stamp=ts.stamp,
+                  position=_readonly(np.array(v[:3])), orientation=_readonly(np.array(v[3:])))
+
+
 __all__ = ["LATEST", "TransformStamped", "PointStamped", "VectorStamped", "PoseStamped",
-           "check_time"]
+           "check_time", "stamped_of", "transformed"]

@@ -25,7 +25,7 @@ def reset_edge(buffer: Buffer, ts: TransformStamped, authority: str = "reset") -
     """Drop the history of the dynamic edge ts.frame_id -> ts.child_frame_id.
 
     The Buffer replaces an edge when it switches between static and dynamic
-    (common.frames.buffer), so writing it once as static and then dynamic again empties
+    (common.frames.graph), so writing it once as static and then dynamic again empties
     it without touching any other edge.
     """
     buffer.set_transform_static(ts, authority)

@@ -1,7 +1,10 @@
-"""AUTO: flies the stored MISSION through a MissionRunner, for Copter (mode 3) and Rover (10).
+"""AUTO's mission half, shared by the copter's and the rover's AUTO mode objects
+(copter_modes/auto.py, rover_modes/auto.py, both MissionModes), as ArduCopter's and
+ArduRover's ModeAuto own their AP_Mission: the stored MISSION walked by a MissionRunner, each
+command started and verified by auto_commands.py. How the vehicle flies each sub-mode is its
+mode object's.
 
-The mode around the commands (auto_commands.py says what each command does), as ArduCopter's
-and ArduRover's ModeAuto (learned from their source, re-expressed here):
+What the mode does around the commands (learned from ArduPilot's source, re-expressed here):
 - Entering: no mission -> refused (Copter "Mode change to AUTO failed: init failed"; Rover
   "No Mission. Can't set AUTO." then "Flight mode change failed"); a copter armed on the
   ground whose next navigation command is not a takeoff -> "Auto: Missing Takeoff Cmd".
@@ -31,15 +34,16 @@ from vehicle.autopilot.mission_store import MISSION
 SEV_NOTICE, SEV_CRITICAL = mav.MAV_SEVERITY_NOTICE, mav.MAV_SEVERITY_CRITICAL
 
 
-class AutoMode(AutoCommands):
-    """ModeAuto for one autopilot `ap` (CopterAutopilot or RoverAutopilot)."""
+class AutoMission(AutoCommands):
+    """The mission of one autopilot `ap`; `rtl` is that vehicle's RTL mode object, which
+    NAV_RETURN_TO_LAUNCH flies (start(), complete())."""
 
-    def __init__(self, ap) -> None:
+    def __init__(self, ap, rtl) -> None:
         self.ap = ap
+        self.rtl = rtl
         self.copter = ap.kind == "copter"
         self.runner = MissionRunner(lambda: ap.missions.items(MISSION), self.start_command,
-                                    self.verify_command, self.exit_mission,
-                                    lambda sev, msg: ap.text(sev, msg))   # the link rebinds ap.text
+                                    self.verify_command, self.exit_mission, ap.text)
         self.waiting_to_start = False
         self.seen_version = ap.missions.version[MISSION]
         self.sub = "loiter"
@@ -56,12 +60,12 @@ class AutoMode(AutoCommands):
         self.land_stage = ""
         self.circle: dict | None = None
         self.paused = False
-        self.auto_armed = False
 
     # ----- mode entry / exit ----------------------------------------------------------
     def init(self) -> bool:
         """Entering AUTO; False (with ArduPilot's text) when it must be refused."""
         ap = self.ap
+        ap.refresh()
         if not self.runner.present():
             if not self.copter:
                 ap.text(SEV_NOTICE, "No Mission. Can't set AUTO.")
@@ -74,8 +78,7 @@ class AutoMode(AutoCommands):
         self.fixed_yaw = None
         self.paused = False
         self.dest = None
-        ap.speed_override = None          # the waypoint controller starts at its default speeds
-        ap.apply_speed()
+        ap.speed.clear()                  # the waypoint controller starts at its default speeds
         if self.copter:
             ap.push_params({n: float(ap.params.get(n)) for n in ("WPNAV_SPEED_UP", "WPNAV_SPEED_DN")
                             if ap.params.get(n) is not None})
@@ -89,7 +92,7 @@ class AutoMode(AutoCommands):
 
     def mission_start(self) -> None:
         """MAV_CMD_MISSION_START after AUTO was entered: auto armed, mission running."""
-        self.auto_armed = True
+        self.ap.auto_armed = True
         if not self.waiting_to_start and self.runner.state != RUNNING:
             self.runner.start_or_resume(self.restart())
 
@@ -97,7 +100,8 @@ class AutoMode(AutoCommands):
         return int(self.ap.params.get("MIS_RESTART", 0)) == 1
 
     # ----- the periodic step -----------------------------------------------------------
-    def run(self, dt: float) -> None:
+    def step(self) -> None:
+        """Start once a position is known, restart the command on a new upload, walk."""
         ap = self.ap
         version = ap.missions.version[MISSION]
         if self.waiting_to_start:
@@ -114,7 +118,6 @@ class AutoMode(AutoCommands):
                     else:
                         ap.text(SEV_CRITICAL, "Auto mission changed but failed to restart command")
             self.runner.update()
-        ap.auto_fly(self, dt)
 
     # ----- end of mission ---------------------------------------------------------------
     def exit_mission(self) -> None:
@@ -130,12 +133,11 @@ class AutoMode(AutoCommands):
             ap.text(SEV_NOTICE, "Mission Complete")
             self.sub = "stop"
 
-    def on_disarmed(self) -> None:
+    def on_disarmed(self, in_auto: bool) -> None:
         """ArduCopter resets the mission (back to its first item) on every disarm; ArduRover
         only when disarmed outside AUTO (in AUTO the mission may be paused and resumed)."""
-        if self.copter or self.ap.mode != self.ap.auto_mode:
+        if self.copter or not in_auto:
             self.runner.reset()
-        self.auto_armed = False
 
     # ----- DO_PAUSE_CONTINUE ------------------------------------------------------------
     def pause(self) -> bool:
@@ -149,6 +151,47 @@ class AutoMode(AutoCommands):
         self.paused = False
         return True
 
-    def mission_state(self) -> int:
-        """MISSION_CURRENT.mission_state (a paused leg is still ACTIVE, as ArduPilot reports it)."""
-        return self.runner.mission_state()
+    # ----- the mission protocol's calls ---------------------------------------------------
+    def set_current(self, seq) -> bool:
+        """MISSION_SET_CURRENT / DO_SET_MISSION_CURRENT: False if seq is not a valid item."""
+        try:
+            seq = int(seq)
+        except (TypeError, ValueError, OverflowError):
+            return False
+        return self.runner.set_current(seq)
+
+    def current(self) -> tuple[int, int]:
+        """(seq, mission_state) for MISSION_CURRENT: the navigation command flown, and the
+        runner's state (a paused leg is still ACTIVE, as ArduPilot reports it)."""
+        return self.runner.current_seq(), self.runner.mission_state()
+
+
+class MissionMode:
+    """The hooks the copter's and the rover's AUTO modes share, put before their vehicle's
+    Mode class: the mission is started, stepped (every tick, disarmed too, before the vehicle
+    flies), paused and left through its AutoMission, which flies the RTL mode for
+    NAV_RETURN_TO_LAUNCH."""
+
+    def __init__(self, ap) -> None:
+        super().__init__(ap)
+        self.mission = AutoMission(ap, ap.flightmodes[ap.RTL])
+
+    def init(self, ignore_checks: bool) -> bool:
+        """AutoMission.init's checks. ArduCopter's ModeAuto::init also enters AUTO without a
+        mission when ignore_checks (disarmed); towerlink refuses it armed or not, as it
+        always has."""
+        return self.mission.init()
+
+    def exit(self) -> None:
+        super().exit()
+        self.mission.exit()
+
+    def pause(self) -> bool:
+        return self.mission.pause()
+
+    def resume(self) -> bool:
+        return self.mission.resume()
+
+    def run(self, dt: float) -> None:
+        self.mission.step()
+        super().run(dt)

@@ -1,4 +1,4 @@
-"""AUTO's mission commands: how each one starts and when it is done (a mixin of AutoMode).
+"""AUTO's mission commands: how each one starts and when it is done (a mixin of AutoMission).
 
 What each command does, as ArduCopter's / ArduRover's ModeAuto do it (learned from their
 source, re-expressed here):
@@ -17,8 +17,8 @@ source, re-expressed here):
   has no RC throttle to raise.
 - NAV_LAND (copter): at a position -> fly there at the current altitude, then descend;
   else descend here. Landed -> disarm (the land item is not reported reached, as
-  ArduCopter). NAV_RETURN_TO_LAUNCH: the vehicle's RTL (rally points included); done
-  once landed (copter) / arrived (rover).
+  ArduCopter). NAV_RETURN_TO_LAUNCH: the vehicle's RTL mode object flies it (rally points
+  included); done once landed (copter) / arrived (rover).
 - NAV_LOITER_UNLIM: go there and stay (never done). NAV_LOITER_TIME: go there, stay
   param1 s. NAV_LOITER_TURNS (copter): circle param1 turns of radius |param3| m
   (negative = counter-clockwise) around the point, "Mission: starting circle k/n".
@@ -51,7 +51,7 @@ DO_DONE = {C.MAV_CMD_DO_CHANGE_SPEED, C.MAV_CMD_DO_SET_HOME, C.MAV_CMD_DO_SET_RO
 
 
 class AutoCommands:
-    """start_command / verify_command for the MissionRunner; state lives on AutoMode."""
+    """start_command / verify_command for the MissionRunner; state lives on AutoMission."""
 
     # ----- command start ----------------------------------------------------------------
     def _home_z(self) -> float:
@@ -99,7 +99,7 @@ class AutoCommands:
                 ap.hold_here()
             return True
         if c == C.MAV_CMD_NAV_RETURN_TO_LAUNCH:
-            ap.rtl_start()
+            self.rtl.start()
             self.sub = "rtl"
             return True
         if c in (C.MAV_CMD_NAV_LOITER_UNLIM, C.MAV_CMD_NAV_LOITER_TIME):
@@ -131,9 +131,9 @@ class AutoCommands:
             self._change_speed(item)
         elif c == C.MAV_CMD_DO_SET_HOME:
             if _num(item.param1) == 1 or not has_position(item):
-                ap.cmd_set_home([1, 0, 0, 0, 0, 0, 0], None, None, None)
+                ap.commands.set_home([1, 0, 0, 0, 0, 0, 0], None, None, None)
             else:
-                ap.cmd_set_home([0, 0, 0, 0, 0, 0, float(item.z)], item.x, item.y, item.frame)
+                ap.commands.set_home([0, 0, 0, 0, 0, 0, float(item.z)], item.frame, item.x, item.y)
         elif c in (C.MAV_CMD_DO_SET_ROI, C.MAV_CMD_DO_SET_ROI_LOCATION, C.MAV_CMD_DO_SET_ROI_NONE):
             self.roi = self._ned(item) if has_position(item) and c != C.MAV_CMD_DO_SET_ROI_NONE else None
         else:
@@ -163,10 +163,10 @@ class AutoCommands:
             return
         ap = self.ap
         if not self.copter:
-            ap.cmd_change_speed([kind, speed, -1, 0, 0, 0, 0])
+            ap.speed.change(speed)
             ap.text(SEV_INFO, f"speed: {speed:.1f} m/s")
         elif kind in (0, 1):
-            ap.cmd_change_speed([kind, speed, -1, 0, 0, 0, 0])
+            ap.speed.change(speed)
         elif kind == 2:
             ap.push_params({"WPNAV_SPEED_UP": speed * 100.0})
         elif kind == 3:
@@ -195,7 +195,7 @@ class AutoCommands:
                 ap.disarm(force=True, reason="landed")
             return False
         if c == C.MAV_CMD_NAV_RETURN_TO_LAUNCH:
-            return ap.rtl_complete()
+            return self.rtl.complete()
         if c == C.MAV_CMD_NAV_LOITER_UNLIM:
             if not self.copter:
                 self._verify_wp(item)            # ArduRover still says "Reached waypoint #N"

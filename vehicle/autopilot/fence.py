@@ -13,16 +13,15 @@ ArduPilot's AC_Fence and the vehicles' fence_check (learned from their source):
   further out (altitude and circle) makes a further breach new again.
 - New breaches while armed say "<Max Alt|Circle|Polygon|Min Alt> fence breached"
   (NOTICE, names joined with ", " and " and ", "fences" for several; the copter keeps
-  quiet when landed), then the action: Copter FENCE_ACTION 0 report only, 1 RTL (LAND if RTL
-  cannot start), 2 LAND, 3 SmartRTL->RTL->LAND (no SmartRTL here: RTL), 4 Brake->LAND (no
-  BRAKE here: LAND), 5 SmartRTL->LAND (LAND); more than 100 m outside forces LAND; landed ->
-  disarm. Rover: 0 report, 1 RTL (HOLD if not), 2 HOLD, 3 RTL, 4 HOLD.
+  quiet when landed), then FENCE_ACTION (0 report only) as the vehicle's failsafe acts on it
+  (copter_failsafe.py: more than 100 m outside forces LAND, landed -> disarm;
+  rover_failsafe.py).
 - Pre-arm (only with FENCE_ENABLE 1): "Fences enabled, but none selected",
   "Polygon fence(s) invalid", "Polygon fence margin is less than inclusion circle radius",
   "FENCE_ALT_MAX < FENCE_ALT_MIN", "FENCE_MARGIN too big" (altitudes closer than two
   margins), "Vehicle breaching <names>".
 - Copter GUIDED destinations outside an enabled fence are refused (ArduCopter only logs
-  DEST_OUTSIDE_FENCE: the vehicle keeps its previous target; copter.accept_target). Velocity
+  DEST_OUTSIDE_FENCE: the vehicle keeps its previous target; copter_modes/guided.py). Velocity
   and acceleration targets are not destinations: they may cross, and the breach acts.
 - SYS_STATUS geofence bits: present (a fence type configured), enabled (FENCE_ENABLE and an
   action other than report-only), healthy (no breach).
@@ -210,12 +209,8 @@ class Fence:
         if not (copter and ap.on_ground):
             ap.text(mav.MAV_SEVERITY_NOTICE, f"{fence_names(new)} breached")
         action = int(ap.params.get("FENCE_ACTION", 1))
-        if action == 0:
-            return
-        if copter:
-            ap.fence_action_copter(action, self.breach_distance > FORCE_LAND_M)
-        else:
-            ap.fence_action_rover(action)
+        if action != 0:
+            ap.failsafe.fence_action(action, self.breach_distance > FORCE_LAND_M)
 
     def sys_status_bits(self) -> tuple[bool, bool, bool]:
         """(present, enabled, healthy) for SYS_STATUS MAV_SYS_STATUS_GEOFENCE."""

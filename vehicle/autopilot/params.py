@@ -14,31 +14,15 @@ import os
 import re
 import sys
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-
-@dataclass(frozen=True)
-class ParamDef:
-    name: str
-    default: float
-    lo: float
-    hi: float
-    integer: bool = False
-    doc: str = ""
-    units: str = ""                 # ArduPilot's @Units
-    ptype: int | None = None        # ArduPilot's MAV_PARAM_TYPE (AP_Int8/16/32, AP_Float)
-
-    @property
-    def mav_type(self) -> int:
-        if self.ptype is not None:
-            return self.ptype
-        return mav.MAV_PARAM_TYPE_INT32 if self.integer else mav.MAV_PARAM_TYPE_REAL32
+from vehicle.autopilot.param_def import ParamDef
+# what ground stations read by default; the definitions below win over them
+from vehicle.autopilot.params_ardupilot import COPTER_EXTRA, META, ROVER_EXTRA, TYPES, UNITS
 
 
 def _d(name, default, lo, hi, integer=False, doc=""):
-    from vehicle.autopilot.params_ardupilot import META, TYPES, UNITS
     units, ptype = META.get(name, ("", None))
     return ParamDef(name, float(default), float(lo), float(hi), integer, doc, UNITS.get(name, units),
                     TYPES.get(name, ptype))
@@ -149,9 +133,6 @@ ROVER_TABLE = _STREAMS + _COMMON + _battery_wind("rover") + [
     _d("RALLY_INCL_HOME", 1, 0, 1, True, "1: RTL also considers home and goes there when it is nearer"),
     _d("LOIT_RADIUS", 2, 0.5, 100, False, "LOITER: distance from the loiter point before driving back (m)"),
 ] + _SRTL
-
-# what ground stations read by default (params_ardupilot.py); the definitions above win
-from vehicle.autopilot.params_ardupilot import COPTER_EXTRA, ROVER_EXTRA, TYPES  # noqa: E402
 
 COPTER_TABLE = COPTER_TABLE + COPTER_EXTRA
 ROVER_TABLE = ROVER_TABLE + ROVER_EXTRA

@@ -9,12 +9,14 @@ USED_*), the rest are stored, range-checked and persisted as ArduPilot would, an
 "not simulated" (no RC radio, no compass calibration...) or names the issue-10 part
 that will use them (FOLL_*: FOLLOW; SIM_WIND_*: wind; BATT_LOW_*/BATT_FS_*: battery failsafe).
 
-Tables: list of ParamDef (vehicle/autopilot/params.py); the first table that names a
+Tables: list of ParamDef (vehicle/autopilot/param_def.py, tables in params.py); the first table that names a
 parameter wins, so the autopilot's own definitions (params.py) and the cores' come first.
 """
 from __future__ import annotations
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
+
+from vehicle.autopilot.param_def import ParamDef
 
 I8, I16, I32, F = (mav.MAV_PARAM_TYPE_INT8, mav.MAV_PARAM_TYPE_INT16, mav.MAV_PARAM_TYPE_INT32,
                    mav.MAV_PARAM_TYPE_REAL32)
@@ -22,7 +24,6 @@ NS = "not simulated: stored only"
 
 
 def _defs(rows):
-    from vehicle.autopilot.params import ParamDef
     out = []
     for name, default, lo, hi, ptype, units, doc in rows:
         out.append(ParamDef(name, float(default), float(lo), float(hi), ptype != F, doc, units, ptype))

@@ -102,6 +102,7 @@ class SmartRTLPath:
         self.home_saved = False
         self.last_save = 0.0
         self.last_good = 0.0
+        self.was_armed = False
         # SRTL_POINTS 0 or SRTL_ACCURACY 0 disables SmartRTL, as AP_SmartRTL::init
         self.enabled = self.points_max > 0 and self.accuracy > 0
 
@@ -113,11 +114,15 @@ class SmartRTLPath:
         self.active = self.home_saved = True
         self.last_save = self.last_good = t
 
-    def update(self, pos, position_ok: bool, save: bool, t: float) -> None:
-        """Call at 3 Hz or more: records pos when `save` (armed and not retracing)."""
+    def record(self, pos, position_ok: bool, armed: bool, retracing: bool, t: float) -> None:
+        """Every autopilot tick, 3 Hz at least (ArduPilot's ModeSmartRTL::save_position): a
+        new path at every arming, pos saved while armed and not retracing the path."""
+        if armed and not self.was_armed:
+            self.set_home(pos, t)
+        self.was_armed = armed
         if position_ok and not self.home_saved:
             self.set_home(pos, t)
-        if not self.active or not save:
+        if not self.active or not armed or retracing:
             return
         if not position_ok:
             if t - self.last_good > TIMEOUT:
@@ -161,30 +166,3 @@ class SmartRTLPath:
     def push(self, p) -> None:
         """Put back a point not reached (leaving SMART_RTL mid-way, as ArduPilot's exit())."""
         self.points.append(np.asarray(p, float).copy())
-
-
-class RecordsSmartRTLPath:
-    """Mixin of the copter's and the rover's autopilots: the SmartRTL path, started anew at
-    every arming and recorded while armed in every mode but SMART_RTL itself (which flies it).
-    The subclass names its SMART_RTL mode number in SMART_RTL_MODE."""
-
-    SMART_RTL_MODE = -1
-
-    def __init__(self, *a, **kw) -> None:
-        self._srtl_was_armed = False
-        super().__init__(*a, **kw)
-        self.srtl = SmartRTLPath(float(self.params.get("SRTL_ACCURACY", 2.0)),
-                                 int(self.params.get("SRTL_POINTS", 300)),
-                                 text=lambda sev, msg: self.text(sev, msg))
-
-    def update(self, t: float) -> None:
-        super().update(t)
-        if self.armed and not self._srtl_was_armed:
-            self.srtl.set_home(self.pos, t)           # a new path at every arming
-        self._srtl_was_armed = self.armed
-        self.srtl.update(self.pos, self.est_ok, self.armed and self.mode != self.SMART_RTL_MODE, t)
-
-    def mode_init(self, number: int) -> bool:
-        if number == self.SMART_RTL_MODE:
-            return self.srtl.usable()        # no usable path: "Mode change ... failed: init failed"
-        return super().mode_init(number)

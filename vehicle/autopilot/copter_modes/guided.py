@@ -1,0 +1,118 @@
+"""GUIDED (ArduCopter/mode_guided.cpp ModeGuided): flies the ground station's targets.
+
+On the ground: motors idle until MAV_CMD_NAV_TAKEOFF (the user takeoff, straight up to the
+altitude asked). In the air: the last target (position / position+velocity / velocity /
+acceleration, with yaw or yaw rate; guided_targets.py), holding position when there is none;
+velocity and acceleration targets expire after GUID_TIMEOUT (3 s) and the copter stops and
+holds. A destination outside an enabled fence is ignored (ArduPilot logs DEST_OUTSIDE_FENCE
+and keeps its previous target). MAV_CMD_DO_PAUSE_CONTINUE pauses (decelerates at WPNAV_ACCEL
+to a stop and holds, stopping.py) and continues the target, as ModeGuided::pause()/resume().
+"""
+from __future__ import annotations
+
+import numpy as np
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+from vehicle.autopilot import modes
+from vehicle.autopilot.copter_modes.copter_mode import CopterMode
+from vehicle.autopilot.copter_modes.stopping import StopThenHold
+from vehicle.autopilot.guided import GuidedTarget
+from vehicle.autopilot.guided_targets import GuidedTargets
+from vehicle.autopilot.mode import ArmingMethod
+
+TAKEOFF_DONE_M = 0.3     # m below the takeoff altitude counts as there
+
+
+class ModeGuided(CopterMode):
+    number = modes.GUIDED
+    position_required, autopilot_mode, user_takeoff = True, True, True
+    reports_guided_enabled = True
+
+    def __init__(self, ap) -> None:
+        super().__init__(ap)
+        self.targets = GuidedTargets(ap, lambda ned: ap.fence.destination_ok(ned))
+        self.paused = False
+        self.stop = StopThenHold(ap)
+
+    def allows_arming(self, method: ArmingMethod) -> bool:
+        """Always from the ground station; from the transmitter only with GUID_OPTIONS bit 0
+        (AllowArmingFromTX), which towerlink does not model: never."""
+        return method is ArmingMethod.MAVLINK
+
+    def in_guided_mode(self) -> bool:
+        return True
+
+    def enter(self) -> None:
+        self.targets.clear()
+
+    def exit(self) -> None:
+        super().exit()
+        self.stop.release()
+        self.paused = False
+        self.targets.clear()
+
+    # ----- targets (the link's SET_POSITION_TARGET_*) ----------------------------------
+    def position_target_local(self, frame, type_mask, p, v, a, yaw, yaw_rate) -> bool:
+        return self.targets.position_target_local(frame, type_mask, p, v, a, yaw, yaw_rate)
+
+    def position_target_global(self, frame, type_mask, lat_int, lon_int, alt, v, a, yaw, yaw_rate) -> bool:
+        return self.targets.position_target_global(frame, type_mask, lat_int, lon_int, alt, v, a, yaw, yaw_rate)
+
+    def set_yaw(self, yaw: float) -> None:
+        """MAV_CMD_CONDITION_YAW: face `yaw` (rad, wrapped), the target's yaw too."""
+        self.ap.hold_yaw = yaw
+        if self.targets.target is not None:
+            self.targets.target.yaw = yaw
+
+    # ----- takeoff ------------------------------------------------------------------------
+    def do_user_takeoff_start(self, alt_m: float) -> bool:
+        ap = self.ap
+        z = ap.pos[2] - alt_m
+        ap.takeoff.start(z)
+        self.targets.clear()
+        ap.hold_pos = np.array([ap.pos[0], ap.pos[1], z])
+        ap.hold_yaw = ap.yaw
+        ap.echo = GuidedTarget("pos", ap.hold_pos.copy(), None, None, ap.hold_yaw, None)
+        ap.text(mav.MAV_SEVERITY_INFO, f"Takeoff to {alt_m:.1f} m")
+        return True
+
+    # ----- pause / resume -----------------------------------------------------------------
+    def pause(self) -> bool:
+        ap = self.ap
+        if not self.paused:
+            self.paused = True
+            ap.hold_here()
+            if ap.armed and not ap.on_ground:     # decelerate to a stop, then hold there
+                self.stop.start(float(ap.params.get("WPNAV_ACCEL", 250)) / 100.0,
+                                float(ap.params.get("PSC_JERK_XY", 5.0)))
+        return True
+
+    def resume(self) -> bool:
+        self.stop.release()
+        self.paused = False
+        self.targets.time = self.ap.t                # the target's timeout restarts
+        return True
+
+    # ----- the tick -----------------------------------------------------------------------
+    def fly(self, dt: float) -> None:
+        if self.paused:
+            self.stop.run(dt)
+            return
+        ap = self.ap
+        takeoff = ap.takeoff
+        if takeoff.running and (ap.pos[2] <= takeoff.alt_z + TAKEOFF_DONE_M or self.targets.target is not None):
+            takeoff.stop()
+        tgt = self.targets.target
+        if tgt is not None and self.targets.timed_out():
+            self.targets.clear()
+            ap.hold_here()
+            tgt = None
+        if tgt is None:
+            ap.setpoint(pos=ap.hold_pos, yaw=ap.hold_yaw)
+            return
+        yaw = tgt.yaw if tgt.yaw is not None else (None if tgt.yaw_rate is not None else ap.hold_yaw)
+        if tgt.yaw is not None:
+            ap.hold_yaw = tgt.yaw
+        elif tgt.yaw_rate is not None:
+            ap.hold_yaw = ap.yaw
+        ap.setpoint(pos=tgt.pos, vel=tgt.vel, acc=tgt.acc, yaw=yaw, yaw_rate=tgt.yaw_rate)

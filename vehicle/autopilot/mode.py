@@ -1,0 +1,117 @@
+"""A flight mode as ArduPilot models one (ArduCopter/mode.h `Mode`, Rover/mode.h `Mode`): an
+object per mode that says what it allows and flies the vehicle while it is current.
+
+The autopilot (base.py) holds one instance of each mode it supports (number -> Mode) and
+calls the current one's hooks; it has no chain of mode numbers. Every mode change goes
+through Autopilot.set_mode, in this order:
+
+  new.init(ignore_checks)   may refuse (False); ArduPilot passes ignore_checks = not armed
+  old.exit()                the old mode's clean-up
+  new.enter()               the new mode starts (the hold point is taken just before)
+
+ArduCopter's init() both checks and starts the mode, before the old mode's exit(). Here most
+modes start in enter(), after exit(), so that one mode's clean-up (BRAKE giving back its
+WPNAV_ACCEL) cannot undo the next one's start; AUTO still starts in init(), as ArduPilot's.
+Every autopilot tick the autopilot then calls read_pilot_input() and run(dt).
+
+Setpoints, positions and targets are the SITL world's NED (m, z down) throughout.
+"""
+from __future__ import annotations
+
+import enum
+from typing import ClassVar
+
+
+class ArmingMethod(enum.Enum):
+    """AP_Arming::Method: who asks to arm. Every request towerlink gets comes over MAVLink;
+    RC ones (the rudder stick, an auxiliary switch) need a simulated transmitter."""
+    MAVLINK = "mavlink"
+    RUDDER = "rudder"
+    AUXSWITCH = "auxswitch"
+
+
+class Mode:
+    """One flight mode of one autopilot. Subclasses name their ArduPilot counterpart."""
+
+    number: ClassVar[int] = -1                   # HEARTBEAT custom_mode
+    names: ClassVar[dict[int, str]] = {}         # the vehicle's mode names (common/mavlink/modes.py)
+
+    def __init__(self, ap) -> None:
+        self.ap = ap          # the Autopilot (base.py) this mode flies
+
+    @property
+    def name(self) -> str:
+        """The mode's name as STATUSTEXT and ground stations spell it."""
+        return self.names.get(self.number, str(self.number))
+
+    # ----- life cycle ----------------------------------------------------------------
+    def init(self, ignore_checks: bool) -> bool:
+        """May this mode start now? False refuses the change (the autopilot then says
+        "... failed"). `ignore_checks` is ArduPilot's (True when disarmed); towerlink's modes
+        check the same whether armed or not, as they always have."""
+        return True
+
+    def enter(self) -> None:
+        """The mode has become current (after the old one's exit and the new hold point)."""
+
+    def exit(self) -> None:
+        """The mode stops being current: undo what it changed (limits, borrowed state)."""
+
+    def run(self, dt: float) -> None:
+        """One autopilot tick (dt s) in this mode: setpoints for the fleet."""
+        raise NotImplementedError
+
+    def read_pilot_input(self) -> None:
+        """Where this mode would read the pilot's sticks each tick (ArduPilot's
+        get_pilot_desired_* in run()). No RC is simulated, so every stick is centred and this
+        does nothing; a simulated transmitter plugs in here, before run()."""
+
+    # ----- what the mode is ------------------------------------------------------------
+    # Each mode declares ArduPilot's answers here; the hooks below return them, and a mode
+    # whose answer depends on its state or a parameter overrides the hook instead.
+    position_required: ClassVar[bool] = True     # requires_position()
+    arming_allowed: ClassVar[bool] = True        # allows_arming()
+    autopilot_mode: ClassVar[bool] = False       # is_autopilot()
+
+    def requires_position(self) -> bool:
+        """ArduCopter requires_GPS() / Rover requires_position(): refused without a
+        position estimate ("Mode change to X failed: requires position")."""
+        return self.position_required
+
+    def allows_arming(self, method: ArmingMethod) -> bool:
+        """May the vehicle arm in this mode (pre-arm "Mode not armable" otherwise)?"""
+        return self.arming_allowed
+
+    def is_autopilot(self) -> bool:
+        """ArduCopter is_autopilot() / Rover is_autopilot_mode(): the vehicle flies itself."""
+        return self.autopilot_mode
+
+    def in_guided_mode(self) -> bool:
+        """External position targets (SET_POSITION_TARGET_*, DO_REPOSITION) are taken."""
+        return False
+
+    def is_taking_off(self) -> bool:
+        """A takeoff is under way (MAV_LANDED_STATE_TAKEOFF; not idle on the ground)."""
+        return False
+
+    def is_landing(self) -> bool:
+        """The mode is descending to land (MAV_LANDED_STATE_LANDING; the Min Alt fence is
+        off). ArduPilot's failsafes also consult it (a landing may be left to finish); the
+        failsafe actions towerlink models do not yet."""
+        return False
+
+    # ----- MAV_CMD_DO_PAUSE_CONTINUE -----------------------------------------------------
+    def pause(self) -> bool:
+        """Stop and hold where the mode allows it; False where it cannot pause."""
+        return False
+
+    def resume(self) -> bool:
+        """Continue after pause(); False where the mode cannot."""
+        return False
+
+    def base_mode_flags(self) -> int:
+        """HEARTBEAT base_mode flags this mode sets (ARMED and CUSTOM_MODE are the autopilot's)."""
+        raise NotImplementedError
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.name} ({self.number})>"
