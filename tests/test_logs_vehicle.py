@@ -36,7 +36,7 @@ class LoggedWorld:
             fw = "ArduCopter V4.5.0 (test)" if v.kind == "copter" else "ArduRover V4.5.0 (test)"
             log = VehicleLog(v.kind, tmp_path / f"v{v.index}" / "logs", self.writer, w.clock, w.unix_start_us,
                              fw, v.index)
-            v.ap.outbox.subscribe(text=log.text)
+            v.ap.outbox.subscribe(text=log.text, mode=log.mode_changed, arming=log.arming_changed)
             self.logs.append(log)
         self.truth: list[tuple[float, list[float]]] = []      # (t, truth row of vehicle 0)
         w.run_for = self.run_for                               # _until steps through us
@@ -193,8 +193,15 @@ def test_log_contents_against_the_truth(tmp_path):
     assert r.params["LOG_DISARMED"] == 0 and r.params["SYSID_THISMAV"] == ap.sysid
     assert of(msgs, "MSG")[0].Message == "ArduCopter V4.5.0 (test)"
     assert [o.Type for o in of(msgs, "ORGN")] == [messages.ORIGIN_EKF, messages.ORIGIN_AHRS_HOME]
-    modes_seen = [m.ModeNum for m in of(msgs, "MODE")]
-    assert modes_seen == [modes.GUIDED, modes.AUTO, modes.LAND]
+    modes_seen = [(m.ModeNum, m.Rsn) for m in of(msgs, "MODE")]
+    assert modes_seen == [(modes.GUIDED, 0), (modes.AUTO, 2), (modes.LAND, 2)]    # GCS_COMMAND
+    # ARM: armed by MAVLink (1), disarmed by LAND's landing (LANDED, 13); the texts in order
+    assert [(a.ArmState, a.Method, a.Forced) for a in of(msgs, "ARM")] == [(1, 1, 0), (0, 13, 1)]
+    texts = [m.Message for m in of(msgs, "MSG")]
+    assert "Arming motors" in texts and texts.index("Arming motors") == 1
+    assert texts[-1] == "Disarming motors: landed", texts
+    order = [m.get_type() for m in msgs if m.get_type() in ("ARM", "MSG")]
+    assert order[1:3] == ["ARM", "MSG"]                 # ARM, then the "Arming motors" it said
     cmds = of(msgs, "CMD")
     assert [c.CNum for c in cmds[:3]] == [0, 1, 2] and cmds[0].CTot == 3        # the whole mission at start
     assert any(c.CNum == 2 and c.CId == A.MAV_CMD_NAV_WAYPOINT for c in cmds[3:])   # AUTO started item 2

@@ -28,7 +28,7 @@ class LogLink:
         core.on_tick(self.tick)
         core.on_reboot(self.rebooted)
         core.on_close(self.closed)
-        ap.outbox.subscribe(text=log.text)
+        ap.outbox.subscribe(text=log.text, mode=log.mode_changed, arming=log.arming_changed)
 
     def on_log_message(self, m, ch) -> None:
         for msg, to in self.transfer.handle(m, ch, bool(self.ap.armed)):

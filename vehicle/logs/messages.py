@@ -74,3 +74,25 @@ EV_SET_HOME = 25
 # ORGN.Type: AP_AHRS::LogOriginType
 ORIGIN_EKF = 0
 ORIGIN_AHRS_HOME = 1
+
+# AP_Arming::Method (the ARM record's Method): how it was armed or why it disarmed; towerlink
+# arms by MAVLink only, and disarms for the reasons the autopilot gives
+ARM_METHOD_MAVLINK = 1
+ARM_METHOD_UNKNOWN = 100
+DISARM_METHODS = {"": ARM_METHOD_MAVLINK, "flight termination": 5, "battery failsafe": 7, "landed": 13,
+                  "mission complete": 14, "fence breach": 15, "auto-disarm": 17, "GCS failsafe": 18}
+
+# ModeReason (MODE.Rsn) of the reasons the autopilot gives set_mode
+MODE_REASON_UNKNOWN = 0
+MODE_REASONS = {"RC": 1, "GCS": 2, "radio failsafe": 3, "battery failsafe": 4, "GCS failsafe": 5,
+                "EKF failsafe": 6, "mission complete": 8, "fence breach": 10}
+
+
+def disarm_method(reason: str) -> int:
+    """ARM.Method of a disarm for `reason` (the autopilot's "Disarming motors: <reason>")."""
+    return DISARM_METHODS.get(reason, ARM_METHOD_UNKNOWN)
+
+
+def mode_reason(reason: str) -> int:
+    """MODE.Rsn (ArduPilot's ModeReason) of a set_mode reason."""
+    return MODE_REASONS.get(reason, MODE_REASON_UNKNOWN)

@@ -34,7 +34,6 @@ from vehicle.logs.sampler import Sampler
 from vehicle.logs.store import MAX_FILES, LogInfo, LogStore
 from vehicle.logs.writer import LogWriter
 
-ARM_METHOD_MAVLINK = 2          # AP_Arming::Method::MAVLINK (the ARM record's Method)
 CHECK_PERIOD = 1.0              # s: with no log open, the File backend looks once a second
 
 
@@ -62,37 +61,44 @@ class VehicleLog:
         self._listed: list[LogInfo] = []
         self._unwritten: dict[int, LogSession] = {}    # log number -> its session, until on disk
         self._next_check = 0.0
+        self._events: list[tuple] = []    # (us, "arm" | "mode" | "text", value, extra) since the last tick
 
     def set_unix_start(self, unix_start_us: int) -> None:
         """The unix time (µs) of sim t = 0 (--workers: the instant the parent hands out);
         GPS records' week and ms of week follow it."""
         self.unix_start_us = unix_start_us
 
-    # ----- what the vehicle says -----------------------------------------------------
+    # ----- what the autopilot says (its outbox) ---------------------------------------
     def text(self, severity: int, text: str) -> None:
-        """A STATUSTEXT (the autopilot's outbox): MSG while records go in."""
-        if self._writes:
-            self.session.write("MSG", self._us(), text)
+        """A STATUSTEXT: MSG while records go in."""
+        self._events.append((self._us(), "text", text, None))
+
+    def mode_changed(self, number: int, reason: str) -> None:
+        """The mode changed (set_mode, `reason` its ModeReason's name here): MODE."""
+        self._events.append((self._us(), "mode", number, reason))
+
+    def arming_changed(self, armed: bool, forced: bool, reason: str) -> None:
+        """Armed or disarmed (forced or not, `reason` why it disarmed): ARM and EV; the log
+        opens at arming."""
+        self._events.append((self._us(), "arm", armed, (forced, reason)))
 
     def _us(self, t: float | None = None) -> int:
         return round((self.clock() if t is None else t) * 1e6)
 
     # ----- every tick ----------------------------------------------------------------
     def update(self, ap, t: float) -> None:
-        """Open / close the log as arming and the LOG_* parameters say, then write what
-        happened this tick and the periodic samples."""
+        """Open / close the log as arming and the LOG_* parameters say, write what happened
+        since the last tick (in the order it happened) and the periodic samples."""
         armed = bool(ap.armed)
         s = self.session
-        if armed == self._armed and s is None and t < self._next_check:
+        if not self._events and armed == self._armed and s is None and t < self._next_check:
             return                     # idle (most vehicles of a big world): one look a second
         self._next_check = t + CHECK_PERIOD
         p = ap.params.values
         backend = int(p.get("LOG_BACKEND_TYPE", 1)) & 1
         disarmed_logging = int(p.get("LOG_DISARMED", 0)) != 0
-        us = self._us(t)
-        if armed != self._armed:
-            self._armed = armed
-            self._arming(ap, armed, us, backend, p)
+        if self._events or armed != self._armed:
+            self._happened(ap, armed, backend, disarmed_logging, p, t)
         if s is not None and (not backend or (self._rotate and not armed)):
             self._rotate = False
             self.stop(p)
@@ -105,31 +111,56 @@ class VehicleLog:
         self._writes = writes
         if s is None:
             return
-        if self._writes:
-            self._changes(ap, s, us)
+        if writes:
+            self._mission_progress(ap, s, self._us(t))
             if self.sampler.due(t):
+                us = self._us(t)
                 s.add(self.sampler.sample(ap, us, self.unix_start_us + us))
         s.tick(t)
 
-    def _arming(self, ap, armed: bool, us: int, backend: int, p) -> None:
+    def _happened(self, ap, armed: bool, backend: int, disarmed_logging: bool, p, t: float) -> None:
+        """What the outbox said since the last tick (arming, mode changes, texts), in order;
+        an arming change nobody told of (a reboot's fresh state) as one without a reason."""
+        events, self._events = self._events, []
+        if armed != self._armed and not any(e[1] == "arm" for e in events):
+            events.append((self._us(t), "arm", armed, (False, "")))
+        disarmed_now = False        # what a disarm says in the same tick is still written
+        for us, kind, value, extra in events:
+            if kind == "arm":
+                self._armed = value
+                disarmed_now = not value
+                self._arming(ap, us, value, *extra, backend, p)
+            elif self.session is None or not (self._armed or disarmed_logging or disarmed_now):
+                continue                  # not written (ArduPilot's WritesOK)
+            elif kind == "mode":
+                self._write_mode(us, value, messages.mode_reason(extra))
+            else:
+                self.session.write("MSG", us, value)
+        self._armed = armed
+
+    def _arming(self, ap, us: int, armed: bool, forced: bool, reason: str, backend: int, p) -> None:
         if armed:
-            if self.session is None and backend:
+            if self.session is None and backend and not self._erasing:
                 self.start(ap, us * 1e-6)           # PrepForArming: the log opens first
             if self.session is not None:
                 self.session.armed_seen = True
         s = self.session
         if s is None:
             return
-        s.write("ARM", us, int(armed), 0, 0, ARM_METHOD_MAVLINK)
+        if armed and ap.mode != self._mode:           # changed while nothing was written
+            self._write_mode(us, ap.mode, messages.MODE_REASON_UNKNOWN)
+        method = messages.ARM_METHOD_MAVLINK if armed else messages.disarm_method(reason)
+        s.write("ARM", us, int(armed), int(p.get("ARMING_CHECK", 1)), int(forced), method)
         s.write("EV", us, messages.EV_ARMED if armed else messages.EV_DISARMED)
         if not armed and int(p.get("LOG_FILE_DSRMROT", 0)):
             self._rotate = True
 
-    def _changes(self, ap, s: LogSession, us: int) -> None:
-        mode = ap.mode
-        if mode != self._mode:
-            self._mode = mode
-            s.write("MODE", us, mode, mode, 0)
+    def _write_mode(self, us: int, number: int, reason: int) -> None:
+        self._mode = number
+        self.session.write("MODE", us, number, number, reason)
+
+    def _mission_progress(self, ap, s: LogSession, us: int) -> None:
+        """CMD when AUTO moves on to a mission item."""
         seq = ap.mission_current()[0] if ap.mode_name == "AUTO" else None
         if seq != self._cmd_seq:
             self._cmd_seq = seq
@@ -160,8 +191,7 @@ class VehicleLog:
             s.write("ORGN", us, messages.ORIGIN_EKF, *origin)
         if ap.home is not None:
             s.write("ORGN", us, messages.ORIGIN_AHRS_HOME, *ap.home_lla())
-        self._mode = ap.mode
-        s.write("MODE", us, ap.mode, ap.mode, 0)
+        self._write_mode(us, ap.mode, messages.MODE_REASON_UNKNOWN)
         for item in ap.missions.items(MISSION):
             s.write("CMD", us, ap.missions.count(MISSION), item.seq, item.command, item.param1,
                     item.param2, item.param3, item.param4, item.x * 1e-7, item.y * 1e-7, item.z, item.frame)
