@@ -28,6 +28,7 @@ class LogSession:
         self.bytes = 0                    # handed to the writer so far
         self.next_flush = t + FLUSH_PERIOD
         self.armed_seen = False           # LOG_DISARMED 3: discard a log that never saw arming
+        self.closed = False
 
     def add(self, record: bytes) -> None:
         self.buf += record
@@ -53,3 +54,4 @@ class LogSession:
     def close(self) -> None:
         self.hand_over()
         self.writer.close(self.key)
+        self.closed = True

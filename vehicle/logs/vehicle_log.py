@@ -29,6 +29,7 @@ from pathlib import Path
 
 from vehicle.autopilot.mission_store import MISSION
 from vehicle.logs import messages
+from vehicle.logs.log_catalog import LogCatalog
 from vehicle.logs.log_session import LogSession
 from vehicle.logs.sampler import Sampler
 from vehicle.logs.store import MAX_FILES, LogInfo, LogStore
@@ -57,9 +58,7 @@ class VehicleLog:
         self._cmd_seq: int | None = None
         self._writes = False              # records go in (open, and armed or LOG_DISARMED)
         self._rotate = False              # LOG_FILE_DSRMROT: close at the next disarmed tick
-        self._erasing = 0                 # erases queued on the writer and not yet done
-        self._listed: list[LogInfo] = []
-        self._unwritten: dict[int, LogSession] = {}    # log number -> its session, until on disk
+        self.catalog = LogCatalog(self.store, writer)
         self._next_check = 0.0
         self._events: list[tuple] = []    # (us, "arm" | "mode" | "text", value, extra) since the last tick
 
@@ -102,7 +101,7 @@ class VehicleLog:
         if s is not None and (not backend or (self._rotate and not armed)):
             self._rotate = False
             self.stop(p)
-        if self.session is None and backend and (armed or disarmed_logging) and not self._erasing:
+        if self.session is None and backend and (armed or disarmed_logging) and not self.catalog.erasing:
             self.start(ap, t)
         s = self.session
         writes = s is not None and (armed or disarmed_logging)
@@ -140,7 +139,7 @@ class VehicleLog:
 
     def _arming(self, ap, us: int, armed: bool, forced: bool, reason: str, backend: int, p) -> None:
         if armed:
-            if self.session is None and backend and not self._erasing:
+            if self.session is None and backend and not self.catalog.erasing:
                 self.start(ap, us * 1e-6)           # PrepForArming: the log opens first
             if self.session is not None:
                 self.session.armed_seen = True
@@ -179,7 +178,7 @@ class VehicleLog:
         """Open the next log and write what a log starts with."""
         path = self.store.new_log()
         s = self.session = LogSession(path, self.schema, self.writer, t)
-        self._unwritten[int(path.stem)] = s
+        self.catalog.track(s)
         us = self._us(t)
         s.add(self.schema.header(us))
         ps = ap.params
@@ -213,58 +212,21 @@ class VehicleLog:
 
     # ----- the catalog the log download reads -------------------------------------------
     def entries(self) -> list[LogInfo]:
-        """The logs oldest first (none while an erase is still under way). A log whose bytes
-        are still on their way to the disk (the open one, one just closed) is listed with
-        the size it will have: what it recorded up to now."""
-        if self._erasing:
-            self._listed = []
-            return self._listed
-        if self.session is not None:
-            self.session.hand_over()
-        listed = self.store.entries()
-        unwritten = self._unwritten
-        for k, e in enumerate(listed):
-            s = unwritten.get(e.num)
-            if s is None:
-                continue
-            if e.size >= s.bytes and s is not self.session:
-                del unwritten[e.num]            # on disk whole: no longer tracked
-            elif s.bytes > e.size:
-                listed[k] = LogInfo(e.num, s.bytes, e.mtime)
-        self._listed = listed
-        return listed
+        """The logs oldest first, sized as they will be (vehicle/logs/log_catalog.py)."""
+        return self.catalog.entries()
 
     def read(self, list_id: int, ofs: int, count: int) -> bytes | None:
-        """Up to `count` bytes of list entry `list_id` from `ofs`; None when they are
-        recorded but not on disk yet (the download asks again next tick)."""
-        listed = self._listed or self.entries()
-        if not 1 <= list_id <= len(listed):
-            return b""
-        num = listed[list_id - 1].num
-        data = self.store.read(num, ofs, count)
-        s = self._unwritten.get(num)
-        if s is not None and len(data) < count and ofs + len(data) < s.bytes:
-            return None
-        return data
+        """Bytes of list entry `list_id`; None: recorded, not on disk yet."""
+        return self.catalog.read(list_id, ofs, count)
 
     def erase(self) -> None:
-        """Erase every log; an open log closes and, if logging goes on, starts afresh at
-        the next tick (after the erase, on the writer thread, in order)."""
+        """Erase every log; an open log closes and, if logging goes on, starts afresh when
+        the erase is done."""
         if self.session is not None:
             self.session.close()
             self.session = None
             self._writes = False
-        self._erasing += 1
-        store = self.store
-
-        def erase_all() -> None:
-            try:
-                store.erase()
-            finally:
-                self._erasing -= 1
-        self.writer.call(erase_all)
-        self._listed = []
-        self._unwritten.clear()
+        self.catalog.erase()
 
     @property
     def path(self) -> Path | None:
