@@ -1,8 +1,16 @@
-"""MAVFTP as ArduPilot's GCS_FTP answers it (vehicle/link/ftp.py): "@PARAM/param.pck" served in
-ArduPilot's packed format (decoded here by MAVProxy's own decoder), every other request answered
-at once (NAK with ArduPilot's error), so MAVProxy's parameter download never waits on a timeout
-(issue 10). MAVProxy runs as a user starts it; its telemetry log (mav.tlog, both directions,
-wall-clock stamped) shows the exchange."""
+"""MAVFTP as ArduPilot's GCS_FTP serves it (vehicle/link/ftp.py), with the clients people use,
+the way they use them, against one running `towerlink sitl` shared by the module:
+
+- pymavlink's mavftp module (MAVFTP(master, ...).cmd_ftp([...]), process_ftp_reply for get and
+  put, as its own command line does);
+- MAVProxy as a user starts it, typed into: its parameter download over "@PARAM/param.pck"
+  (decoded by MAVProxy's own decoder), then `ftp list /`, `ftp get`, `ftp put`, `ftp crc`;
+  its telemetry log (mav.tlog) shows the exchange;
+- a raw pymavlink FILE_TRANSFER_PROTOCOL request for a missing file: NAKed at once.
+
+The vehicle's root is <state dir>/vehicles/0 (vehicle/vehicle_root.py); the tests put files
+there and read what the clients uploaded from there. MAVSDK's ftp plugin:
+tests/test_sitl_mavsdk_ftp.py."""
 from __future__ import annotations
 
 import os
@@ -10,46 +18,44 @@ import struct
 import time
 
 import pytest
-
-from support import wait_until
+from ftp_support import Clock, hdr, req
+from support import Processes, wait_until
 from test_sitl_support import MavProxy, Sitl, connect, mav, recv
+
 from vehicle.link import ftp
+from vehicle.vehicle_root import vehicle_root
+
+pytestmark = pytest.mark.timeout(120)
 
 
-def _req(opcode, seq=7, session=0, data=b"", size=None, offset=0):
-    size = len(data) if size is None else size
-    return (struct.pack("<HBBBBBBI", seq, session, opcode, size, 0, 0, 0, offset) + data).ljust(251, b"\0")
-
-
-def _hdr(reply):
-    return struct.unpack_from("<HBBBBBBI", reply)
-
-
+# ----- the server alone -----------------------------------------------------------------------
 @pytest.mark.parametrize("opcode, want", [
-    (ftp.OPEN_FILE_RO, (ftp.ERR_FAIL_ERRNO, ftp.ENOENT)),
-    (ftp.LIST_DIRECTORY, (ftp.ERR_FAIL_ERRNO, ftp.ENOENT)),
-    (ftp.CALC_FILE_CRC32, (ftp.ERR_FAIL_ERRNO, ftp.ENOENT)),
-    (ftp.CREATE_FILE, (ftp.ERR_FAIL_ERRNO, ftp.ENOENT)),
-    (ftp.READ_FILE, (ftp.ERR_INVALID_SESSION,)),
-    (ftp.BURST_READ_FILE, (ftp.ERR_INVALID_SESSION,)),
+    (ftp.OPEN_FILE_RO, (ftp.ERR_FILE_NOT_FOUND,)),
+    (ftp.LIST_DIRECTORY, (ftp.ERR_FILE_NOT_FOUND,)),
+    (ftp.CALC_FILE_CRC32, (ftp.ERR_FILE_NOT_FOUND,)),
+    (ftp.CREATE_FILE, (ftp.ERR_FAIL_ERRNO, 30)),             # EROFS: @PARAM is read-only
+    (ftp.READ_FILE, (ftp.ERR_FILE_NOT_FOUND,)),               # no file open
+    (ftp.BURST_READ_FILE, (ftp.ERR_FILE_NOT_FOUND,)),
     (77, (ftp.ERR_UNKNOWN_COMMAND,)),
 ])
-def test_answers_nak_with_arducopters_error(opcode, want):
-    reply = ftp.answer(_req(opcode, seq=41, session=3, data=b"@PARAM/param.pck"))
-    seq, session, op, size, req_op, _b, _p, _o = _hdr(reply)
+def test_answers_nak_with_ardupilots_error(opcode, want):
+    srv = ftp.FtpServer({})                                   # no files at all
+    (reply,) = srv.handle(req(opcode, seq=41, session=3, data=b"@PARAM/param.pck"))
+    seq, session, op, size, req_op, _b, _p, _o = hdr(reply)
     assert (seq, session, op, req_op) == (42, 3, ftp.NAK, opcode)
     assert reply[12:12 + size] == bytes(want)
     assert len(reply) == 251
 
 
 def test_session_resets_acked_bad_sizes_refused_short_ignored():
+    srv = ftp.FtpServer({})
     for op in (ftp.TERMINATE_SESSION, ftp.RESET_SESSIONS):
-        seq, _s, code, size, req, *_ = _hdr(ftp.answer(_req(op, seq=0xFFFF)))
-        assert (seq, code, size, req) == (0, ftp.ACK, 0, op)          # seq wraps
-    r = ftp.answer(_req(ftp.OPEN_FILE_RO, size=240))
+        seq, _s, code, size, rq, *_ = hdr(srv.handle(req(op, seq=0xFFFF))[0])
+        assert (seq, code, size, rq) == (0, ftp.ACK, 0, op)          # seq wraps
+    (r,) = srv.handle(req(ftp.OPEN_FILE_RO, seq=3, size=240))
     assert r[3] == ftp.NAK and r[12] == ftp.ERR_INVALID_DATA_SIZE
-    assert ftp.answer(b"\x01\x02\x03") is None
-    assert ftp.answer(_req(ftp.NAK)) is None                             # a looped-back reply
+    assert srv.handle(b"\x01\x02\x03") == []
+    assert srv.handle(req(ftp.NAK)) == []                              # a looped-back reply
 
 
 def test_param_pck_decodes_with_mavproxys_decoder():
@@ -71,75 +77,148 @@ def test_param_pck_decodes_with_mavproxys_decoder():
 
 def test_server_reads_a_file_in_bursts_and_chunks():
     content = bytes(range(256)) * 3                       # 768 bytes
-    srv = ftp.FtpServer({"@PARAM/param.pck": lambda with_defaults: content})
-    (r,) = srv.handle(_req(ftp.OPEN_FILE_RO, seq=1, session=2, data=b"@PARAM/param.pck?withdefaults=1"))
-    assert _hdr(r)[2] == ftp.ACK and struct.unpack_from("<I", r, 12)[0] == 768
-    (again,) = srv.handle(_req(ftp.OPEN_FILE_RO, seq=2, session=2, data=b"@PARAM/param.pck"))
+    srv = ftp.FtpServer({"@PARAM/param.pck": lambda with_defaults: content}, clock=Clock())
+    (r,) = srv.handle(req(ftp.OPEN_FILE_RO, seq=1, session=2, data=b"@PARAM/param.pck?withdefaults=1"))
+    assert hdr(r)[2] == ftp.ACK and struct.unpack_from("<I", r, 12)[0] == 768
+    (again,) = srv.handle(req(ftp.OPEN_FILE_RO, seq=2, session=2, data=b"@PARAM/param.pck"))
     assert again[3] == ftp.NAK and again[12] == ftp.ERR_FAIL               # that session is open
-    out = srv.handle(_req(ftp.BURST_READ_FILE, seq=3, session=2, size=239))
+    out = srv.handle(req(ftp.BURST_READ_FILE, seq=3, session=2, size=239))
     data = b"".join(p[12:12 + p[4]] for p in out if p[3] == ftp.ACK)
-    assert data == content and [_hdr(p)[7] for p in out[:-1]] == [0, 239, 478, 717]
-    assert out[-1][3] == ftp.NAK and out[-1][12] == ftp.ERR_EOF and _hdr(out[-1])[7] == 768
-    (r,) = srv.handle(_req(ftp.READ_FILE, seq=4, session=2, size=100, offset=700))
+    assert data == content and [hdr(p)[7] for p in out[:-1]] == [0, 239, 478, 717]
+    assert out[-1][3] == ftp.NAK and out[-1][12] == ftp.ERR_EOF and hdr(out[-1])[7] == 768
+    (r,) = srv.handle(req(ftp.READ_FILE, seq=4, session=2, size=100, offset=700))
     assert r[12:12 + r[4]] == content[700:768]
-    (r,) = srv.handle(_req(ftp.READ_FILE, seq=5, session=2, size=100, offset=768))
+    (r,) = srv.handle(req(ftp.READ_FILE, seq=5, session=2, size=100, offset=768))
     assert r[3] == ftp.NAK and r[12] == ftp.ERR_EOF
-    assert srv.handle(_req(ftp.TERMINATE_SESSION, seq=6, session=2))[0][3] == ftp.ACK
-    assert srv.handle(_req(ftp.TERMINATE_SESSION, seq=7, session=2))[0][12] == ftp.ERR_INVALID_SESSION
-    (r,) = srv.handle(_req(ftp.OPEN_FILE_RO, seq=8, session=0, data=b"/APM/LOGS/1.BIN"))
-    assert r[12:14] == bytes([ftp.ERR_FAIL_ERRNO, ftp.ENOENT])
+    assert srv.handle(req(ftp.TERMINATE_SESSION, seq=6, session=2))[0][3] == ftp.ACK
+    assert srv.handle(req(ftp.TERMINATE_SESSION, seq=7, session=2))[0][3] == ftp.ACK   # ArduPilot: always
+    (r,) = srv.handle(req(ftp.READ_FILE, seq=8, session=2, size=100))
+    assert r[3] == ftp.NAK and r[12] == ftp.ERR_FILE_NOT_FOUND
+    (r,) = srv.handle(req(ftp.OPEN_FILE_RO, seq=9, session=0, data=b"/APM/LOGS/1.BIN"))
+    assert r[4] == 1 and r[12] == ftp.ERR_FILE_NOT_FOUND
 
 
-@pytest.mark.timeout(60)
-def test_pymavlink_ftp_open_nak_on_the_wire(processes, tmp_path):
-    sitl = Sitl(processes, tmp_path, drones=1, rovers=0, speedup=2)
-    m = connect(sitl.udp[0])
-    payload = list(_req(ftp.OPEN_FILE_RO, seq=5, data=b"/APM/missing.txt"))
-    t0 = time.monotonic()
-    m.mav.file_transfer_protocol_send(0, 1, 1, payload)
-    r = recv(m, "FILE_TRANSFER_PROTOCOL", 3)
-    took = time.monotonic() - t0
-    raw = bytes(r.payload)
-    assert (r.target_system, r.target_component) == (255, 0)
-    assert _hdr(raw)[:5] == (6, 0, ftp.NAK, 2, ftp.OPEN_FILE_RO)
-    assert raw[12:14] == bytes([ftp.ERR_FAIL_ERRNO, ftp.ENOENT])
-    assert took < 1.0
+# ----- one running vehicle --------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def sitl(tmp_path_factory):
+    procs = Processes()
+    base = tmp_path_factory.mktemp("ftp")
+    try:
+        s = Sitl(procs, base, drones=1, rovers=0, speedup=2)
+        root = vehicle_root(s.state_dir, 0)
+        (root / "logs").mkdir(parents=True)
+        (root / "logs" / "00000001.BIN").write_bytes(os.urandom(20_000))
+        (root / "logs" / "LASTLOG.TXT").write_bytes(b"1\r\n")
+        (root / "terrain").mkdir()
+        (root.parent.parent / "outside.txt").write_bytes(b"not the vehicle's")
+        yield s, root, procs
+    finally:
+        procs.stop_all()
 
 
-@pytest.mark.timeout(120)
-def test_mavproxy_downloads_parameters_over_mavftp(processes, tmp_path):
-    sitl = Sitl(processes, tmp_path, drones=1, rovers=0, speedup=2)
-    m = connect(sitl.udp[0])
+def test_pymavlink_ftp_open_nak_on_the_wire(sitl):
+    s, _root, _procs = sitl
+    m = connect(s.udp[0])
+    try:
+        payload = list(req(ftp.OPEN_FILE_RO, seq=5, session=17, data=b"/APM/missing.txt"))
+        t0 = time.monotonic()
+        m.mav.file_transfer_protocol_send(0, 1, 1, payload)
+        r = recv(m, "FILE_TRANSFER_PROTOCOL", 3)
+        took = time.monotonic() - t0
+        raw = bytes(r.payload)
+        assert (r.target_system, r.target_component) == (255, 0)
+        assert hdr(raw)[:5] == (6, 17, ftp.NAK, 1, ftp.OPEN_FILE_RO)
+        assert raw[12] == ftp.ERR_FILE_NOT_FOUND
+        assert took < 1.0
+    finally:
+        m.close()
+
+
+def test_pymavlinks_mavftp_lists_gets_puts_and_manages_files(sitl, tmp_path):
+    from pymavlink import mavftp
+    s, root, _procs = sitl
+    master = connect(s.udp[0], sysid=246)
+    try:
+        # its command line's settings (mavftp.py --idle-detection-time ...): after an operation
+        # that has no end of its own (crc, mkdir, rm), it waits this long for more replies
+        settings = mavftp.MAVFTPSettings([
+            ("debug", int, 0), ("pkt_loss_tx", int, 0), ("pkt_loss_rx", int, 0), ("max_backlog", int, 5),
+            ("burst_read_size", int, 80), ("write_size", int, 80), ("write_qsize", int, 5),
+            ("idle_detection_time", float, 1.0), ("read_retry_time", float, 0.5), ("retry_time", float, 0.5)])
+        f = mavftp.MAVFTP(master, target_system=master.target_system, target_component=master.target_component,
+                          settings=settings)
+        ret = f.cmd_ftp(["list", "/"])
+        assert ret.error_code == mavftp.FtpError.Success
+        listed = {(e.name, e.is_dir, e.size_b) for e in f.list_result}
+        assert {("logs", True, 0), ("terrain", True, 0), ("@MAV_LOG", True, 0)} <= listed
+        f.cmd_ftp(["list", "@MAV_LOG"])
+        assert ("00000001.BIN", False, 20_000) in {(e.name, e.is_dir, e.size_b) for e in f.list_result}
+        assert f.cmd_ftp(["list", "/APM/LOGS"]).error_code == mavftp.FtpError.FileNotFound
+
+        got = tmp_path / "got.bin"
+        f.cmd_ftp(["get", "logs/00000001.BIN", str(got)])
+        assert f.process_ftp_reply("get", timeout=30).error_code == mavftp.FtpError.Success
+        assert got.read_bytes() == (root / "logs" / "00000001.BIN").read_bytes()
+
+        up = tmp_path / "up.lua"
+        up.write_bytes(os.urandom(3001))
+        f.cmd_ftp(["put", str(up), "terrain/up.lua"])
+        assert f.process_ftp_reply("put", timeout=30).error_code == mavftp.FtpError.Success
+        wait_until(lambda: (root / "terrain" / "up.lua").read_bytes() == up.read_bytes(), 5, "upload in place")
+
+        assert f.cmd_ftp(["crc", "terrain/up.lua"]).error_code == mavftp.FtpError.Success
+        assert f.cmd_ftp(["mkdir", "scripts"]).error_code == mavftp.FtpError.Success
+        assert f.cmd_ftp(["mkdir", "scripts"]).error_code == mavftp.FtpError.FileExists
+        assert f.cmd_ftp(["rename", "terrain/up.lua", "scripts/up.lua"]).error_code == mavftp.FtpError.Success
+        assert (root / "scripts" / "up.lua").read_bytes() == up.read_bytes()
+        assert f.cmd_ftp(["rm", "scripts/up.lua"]).error_code == mavftp.FtpError.Success
+        assert f.cmd_ftp(["rmdir", "scripts"]).error_code == mavftp.FtpError.Success
+        assert not (root / "scripts").exists()
+        assert f.cmd_ftp(["rm", "../../outside.txt"]).error_code == mavftp.FtpError.FileNotFound
+        assert os.path.exists(os.path.join(s.state_dir, "outside.txt"))
+        params = f.read("@PARAM/param.pck", 100)               # the synchronous read API
+        assert len(params) == 100 and struct.unpack_from("<H", params)[0] == ftp.PCK_MAGIC
+    finally:
+        master.close()
+
+
+@pytest.fixture(scope="module")
+def mavproxy(sitl, tmp_path_factory):
+    s, _root, procs = sitl
+    m = connect(s.udp[0])
     m.mav.param_set_send(1, 1, b"RTL_ALT", 2345, mav.MAV_PARAM_TYPE_INT32)
-    pv = recv(m, "PARAM_VALUE", 5, cond=lambda p: p.param_id == "RTL_ALT")
-    count = pv.param_count
+    count = recv(m, "PARAM_VALUE", 5, cond=lambda p: p.param_id == "RTL_ALT").param_count
     m.close()
+    home = tmp_path_factory.mktemp("mavproxy")
     # MAVProxy's defaults: the ftp module loaded, param_ftp on: it asks for @PARAM/param.pck first
     t0 = time.monotonic()
-    mp = MavProxy(processes, tmp_path, sitl.tcp[0])
-    lines, saw = mp.lines, mp.saw
+    mp = MavProxy(procs, home, s.tcp[0])
     try:
-        wait_until(lambda: saw("Received") and saw("parameters"), 60, "parameters: " + "".join(lines[-5:]))
-        took = time.monotonic() - t0
-        got = [l for l in lines if "Received" in l and "parameters" in l][-1]
-        assert int(got.split("Received")[1].split()[0]) == count and "(ftp)" in got, got
-        assert not saw("FTP: retry request")
-        # MAVProxy saves what it received (mav.parm) and the defaults (withdefaults=1)
-        wait_until(lambda: saw("Saved") and saw("defaults to"), 10, "parameter files saved")
-        saved = tmp_path / "mav.parm"
-        vals = dict(line.split()[:2] for line in saved.read_text().splitlines() if line.strip()
-                    and not line.startswith("#"))
-        assert float(vals["RTL_ALT"]) == 2345 and float(vals["FRAME_CLASS"]) == 1
-        defaults = tmp_path / "defaults.parm"
-        dvals = dict(line.split()[:2] for line in defaults.read_text().splitlines() if line.strip()
-                     and not line.startswith("#"))
-        assert float(dvals["RTL_ALT"]) == 1500
+        yield mp, home, count, t0
         mp.send("exit")
     finally:
-        processes.stop(mp.proc)
+        procs.stop(mp.proc)
+
+
+def test_mavproxy_downloads_parameters_over_mavftp(mavproxy):
+    mp, home, count, t0 = mavproxy
+    lines, saw = mp.lines, mp.saw
+    wait_until(lambda: saw("Received") and saw("parameters"), 60, "parameters: " + "".join(lines[-5:]))
+    took = time.monotonic() - t0
+    got = [l for l in lines if "Received" in l and "parameters" in l][-1]
+    assert int(got.split("Received")[1].split()[0]) == count and "(ftp)" in got, got
+    assert not saw("FTP: retry request")
+    # MAVProxy saves what it received (mav.parm) and the defaults (withdefaults=1)
+    wait_until(lambda: saw("Saved") and saw("defaults to"), 10, "parameter files saved")
+    vals = dict(line.split()[:2] for line in (home / "mav.parm").read_text().splitlines() if line.strip()
+                and not line.startswith("#"))
+    assert float(vals["RTL_ALT"]) == 2345 and float(vals["FRAME_CLASS"]) == 1
+    dvals = dict(line.split()[:2] for line in (home / "defaults.parm").read_text().splitlines() if line.strip()
+                 and not line.startswith("#"))
+    assert float(dvals["RTL_ALT"]) == 1500
     print(f"MAVProxy start to all {count} parameters over MAVFTP: {took:.2f} s")
-    # the tlog: MAVProxy's open of @PARAM/param.pck, our ACK with the file size, no PARAM_VALUE list
-    tlogs = [os.path.join(dp, f) for dp, _d, fs in os.walk(tmp_path) for f in fs if f.endswith(".tlog")]
+    # the tlog: MAVProxy's open of @PARAM/param.pck, our ACK with the file size
+    tlogs = [os.path.join(dp, f) for dp, _d, fs in os.walk(home) for f in fs if f.endswith(".tlog")]
     from pymavlink import mavutil
     log = mavutil.mavlink_connection(max(tlogs, key=os.path.getsize))
     opened = acked = None
@@ -153,4 +232,36 @@ def test_mavproxy_downloads_parameters_over_mavftp(processes, tmp_path):
         if raw[3] == ftp.ACK and raw[5] == ftp.OPEN_FILE_RO and acked is None:
             acked = msg._timestamp
     assert opened is not None and acked is not None and acked - opened < 0.5
-    # (the tlog's PARAM_VALUEs are MAVProxy's own copies of what came over MAVFTP, its log_params)
+
+
+def _typed(mp, command: str, done: str, timeout: float = 30.0) -> list[str]:
+    """Type a command into MAVProxy; the lines it printed until one contains `done`."""
+    start = len(mp.lines)
+    mp.send(command)
+    wait_until(lambda: any(done in l for l in mp.lines[start:]), timeout,
+               f"{command!r}: " + "".join(mp.lines[start:])[-1500:])
+    return mp.lines[start:]
+
+
+def test_mavproxy_ftp_list_get_put_crc(mavproxy, sitl):
+    mp, home, _count, _t0 = mavproxy
+    _s, root, _procs = sitl
+    wait_until(lambda: mp.saw("Saved") and mp.saw("defaults to"), 60, "MAVProxy ready")
+    out = "".join(_typed(mp, "ftp list /", "Total size"))
+    for entry in (" D logs", " D terrain", " D @MAV_LOG"):
+        assert entry + "\n" in out, out
+    out = "".join(_typed(mp, "ftp list logs", "Total size"))
+    assert "   00000001.BIN\t20000" in out and "   LASTLOG.TXT\t3" in out, out
+
+    got = home / "copy.bin"
+    _typed(mp, f"ftp get logs/00000001.BIN {got}", "Wrote 20000 bytes")
+    assert got.read_bytes() == (root / "logs" / "00000001.BIN").read_bytes()
+
+    up = home / "mission.lua"
+    up.write_bytes(os.urandom(5000))
+    _typed(mp, f"ftp put {up} terrain/mission.lua", "Sent file of length 5000")
+    wait_until(lambda: (root / "terrain" / "mission.lua").exists()
+               and (root / "terrain" / "mission.lua").read_bytes() == up.read_bytes(), 10, "upload in place")
+    out = "".join(_typed(mp, "ftp crc terrain/mission.lua", "crc: "))
+    from ftp_support import crc32_bitwise
+    assert f"0x{crc32_bitwise(up.read_bytes()):08x}" in out, out

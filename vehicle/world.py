@@ -44,6 +44,7 @@ from vehicle.autopilot.params import (COPTER_TABLE, ROVER_TABLE, _warn, core_tab
 from vehicle.link import VehicleLink
 from vehicle.world_lockstep import WorldLockstep
 from vehicle.network_plan import NetworkPlan
+from vehicle.vehicle_root import vehicle_root
 from vehicle.network_plan import plan as plan_world
 from vehicle.physics.wind import WindField, WindParams
 
@@ -170,7 +171,8 @@ class World:
                 missions = PersistentMissionStore(missions_path(saves[k])) if saves[k] else MissionStore()
                 ap = ap_cls(fleet, k, stores[k], cfg.home, starts[k], push_params=push, missions=missions)
                 link = VehicleLink(ap, self.clock, self.unix_start_us, list(self.plan.vehicles[index].endpoints),
-                                   signing_key=cfg.signing_key, params_changed=push)
+                                   signing_key=cfg.signing_key, params_changed=push,
+                                   files_root=vehicle_root(cfg.state_dir, index) if cfg.state_dir else None)
                 self.vehicles.append(Vehicle(index, kind, j, ap, link))
                 if index in cfg.missions:        # --mission I=FILE: as if uploaded at start
                     ap.missions.replace_all(MISSION, cfg.missions[index])

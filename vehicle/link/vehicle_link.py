@@ -38,6 +38,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from common.mavlink.mavstr import mav_str
 from common.mavlink.signing import SIGNING_EPOCH, UNSIGNED, SignatureCheck
+from vehicle.files.root_dir import RootDir
 from vehicle.link import ftp
 from vehicle.link.endpoints import Channel, Endpoint, make_endpoint
 from vehicle.link.framing import Framer
@@ -82,8 +83,11 @@ def _param_id(s) -> str:
 
 class VehicleLink:
     def __init__(self, ap, clock, unix_start_us: int, endpoints: list[str],
-                 signing_key: bytes | None = None, params_changed=None) -> None:
+                 signing_key: bytes | None = None, params_changed=None, files_root=None) -> None:
+        """files_root: the vehicle's directory MAVFTP serves (vehicle/vehicle_root.py), None
+        for a temporary one removed at close()."""
         self.ap = ap
+        self.files_root = RootDir(files_root)
         self.clock = clock                    # () -> sim seconds since world start
         self.unix_start_us = unix_start_us
         self.specs = list(endpoints)
@@ -121,6 +125,9 @@ class VehicleLink:
 
     def close(self) -> None:
         self.ap.params.flush()
+        if self._ftp is not None:
+            self._ftp.close()                  # uploads in progress are put in place
+        self.files_root.close()
         for ep in self.endpoints:
             ep.close()
 
@@ -457,7 +464,9 @@ class VehicleLink:
         self.mav.srcSystem = self.ap.sysid
         self.intervals.clear()
         self._origin_sent = None               # a new boot says its EKF origin again
-        self._ftp = None                       # and has no MAVFTP session open
+        if self._ftp is not None:              # and has no MAVFTP session open
+            self._ftp.close()
+        self._ftp = None
         for q in self.outboxes.values():
             q.clear()
         self.outboxes.clear()
@@ -494,11 +503,10 @@ class VehicleLink:
     _ftp: ftp.FtpServer | None = None
 
     def on_FILE_TRANSFER_PROTOCOL(self, m, ch) -> None:
-        """MAVFTP (vehicle/link/ftp.py): @PARAM/param.pck served, everything else answered at
-        once, so clients never wait on a timeout."""
+        """MAVFTP (vehicle/link/ftp.py): the vehicle's root directory and @PARAM/param.pck."""
         if self._ftp is None:
-            self._ftp = ftp.FtpServer({"@PARAM/param.pck": self._param_pck})
-        for reply in self._ftp.handle(m.payload):
+            self._ftp = ftp.FtpServer({"@PARAM/param.pck": self._param_pck}, root=self.files_root.path())
+        for reply in self._ftp.handle(m.payload, m.get_srcSystem(), m.get_srcComponent(), ch):
             self.send(mav.MAVLink_file_transfer_protocol_message(0, m.get_srcSystem(), m.get_srcComponent(),
                                                                  list(reply)), ch)
 
