@@ -109,7 +109,7 @@ def flight(tmp_path_factory):
                and not h.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED, 90, "landed and disarmed")
         m.close()
         yield sitl, truth, mp, tmp, sdk_ports
-        mp.send("exit")
+        procs.stop(mp.proc, timeout=0.5)       # MAVProxy sits out a SIGTERM: no need to wait 5 s
     finally:
         procs.stop_all()
 

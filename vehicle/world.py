@@ -42,6 +42,7 @@ from vehicle.autopilot.mission_store import MISSION, MissionItem, MissionStore
 from vehicle.autopilot.params import (COPTER_TABLE, ROVER_TABLE, _warn, core_table, file_warnings,
                                       read_parm_file)
 from vehicle.link import VehicleLink
+from vehicle.logs.world_logs import WorldLogs
 from vehicle.world_lockstep import WorldLockstep
 from vehicle.network_plan import NetworkPlan
 from vehicle.vehicle_root import vehicle_root
@@ -122,6 +123,7 @@ class World:
         self.start_at = cfg.start_at if cfg.start_at is not None else time.time()
         self.unix_start_us = int(self.start_at * 1e6)
         self.vehicles: list[Vehicle] = []
+        self.logs = WorldLogs()          # the onboard logs' writer thread (vehicle/logs/)
         self.fleets: list[tuple[str, object]] = []
         self.plan = cfg.network_plan()        # PlanError before anything is built
         # one air mass for the world (SIM_WIND_*), turbulence seeded by the world's seed
@@ -172,7 +174,8 @@ class World:
                 ap = ap_cls(fleet, k, stores[k], cfg.home, starts[k], push_params=push, missions=missions)
                 link = VehicleLink(ap, self.clock, self.unix_start_us, list(self.plan.vehicles[index].endpoints),
                                    signing_key=cfg.signing_key, params_changed=push,
-                                   files_root=vehicle_root(cfg.state_dir, index) if cfg.state_dir else None)
+                                   files_root=vehicle_root(cfg.state_dir, index) if cfg.state_dir else None,
+                                   logs=self.logs)
                 self.vehicles.append(Vehicle(index, kind, j, ap, link))
                 if index in cfg.missions:        # --mission I=FILE: as if uploaded at start
                     ap.missions.replace_all(MISSION, cfg.missions[index])
@@ -306,6 +309,7 @@ class World:
         finally:
             for v in self.vehicles:
                 v.link.close()
+            self.logs.close()
 
     async def _lockstep(self) -> None:
         speedup, dt = self.cfg.speedup, self.dt
@@ -407,6 +411,7 @@ class World:
         self.unix_start_us = int(start_at * 1e6)
         for v in self.vehicles:
             v.link.unix_start_us = self.unix_start_us
+            v.link.logs.set_unix_start(self.unix_start_us)
 
     def stats_line(self) -> str:
         parts = []

@@ -1,41 +1,55 @@
-"""Onboard logs, the link capability: the vehicle's DataFlash log (vehicle/logs/) kept every
-autopilot tick, and the MAVLink log download served from it: LOG_REQUEST_LIST,
-LOG_REQUEST_DATA, LOG_REQUEST_END and LOG_ERASE answered as ArduPilot answers them
-(vehicle/logs/transfer.py), replies on the requesting channel only.
+"""Onboard logs on the link: the vehicle's DataFlash log (vehicle/logs/) kept every autopilot
+tick, and the MAVLink log download served from it: LOG_REQUEST_LIST, LOG_REQUEST_DATA,
+LOG_REQUEST_END and LOG_ERASE answered as ArduPilot answers them (vehicle/logs/transfer.py),
+replies on the requesting channel only.
 
-STATUSTEXTs reach the log through the autopilot's outbox (MSG records). A reboot closes the
-open log (the next boot opens the next one) and ends any transfer; closing the link closes
-the log. A transfer whose channel went away (a TCP client disconnected) ends.
+What happens reaches the log through the autopilot's outbox: STATUSTEXT (MSG), mode changes
+(MODE), arming (ARM, EV). A reboot closes the open log (the next boot opens the next one) and
+ends any transfer; closing the link closes the log. A transfer whose channel went away (a TCP
+client disconnected) ends.
+
+The link calls `handle` for the LOG_* messages, `tick` every autopilot tick, `rebooted` and
+`closed`.
 """
 from __future__ import annotations
 
-from vehicle.link.link_core import LinkCore
-from vehicle.logs.transfer import LogTransfer
-from vehicle.logs.vehicle_log import VehicleLog
+from collections.abc import Callable
+from pathlib import Path
 
-LOG_MESSAGES = ("LOG_REQUEST_LIST", "LOG_REQUEST_DATA", "LOG_REQUEST_END", "LOG_ERASE")
+from vehicle.link.telemetry import FLIGHT_SW_VERSION
+from vehicle.logs.transfer import LogTransfer
+from vehicle.logs.world_logs import WorldLogs
+
+LOG_MESSAGES = frozenset(("LOG_REQUEST_LIST", "LOG_REQUEST_DATA", "LOG_REQUEST_END", "LOG_ERASE"))
+FIRMWARE_NAMES = {"copter": "ArduCopter", "rover": "ArduRover"}
+
+
+def firmware_string(kind: str) -> str:
+    """ArduPilot's fw_string, the first MSG of every log ("ArduCopter V4.5.0 (00000000)"):
+    the version AUTOPILOT_VERSION reports, and its git hash (flight_custom_version, zeros)."""
+    v = FLIGHT_SW_VERSION
+    return f"{FIRMWARE_NAMES.get(kind, 'ArduPilot')} V{v >> 24}.{(v >> 16) & 0xFF}.{(v >> 8) & 0xFF} (00000000)"
 
 
 class LogLink:
-    def __init__(self, core: LinkCore, ap, log: VehicleLog) -> None:
-        """ap: the autopilot (armed state, what the log records); log: its onboard log."""
-        self.core = core
+    def __init__(self, link, ap, logs: WorldLogs, folder: Callable[[], Path], unix_start_us: int) -> None:
+        """link: what sends (`send(msg, channel)`) and tells the time (`clock()`); ap: the
+        autopilot; logs: the world's; folder(): where this vehicle's logs live."""
+        self.link = link
         self.ap = ap
-        self.log = log
-        self.transfer = LogTransfer(log)
-        for name in LOG_MESSAGES:
-            core.register(name, self.on_log_message)
-        core.on_tick(self.tick)
-        core.on_reboot(self.rebooted)
-        core.on_close(self.closed)
-        ap.outbox.subscribe(text=log.text, mode=log.mode_changed, arming=log.arming_changed)
+        self.log = logs.for_vehicle(ap.kind, folder, link.clock, unix_start_us, firmware_string(ap.kind),
+                                    phase=ap.sysid)
+        self.transfer = LogTransfer(self.log)
+        ap.outbox.subscribe(text=self.log.text, mode=self.log.mode_changed, arming=self.log.arming_changed)
 
-    def on_log_message(self, m, ch) -> None:
+    def handle(self, m, ch) -> None:
+        """One LOG_REQUEST_LIST / DATA / END or LOG_ERASE for this vehicle."""
         for msg, to in self.transfer.handle(m, ch, bool(self.ap.armed)):
-            self.core.send(msg, to)
+            self.link.send(msg, to)
 
     def tick(self) -> None:
-        self.log.update(self.ap, self.core.clock())
+        """Every autopilot tick: the log, then whatever download is under way."""
+        self.log.update(self.ap, self.link.clock())
         t = self.transfer
         if t.channel is None:
             return
@@ -43,7 +57,11 @@ class LogLink:
             t.end()
             return
         for msg, to in t.pump(bool(self.ap.armed)):
-            self.core.send(msg, to)
+            self.link.send(msg, to)
+
+    def set_unix_start(self, unix_start_us: int) -> None:
+        """Sim t = 0 at this unix time (µs): the GPS records' clock."""
+        self.log.set_unix_start(unix_start_us)
 
     def rebooted(self) -> None:
         """A new boot: the old log is closed, no transfer under way."""

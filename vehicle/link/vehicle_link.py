@@ -42,9 +42,12 @@ from vehicle.files.root_dir import RootDir
 from vehicle.link import ftp
 from vehicle.link.endpoints import Channel, Endpoint, make_endpoint
 from vehicle.link.framing import Framer
+from vehicle.link.log_link import LOG_MESSAGES, LogLink
 from vehicle.link.mission_link import MISSION_MESSAGES, MissionLink
 from vehicle.link.paced_queue import PacedQueue
 from vehicle.link.telemetry import DATA_STREAMS, STREAM_GROUPS, Telemetry
+from vehicle.logs.world_logs import WorldLogs
+from vehicle.vehicle_root import logs_dir
 
 COMP_ID = mav.MAV_COMP_ID_AUTOPILOT1
 
@@ -83,9 +86,11 @@ def _param_id(s) -> str:
 
 class VehicleLink:
     def __init__(self, ap, clock, unix_start_us: int, endpoints: list[str],
-                 signing_key: bytes | None = None, params_changed=None, files_root=None) -> None:
+                 signing_key: bytes | None = None, params_changed=None, files_root=None,
+                 logs: WorldLogs | None = None) -> None:
         """files_root: the vehicle's directory MAVFTP serves (vehicle/vehicle_root.py), None
-        for a temporary one removed at close()."""
+        for a temporary one removed at close(); logs: the world's onboard logs (this
+        vehicle's go to files_root's logs/), None: no onboard log, LOG_* requests unanswered."""
         self.ap = ap
         self.files_root = RootDir(files_root)
         self.clock = clock                    # () -> sim seconds since world start
@@ -110,6 +115,8 @@ class VehicleLink:
             self.mav.signing.timestamp = int((time.time() - SIGNING_EPOCH) * 1e5)
             self._sign_check = SignatureCheck(signing_key, clock=self.mav.signing)
         self.missions = MissionLink(self)      # mission / fence / rally protocol
+        self.logs = (LogLink(self, ap, logs, lambda: logs_dir(self.files_root.path()), unix_start_us)
+                     if logs is not None else None)
         self._rebuild_schedule()
         ap.outbox.subscribe(text=self.statustext)
         ap.params.deferred = True              # saved once a tick by update(), and at close()
@@ -125,6 +132,8 @@ class VehicleLink:
 
     def close(self) -> None:
         self.ap.params.flush()
+        if self.logs is not None:
+            self.logs.closed()
         if self._ftp is not None:
             self._ftp.close()                  # uploads in progress are put in place
         self.files_root.close()
@@ -209,6 +218,8 @@ class VehicleLink:
             for ep in self.endpoints:
                 ep.send(buf)
         self.missions.update(t)
+        if self.logs is not None:
+            self.logs.tick()
         origin = self.ap.ekf_origin()
         if origin != self._origin_sent:          # set (first good estimate) or moved
             self._origin_sent = origin
@@ -337,6 +348,8 @@ class VehicleLink:
             handler(m, channel)
         elif m.get_type() in MISSION_MESSAGES or m.get_type() == "MISSION_SET_CURRENT":
             self.missions.handle(m, channel)
+        elif m.get_type() in LOG_MESSAGES and self.logs is not None:
+            self.logs.handle(m, channel)
         return True
 
     def _signature_ok(self, m) -> bool:
@@ -471,6 +484,8 @@ class VehicleLink:
             q.clear()
         self.outboxes.clear()
         self._rebuild_schedule()
+        if self.logs is not None:              # the old boot's log closes
+            self.logs.rebooted()
         self.stats["reboots"] += 1
 
     def on_SET_MODE(self, m, ch) -> None:

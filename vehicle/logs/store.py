@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import os
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -38,9 +39,18 @@ def log_name(num: int) -> str:
 class LogStore:
     """The numbered logs in one folder (created on first use)."""
 
-    def __init__(self, folder: str | os.PathLike, max_files: int = MAX_FILES) -> None:
-        self.folder = Path(folder)
+    def __init__(self, folder: str | os.PathLike | Callable[[], Path], max_files: int = MAX_FILES) -> None:
+        """folder: the directory, or a function giving it when first needed (a vehicle's
+        temporary root is made only if it logs)."""
+        self._folder = folder if callable(folder) else Path(folder)
         self.max_files = max(2, int(max_files))
+
+    @property
+    def folder(self) -> Path:
+        f = self._folder
+        if callable(f):
+            f = self._folder = Path(f())
+        return f
 
     def path(self, num: int) -> Path:
         return self.folder / log_name(num)

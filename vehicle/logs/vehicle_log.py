@@ -41,7 +41,8 @@ CHECK_PERIOD = 1.0              # s: with no log open, the File backend looks on
 class VehicleLog:
     """The onboard log of one vehicle: call `update(ap, t)` every autopilot tick."""
 
-    def __init__(self, kind: str, folder: str | os.PathLike, writer: LogWriter, clock: Callable[[], float],
+    def __init__(self, kind: str, folder: str | os.PathLike | Callable[[], Path], writer: LogWriter,
+                 clock: Callable[[], float],
                  unix_start_us: int, firmware: str, phase: int = 0, ap_rate: float = 50.0,
                  max_files: int = MAX_FILES) -> None:
         self.kind = kind
