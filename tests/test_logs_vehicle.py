@@ -1,7 +1,7 @@
-"""A vehicle's onboard log (vehicle/logs/vehicle_log.py) on the real World stepped in sim time:
-when logs open and close (arming, LOG_DISARMED, LOG_FILE_DSRMROT, LOG_BACKEND_TYPE, reboot,
-LOG_ERASE), what a log starts with, and its samples read back by DFReader against the
-simulation's truth."""
+"""A vehicle's onboard log on the real World stepped in sim time, as the world keeps it (each
+vehicle's link ticks it; files in <state_dir>/vehicles/<index>/logs/): when logs open and
+close (arming, LOG_DISARMED, LOG_FILE_DSRMROT, LOG_BACKEND_TYPE, reboot, LOG_ERASE), what a
+log starts with, and its samples read back by DFReader against the simulation's truth."""
 from __future__ import annotations
 
 import math
@@ -10,50 +10,57 @@ import numpy as np
 import pytest
 from pymavlink import DFReader
 from pymavlink.dialects.v20 import ardupilotmega as A
-from test_autopilot_behaviour import _until
 
 from common import geo
 from vehicle.autopilot import modes
 from vehicle.autopilot.mission_store import MISSION, MissionItem
 from vehicle.logs import messages
-from vehicle.logs.vehicle_log import VehicleLog
-from vehicle.logs.writer import LogWriter
 from vehicle.world import World, WorldConfig
 
 
 class LoggedWorld:
-    """A headless World whose vehicles keep onboard logs in tmp (driven every autopilot tick
-    as the link's log capability drives them), with the truth sampled at 10 Hz."""
+    """A headless World with a state dir in tmp, stepped in sim time, the truth of vehicle 0
+    taken every autopilot tick."""
 
     def __init__(self, tmp_path, drones=1, rovers=0, params=None):
-        self.w = w = World(WorldConfig(drones=drones, rovers=rovers, state_dir=None, tcp_base=None,
+        self.state = tmp_path / "state"
+        self.w = w = World(WorldConfig(drones=drones, rovers=rovers, state_dir=str(self.state), tcp_base=None,
                                        udp_base=None))
-        self.writer = LogWriter()
-        self.logs = []
         for v in w.vehicles:
             for k, val in (params or {}).items():
                 v.ap.params.set(k, val, save=False)
-            fw = "ArduCopter V4.5.0 (test)" if v.kind == "copter" else "ArduRover V4.5.0 (test)"
-            log = VehicleLog(v.kind, tmp_path / f"v{v.index}" / "logs", self.writer, w.clock, w.unix_start_us,
-                             fw, v.index)
-            v.ap.outbox.subscribe(text=log.text, mode=log.mode_changed, arming=log.arming_changed)
-            self.logs.append(log)
+        self.writer = w.logs.writer
+        self.logs = [v.link.logs.log for v in w.vehicles]
         self.truth: list[tuple[float, list[float]]] = []      # (t, truth row of vehicle 0)
-        w.run_for = self.run_for                               # _until steps through us
 
     def run_for(self, seconds: float) -> None:
         w = self.w
         end = w.steps + round(seconds / w.dt)
         while w.steps < end:
-            World.step(w)
+            w.step()
             if w.steps % w.ap_every == 0:
-                for v, log in zip(w.vehicles, self.logs):
-                    log.update(v.ap, w.t)
-                if w.steps % (5 * w.ap_every) == 0:
-                    self.truth.append((w.t, w.fleets[0][1].truth_row(0)))
+                self.truth.append((w.t, w.fleets[0][1].truth_row(0)))
+
+    def until(self, cond, sim_s: float, step: float = 0.02) -> None:
+        t0 = self.w.t
+        while not cond():
+            if self.w.t - t0 > sim_s:
+                raise AssertionError(f"not within {sim_s} sim s")
+            self.run_for(step)
 
     def ready(self):
-        _until(self.w, lambda: all(v.ap.est_ok and v.ap.home is not None for v in self.w.vehicles), 20)
+        self.until(lambda: all(v.ap.est_ok and v.ap.home is not None for v in self.w.vehicles), 20)
+
+    def arm(self, i=0, seconds=0.0):
+        """Vehicle i in GUIDED and armed, then `seconds` of sim time."""
+        ap = self.w.vehicles[i].ap
+        assert ap.set_mode(modes.GUIDED if ap.kind == "copter" else modes.ROVER_GUIDED)
+        assert ap.arm() == A.MAV_RESULT_ACCEPTED
+        self.run_for(seconds)
+        return ap
+
+    def folder(self, i=0):
+        return self.state / "vehicles" / str(i) / "logs"
 
     def files(self, i=0):
         self.writer.flush()
@@ -79,9 +86,7 @@ def test_no_log_until_armed_then_one_per_boot(tmp_path):
     lw.ready()
     lw.run_for(2.0)
     assert lw.files() == []                                # LOG_DISARMED 0: nothing before arming
-    ap = lw.w.vehicles[0].ap
-    assert ap.set_mode(modes.GUIDED) and ap.arm() == A.MAV_RESULT_ACCEPTED
-    lw.run_for(1.0)
+    ap = lw.arm(seconds=1.0)
     assert ap.disarm() == A.MAV_RESULT_ACCEPTED
     lw.run_for(2.0)
     size = lw.files()[0][1]
@@ -96,25 +101,21 @@ def test_no_log_until_armed_then_one_per_boot(tmp_path):
     assert [m.ArmState for m in of(msgs, "ARM")] == [1, 0, 1, 0]
     assert [m.Id for m in of(msgs, "EV")] == [messages.EV_ARMED, messages.EV_DISARMED] * 2
     # a reboot closes it; the next arming opens the next number
-    lw.logs[0].stop(ap.params.values)
-    ap.reboot()
+    lw.w.vehicles[0].link.reboot()
     lw.run_for(2.0)
     assert [n for n, _ in lw.files()] == [1]
-    ap.set_mode(modes.GUIDED)
-    assert ap.arm() == A.MAV_RESULT_ACCEPTED
-    lw.run_for(0.5)
+    lw.ready()
+    lw.arm(seconds=0.5)
     assert [n for n, _ in lw.files()] == [1, 2]
-    assert (lw.logs[0].store.folder / "LASTLOG.TXT").read_bytes() == b"2\r\n"
+    assert sorted(p.name for p in lw.folder().iterdir()) == ["00000001.BIN", "00000002.BIN", "LASTLOG.TXT"]
+    assert (lw.folder() / "LASTLOG.TXT").read_bytes() == b"2\r\n"
 
 
 def test_dsrmrot_gives_a_log_per_arming(tmp_path):
     lw = LoggedWorld(tmp_path, params={"LOG_FILE_DSRMROT": 1})
     lw.ready()
-    ap = lw.w.vehicles[0].ap
-    ap.set_mode(modes.GUIDED)
     for _ in range(3):
-        assert ap.arm() == A.MAV_RESULT_ACCEPTED
-        lw.run_for(0.5)
+        ap = lw.arm(seconds=0.5)
         ap.disarm()
         lw.run_for(0.5)
     assert [n for n, _ in lw.files()] == [1, 2, 3]
@@ -130,8 +131,7 @@ def test_log_disarmed_logs_from_boot(tmp_path, value):
     assert [n for n, _ in lw.files()] == [1]
     _, msgs = lw.read()
     assert of(msgs, "ATT") and not of(msgs, "ARM")
-    ap = lw.w.vehicles[0].ap
-    lw.logs[0].stop(ap.params.values)
+    lw.w.vehicles[0].link.close()              # as the world does when it stops
     lw.writer.flush()
     # LOG_DISARMED 3: a log that never saw arming is discarded when it closes
     assert [n for n, _ in lw.files()] == ([1] if value == 1 else [])
@@ -140,27 +140,20 @@ def test_log_disarmed_logs_from_boot(tmp_path, value):
 def test_backend_off_logs_nothing(tmp_path):
     lw = LoggedWorld(tmp_path, params={"LOG_BACKEND_TYPE": 0, "LOG_DISARMED": 1})
     lw.ready()
-    ap = lw.w.vehicles[0].ap
-    ap.set_mode(modes.GUIDED)
-    ap.arm()
-    lw.run_for(1.0)
-    assert lw.files() == []
+    lw.arm(seconds=1.0)
+    assert lw.files() == [] and not lw.folder().exists()
 
 
 def test_erase_while_logging_starts_afresh(tmp_path):
     lw = LoggedWorld(tmp_path, params={"LOG_DISARMED": 1, "LOG_FILE_DSRMROT": 1})
     lw.ready()
-    ap = lw.w.vehicles[0].ap
-    ap.set_mode(modes.GUIDED)
-    ap.arm()
-    lw.run_for(0.5)
-    ap.disarm()
+    lw.arm(seconds=0.5).disarm()
     lw.run_for(0.5)
     assert len(lw.files()) == 2
     log = lw.logs[0]
     log.erase()
     assert log.entries() == []                 # erasing, or erased: nothing to list
-    _until(lw.w, lambda: lw.files() != [], 5.0, step=0.5)
+    lw.until(lambda: lw.files() != [], 5.0, step=0.5)
     # the erase ran on the writer thread before the new log's bytes: only a fresh log 1
     assert [n for n, _ in lw.files()] == [1]
     _, msgs = lw.read()
@@ -179,11 +172,11 @@ def test_log_contents_against_the_truth(tmp_path):
     ap.mission_uploaded(MISSION)
     assert ap.set_mode(modes.GUIDED) and ap.arm() == A.MAV_RESULT_ACCEPTED
     assert ap.command(A.MAV_CMD_NAV_TAKEOFF, [0, 0, 0, 0, 0, 0, 10]) == A.MAV_RESULT_ACCEPTED
-    _until(w, lambda: ap.pos[2] < -9.5, 30)
+    lw.until(lambda: ap.pos[2] < -9.5, 30)
     assert ap.set_mode(modes.AUTO)                # the mission's waypoint (its takeoff is done)
     lw.run_for(15.0)
     assert ap.set_mode(modes.LAND)
-    _until(w, lambda: not ap.armed, 60)
+    lw.until(lambda: not ap.armed, 60)
     lw.run_for(1.0)
     r, msgs = lw.read()
     names = [m.get_type() for m in msgs]
@@ -191,7 +184,7 @@ def test_log_contents_against_the_truth(tmp_path):
     assert names[:len(lw.logs[0].schema.encoders)] == ["FMT"] * len(lw.logs[0].schema.encoders)
     assert len(of(msgs, "PARM")) == len(ap.params.names)
     assert r.params["LOG_DISARMED"] == 0 and r.params["SYSID_THISMAV"] == ap.sysid
-    assert of(msgs, "MSG")[0].Message == "ArduCopter V4.5.0 (test)"
+    assert of(msgs, "MSG")[0].Message == "ArduCopter V4.5.0 (00000000)"
     assert [o.Type for o in of(msgs, "ORGN")] == [messages.ORIGIN_EKF, messages.ORIGIN_AHRS_HOME]
     modes_seen = [(m.ModeNum, m.Rsn) for m in of(msgs, "MODE")]
     assert modes_seen == [(modes.GUIDED, 0), (modes.AUTO, 2), (modes.LAND, 2)]    # GCS_COMMAND
