@@ -187,6 +187,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     n.add_argument("--route-only", action="store_true",
                    help="the nodes do the lab's work: the bridge publishes no vehicle frames, does not "
                         "follow, and routes the tower's goals (tower frame, untranslated) to the nodes")
+    n.add_argument("--lockstep-nodes", type=int, default=0, metavar="N",
+                   help="with --lockstep: wait (at most 15 s wall) for N nodes to join before the first "
+                        "barrier; nodes that join (common.tf2_ros with lockstep on) are waited for at every "
+                        "barrier, so their reactions take effect at a sim time the data fixes")
     w = p.add_argument_group("rover follow")
     w.add_argument("--no-follow", dest="follow", action="store_false", help="do not drive the rover")
     w.add_argument("--follow-frame", choices=("drone", "drone_yaw"), default=None,
@@ -245,7 +249,7 @@ def config_from_args(args):
         allow_redefine=args.allow_redefine, signing_key=key_from_text(args.signing_key),
         vehicle_signing=args.vehicle_signing,
         nodes=args.nodes, route_only=args.route_only,
-        lockstep=args.lockstep)
+        lockstep=args.lockstep, lockstep_nodes=max(0, args.lockstep_nodes))
 
 
 def _lla(text: str) -> tuple[float, float, float]:

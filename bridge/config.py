@@ -51,6 +51,7 @@ class BridgeConfig:
     nodes: str | None = None        # e.g. udpin:127.0.0.1:14620 (common.tf2_ros.DEFAULT_URL's peer)
     route_only: bool = False        # no vehicle frames, no goal translation, no follow: nodes do them
     lockstep: bool = False      # a participant of the world's lockstep (bridge.lockstep_desk)
+    lockstep_nodes: int = 0     # with lockstep and nodes: how many nodes to wait for (bridge.node_lockstep)
 
 
 @dataclass

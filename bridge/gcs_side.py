@@ -8,7 +8,8 @@ takes for itself, and the rest routed on by target_system (bridge.router).
 * TOWERLINK_STATIC_TRANSFORM to the bridge (or to all): bridge.static_desk.
 * TOWERLINK_TRANSFORM: a node's frame (bridge.node_desk), never echoed to the vehicles.
 * TOWERLINK_LOCKSTEP from the tower (--lockstep): the lockstep desk sees it, and it goes on
-  to the world like any broadcast, in order after the tower's goals.
+  to the world like any broadcast, in order after the tower's goals. From a node (the node
+  link): the bridge's own participant (bridge.node_lockstep), never routed.
 
 A packet the link's signature check refused is never routed; a static or a node's transform
 among them is still read, to be refused and told why.
@@ -100,6 +101,11 @@ class GcsSide:
             return
         elif mid == MSG_TL_TRANSFORM:
             self.nodes.on_transform(link, pkt, self.decode(link, pkt))
+            return
+        elif mid == MSG_TL_LOCKSTEP and link in self.nodes.node_links:
+            msg = self.decode(link, pkt)        # a node's: the bridge's own participant, never routed
+            if msg is not None and self.lockstep is not None:
+                self.lockstep.on_node(pkt.sysid, pkt.compid, msg)
             return
         elif mid == MSG_TL_LOCKSTEP and link is self.tower and self.lockstep is not None:
             msg = self.decode(link, pkt)

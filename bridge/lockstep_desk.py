@@ -12,6 +12,10 @@ packet up to t (the loop handles packets in arrival order). Then, at that barrie
    bridge to the world like any broadcast, on the same socket as its goals, so a goal sent
    before the tower's ACK reaches the vehicle before it).
 
+With nodes in lockstep (--nodes with --lockstep, bridge.node_lockstep) `nodes` holds steps 2 and 3
+until the nodes have settled at t; a TICK the world sends again meanwhile is answered with the
+newest barrier already released, never the held one.
+
 When the bridge closes it sends LEAVE on every vehicle link.
 
 Until the first TICK arrives on a link the bridge sends JOIN there every JOIN_PERIOD wall s,
@@ -34,13 +38,15 @@ TICK_RESEND = 0.5               # wall s without the tower's ACK of its newest T
 
 
 class LockstepDesk:
-    def __init__(self, vehicles: dict, pack_own, send_tower, on_barrier, log, wall) -> None:
+    def __init__(self, vehicles: dict, pack_own, send_tower, on_barrier, log, wall, nodes=None) -> None:
         self.wall = wall                    # () -> wall s (only for JOIN resends)
         self.tick_wall: dict[str, float] = {}
         self.vehicles = vehicles            # sysid -> VehicleRecord
         self.pack_own = pack_own            # message -> bytes (the bridge's own packet)
         self.send_tower = send_tower        # bytes -> None
         self.on_barrier = on_barrier        # (t seconds) -> None: the sim-time upkeep
+        self.nodes = nodes                  # bridge.node_lockstep.NodeLockstep, or None
+        self.released_usec = -1             # the newest barrier ACKed to the world
         self.log = log
         self.ticks: dict[str, int] = {}     # vehicle link name -> newest TICK, us
         self._at: dict[int, int] = {}       # TICK time, us -> how many links' newest it is
@@ -59,8 +65,15 @@ class LockstepDesk:
         """The barrier's sim time (s): the bridge's behaviour clock in lockstep."""
         return max(self.barrier_usec, 0) / 1e6
 
+    def on_node(self, sysid: int, compid: int, msg) -> None:
+        """A TOWERLINK_LOCKSTEP from a node on the node link (the bridge's participant, not the world's)."""
+        if self.nodes is not None:
+            self.nodes.on_message(sysid, compid, msg)
+
     def upkeep(self, wall: float) -> None:
-        if self.tower_joined and self.barrier_usec > self.tower_acked and \
+        if self.nodes is not None:
+            self.nodes.upkeep()
+        if self.tower_joined and self.released_usec > self.tower_acked and \
                 wall - self.tower_tick_wall > TICK_RESEND:
             self.tick_resends += 1
             self._tick_tower(wall)
@@ -101,6 +114,12 @@ class LockstepDesk:
         self.barrier_usec = barrier
         self.barriers += 1
         self.on_barrier(barrier / 1e6)
+        if self.nodes is None or not self.nodes.hold(barrier, lambda: self._release(barrier)):
+            self._release(barrier)
+
+    def _release(self, barrier: int) -> None:
+        """ACK(barrier) to the world on every vehicle link, then TICK the tower."""
+        self.released_usec = barrier
         for w in self.vehicles.values():
             w.link.send(self.pack_own(self._message(tl.TOWERLINK_LOCKSTEP_KIND_ACK, barrier, w.sysid)))
         if self.tower_joined:
@@ -110,7 +129,9 @@ class LockstepDesk:
         """A TICK the barrier has passed came again on v's link: ACK it again there, and TICK
         the tower again (it ACKs a TICK it already handled again, which passes on to the world)."""
         self.tick_resends_seen += 1
-        v.link.send(self.pack_own(self._message(tl.TOWERLINK_LOCKSTEP_KIND_ACK, self.barrier_usec, v.sysid)))
+        v.link.send(self.pack_own(self._message(tl.TOWERLINK_LOCKSTEP_KIND_ACK, self.released_usec, v.sysid)))
+        if self.released_usec < self.barrier_usec:
+            return              # held for the nodes: the tower's TICK comes with the release
         wall = self.wall()
         # the world asks on every link the tower ACKs through: one TICK to the tower for them all
         if self.tower_joined and wall - self.tower_tick_wall >= TICK_RESEND / 2:
@@ -119,7 +140,7 @@ class LockstepDesk:
     def _tick_tower(self, wall: float) -> None:
         self.tower_tick_wall = wall
         self.send_tower(self.pack_own(tl.MAVLink_towerlink_lockstep_message(
-            self.barrier_usec, 0, tl.TOWERLINK_LOCKSTEP_KIND_TICK, tl.TOWERLINK_LOCKSTEP_PARTICIPANT_WORLD,
+            self.released_usec, 0, tl.TOWERLINK_LOCKSTEP_KIND_TICK, tl.TOWERLINK_LOCKSTEP_PARTICIPANT_WORLD,
             self.period_usec)))
 
     def on_tower(self, msg) -> None:

@@ -52,6 +52,7 @@ from bridge.gcs_side import GcsSide
 from bridge.goals import GoalDesk
 from bridge.links import Link
 from bridge.lockstep_desk import LockstepDesk
+from bridge.node_lockstep import NodeLockstep
 from bridge.log import BridgeLog
 from bridge.node_desk import NodeDesk
 from bridge.origins import OriginDesk, origin_frame
@@ -98,8 +99,11 @@ class Bridge:
                                  grace=cfg.time_grace)
         # what decides behaviour (goal retries, follow checks and retries, stream re-requests)
         # runs on this clock: the world's lockstep barrier (sim s) with --lockstep, else wall
+        # nodes in lockstep (--nodes) answer the bridge, which answers the world once they settled
+        nodes = NodeLockstep(self.node_links[0], self.codec.pack_own, cfg.lockstep_nodes, self.log, clock) \
+            if cfg.lockstep and self.node_links else None
         self.lockstep = LockstepDesk(self.vehicles, self.codec.pack_own, self.tower.send,
-                                     self._at_barrier, self.log, clock) if cfg.lockstep else None
+                                     self._at_barrier, self.log, clock, nodes=nodes) if cfg.lockstep else None
         self.behaviour_clock = (lambda: self.lockstep.sim_now) if self.lockstep else clock
         self.clocks = ClockDesk(self.timeline, self.router.command, self.router.send_own,
                                 self.log, self.warn_once, clock)
@@ -156,6 +160,7 @@ class Bridge:
 
     def _at_barrier(self, t: float) -> None:
         # the lockstep desk exists before the sim checks it drives (they read its clock)
+        self.telemetry.ask_origins(t)       # on sim time: the origins come at a TICK the data fixes
         self.sim_checks.at_barrier(t)
 
     def vehicle_frame(self, sysid: int) -> str:

@@ -29,4 +29,6 @@ def summary(links, vehicles: dict, timeline, node_frames, followers: dict, decod
                      f"tower {'joined' if lockstep.tower_joined else 'not joined'}; "
                      f"TICKs sent to the tower again {lockstep.tick_resends}; "
                      f"the world's TICKs answered again {lockstep.tick_resends_seen}")
+        if lockstep.nodes is not None:
+            parts.append(lockstep.nodes.summary())
     return "\n".join(parts)

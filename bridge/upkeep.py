@@ -4,8 +4,8 @@
   run on the behaviour clock: every wall tick, or with --lockstep at every barrier of the
   world's TICKs (sim time), so they happen at the same sim time every run.
 * :class:`Upkeep`: the wall-clock pass every loop TICK: the links' own upkeep (tcp
-  reconnects, silent UDP peers), held samples released, origins asked for, the lockstep
-  desk's resends, and at their periods the heartbeat to the vehicles (with stream requests
+  reconnects, silent UDP peers), held samples released, origins asked for (with --lockstep
+  at the barriers instead), the lockstep desk's resends, and at their periods the heartbeat to the vehicles (with stream requests
   for one whose telemetry stopped), TIMESYNC probes, the static frames republished and
   TOWERLINK_BRIDGE_STATUS; then what is queued for the GCS links is written.
 """
@@ -97,7 +97,8 @@ class Upkeep:
         for link in self.links:
             link.poll()
         self.telemetry.release_held()
-        self.telemetry.ask_origins(now)
+        if self.lockstep is None:           # with lockstep at the barriers (on sim time)
+            self.telemetry.ask_origins(now)
         if self.lockstep is None:
             self.sim_checks.on_wall_tick()
         else:

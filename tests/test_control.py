@@ -5,20 +5,12 @@ import math
 
 import numpy as np
 import pytest
+from sim_support import DT, run
 
 from vehicle.control import copter as ccore
 from vehicle.control import shaping
 from vehicle.fleet import CopterFleet, RoverFleet, Setpoint
 from vehicle.physics import ScalarOps
-
-DT = 1.0 / 400.0
-
-
-def run(f, secs, cb=None):
-    for _ in range(int(round(secs / DT))):
-        f.step(DT)
-        if cb is not None:
-            cb(f)
 
 
 def hover_at(alt=10.0, **kw):

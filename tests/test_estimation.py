@@ -5,18 +5,10 @@ import math
 
 import numpy as np
 import pytest
+from sim_support import run
 
 from vehicle.fleet import CopterFleet, RoverFleet, Setpoint
 from vehicle.sensors import Sensors, SensorSpec, vehicle_rngs
-
-DT = 1.0 / 400.0
-
-
-def run(f, secs, cb=None):
-    for _ in range(int(round(secs / DT))):
-        f.step(DT)
-        if cb is not None:
-            cb(f)
 
 
 def test_estimate_converges_and_estimate_ok():
@@ -136,3 +128,41 @@ def test_fleet_filterpy_and_batched_estimators_agree():
     assert a.estimator.kfs and not b.estimator.kfs
     assert not CopterFleet(2, seed=0).estimator.batched      # the SITL-size default is filterpy
     assert CopterFleet(20, seed=0).estimator.batched         # big fleets: BatchedKF
+
+
+def test_sensor_rows_are_the_vectorised_samples_to_the_bit():
+    """sample_rows (a few vehicles, on floats) and sample (numpy) draw the same noise and
+    compute the same readings, bit for bit."""
+    n = 3
+    rng = np.random.default_rng(9)
+    pos, vel, acc = rng.normal(size=(3, n, 3)) * [[10.0], [2.0], [3.0]]
+    q = rng.normal(size=(n, 4))
+    quat = q / np.linalg.norm(q, axis=1, keepdims=True)
+    a, b = Sensors(vehicle_rngs(4, n)), Sensors(vehicle_rngs(4, n))
+    for k in range(6):
+        gps, baro = k % 3 == 0, k % 2 == 0
+        a.sample(gps, baro, pos, vel, acc, quat)
+        z, accel, gps_pos, gps_vel, baro_alt = b.sample_rows(gps, baro, pos.tolist(), vel.tolist(), acc.tolist(),
+                                                             quat.tolist())
+        assert np.array_equal(a.z, np.array(z)) and np.array_equal(a.accel, np.array(accel))
+        if gps:
+            assert np.array_equal(a.gps_pos, np.array(gps_pos)) and np.array_equal(a.gps_vel, np.array(gps_vel))
+        else:
+            assert gps_pos is None and gps_vel is None
+        if baro:
+            assert np.array_equal(a.baro_alt, np.array(baro_alt))
+        else:
+            assert baro_alt is None
+
+
+def test_filter_gain_of_a_scalar_measurement_is_a_division():
+    """The filters' inv: a 1x1 S (baro) by division gives numpy's LU inverse to the bit;
+    any larger S is numpy's inverse."""
+    from vehicle.estimation import _inv, make_kf
+    rng = np.random.default_rng(2)
+    for v in rng.lognormal(0.0, 6.0, size=2000):
+        S = np.array([[v]])
+        assert _inv(S)[0, 0] == np.linalg.inv(S)[0, 0]
+    S = np.cov(rng.normal(size=(6, 20)))
+    assert np.array_equal(_inv(S), np.linalg.inv(S))
+    assert make_kf(0.01, np.zeros(3), 0.08, 0.3, 0.45, 0.1).inv is _inv

@@ -50,6 +50,9 @@ class FakeNode:
     def rate(self, hz):
         return type("R", (), {"sleep": lambda self: None})()
 
+    def now(self):
+        return 0.0
+
 
 def of_type(node, t):
     return [m for m in node.sent if m.get_type() == t]
@@ -96,8 +99,9 @@ def test_tower_to_map_sends_the_tower_goal_to_the_drone_in_world():
     assert "goal dropped" in node.logs[-1]
 
 
-@pytest.mark.parametrize("frame, ahead", [("drone_yaw", 0.0), ("drone", 9.0 * math.sin(0.1))])
-def test_ground_robot_controller_sends_the_ground_point_under_the_drone(frame, ahead):
+@pytest.mark.parametrize("frame, ahead, up", [("drone_yaw", 0.0, 0.0),
+                                              ("drone", 9.0 * math.sin(0.1), 9.0 * (1 - math.cos(0.1)))])
+def test_ground_robot_controller_sends_the_ground_point_under_the_drone(frame, ahead, up):
     node = FakeNode()
     grc = load("ground_robot_controller").GroundRobotController(node, frame)
     # the rover booted 3 m south of world's origin: its targets are from there (rover_origin)
@@ -110,12 +114,15 @@ def test_ground_robot_controller_sends_the_ground_point_under_the_drone(frame, a
         full = Transform.from_euler(pitch=-0.1, translation=xyz)
         for child, tr in (("drone", full), ("drone_yaw", Transform(translation=xyz))):
             node.deliver(transform_message(TransformStamped("world", child, t, tr)), 250)
-        grc.on_transform()
+        node.turns = 1
+        grc.mainloop()
     goals = of_type(node, "SET_POSITION_TARGET_LOCAL_NED")
     g = goals[-1]
-    assert g.target_system == 2 and g.z == 0.0 and g.time_boot_ms == 1100
+    # (0, 0, h) through the frame: on the ground (z 0) in the level frame, a little above it when tilted
+    assert g.target_system == 2 and g.z == pytest.approx(-up, abs=1e-6) and g.time_boot_ms == 1100
     assert g.x == pytest.approx(10.5 - ahead + 3.0, abs=1e-4) and g.y == pytest.approx(3.0)
-    assert (g.vx, g.vy) == pytest.approx((5.0, 0.0), abs=1e-3)
-    assert len(goals) == 1                                    # at 1.0 there was no 0.9 to take a velocity from
-    grc.on_transform()                                        # no new drone time: no new goal
-    assert len(of_type(node, "SET_POSITION_TARGET_LOCAL_NED")) == 1
+    assert (g.vx, g.vy) == pytest.approx((5.0, 0.0), abs=1e-3)   # from the goal 0.1 s before
+    assert len(goals) == 2 and (goals[0].vx, goals[0].vy) == (0.0, 0.0)   # at 1.0 there was none before
+    node.turns = 1
+    grc.mainloop()                                            # no new drone time: no new goal
+    assert len(of_type(node, "SET_POSITION_TARGET_LOCAL_NED")) == 2

@@ -1,20 +1,25 @@
-"""The lab flown by its three nodes (issue 12): `towerlink fly --nodes examples/lab`.
+"""The reference solution (examples/lab) through `towerlink lab check`: full marks, and what its flights show.
 
-tower_to_map, world_to_drone and ground_robot_controller (examples/lab, written against
-common.tf2_ros) run as separate programs; the bridge runs with --route-only (no vehicle
-frames, no goal translation, no follow of its own). One flight, checkpoints 1-3 read
-from its run folder. At 1x: the nodes are not lockstep participants, so their reaction time
-counts in sim time as wall latency x speedup; at 2x the follow RMS read 0.81 m quiet and
-1.006 m in one CI run (over the 1 m mark), at 1x 0.70 m quiet and beside two CPU burners.
+One check of examples/lab (two flights at once, in lockstep at --speedup max): checkpoint 0 on
+fly.launch; cp1, the three nodes with fly.launch's transform and the rover on drone_yaw
+(checkpoints 1 and 3); cp2, the rover on the tilting drone frame (checkpoint 2). The nodes run
+as separate programs (common.tf2_ros) and the bridge only routes (--route-only). The nodes take
+part in the lockstep through the bridge, so cp1 flown again at --speedup 2 beside a CPU burner
+gives the same figures.
 """
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
 from common.tf2_ros.node import component_for
-from system_support import MISSION_WORLD, finish, launched, tower_goals, tower_result
+from system_support import figures
+from tools.lab.checker import check
+from tools.lab.evidence import Evidence
+from tools.lab.flights import LAB_GOALS_WORLD, Flight, FlightRun, fly
 from tools.run_data import read_tlog
 
 pytestmark = pytest.mark.slow
@@ -22,59 +27,69 @@ LAB = Path(__file__).resolve().parent.parent / "examples" / "lab"
 
 
 @pytest.fixture(scope="module")
-def run(tmp_path_factory):
-    run_dir = tmp_path_factory.mktemp("lab_nodes")
-    with launched(run_dir, goals=tower_goals(MISSION_WORLD), follow_frame="drone_yaw", finish="land",
-                  speedup=1.0, nodes=LAB) as launch:
-        s = finish(launch, timeout=150)
-    return run_dir, s
+def report(tmp_path_factory):
+    return check(LAB, out=tmp_path_factory.mktemp("lab_check"))
 
 
-def test_the_bridge_only_routed(run):
-    run_dir, s = run
-    assert s["nodes"] == ["ground_robot_controller", "tower_to_map", "world_to_drone"]
-    log = (run_dir / "bridge.log").read_text()
-    assert "--route-only" in log.splitlines()[0]
-    # the drone's frames are world_to_drone's; the bridge neither followed nor translated a goal
+def cp(rep, n):
+    return next(c for c in rep["checkpoints"] if c["number"] == n)
+
+
+def test_the_reference_gets_full_marks(report):
+    assert report["passed"], [(c["number"], c["measured"], c["hints"]) for c in report["checkpoints"]]
+    assert [c["verdict"] for c in report["checkpoints"]] == ["PASS"] * 4
+    assert all(c["hints"] == [] for c in report["checkpoints"])
+    assert cp(report, 1)["figures"]["reached"] == [True, True, True]
+    assert cp(report, 3)["figures"]["follow_rms_m"] < 1.0                    # the lab's mark
+    assert cp(report, 3)["figures"]["wobble_rms_m"] < 1e-3                   # the level frame: no swing
+    c2 = cp(report, 2)["figures"]
+    assert c2["wobble_rms_m"] > 0.3 and c2["goal_swing_m"] > 0.5 * c2["wobble_rms_m"]   # it wobbles
+    assert abs(cp(report, 2)["figures"]["stamp_offset_s"]) < 0.05           # on the drone's clock
+    assert set(report["flights"]) == {"cp1", "cp2", "cp3"}                  # cp3 is cp1's flight
+    assert report["flights"]["cp3"]["dir"] == report["flights"]["cp1"]["dir"]
+    out = Path(report["report_dir"])
+    assert {"report.md", "report.json", "tracks.png", "tracks-cp2.png"} <= {p.name for p in out.iterdir()}
+    print(f"\nlab check of examples/lab: {report['wall_s']:.1f} s wall; flights "
+          + ", ".join(f"{k} {f['sim_s']:.1f} s sim in {f['wall_s']:.1f} s" for k, f in report["flights"].items()))
+
+
+def test_the_bridge_only_routed_and_the_nodes_joined_the_lockstep(report):
+    run = Path(report["flights"]["cp1"]["dir"])
+    log = (run / "bridge.log").read_text()
+    assert "--route-only" in log.splitlines()[0] and "--lockstep-nodes 3" in log.splitlines()[0]
     node = f"node:255/{component_for('world_to_drone')}"
     assert f"node frames: drone by {node}, drone_yaw by {node}; refused 0" in log
-    assert "follow ticks drone:0;" in log            # the bridge drove no follow (per pair since the family)
-    kinds = {m.get_type() for m in read_tlog(run_dir / "bridge.tlog")}
+    assert "follow ticks drone:0;" in log            # the bridge drove no follow
+    assert "node lockstep: 3 node(s) in" in log
+    kinds = {m.get_type() for m in read_tlog(run / "bridge.tlog")}
     assert "TOWERLINK_FOLLOW_STATUS" not in kinds and "TOWERLINK_TRANSFORM" in kinds
-
-
-def test_checkpoint1_tower_goals_reached_through_tower_to_map(run):
-    run_dir, s = run
-    tj = tower_result(run_dir)
-    assert tj["ok"] and [g["reached"] for g in tj["goals"]] == [True, True, True]
-    # each tower goal became the world goal the lab's table gives, in the node
-    said = (run_dir / "node-tower_to_map.log").read_text()
-    for x, y in MISSION_WORLD:
+    said = (run / "node-tower_to_map.log").read_text()
+    for x, y in LAB_GOALS_WORLD:                     # each tower goal became the lab's world goal
         assert f"Publishing Transformed Goal [{x}, {y}]" in said
-    for g, (x, y) in zip(s["goals"], MISSION_WORLD):
-        assert g["world"][:2] == pytest.approx((x, y), abs=0.01)
 
 
-def test_checkpoint2_rover_follows_the_drone_to_the_goals(run):
-    _, s = run
-    fe = s["follow_error"]
-    assert fe["source"] == "truth (SIM_STATE)" and fe["n"] > 50
-    assert fe["rms"] <= 1.0, s["text"]
-
-
-def test_checkpoint3_the_yaw_only_frame_has_no_wobble(run):
-    _, s = run
-    w = s["wobble"]["from_transforms"]           # recomputed from the frames the node published
-    assert w["drone"]["rms"] > 0.3               # the tilting frame swings the ground point
-    assert w["drone"]["rms"] >= 10 * max(w["drone_yaw"]["rms"], 1e-9)
-
-
-def test_view_frames_shows_the_nodes_frames_with_their_rates(run):
-    run_dir, _ = run
+def test_view_frames_shows_the_nodes_frames_with_their_rates(report):
     from tools.view_frames import buffer_from_tlog
-    buf, _now = buffer_from_tlog(run_dir / "bridge.tlog")
+    buf, _now = buffer_from_tlog(Path(report["flights"]["cp1"]["dir"]) / "bridge.tlog")
     st = buf.edge_stats()
     for f in ("drone", "drone_yaw"):
         assert st[f].parent == "world" and not st[f].is_static
         assert st[f].rate_hz == pytest.approx(20.0, rel=0.1)      # the drone's telemetry rate
     assert st["tower"].is_static
+
+
+def test_the_same_flight_at_2x_beside_a_cpu_burner_gives_the_same_figures(report, tmp_path):
+    nodes = tuple(LAB / f"{n}.py" for n in ("tower_to_map", "world_to_drone", "ground_robot_controller"))
+    flight = Flight("cp1", "drone_yaw", cp(report, 0)["figures"]["args"], nodes, "cp1 again at 2x")
+    ev_max = Evidence.read(FlightRun(flight, Path(report["flights"]["cp1"]["dir"])))
+    burner = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        run = fly(flight, tmp_path / "cp1_2x", speedup=2.0)
+    finally:
+        burner.kill()
+        burner.wait(5)
+    ev_2x = Evidence.read(run)
+    a, b = figures(ev_max.summary), figures(ev_2x.summary)
+    assert len(a) > 40 and "follow_error.rms" in a
+    diff = {k: (a.get(k), b.get(k)) for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)}
+    assert diff == {}, f"figures that differ between max and 2x (loaded): {diff}"

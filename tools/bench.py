@@ -4,11 +4,13 @@
   towerlink bench frames flight   a selection
 
 frames: interpolated lookup vs pytransform3d, batched points vs scipy, inserts.
-flight: one drone vs RotorPy, 1000 batched drones, flight quality.
+flight: one drone vs RotorPy (on truth and in the SITL configuration, by stage), 1000
+        batched drones, flight quality.
 world:  1,000 vehicles (4 MAVLink networks, sitl --workers 2) with full default telemetry,
         counted on the wire, CPU used, ArduPilot's process per vehicle (256 at most) as the
         stated peer; 10,000 drones of controller + physics at 400 Hz on one core, CPU per
-        drone-step and where the time goes.
+        drone-step and where the time goes; the default world (drone + rover, autopilots,
+        telemetry) unpaced in-process, its cost per vehicle-step by stage.
 bridge: latency the bridge adds to a tower goal (vs a direct link), forwarding rate
         with telemetry from 1, 10 and 100 vehicles (vs MAVProxy), bridge on one CPU; the
         added latency again with 1,000 vehicles' telemetry flowing (a fake source, 4 networks).

@@ -1,4 +1,5 @@
-"""Benchmark: a big SITL world on the wire, and 10,000 drones of physics and control.
+"""Benchmark: a big SITL world on the wire, 10,000 drones of physics and control, and the
+default world in-process.
 
   python -m tools.bench_world            (or: towerlink bench world)
 
@@ -17,6 +18,9 @@
     400 Hz on one core: CPU per fleet step (best of 5, process time, so other processes on
     a shared machine count less), cost per drone-step, real-time factor, and where the
     time goes (per stage, and the costliest source lines from a line trace).
+(c) The default world (1 drone + 1 rover, autopilots, telemetry sent on their links) stepped
+    unpaced in-process: real-time factor and the cost per vehicle-step by stage
+    (tools.bench_default_world).
 """
 from __future__ import annotations
 
@@ -33,6 +37,8 @@ import tempfile
 import threading
 import time
 
+from tools import bench_default_world
+from tools.bench_stages import StageTimer
 from tools.benchtable import machine, table
 
 DT = 1.0 / 400.0
@@ -260,45 +266,23 @@ def _cpu_per_step(f, steps: int = 200, repeat: int = 5) -> tuple[float, float]:
 
 
 def _stages(f, steps: int = 100) -> list[tuple[str, float]]:
-    """CPU s per step in each stage of the copter step (wrapped functions; nested stages are
-    subtracted from their parent)."""
+    """CPU s per step in each stage of the copter step (self times, tools.bench_stages)."""
     from vehicle import fleet as fl
     from vehicle.control import copter as cc
     from vehicle.control import shaping
     from vehicle.physics import multicopter as mc
-    spots = [(shaping, "shape_xy"), (shaping, "shape_z"), (cc, "mix"), (cc, "step"), (mc, "step"),
-             (fl, "_land_detect")]
-    acc: dict[str, float] = collections.Counter()
-    saved = []
-    for mod, name in spots:
-        fn = getattr(mod, name)
-        key = f"{mod.__name__.rsplit('.', 1)[-1]}.{name}"
-
-        def wrapped(*a, _fn=fn, _key=key, **k):
-            t0 = time.process_time()
-            try:
-                return _fn(*a, **k)
-            finally:
-                acc[_key] += time.process_time() - t0
-        saved.append((mod, name, fn))
-        setattr(mod, name, wrapped)
-    try:
+    spots = [(shaping, "shape_xy", "reference shaping, horizontal (shaping.shape_xy)"),
+             (shaping, "shape_z", "reference shaping, vertical (shaping.shape_z)"),
+             (cc, "step", "position/velocity/attitude/rate loops (control.copter.step)"),
+             (cc, "mix", "mixer (control.copter.mix)"),
+             (mc, "step", "rigid body + motors (physics.multicopter.step)"),
+             (fl, "_land_detect", "land detector (fleet._land_detect)")]
+    with StageTimer(spots, limit=math.inf, clock=time.process_time) as st:
         t0 = time.process_time()
         for _ in range(steps):
             f.step(DT)
         total = (time.process_time() - t0) / steps
-    finally:
-        for mod, name, fn in saved:
-            setattr(mod, name, fn)
-    per = {k: v / steps for k, v in acc.items()}
-    ctrl = per.get("copter.step", 0.0) - per.get("shaping.shape_xy", 0.0) - per.get("shaping.shape_z", 0.0) \
-        - per.get("copter.mix", 0.0)
-    out = [("reference shaping, horizontal (shaping.shape_xy)", per.get("shaping.shape_xy", 0.0)),
-           ("reference shaping, vertical (shaping.shape_z)", per.get("shaping.shape_z", 0.0)),
-           ("position/velocity/attitude/rate loops (control.copter.step)", ctrl),
-           ("mixer (control.copter.mix)", per.get("copter.mix", 0.0)),
-           ("rigid body + motors (physics.multicopter.step)", per.get("multicopter.step", 0.0)),
-           ("land detector (fleet._land_detect)", per.get("fleet._land_detect", 0.0))]
+    out = [(label, st.seconds.get(label, 0.0) / steps) for _, _, label in spots]
     out.append(("fleet bookkeeping (masks, idle/arm selection)", total - sum(v for _, v in out)))
     return out
 
@@ -364,7 +348,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--physics-drones", type=int, default=10000, metavar="N",
                     help="drones in the physics/control benchmark (default 10000)")
     ap.add_argument("--workers", type=int, default=2, help="world processes (sitl --workers; default 2)")
-    ap.add_argument("--only", choices=("world", "physics"), help="run one part")
+    ap.add_argument("--only", choices=("world", "physics", "default"), help="run one part")
     a = ap.parse_args(argv)
     print(f"{machine()} | load average {os.getloadavg()[0]:.1f} (other processes share these cores)", flush=True)
     ok = True
@@ -375,6 +359,10 @@ def main(argv: list[str] | None = None) -> int:
         ok &= good
     if a.only in (None, "physics"):
         text, good = physics_bench(a.physics_drones)
+        print(text, flush=True)
+        print()
+    if a.only in (None, "default"):
+        text, _ = bench_default_world.report(bench_default_world.measure())
         print(text, flush=True)
     return 0 if ok else 1
 

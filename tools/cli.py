@@ -30,6 +30,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "plot": ("tools.plot_tracks", "plot the tracks of a run folder or tlog"),
     "bench": ("tools.bench", "run the benchmarks, peers side by side"),
     "sweep": ("tools.sweep", "fly many seeded variations of a mission on Ray; one table, plots, effects"),
+    "lab": ("tools.lab.cli", "the lab as a course: `lab init DIR` (skeletons), `lab check DIR...` (report card)"),
 }
 
 

@@ -19,7 +19,9 @@ With --nodes DIR every DIR/*.py is started as a node (common.tf2_ros), `python F
 --connect udpout:127.0.0.1:PORT --follow-frame FRAME` (node-<name>.log), and the bridge
 gets --nodes udpin:127.0.0.1:PORT --route-only: the nodes publish the drone's frames,
 turn the tower's goals into world goals and drive the rover; the bridge only routes (and
-keeps the frames' authority).
+keeps the frames' authority). In lockstep the nodes take part too (TOWERLINK_NODE_LOCKSTEP=1,
+bridge --lockstep-nodes N): each answers the bridge's TICKs after its loop ran on sim time, and
+the bridge answers the world only then (bridge.node_lockstep).
 
 While they run it prints a progress line (goal n/N, drone position, rover follow error
 from truth, sim time and the speedup achieved) at most once a second, and only when the run

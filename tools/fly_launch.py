@@ -95,7 +95,7 @@ class Launch:
             self.van_driver.start()
         self.start_bridge()
         for path in plan.nodes:
-            self.processes.start(f"node-{path.stem}", plan.node_cmd(path))
+            self.processes.start(f"node-{path.stem}", plan.node_cmd(path), env=plan.node_env())
         if plan.tower_loss > 0:
             from common.mavlink.lockstep import is_lockstep
             from tools.loss_proxy import LossProxy

@@ -41,7 +41,7 @@ class FlyPlan:
                  finish: str | None = None, goal_timeout: float = 120.0, tower_loss: float = 0.0,
                  loss_seed: int = 1, sitl_args: tuple[str, ...] = (), bridge_args: tuple[str, ...] = (),
                  tower_args: tuple[str, ...] = (), host: str = "127.0.0.1",
-                 nodes: str | os.PathLike | None = None, lockstep: bool = False, follow_with: str = "bridge",
+                 nodes: str | os.PathLike | list | None = None, lockstep: bool = False, follow_with: str = "bridge",
                  foll_pos_p: float | None = None, world=None, signing_key: str | None = None) -> None:
         from common.scenario import load_scenario, scenario_path
         self.dir = Path(run_dir)
@@ -60,9 +60,12 @@ class FlyPlan:
         self.sitl_args, self.bridge_args, self.tower_args = sitl_args, bridge_args, tower_args
         self.host = host
         self.world = world
-        self.nodes = sorted(Path(nodes).glob("*.py")) if nodes else []
-        if nodes and not self.nodes:
-            raise ValueError(f"no nodes (*.py) in {nodes}")
+        if isinstance(nodes, (list, tuple)):     # the node files themselves (towerlink lab check)
+            self.nodes = [Path(p) for p in nodes]
+        else:
+            self.nodes = sorted(Path(nodes).glob("*.py")) if nodes else []
+            if nodes and not self.nodes:
+                raise ValueError(f"no nodes (*.py) in {nodes}")
         self.signing_key = signing_key or None
         if self.signing_key and self.nodes:
             raise ValueError("--signing-key with --nodes: the nodes (common.tf2_ros) cannot sign yet, and the "
@@ -176,6 +179,8 @@ class FlyPlan:
             cmd += ["--follow-frame", self.follow_frame]
         if self.nodes:
             cmd += ["--nodes", f"udpin:{h}:{self.ports['nodes']}", "--route-only"]
+            if self.lockstep:           # the nodes join the lockstep through the bridge
+                cmd += ["--lockstep-nodes", str(len(self.nodes))]
         if self.follow_with == "ardupilot":
             cmd += ["--no-follow"]          # the rover follows in its own FOLLOW mode
         if self.signing_key:                # the vehicles sign too: the bridge checks them as well
@@ -186,6 +191,11 @@ class FlyPlan:
         """A tf2_ros node of --nodes DIR, connected to the bridge's node link."""
         return [sys.executable, str(path), "--connect", f"udpout:{self.host}:{self.ports['nodes']}",
                 "--follow-frame", self.followed_frame]
+
+    def node_env(self) -> dict[str, str]:
+        """What a node's environment adds: with lockstep, common.tf2_ros nodes join it."""
+        from common.tf2_ros.node import LOCKSTEP_ENV
+        return {LOCKSTEP_ENV: "1" if self.lockstep else "0"}
 
     def tower_url(self) -> str:
         """Where the tower connects: the bridge's tower link, or the loss proxy in front of it."""

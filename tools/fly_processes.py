@@ -34,15 +34,16 @@ class ProcessGroup:
         self.procs: dict[str, subprocess.Popen] = {}
         self.logs: dict[str, object] = {}
 
-    def start(self, name: str, args: list[str],
-              on_line: Callable[[str], None] | None = None) -> subprocess.Popen:
-        """Start `args` as `name`. With `on_line`, its output is read here, line by line: each
-        line is logged, then handed to on_line (without its newline)."""
+    def start(self, name: str, args: list[str], on_line: Callable[[str], None] | None = None,
+              env: dict[str, str] | None = None) -> subprocess.Popen:
+        """Start `args` as `name` (`env`: variables added to this process's environment). With
+        `on_line`, its output is read here, line by line: each line is logged, then handed to
+        on_line (without its newline)."""
         log = open(self.dir / f"{name}.log", "a")
         self.logs.setdefault(name, log)
         log.write(f"$ {shlex.join(masked_argv(args))}\n")     # the signing key never in clear
         log.flush()
-        env = dict(os.environ, PYTHONUNBUFFERED="1")
+        env = dict(os.environ, PYTHONUNBUFFERED="1", **(env or {}))
         if on_line is not None:
             p = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                                  start_new_session=True, env=env, bufsize=1, preexec_fn=die_with_parent())

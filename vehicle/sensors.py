@@ -20,12 +20,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from common.frames.batch import rotate
+from common.frames.batch import rotate, rotate_one
 
 BLOCK = 256
 # slots in one row of standard normals
 _ACC, _GYR, _GPS_P, _GPS_V, _BARO, _AHRS = 0, 3, 6, 9, 12, 13
 ROW = 16
+GRAVITY = 9.80665
 
 
 @dataclass
@@ -96,6 +97,7 @@ class Sensors:
         biases = np.array([r.standard_normal(6) for r in rngs]).reshape(len(rngs), 6)
         sp = self.spec
         self.accel_bias = biases[:, 0:3] * sp.accel_bias_sigma
+        self._accel_bias_rows = self.accel_bias.tolist()
         self.gyro_bias = biases[:, 3:6] * sp.gyro_bias_sigma
         self.noise = NoiseSource(rngs, ROW)
         self.gyro_src = NoiseSource(rngs, 3, scale=sp.gyro_sigma, offset=self.gyro_bias)
@@ -115,7 +117,7 @@ class Sensors:
         sp = self.spec
         z = self.noise.next()
         self.z = z
-        f_world = acc_world - np.array([0.0, 0.0, 9.80665])
+        f_world = acc_world - np.array([0.0, 0.0, GRAVITY])
         self.accel = rotate(quat, f_world, inverse=True) + self.accel_bias + sp.accel_sigma * z[:, _ACC:_ACC + 3]
         self.gps_fresh = gps
         if gps:
@@ -126,3 +128,27 @@ class Sensors:
         if baro:
             self.baro_alt = -pos[:, 2] + sp.baro_sigma * z[:, _BARO]
 
+
+    def sample_rows(self, gps: bool, baro: bool, pos: list, vel: list, acc_world: list, quat: list):
+        """sample() for a few vehicles on Python floats (numpy's per-call cost dominates
+        there): pos, vel, acc_world are lists of [x, y, z] rows (world NED truth), quat of
+        [x, y, z, w]. The same arithmetic in the same order, so the same numbers to the
+        last bit. Returns (z, accel, gps_pos, gps_vel, baro_alt): this epoch's standard
+        normals and the readings as lists of rows (gps_pos/gps_vel/baro_alt None when not
+        sampled); the array attributes of sample() are not set."""
+        sp = self.spec
+        z = self.noise.next().tolist()
+        sa, sp_h, sp_v, sg_v, sb = sp.accel_sigma, sp.gps_pos_sigma, sp.gps_alt_sigma, sp.gps_vel_sigma, sp.baro_sigma
+        accel = []
+        for zi, a, q, b in zip(z, acc_world, quat, self._accel_bias_rows):
+            rx, ry, rz = rotate_one(*q, a[0] - 0.0, a[1] - 0.0, a[2] - GRAVITY, -1.0)
+            accel.append((rx + b[0] + sa * zi[_ACC], ry + b[1] + sa * zi[_ACC + 1], rz + b[2] + sa * zi[_ACC + 2]))
+        gps_pos = gps_vel = baro_alt = None
+        if gps:
+            gps_pos = [(p[0] + sp_h * zi[_GPS_P], p[1] + sp_h * zi[_GPS_P + 1], p[2] + sp_v * zi[_GPS_P + 2])
+                       for p, zi in zip(pos, z)]
+            gps_vel = [(v[0] + sg_v * zi[_GPS_V], v[1] + sg_v * zi[_GPS_V + 1], v[2] + sg_v * zi[_GPS_V + 2])
+                       for v, zi in zip(vel, z)]
+        if baro:
+            baro_alt = [-p[2] + sb * zi[_BARO] for p, zi in zip(pos, z)]
+        return z, accel, gps_pos, gps_vel, baro_alt

@@ -15,13 +15,29 @@ import numpy as np
 SMALL = 8      # up to this many rows, Python floats beat numpy's per-call overhead
 
 
+def quat_mul_one(ax: float, ay: float, az: float, aw: float,
+                 bx: float, by: float, bz: float, bw: float) -> tuple[float, float, float, float]:
+    """Hamilton product a*b of two xyzw quaternions given as floats (apply b, then a)."""
+    return (aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz)
+
+
+def rotate_one(ux: float, uy: float, uz: float, w: float, vx: float, vy: float, vz: float,
+               s: float = 1.0) -> tuple[float, float, float]:
+    """R(q) v for one unit xyzw quaternion and vector given as floats; s = -1.0 gives R(q)^T v.
+    The same expression as `rotate`, so both agree to the last bit."""
+    ux, uy, uz = s * ux, s * uy, s * uz
+    tx = 2.0 * (uy * vz - uz * vy)
+    ty = 2.0 * (uz * vx - ux * vz)
+    tz = 2.0 * (ux * vy - uy * vx)
+    return (vx + w * tx + uy * tz - uz * ty, vy + w * ty + uz * tx - ux * tz,
+            vz + w * tz + ux * ty - uy * tx)
+
+
 def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Hamilton product a*b of (n, 4) xyzw arrays, row by row (apply b, then a)."""
     if len(a) <= SMALL:
-        out = []
-        for (ax, ay, az, aw), (bx, by, bz, bw) in zip(a.tolist(), b.tolist()):
-            out.append((aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
-                        aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz))
+        out = [quat_mul_one(*qa, *qb) for qa, qb in zip(a.tolist(), b.tolist())]
         return np.array(out, dtype=float).reshape(len(a), 4)
     ax, ay, az, aw = a[:, 0], a[:, 1], a[:, 2], a[:, 3]
     bx, by, bz, bw = b[:, 0], b[:, 1], b[:, 2], b[:, 3]
@@ -38,14 +54,7 @@ def rotate(q: np.ndarray, v: np.ndarray, inverse: bool = False) -> np.ndarray:
     """
     s = -1.0 if inverse else 1.0
     if len(q) <= SMALL:
-        out = []
-        for (ux, uy, uz, w), (vx, vy, vz) in zip(q.tolist(), v.tolist()):
-            ux, uy, uz = s * ux, s * uy, s * uz
-            tx = 2.0 * (uy * vz - uz * vy)
-            ty = 2.0 * (uz * vx - ux * vz)
-            tz = 2.0 * (ux * vy - uy * vx)
-            out.append((vx + w * tx + uy * tz - uz * ty, vy + w * ty + uz * tx - ux * tz,
-                        vz + w * tz + ux * ty - uy * tx))
+        out = [rotate_one(*qi, *vi, s) for qi, vi in zip(q.tolist(), v.tolist())]
         return np.array(out, dtype=float).reshape(len(q), 3)
     ux, uy, uz, w = s * q[:, 0], s * q[:, 1], s * q[:, 2], q[:, 3]
     vx, vy, vz = v[:, 0], v[:, 1], v[:, 2]

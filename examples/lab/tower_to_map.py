@@ -1,50 +1,57 @@
 #!/usr/bin/env python3
 """tower_to_map: the lab's node that turns the tower's goals (tower frame) into the drone's (world).
 
-Listens for the tower's SET_POSITION_TARGET_LOCAL_NED (MAV_FRAME_LOCAL_NED in the tower
-frame; `towerlink bridge --route-only` routes it here untranslated), looks up
-world <- tower in the transform stream (the scenario's static frame, the lab's
-static_transform_publisher), and sends the goal in world to the drone.
+Checkpoint 1. The tower sends each goal as SET_POSITION_TARGET_LOCAL_NED in its own frame
+(the lab's /tower/goal; `towerlink bridge --route-only` routes it here untranslated) and sends
+it again until the drone is there. This node looks up world <- tower (the static transform of
+fly.launch), transforms the goal into world and publishes it to the drone (the lab's
+/uav/input/goal).
 
-    python examples/lab/tower_to_map.py --connect udpout:127.0.0.1:14620
+    python tower_to_map.py --connect udpout:127.0.0.1:14620
 """
-import argparse
-
 from common.mavlink.dialect import towerlink as tl
-from common.frames import LATEST, Buffer, InvalidArgumentException, PointStamped, TransformException
-from common.tf2_ros import DEFAULT_URL, Node, TransformListener
+from common.frames import InvalidArgumentException
+from common.tf2_ros import (LATEST, Buffer, DroneGoalPublisher, Node, PointStamped, TransformException,
+                            TransformListener, do_transform_point, node_args)
 
-TOWER_SYSID = 255
-IGNORE_YAW = 1 << 10
+TOWER_SYSID = 255                   # the tower: its goals come from this system
+DRONE_SYSID = 1
 
 
 class TowerToMap:
-    def __init__(self, node: Node, drone: int = 1) -> None:
-        self.node, self.drone = node, drone
-        self.goal = None                                   # set by the callback for the tower's goals
+    def __init__(self, node: Node) -> None:
+        self.node = node
+        # Used by the callback for the tower's goals
+        self.goal = None
+        # Instantiate the Buffer and TransformListener
         self.buffer = Buffer()
         self.listener = TransformListener(self.buffer, node)
+        # Goal publisher: the drone's goal, in world
+        self.goal_pub = DroneGoalPublisher(node)
+        # Tower goal subscriber: the tower's SET_POSITION_TARGET_LOCAL_NED
         node.subscribe("SET_POSITION_TARGET_LOCAL_NED", self.on_goal, sysid=TOWER_SYSID)
 
     def on_goal(self, msg) -> None:
-        if msg.target_system == self.drone and msg.coordinate_frame == tl.MAV_FRAME_LOCAL_NED:
+        """Callback for the tower's goals: msg.x, msg.y, msg.z in the tower frame (NED, m)."""
+        if msg.target_system == DRONE_SYSID and msg.coordinate_frame == tl.MAV_FRAME_LOCAL_NED:
             self.goal = msg
 
     def mainloop(self) -> None:
-        rate = self.node.rate(20)
+        rate = self.node.rate(20)       # Set the rate of this loop (sim time)
         while self.node.ok():
-            g = self.goal
-            if g is not None:
+            if self.goal is not None:
                 try:
-                    T = self.buffer.lookup_transform("world", "tower", LATEST)
-                    p = self.buffer.transform_point(PointStamped("tower", LATEST, (g.x, g.y, g.z)), "world").point
-                    yaw = g.yaw if g.type_mask & IGNORE_YAW else g.yaw + T.transform.yaw_pitch_roll()[0]
-                    self.node.send(tl.MAVLink_set_position_target_local_ned_message(
-                        g.time_boot_ms, self.drone, 1, tl.MAV_FRAME_LOCAL_NED, g.type_mask,
-                        *p, 0, 0, 0, 0, 0, 0, yaw, 0))
-                    self.node.log(f"Publishing Transformed Goal {[round(float(v), 2) for v in p[:2]]}")
-                    self.goal = None        # the tower re-sends its goal until the drone is there
-                except InvalidArgumentException as exc:       # NaN/inf from the wire: not a goal
+                    # Lookup the tower to world transform
+                    transform = self.buffer.lookup_transform("world", "tower", LATEST)
+                    # Convert the goal to a PointStamped
+                    point = PointStamped("tower", LATEST, (self.goal.x, self.goal.y, self.goal.z))
+                    # Use the do_transform_point function to convert the point using the transform
+                    new_point = do_transform_point(point, transform)
+                    # Publish the goal
+                    self.goal_pub.publish(new_point)
+                    # The tower sends its goal again until the drone is there: Reset the goal
+                    self.goal = None
+                except InvalidArgumentException as exc:     # NaN or inf from the wire: not a goal
                     self.node.log(f"goal dropped: {exc}")
                     self.goal = None
                 except TransformException as exc:
@@ -53,11 +60,5 @@ class TowerToMap:
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--connect", default=DEFAULT_URL, help="the bridge's node link (default %(default)s)")
-    args, _ = ap.parse_known_args()          # a launcher may pass options meant for other nodes
-    with Node("tower_to_map", args.connect) as node:
-        try:
-            TowerToMap(node).mainloop()
-        except KeyboardInterrupt:
-            pass
+    with Node("tower_to_map", node_args(__doc__).connect) as node:
+        TowerToMap(node).mainloop()

@@ -22,6 +22,7 @@ from common.frames.batch import wrap_pi, yaw_of
 from vehicle.control import shaping
 from vehicle.physics import NumpyOps
 from vehicle.physics.multicopter import GRAVITY
+from vehicle.physics.scalar_form import generic
 
 D2R = math.pi / 180.0
 
@@ -94,6 +95,7 @@ class CopterCtrlState:
         self.yaw_half = None
 
 
+@generic
 def _half_yaw(c: CopterCtrlState, xp):
     """(cos, sin) of c.yaw / 2, kept while the yaw reference does not change: a held
     heading is the common case, and a sin/cos pair is the dearest thing in the step."""
@@ -106,15 +108,15 @@ def _half_yaw(c: CopterCtrlState, xp):
     return c.yaw_half
 
 
+@generic
 def relax(c: CopterCtrlState, est, mask, xp=NumpyOps) -> None:
     """Where mask: reset the reference to the estimate at rest and clear integrators
     (ArduPilot relaxes its controllers while landed)."""
-    w = xp.where
-    c.px, c.py, c.pz = w(mask, est.px, c.px), w(mask, est.py, c.py), w(mask, est.pz, c.pz)
+    c.px, c.py, c.pz = xp.where(mask, est.px, c.px), xp.where(mask, est.py, c.py), xp.where(mask, est.pz, c.pz)
     for f in ("vx", "vy", "vz", "ax", "ay", "az", "ivx", "ivy", "ivz", "evx", "evy", "dvx", "dvy",
               "irx", "iry", "irz", "erx", "ery", "erz", "drx", "dry", "drz"):
-        setattr(c, f, w(mask, 0.0, getattr(c, f)))
-    c.yaw = w(mask, yaw_of(est.qx, est.qy, est.qz, est.qw, xp.atan2), c.yaw)
+        setattr(c, f, xp.where(mask, 0.0, getattr(c, f)))
+    c.yaw = xp.where(mask, yaw_of(est.qx, est.qy, est.qz, est.qw, xp.atan2), c.yaw)
 
 
 _ALPHA = {}
@@ -127,12 +129,12 @@ def _filter_alphas(dt: float) -> tuple[float, float]:
     return a
 
 
+@generic
 def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float, xp=NumpyOps):
     """One controller step on the estimate ``est`` (attributes px..vz, qx..qw, wx..wz).
 
     Returns the four rotor-speed fractions (0..1; multiply by omega_max) and stores the
     collective thrust fraction in c.coll."""
-    w = xp.where
     level = sp.level
     # ---- shaping of the reference ------------------------------------------------
     shaping.shape_xy(c, sp.px, sp.py, sp.use_pos_xy, sp.vx, sp.vy, sp.ax, sp.ay,
@@ -141,14 +143,14 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     any_level = xp.any(level)
     if any_level:
         # level mode: no horizontal control; the reference rides on the estimate
-        c.px, c.py = w(level, est.px, c.px), w(level, est.py, c.py)
-        c.vx, c.vy = w(level, est.vx, c.vx), w(level, est.vy, c.vy)
-        c.ax, c.ay = w(level, 0.0, c.ax), w(level, 0.0, c.ay)
+        c.px, c.py = xp.where(level, est.px, c.px), xp.where(level, est.py, c.py)
+        c.vx, c.vy = xp.where(level, est.vx, c.vx), xp.where(level, est.vy, c.vy)
+        c.ax, c.ay = xp.where(level, 0.0, c.ax), xp.where(level, 0.0, c.ay)
     # yaw reference: slew to the target yaw, or integrate a yaw rate
     ymax = g.rate_y_max
     if xp.any(sp.use_yaw):
         dy = wrap_pi(sp.yaw - c.yaw)
-        yr = w(sp.use_yaw, xp.clip(dy * g.ang_y, -ymax, ymax), xp.clip(sp.yaw_rate, -ymax, ymax))
+        yr = xp.where(sp.use_yaw, xp.clip(dy * g.ang_y, -ymax, ymax), xp.clip(sp.yaw_rate, -ymax, ymax))
     else:                     # no yaw targets: the wrap (np.remainder, dear) is not needed
         yr = xp.clip(sp.yaw_rate, -ymax, ymax)
     c.yaw = wrap_pi(c.yaw + yr * dt)
@@ -167,9 +169,9 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     atx = c.ax + g.kv_xy * evx + c.ivx + g.kd_xy * c.dvx
     aty = c.ay + g.kv_xy * evy + c.ivy + g.kd_xy * c.dvy
     if any_level:
-        atx = w(level, 0.0, atx)
-        aty = w(level, 0.0, aty)
-        c.ivx, c.ivy = w(level, 0.0, c.ivx), w(level, 0.0, c.ivy)
+        atx = xp.where(level, 0.0, atx)
+        aty = xp.where(level, 0.0, aty)
+        c.ivx, c.ivy = xp.where(level, 0.0, c.ivx), xp.where(level, 0.0, c.ivy)
 
     vtz = c.vz + g.kp_z * (c.pz - est.pz)
     evz = vtz - est.vz
@@ -210,7 +212,7 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     ex = qw * dx - qx * dw - qy * dz + qz * dyq
     ey = qw * dyq + qx * dz - qy * dw - qz * dx
     ez = qw * dz - qx * dyq + qy * dx - qz * dw
-    sgn = w(ew < 0.0, -2.0, 2.0)
+    sgn = xp.where(ew < 0.0, -2.0, 2.0)
     rpm = g.rate_rp_max
     rtx = xp.clip(g.ang_r * sgn * ex, -rpm, rpm)
     rty = xp.clip(g.ang_p * sgn * ey, -rpm, rpm)
@@ -242,6 +244,7 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     return mix(coll, u_r, u_p, u_y, g.spin_min, xp)
 
 
+@generic
 def _half_angle(c, s, xp=NumpyOps):
     """(cos, sin) of theta/2 from (cos, sin) of theta, for |theta| < pi/2 (c > 0, so
     cos(theta/2) >= 0.707 and neither formula cancels)."""
@@ -249,6 +252,7 @@ def _half_angle(c, s, xp=NumpyOps):
     return ch, s / (2.0 * ch)
 
 
+@generic
 def mix(coll, u_r, u_p, u_y, spin_min, xp=NumpyOps):
     """Quad-X mixer with saturation handling; returns 4 rotor-speed fractions."""
     hr, hp = 0.5 * u_r, 0.5 * u_p

@@ -20,6 +20,7 @@ import numpy as np
 
 from common.frames.batch import wrap_pi, yaw_of
 from vehicle.physics import NumpyOps
+from vehicle.physics.scalar_form import generic
 
 D2R = math.pi / 180.0
 
@@ -47,6 +48,7 @@ class RoverSetpointArrays:
             setattr(self, f, False if n is None else np.zeros(n, dtype=bool))
 
 
+@generic
 def step(est, sp: RoverSetpointArrays, g: RoverGains, dt: float, xp=NumpyOps):
     """Returns (speed command m/s, turn-rate command rad/s) arrays."""
     yaw = yaw_of(est.qx, est.qy, est.qz, est.qw, xp.atan2)

@@ -20,6 +20,7 @@ Component-wise, backend-generic (numpy (n,) arrays or floats; see vehicle.physic
 from __future__ import annotations
 
 from vehicle.physics import NumpyOps
+from vehicle.physics.scalar_form import generic
 
 EPS = 1e-9
 
@@ -54,6 +55,7 @@ def _gains(a_max, j_max) -> tuple:
     return kp, kv, a_dec
 
 
+@generic
 def shape_xy(r, tpx, tpy, use_pos, tvx, tvy, tax, tay, vmax, amax, jmax, dt, xp=NumpyOps):
     """Advance reference r (attributes px,py,vx,vy,ax,ay) one step towards the target.
 
@@ -87,6 +89,7 @@ def shape_xy(r, tpx, tpy, use_pos, tvx, tvy, tax, tay, vmax, amax, jmax, dt, xp=
     r.vx, r.vy = vx, vy
 
 
+@generic
 def shape_z(r, tpz, use_pos, tvz, taz, v_up, v_dn, amax, jmax, dt, xp=NumpyOps):
     """1-D vertical version (NED: negative z is up); attributes pz, vz, az of r."""
     kp, kv, adec = gains(amax, jmax)

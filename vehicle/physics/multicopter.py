@@ -30,6 +30,7 @@ import numpy as np
 
 from common.frames.batch import yaw_of
 from vehicle.physics import NumpyOps
+from vehicle.physics.scalar_form import generic
 
 GRAVITY = 9.80665
 
@@ -105,6 +106,7 @@ class QuadState:
             self.qz, self.qw = np.sin(yaw / 2), np.cos(yaw / 2)
 
 
+@generic
 def step(s: QuadState, cmd, af: QuadAirframe, dt: float, ground_z, xp=NumpyOps, air=None) -> None:
     """Advance the state by dt. cmd = 4 rotor-speed commands (rad/s), each (n,) or float.
     air: None (still air) or the air velocity (north, east, down) m/s, world NED, each

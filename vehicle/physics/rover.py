@@ -25,6 +25,7 @@ import numpy as np
 
 from common.frames.batch import wrap_pi
 from vehicle.physics import NumpyOps
+from vehicle.physics.scalar_form import generic
 
 
 @dataclass
@@ -64,6 +65,7 @@ class RoverState:
         self.ground = np.ones(n, dtype=bool)
 
 
+@generic
 def step(s: RoverState, speed_cmd, rate_cmd, m: RoverModel, gains, dt: float, xp=NumpyOps, air=None) -> None:
     """gains supplies max_speed (m/s) and max_rate (rad/s). air: None (still air) or the air
     velocity (north, east, down) m/s, world NED, each component (n,) or float."""
