@@ -243,3 +243,22 @@ def test_log_contents_against_the_truth(tmp_path):
     assert bat[-1].CurrTot > bat[0].CurrTot and 9 < bat[-1].Volt < 13
     # the rover never armed: no log of its own
     assert lw.files(1) == [] and not rover.armed
+
+
+def test_gps_reading_either_sampling_path():
+    """The GPS record's source: the latest receiver sample, whether the estimator sampled it
+    on arrays (big fleets) or on rows (small ones)."""
+    from vehicle.sensors import Sensors, vehicle_rngs
+    pos = np.array([[1.0, 2.0, -3.0], [4.0, 5.0, -6.0]])
+    vel = np.array([[0.5, 0.0, 0.0], [0.0, -0.5, 0.1]])
+    acc = np.zeros((2, 3))
+    quat = np.array([[0.0, 0.0, 0.0, 1.0]] * 2)
+    a, b = Sensors(vehicle_rngs(3, 2)), Sensors(vehicle_rngs(3, 2))
+    assert a.gps_reading(0) is None
+    a.sample(True, False, pos, vel, acc, quat)
+    b.sample_rows(True, False, pos.tolist(), vel.tolist(), acc.tolist(), quat.tolist())
+    for i in range(2):
+        assert a.gps_reading(i) == pytest.approx(b.gps_reading(i), abs=1e-12)
+        assert a.gps_reading(i)[:3] == pytest.approx(pos[i], abs=2.0)
+    b.sample_rows(False, True, pos.tolist(), vel.tolist(), acc.tolist(), quat.tolist())
+    assert b.gps_reading(1) is not None          # a baro-only epoch keeps the last fix

@@ -338,10 +338,7 @@ class _FleetBase:
         the fleet flies without an estimator (no GPS model)."""
         if not self.use_estimator:
             return self.truth_row(i)[0:6]
-        s = self.sensors
-        if s.gps_pos is None:
-            return None
-        return [*s.gps_pos[i].tolist(), *s.gps_vel[i].tolist()]
+        return self.sensors.gps_reading(i)
 
     def estimate_ok(self, i: int) -> bool:
         """Position estimate good (pre-arm): always True when flying on truth."""
