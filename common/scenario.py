@@ -23,17 +23,22 @@ following rovers in their drones' order, then the van. Separation (see
 :func:`check_separation`): two drones fly altitude layers at least
 ``mission.min_separation`` m apart, or paths (start and goals, world) that far apart in the
 horizontal (common/family_plan.py generates 100 drones in lanes on two layers).
+
+Faults. ``[[faults]]`` tables give a fault timeline: at sim time t, parameters set on a vehicle
+(ArduPilot SITL's SIM_* faults) or the tower link made lossy, slow, jittery, narrow
+(common/scenario_faults.py; `towerlink fly` applies them, tools/fault_timeline.py).
 """
 from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Sequence
 
 from common.frames import (Buffer, InvalidArgumentException, Transform,
                            TransformStamped)
+from common.scenario_faults import Fault, parse_faults
 
 DEFAULT_SCENARIO = Path(__file__).with_name("scenarios") / "default.toml"
 SCENARIO_AUTHORITY = "scenario"
@@ -138,6 +143,7 @@ class Scenario:
         """More than the lab's one drone and one rover (names, sysids or a van)."""
         return [(n, s) for n, s, _k in self.vehicles] != [("drone", 1), ("rover", 2)]
     wind: tuple[float, float, float] | None = None   # speed m/s, from-direction deg, turbulence m/s
+    faults: tuple[Fault, ...] = ()                   # the fault timeline (common/scenario_faults.py)
 
     def wind_arg(self) -> str | None:
         """The wind as `towerlink sitl --wind` takes it (SPD,DIR,TURB), or None when calm/unset."""
@@ -276,6 +282,7 @@ def _build(data: dict[str, Any], path: Path) -> Scenario:
         follow_offset=(_number(offset[0], "follow.offset", fail), _number(offset[1], "follow.offset", fail)),
         follow_rate_hz=rate, drones=drones, van=van, min_separation=min_sep,
     )
+    sc = replace(sc, faults=parse_faults(data.get("faults"), sc.vehicles, fail))
     problem = check_separation(sc)
     if problem:
         raise fail(problem)

@@ -20,7 +20,8 @@ from support import free_port
 from test_sitl_support import Sitl, command, connect, mav, recv  # sets MAVLINK20 before pymavlink loads
 
 from pymavlink import mavwp  # noqa: E402  (after MAVLINK20 is set: mavutil picks its dialect on import)
-from tools.loss_proxy import LossProxy
+from common.link_settings import LinkSettings
+from tools.link_proxy import LinkProxy
 
 REL = mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
 HOME = (-35.363261, 149.165230, 584.0)
@@ -193,7 +194,8 @@ def test_wpl_file_uploaded_with_mavwp_and_downloaded_back(sitl, tmp_path):
 @REAL_TIME_DRONE
 def test_dropped_items_rerequested_over_a_lossy_link(sitl):
     port = free_port()
-    proxy = LossProxy(port, ("127.0.0.1", sitl.udp_port(0)), loss=0.2, seed=7)
+    lossy = LinkSettings(loss=0.2)
+    proxy = LinkProxy(port, ("127.0.0.1", sitl.udp_port(0)), up=lossy, down=lossy, seed=7)
     proxy.start()
     try:
         m = connect(port, timeout=20)

@@ -201,3 +201,42 @@ def test_fly_param_without_a_name_or_a_number_is_refused_before_anything_starts(
     assert rc == 2
     assert f"towerlink fly: --param {item!r}: write NAME=VALUE, e.g. WPNAV_SPEED=300" in capsys.readouterr().err
     assert not (tmp_path / "run" / "params.parm").exists()
+
+
+# the example sweep's scenario: fault 0 the tower link down at t = 20 for 10 s, fault 1 the drone's battery
+FAULTS_LAB = DEFAULT_SCENARIO.parent.parent.parent / "examples" / "sweep" / "faults_lab.toml"
+FAULTED = tomllib.loads(FAULTS_LAB.read_text())
+
+
+def test_tower_link_settings_and_a_fault_s_values_are_factors():
+    plan = g.apply_cli(Plan(), ["tower_link.latency=0,0.2", "tower_link.up.loss=0.1", "faults.0.t=15,20",
+                                "faults.1.SIM_BATT_VOLTAGE=10.5"])
+    runs = g.expand(plan, FAULTED, "d", validate_scenario=lambda d: _build(d, FAULTS_LAB))
+    assert len(runs) == 4 and g.varying_factors(runs) == ["tower_link.latency", "faults.0.t"]
+    r = next(r for r in runs if r.factors["tower_link.latency"] == 0.2 and r.factors["faults.0.t"] == 15)
+    copy = g.scenario_copy(FAULTED, r.factors)
+    sc = _build(tomllib.loads(g.to_toml(copy)), FAULTS_LAB)             # what the run flies
+    assert sc.faults[0].t == 15.0 and sc.faults[1].params == (("SIM_BATT_VOLTAGE", 10.5),)
+    assert FAULTED["faults"][0]["t"] == 20                                # the plan's own is untouched
+    assert (sc.faults[0].until, sc.faults[1].t) == (25.0, 30.0)           # duration 10 after t 15
+    args = g.fly_args(r.factors, "/s.toml", "/o", timeout=60)
+    assert args[args.index("--tower-link") + 1] == "latency=0.2,up.loss=0.1"
+    from tools import fly
+    import argparse
+    p = argparse.ArgumentParser()
+    fly.add_arguments(p)
+    assert p.parse_args(args[1:]).tower_link == "latency=0.2,up.loss=0.1"
+
+
+@pytest.mark.parametrize("sets, message", [
+    (["tower_link.lag=1"], "tower_link.lag: unknown link setting 'lag'"),
+    (["tower_link.side.loss=0.1"], "tower_link.side.loss: link setting 'side.loss': write NAME, up.NAME or down.NAME"),
+    (["tower_link.loss=2"], "tower_link.loss: link setting loss 2 is outside 0..1"),
+    (["tower_link.latency=soon"], "tower_link.latency: 'soon' is not a finite number"),
+    (["faults.2.t=5"], "unknown factor 'faults.2.t'"),
+    (["faults.0.duration=0"], "faults[0]: duration must be > 0 s"),          # the scenario's own check
+])
+def test_bad_fault_factors_are_refused_up_front(sets, message):
+    with pytest.raises(SweepError) as e:
+        g.expand(g.apply_cli(Plan(), sets), FAULTED, "d", validate_scenario=lambda d: _build(d, FAULTS_LAB))
+    assert message in str(e.value)

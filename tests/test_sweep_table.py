@@ -53,10 +53,16 @@ def test_flatten_gives_only_finite_floats(d):
 def test_key_figures_use_the_frame_the_rover_followed():
     k = t.key_figures(SUMMARY)
     assert k == {"follow_rms": 0.5, "wobble_rms": 1.4, "ratio_mean": pytest.approx(1.1), "ratio_max": 1.25,
-                 "mission_s": 30.5}
+                 "mission_s": 30.5, "failsafe_s": None}
     yaw = dict(SUMMARY, wobble=dict(SUMMARY["wobble"], follow_frame="drone_yaw"))
     assert t.key_figures(yaw)["wobble_rms"] == 0.0
     assert t.key_figures({}) == dict.fromkeys(t.KEY_FIGURES)
+    # the fault section: the earliest fault -> failsafe delay of the run
+    faults = {"faults": [{"failsafes": [{"after": 4.5}, {"after": 6.0}]}, {"failsafes": [{"after": 2.25}]}]}
+    assert t.key_figures(dict(SUMMARY, faults=faults))["failsafe_s"] == 2.25
+    rows = [t.make_row("a", {}, dict(SUMMARY, faults=faults), wall_s=1.0), t.make_row("b", {}, SUMMARY, wall_s=1.0)]
+    assert t.effect_figures(rows) == ("follow_rms", "wobble_rms", "ratio_mean", "failsafe_s")
+    assert t.effect_figures(rows[1:]) == ("follow_rms", "wobble_rms", "ratio_mean")
 
 
 def test_rows_pass_and_fail_with_their_reason():
@@ -64,6 +70,11 @@ def test_rows_pass_and_fail_with_their_reason():
     assert (ok["pass"], ok["reason"], ok["seed"], ok["wind"], ok["follow_rms"]) == (True, "", 3, "[8.0,270.0,1.0]", 0.5)
     missed = dict(SUMMARY, ok=False, goals_reached=1)
     assert t.make_row("r2", {}, missed, wall_s=1.0)["reason"] == "1/2 goals reached"
+    failsafes = [{"vehicle": "rover", "text": "GCS Failsafe On: Hold", "t": 24.5},
+                 {"vehicle": "drone", "text": "GCS Failsafe On: RTL", "t": 24.26}]
+    lost = dict(missed, faults={"faults": [], "failsafes": failsafes})
+    assert t.make_row("r2", {}, lost, wall_s=1.0)["reason"] == \
+        "1/2 goals reached; after drone: 'GCS Failsafe On: RTL' at 24.26 s"
     tower = dict(SUMMARY, ok=False, tower_error="goal 2 not reached in 120 s")
     assert t.make_row("r3", {}, tower, wall_s=1.0)["reason"] == "goal 2 not reached in 120 s"
     timed = t.make_row("r4", {"seed": 1}, SUMMARY, wall_s=700.0, reason="timed out after 600 s wall")
@@ -169,8 +180,11 @@ def test_a_failed_missions_reason_is_flys_last_word_not_its_list_of_files(tmp_pa
                    "tower: TakeoffError: command MAV_CMD_NAV_TAKEOFF rejected: FAILED\n"
                    f"run folder {tmp_path}: bridge.log bridge.tlog fly.log summary.json tower.log\n")
     assert sweep_run._fly_reason(log) == "tower: TakeoffError: command MAV_CMD_NAV_TAKEOFF rejected: FAILED"
+    # with a summary, only fly's own word: the row says the rest (the goals, the first failsafe)
+    assert sweep_run._fly_reason(log, own_only=True) is None
     log.write_text("towerlink fly: timed out after 300 s wall; all processes stopped\nrun folder x: a b\n")
     assert sweep_run._fly_reason(log) == "timed out after 300 s wall"
+    assert sweep_run._fly_reason(log, own_only=True) == "timed out after 300 s wall"
 
 
 def test_finished_needs_a_complete_row_and_summary(tmp_path):
@@ -262,6 +276,11 @@ def test_sweep_dry_run_lists_the_runs():
     lines = p.stdout.splitlines()
     assert lines[-1] == "12 runs of default.toml; varying: follow_frame, tower_loss, seed"
     assert len({ln.split()[0] for ln in lines[:-1]}) == 12
+    # the faults example: its scenario file lies beside it (a sweep file's relative scenario)
+    p = towerlink("sweep", "--dry-run", "--grid", "examples/sweep/faults.toml")
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.splitlines()[-1] == \
+        "8 runs of faults_lab.toml; varying: FS_GCS_ENABLE, faults.0.duration, tower_link.latency"
 
 
 @pytest.mark.parametrize("lib, only", [("ray", ["tools/sweep.py"]), ("tqdm", ["tools/sweep_progress.py"])])

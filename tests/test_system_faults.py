@@ -59,7 +59,7 @@ def test_twenty_percent_loss_on_the_tower_link(tmp_path):
     assert s["ok"] and s["goals_reached"] == 3
     p = s["proxy"]
     # The proxy really lost packets both ways. The tower sends only a few dozen datagrams in a
-    # short mission, too few to pin a rate on; the rate itself is tested in test_loss_proxy.py,
+    # short mission, too few to pin a rate on; the rate itself is tested in test_link_proxy.py,
     # and here on the downlink and in total, where thousands of datagrams pass.
     assert p["dropped"]["up"] >= 1 and p["passed"]["up"] >= 10, p
     down = p["passed"]["down"] + p["dropped"]["down"]

@@ -32,6 +32,7 @@ run folder (--out, default runs/<timestamp>):
   vehicles.tlog bridge.tlog tower.tlog   one tlog per link
   tower.json meta.json                   the tower's result; how the run was made
   summary.json summary.txt               the scores (also printed)
+  faults.json                            with faults: when each took effect and was cleared
   tracks.png                             drone, rover, goals, tower; follow error and wobble
   frames.pdf frames.png frames.yaml      the frame tree, as view-frames draws it
   sitl.log bridge.log tower.log          each process's output
@@ -69,6 +70,16 @@ load. --no-lockstep runs the old free-running world (figures then depend on the 
   towerlink fly --speedup max            # lockstep, as fast as the machine allows
   towerlink fly family --speedup max
   towerlink fly --no-lockstep            # free-running world
+
+Faults: --tower-loss 0.2 or --tower-link loss=0.1,latency=0.3,down.bandwidth=20000 makes the tower's
+link lossy, slow, jittery, narrow for the whole run (tools/link_proxy.py); a scenario's [[faults]]
+(common/scenario_faults.py) add a timeline: at sim time t, parameters on a vehicle (SITL's SIM_*
+faults, SIM_BATT_VOLTAGE, ...) or the tower link's settings, cleared at `until`. In lockstep each
+takes effect at the first lockstep frame at or after its t, so a seed gives the same run at any
+speed and load. The summary lists each fault, the failsafes it caused and when (faults.json holds
+when each took effect):
+
+  towerlink fly examples/sweep/faults_lab.toml --param FS_GCS_ENABLE=1 --speedup max
 
 MAVLink 2 signing: --signing-key PASSPHRASE|HEX64 runs the whole chain signed. The world's
 vehicles sign, drop unsigned packets and check the lockstep JOIN/ACK/LEAVE (sitl
@@ -127,7 +138,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--timeout", type=float, default=600.0, help="wall seconds for the whole run")
     parser.add_argument("--goal-timeout", type=float, default=120.0, help="wall seconds per goal")
     parser.add_argument("--tower-loss", type=float, default=0.0,
-                        help="drop this fraction of the tower link's packets (seeded proxy), e.g. 0.2")
+                        help="drop this fraction of the tower link's frames, both ways (seeded proxy), e.g. 0.2")
+    parser.add_argument("--tower-link", default=None, metavar="SPEC",
+                        help="the tower link's faults for the whole run, e.g. loss=0.1,latency=0.3,jitter=0.1,"
+                             "reorder=0.05,duplicate=0.01,bandwidth=20000 (s, bytes/s; sim s in lockstep); a bare name "
+                             "sets both directions, up.NAME / down.NAME one. The scenario's [[faults]] come on top")
     parser.add_argument("--view", nargs="?", type=int, const=8765, default=None, metavar="PORT",
                         help="serve the run live to Foxglove on ws://127.0.0.1:PORT (default port 8765; "
                              "0 picks a free one; needs towerlink[view]). Every run also writes run.mcap")
@@ -162,6 +177,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"towerlink fly: {exc}", file=sys.stderr)
         return 2
     sitl_args: tuple[str, ...] = ()
+    start_params: dict[str, float] = {}
     if args.param:      # --param NAME=VALUE: a .parm file of defaults for the world (sitl --params)
         lines = []
         for item in args.param:
@@ -169,6 +185,7 @@ def run(args: argparse.Namespace) -> int:
             try:
                 if not name.strip():
                     raise ValueError("no name")
+                start_params[name.strip()] = float(value)
                 lines.append(f"{name.strip()} {float(value):.9g}")
             except ValueError:
                 print(f"towerlink fly: --param {item!r}: write NAME=VALUE, e.g. WPNAV_SPEED=300", file=sys.stderr)
@@ -182,6 +199,7 @@ def run(args: argparse.Namespace) -> int:
         launch = Launch(out, scenario=args.scenario, speedup=args.speedup, seed=args.seed,
                         follow_frame=args.follow_frame, goals=args.goals, alt=args.alt, radius=args.radius,
                         finish=args.finish, goal_timeout=args.goal_timeout, tower_loss=args.tower_loss,
+                        tower_link=args.tower_link, start_params=start_params,
                         echo=args.verbose, view_port=args.view, nodes=args.nodes,
                         lockstep=args.lockstep, follow_with=args.follow_with, foll_pos_p=args.foll_pos_p,
                         world=world, sitl_args=sitl_args, signing_key=args.signing_key)

@@ -1,8 +1,10 @@
-"""A `towerlink fly` run: the world, the bridge, the tower (and nodes, a loss proxy, a van's
+"""A `towerlink fly` run: the world, the bridge, the tower (and nodes, the tower link's proxy, a van's
 driver, ArduPilot's follow driver, the live view) started in order, watched, stopped.
 
 Used by `towerlink fly` (tools.fly) and by the full-system tests, which also kill and restart
-the bridge or put a lossy proxy on the tower link. `stop()` always leaves nothing behind.
+the bridge. When the tower link has faults, or the scenario a fault timeline, the tower talks
+through tools.link_proxy, which also applies the vehicles' faults. `stop()` always leaves
+nothing behind.
 """
 from __future__ import annotations
 
@@ -74,7 +76,7 @@ class Launch:
     # -- starting
 
     def start(self) -> None:
-        """Monitor, world, (van driver), bridge, (nodes), (loss proxy), tower: in that order."""
+        """Monitor, world, (van driver), bridge, (nodes), (link proxy), tower: in that order."""
         plan = self.plan
         self.monitor = Monitor(self.dir, {"vehicles": plan.ports["vehicles"], "bridge": plan.ports["bridge"]},
                                plan.host, {"vehicles": plan.world_binds()[1]}, signing_key=plan.key())
@@ -96,15 +98,20 @@ class Launch:
         self.start_bridge()
         for path in plan.nodes:
             self.processes.start(f"node-{path.stem}", plan.node_cmd(path), env=plan.node_env())
-        if plan.tower_loss > 0:
-            from common.mavlink.lockstep import is_lockstep
-            from tools.loss_proxy import LossProxy
-            self.proxy = LossProxy(plan.ports["proxy"], (plan.host, plan.ports["tower"]),
-                                   loss=plan.tower_loss, seed=plan.loss_seed, host=plan.host,
-                                   spare=is_lockstep if plan.lockstep else None)
+        if plan.uses_proxy:
+            self.proxy = self._link_proxy()
             self.proxy.start()
         self.processes.start("tower", plan.tower_cmd(), on_line=self._tower_line)
         write_meta(plan)
+
+    def _link_proxy(self):
+        """The tower link's proxy: its faults, and the hand that applies the vehicles' faults."""
+        from tools.fault_params import ParamSetEncoder
+        from tools.link_proxy import LinkProxy, bridge_wall_paced
+        plan = self.plan
+        return LinkProxy(plan.ports["proxy"], (plan.host, plan.ports["tower"]), seed=plan.loss_seed, host=plan.host,
+                         lockstep=plan.lockstep, exempt=bridge_wall_paced if plan.lockstep else None,
+                         timeline=plan.timeline, encode=ParamSetEncoder(plan.key()), sim_time=self.monitor.sim_time)
 
     def start_world(self) -> None:
         """Start the world, or (attach) print the command that starts it on its host."""
@@ -202,6 +209,7 @@ class Launch:
         achieved = None
         if self.monitor is not None:
             achieved = self.speedup.overall(self.monitor.snapshot()["sim"])
-        proxy = {"passed": self.proxy.passed, "dropped": self.proxy.dropped} if self.proxy is not None else None
+        proxy = self.proxy.counts() if self.proxy is not None else None
+        applied = self.proxy.applied if self.proxy is not None else []
         return write_summary(self.plan, tower_rc, bridge_restarts=self.bridge_restarts, proxy=proxy,
-                             achieved_speedup=achieved)
+                             achieved_speedup=achieved, applied=applied)

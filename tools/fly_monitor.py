@@ -145,6 +145,11 @@ class Monitor(threading.Thread):
             if n not in self.params:
                 self.send_to_vehicle(DRONE, self.tl.MAVLink_param_request_read_message(DRONE, 1, n.encode(), -1))
 
+    def sim_time(self) -> float:
+        """The newest sim time heard from the vehicles, s."""
+        with self.lock:
+            return self.sim_ms / 1000.0
+
     def snapshot(self) -> dict:
         """{"sim": newest sim time s, "drone"/"rover": world NED m (truth, else the estimate;
         None until heard), "follow_err": their horizontal distance m (None until both)}."""

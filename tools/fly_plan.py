@@ -39,7 +39,8 @@ class FlyPlan:
                  speedup: float = 5.0, seed: int = 1, follow_frame: str | None = None,
                  goals: str | None = None, alt: float | None = None, radius: float | None = None,
                  finish: str | None = None, goal_timeout: float = 120.0, tower_loss: float = 0.0,
-                 loss_seed: int = 1, sitl_args: tuple[str, ...] = (), bridge_args: tuple[str, ...] = (),
+                 tower_link: str | None = None, loss_seed: int | None = None,
+                 start_params: dict[str, float] | None = None, sitl_args: tuple[str, ...] = (), bridge_args: tuple[str, ...] = (),
                  tower_args: tuple[str, ...] = (), host: str = "127.0.0.1",
                  nodes: str | os.PathLike | list | None = None, lockstep: bool = False, follow_with: str = "bridge",
                  foll_pos_p: float | None = None, world=None, signing_key: str | None = None) -> None:
@@ -56,7 +57,10 @@ class FlyPlan:
         self.goals, self.alt, self.radius, self.finish = goals, alt, radius, finish
         self.goal_timeout = goal_timeout
         self.tower_loss = tower_loss
-        self.loss_seed = loss_seed
+        self.tower_link = tower_link or None
+        self.loss_seed = seed if loss_seed is None else loss_seed     # the link's draws
+        self.start_params = dict(start_params or {})
+        self.timeline = self._timeline()
         self.sitl_args, self.bridge_args, self.tower_args = sitl_args, bridge_args, tower_args
         self.host = host
         self.world = world
@@ -85,6 +89,28 @@ class FlyPlan:
         self.follow_with = follow_with
         self.foll_pos_p = foll_pos_p
         self.ap_follower = {"bridge": None, "ardupilot": ROVER, "both": ROVER + 1}[follow_with]
+
+    def _timeline(self):
+        """The run's fault timeline: the scenario's [[faults]] over the tower link's own settings
+        (--tower-loss, then --tower-link); ValueError for a bad setting or parameter."""
+        from common.link_settings import parse_link_spec, settings_pair
+        from tools.fault_timeline import FaultTimeline
+        from tools.vehicle_params import param_table
+        changes = {"loss": self.tower_loss} if self.tower_loss else {}
+        try:
+            changes.update(parse_link_spec(self.tower_link or ""))
+            base = settings_pair(changes)
+        except ValueError as exc:
+            raise ValueError(f"--tower-link: {exc}") from None
+        kinds = {sysid: kind for _name, sysid, kind in self.sc.vehicles}
+        tables = {kind: param_table(kind) for kind in set(kinds.values())} if self.sc.faults else {}
+        return FaultTimeline(self.sc.faults, base, kinds, tables, self.start_params)
+
+    @property
+    def uses_proxy(self) -> bool:
+        """Does the tower talk through the link proxy (tools.link_proxy)? When the link has
+        faults, and when the scenario's vehicle faults need it to send their PARAM_SETs."""
+        return self.timeline.touches_link or bool(self.sc.faults)
 
     # -- where things are
 
@@ -198,8 +224,8 @@ class FlyPlan:
         return {LOCKSTEP_ENV: "1" if self.lockstep else "0"}
 
     def tower_url(self) -> str:
-        """Where the tower connects: the bridge's tower link, or the loss proxy in front of it."""
-        port = self.ports["proxy"] if self.tower_loss > 0 else self.ports["tower"]
+        """Where the tower connects: the bridge's tower link, or the link proxy in front of it."""
+        port = self.ports["proxy"] if self.uses_proxy else self.ports["tower"]
         return f"udpout:{self.host}:{port}"
 
     def tower_cmd(self) -> list[str]:

@@ -1,7 +1,8 @@
 """What `towerlink fly` writes into the run folder besides the tlogs and the logs.
 
-meta.json (how the run was made, written at the start), then after the run: summary.json and
-summary.txt (the scores), tracks.png, frames.pdf / frames.png (the frame tree), run.mcap. A
+meta.json (how the run was made, written at the start), then after the run: faults.json (when
+each of the scenario's faults took effect and was cleared, as the link proxy applied them),
+summary.json and summary.txt (the scores), tracks.png, frames.pdf / frames.png (the frame tree), run.mcap. A
 drawing or a recording that fails never hides the summary: it is left out.
 """
 from __future__ import annotations
@@ -20,19 +21,31 @@ def write_meta(plan: FlyPlan) -> None:
     meta = {"scenario": plan.scenario, "speedup": speedup_text(plan.speedup), "lockstep": plan.lockstep,
             "seed": plan.seed, "signed": bool(plan.signing_key),
             "follow_frame": plan.follow_frame, "goals": plan.goals, "tower_loss": plan.tower_loss,
+            "tower_link": _link(plan), "faults": [f.describe() for f in plan.sc.faults],
             "follow_with": plan.follow_with, "ardupilot_follower": plan.ap_follower,
             "ports": plan.ports, "world_host": plan.world.describe() if plan.world else None,
             "commands": {k: shlex.join(masked_argv(v)) for k, v in plan.commands().items()}}
     (plan.dir / "meta.json").write_text(json.dumps(meta, indent=2))
 
 
+def _link(plan: FlyPlan) -> dict | None:
+    """The tower link's own settings per direction (None: a perfect link)."""
+    base = plan.timeline.base
+    return {d: s.as_dict() for d, s in base.items()} if any(s.active for s in base.values()) else None
+
+
 def write_summary(plan: FlyPlan, tower_rc: int | None, *, bridge_restarts: int = 0,
-                  proxy: dict | None = None, achieved_speedup: float | None = None) -> dict:
+                  proxy: dict | None = None, achieved_speedup: float | None = None,
+                  applied: list[dict] | None = None) -> dict:
     """Score the run, draw it, record it; returns the summary dict (its text under "text").
 
-    `proxy`: the loss proxy's counts ({"passed", "dropped"}); `achieved_speedup`: sim s per
-    wall s (None if the sim clock never moved)."""
+    `proxy`: the link proxy's frame counts ({"passed", "dropped", "overflow", "duplicated"},
+    each per direction); `applied`: when each fault took effect and was cleared (written to
+    faults.json); `achieved_speedup`: sim s per wall s (None if the sim clock never moved)."""
     from tools.run_summary import format_summary, summarize
+    if plan.sc.faults or applied:
+        (plan.dir / "faults.json").write_text(json.dumps(
+            {"faults": [f.as_dict() for f in plan.sc.faults], "applied": applied or []}, indent=2))
     tj = plan.dir / "tower.json"
     tower = json.loads(tj.read_text()) if tj.exists() else {"ok": False, "goals": [],
                                                             "error": "the tower wrote no result"}
@@ -41,6 +54,8 @@ def write_summary(plan: FlyPlan, tower_rc: int | None, *, bridge_restarts: int =
             "tower_exit": tower_rc, "follow_frame": plan.followed_frame,
             "run_dir": str(plan.dir), "bridge_restarts": bridge_restarts,
             "tower_loss": plan.tower_loss}
+    if _link(plan) is not None:
+        meta["tower_link"] = _link(plan)
     if plan.nodes:
         meta["nodes"] = [p.stem for p in plan.nodes]
     if proxy is not None:
@@ -49,18 +64,35 @@ def write_summary(plan: FlyPlan, tower_rc: int | None, *, bridge_restarts: int =
         meta["achieved_speedup"] = achieved_speedup
     if plan.family:
         from tools.family_summary import format_family_summary, summarize_family
-        s = summarize_family(plan.dir, tower=tower, scenario_path=plan.scenario, meta=meta)
+        from tools.run_data import load_run
+        data = load_run(plan.dir)
+        s = summarize_family(plan.dir, tower=tower, scenario_path=plan.scenario, meta=meta, data=data)
+        s["faults"] = _family_faults(plan, tower, data)
     else:
         s = summarize(plan.dir, tower=tower, scenario_path=plan.scenario, meta=meta)
     s["ok"] = bool(s["ok"]) and tower_rc == 0
     (plan.dir / "summary.json").write_text(json.dumps(s, indent=2, default=_json_default))
-    text = format_family_summary(s) if plan.family else format_summary(s)
+    if plan.family:
+        from tools.fault_summary import format_faults
+        text = "\n".join([format_family_summary(s), *format_faults(s["faults"])])
+    else:
+        text = format_summary(s)
     _draw(plan)
     files = sorted(p.name for p in plan.dir.iterdir())
     text += f"\nrun folder {plan.dir}: {' '.join(files)}"
     (plan.dir / "summary.txt").write_text(text + "\n")
     s["text"] = text
     return s
+
+
+def _family_faults(plan: FlyPlan, tower: dict, data) -> dict:
+    """The fault section of a family run (its tower result holds a goal list per drone)."""
+    from tools.fault_summary import fault_section
+    from tools.run_summary import read_applied
+    goals = [g for d in tower.get("drones", []) for g in d.get("goals", [])]
+    names = {sysid: name for name, sysid, _kind in plan.sc.vehicles}
+    ends = [d["end_sim"] for d in tower.get("drones", []) if d.get("end_sim") is not None]
+    return fault_section(plan.sc.faults, read_applied(plan.dir), data, names, goals, end=max(ends) if ends else None)
 
 
 def _draw(plan: FlyPlan) -> None:

@@ -26,11 +26,14 @@ import numpy as np
 
 from common.geo import lla_to_ned, ned_to_lla
 from common.mavlink.mavstr import mav_str
+from common.mavlink.modes import mode_name
 
 os.environ.setdefault("MAVLINK20", "1")
 
 #: the lab's system ids: `towerlink sitl`'s vehicle 0 (the drone) and 1 (the rover)
 DRONE, ROVER = 1, 2
+ARDUPILOT, MAV_TYPE_GCS, ARMED_FLAG = 3, 6, 128     # MAV_AUTOPILOT_ARDUPILOTMEGA, MAV_TYPE_GCS, SAFETY_ARMED
+ROVER_TYPES = (10, 11)                              # MAV_TYPE_GROUND_ROVER, MAV_TYPE_SURFACE_BOAT
 
 
 def read_tlog(path: str | os.PathLike) -> Iterator[Any]:
@@ -97,6 +100,8 @@ class RunData:
     statics: dict[tuple[str, str], tuple] = field(default_factory=dict)
     bridge_status: dict[str, dict[str, int]] = field(default_factory=dict)
     follow_frame: int | None = None
+    texts: dict[int, list[tuple[float, int, str]]] = field(default_factory=dict)    # STATUSTEXT: (t, severity, text)
+    modes: dict[int, list[tuple[float, str, bool]]] = field(default_factory=dict)   # at each change: (t, mode, armed)
 
 
 FOLLOW_FIELDS = ("t", "ref_x", "ref_y", "full_x", "full_y", "yaw_x", "yaw_y", "goal_x", "goal_y",
@@ -142,6 +147,14 @@ def load_messages(msgs: Iterable[Any], data: RunData | None = None) -> RunData:
                 data.statics[key] = v
             else:
                 data.transforms.setdefault(key, []).append((m.time_usec * 1e-6, v))
+        elif t == "STATUSTEXT":
+            data.texts.setdefault(src, []).append((last_ms[src] / 1000.0, int(m.severity), mav_str(m.text)))
+        elif t == "HEARTBEAT" and m.autopilot == ARDUPILOT and m.type != MAV_TYPE_GCS:
+            mode = mode_name("rover" if m.type in ROVER_TYPES else "copter", int(m.custom_mode))
+            armed = bool(m.base_mode & ARMED_FLAG)
+            seen = data.modes.setdefault(src, [])
+            if not seen or seen[-1][1:] != (mode, armed):
+                seen.append((last_ms[src] / 1000.0, mode, armed))
         elif t == "TOWERLINK_BRIDGE_STATUS":
             data.bridge_status[mav_str(m.link)] = {k: int(getattr(m, k)) for k in
                                               ("rx_packets", "tx_packets", "malformed", "unroutable",

@@ -2,7 +2,8 @@
 
 The run folder's tlogs (read by tools.run_data) and tower.json (the tower's mission result:
 goals, sim times) give per goal its tower and world coordinates, time to reach and the ratio
-to the minimum time; the rover's follow error; the wobble figure; the hover figures.
+to the minimum time; the rover's follow error; the wobble figure; the hover figures; and with
+faults.json (the link proxy's record) each fault and the failsafes it caused (tools.fault_summary).
 `summarize(run_dir)` returns a dict (summary.json) and `format_summary(d)` the text a
 person reads. Pure data work (no sockets): unit-tested and re-run offline.
 """
@@ -15,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from tools.fault_summary import fault_section, format_faults
 from tools.hover_stats import format_hover, hover_figures
 from tools.run_data import DRONE, ROVER, RunData, Track, load_run
 from tools.run_figures import (PARAM_DEFAULTS, ground_point_errors, horizontal_error, in_window, minimum_time,
@@ -137,6 +139,9 @@ def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
     hover = hover_figures(data, DRONE, until=tower.get("end_sim"))     # not the tail fly records while stopping
     hover["wind"] = list(sc.wind) if sc.wind else None
 
+    names = {sysid: name for name, sysid, _kind in sc.vehicles}
+    faults = fault_section(sc.faults, read_applied(run_dir), data, names, tower.get("goals", []),
+                           end=tower.get("end_sim"))
     reached = sum(g["reached"] for g in goals_out)
     out = {
         "ok": bool(tower.get("ok")) and reached == len(goals_out) and reached > 0,
@@ -145,10 +150,18 @@ def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
         "limits": {"WPNAV_SPEED": v, "WPNAV_ACCEL": a, "PSC_JERK_XY": j},
         "limits_assumed": assumed,      # not read from the drone (no PARAM_VALUE): Copter defaults
         "mission_window_sim": [t0, t1],
-        "bridge_status": data.bridge_status, "tower_error": tower.get("error"),
+        "bridge_status": data.bridge_status, "tower_error": tower.get("error"), "faults": faults,
     }
     out.update({k: meta[k] for k in meta if k not in out})
     return out
+
+
+def read_applied(run_dir: str | os.PathLike) -> list[dict]:
+    """When each fault took effect and was cleared (faults.json "applied"; [] without one)."""
+    p = Path(run_dir) / "faults.json"
+    if not p.exists():
+        return []
+    return list(json.loads(p.read_text()).get("applied", []))
 
 
 def _follow_error(drone_truth, rover_truth, t0, t1) -> dict[str, Any]:
@@ -266,6 +279,7 @@ def format_summary(s: dict) -> str:
         h = dict(s["hover"])
         wind = h.pop("wind", None)
         lines.extend(format_hover(h, wind))
+    lines.extend(format_faults(s.get("faults")))
     if s.get("tower_error"):
         lines.append(f"tower: {s['tower_error']}")
     return "\n".join(lines)

@@ -9,12 +9,14 @@ with no set-up, on a cluster with --address. Needs the sweep extra: pip install 
   towerlink sweep --grid examples/sweep/frames_loss.toml --out sweeps/frames
   towerlink sweep --set WPNAV_SPEED=300,500,800 --set wind=0,8 --seeds 1-5
   towerlink sweep --set mission.altitude=6,12 --address auto     # on a running Ray cluster
+  towerlink sweep --grid examples/sweep/faults.toml              # mission and failsafes by fault
   towerlink sweep --resume --out sweeps/frames                   # finish an interrupted sweep
 
 Factors (--set NAME=V1,V2,... adds a grid factor; a sweep file gives [grid] and [[runs]]):
   seed, wind (SPEED or [SPEED,DIR,TURB]), tower_loss (0..1), follow_frame (drone|drone_yaw),
-  finish (land|rtl|none), any vehicle parameter by name (WPNAV_SPEED=300: cm/s), any scenario
-  value by dotted key (mission.altitude=12). The sweep file format: tools/sweep_grid.py.
+  finish (land|rtl|none), a tower-link setting (tower_link.latency=0,0.2,0.5; tower_link.up.loss),
+  any vehicle parameter by name (WPNAV_SPEED=300: cm/s), any scenario value by dotted key
+  (mission.altitude=12; a fault's: faults.0.t=10,20). The sweep file format: tools/sweep_grid.py.
   Everything is checked before Ray starts.
 
 Output (--out DIR, default sweeps/<timestamp>):
@@ -23,7 +25,8 @@ Output (--out DIR, default sweeps/<timestamp>):
   DIR/results.parquet    figures, then every number of summary.json flattened (dotted names)
   DIR/sweep.png          follow error, wobble, reach-time ratios and failure rate by factor
   DIR/effects.txt        each factor's effect (seeds are repeats): per level mean ± std of the
-                         follow error, wobble and reach-time ratio, and the pass rate (also printed)
+                         follow error, wobble and reach-time ratio (and the delay from a fault to
+                         its first failsafe, when there were any), and the pass rate (also printed)
   DIR/sweep.json         the plan: scenario, options, every run's id and factors
 
 Progress: on a terminal a bar (done/total, failed, flying, elapsed, ETA) with each finished
@@ -109,6 +112,9 @@ def build(args: argparse.Namespace) -> tuple[Path | None, dict, list[Run], Plan]
         except OSError as exc:
             raise SweepError(f"--grid {args.grid}: {exc.strerror or exc}") from None
         plan = g.plan_from_toml(text, where=args.grid)
+        beside = Path(args.grid).parent / plan.scenario if plan.scenario else None
+        if beside is not None and not Path(plan.scenario).is_absolute() and beside.is_file():
+            plan.scenario = str(beside)         # a scenario file next to the sweep file
     else:
         plan = Plan()
     g.apply_cli(plan, args.sets, args.seeds)
@@ -302,7 +308,8 @@ def write_outputs(out: Path, rows: list[dict], runs: list[Run], varying: list[st
     # seeds are repeats, not a factor: the effects of the others, or all runs together
     eff_factors = [f for f in varying if f != "seed"] or ["all"]
     rows = [dict(r, all="all runs") for r in rows] if eff_factors == ["all"] else rows
-    text = t.format_effects(t.effects(rows, eff_factors))
+    figs = t.effect_figures(rows)
+    text = t.format_effects(t.effects(rows, eff_factors, figs), figs)
     write_atomic(out / "effects.txt", text + "\n")
     files.append("effects.txt")
     try:

@@ -7,12 +7,16 @@ A sweep is a list of runs; a run is one value for each factor. Factors:
                                             the scenario's wind (m/s, deg it comes FROM, m/s);
                                             a bare speed keeps the scenario's direction (else 270)
   tower_loss    0 <= x < 1                  fraction of the tower link's packets dropped (fly --tower-loss)
+  tower_link.S  number                      a tower-link setting for the whole run (fly --tower-link S=V):
+                                            loss, latency, jitter, reorder, duplicate, bandwidth, each
+                                            also as tower_link.up.S / tower_link.down.S
   follow_frame  drone | drone_yaw           the frame the rover's goal is written in (fly --follow-frame)
   finish        land | rtl | none           after the goals (fly --finish)
   NAME          number                      a vehicle parameter by its ArduPilot name, e.g. WPNAV_SPEED
                                             (cm/s); checked against the parameter table (fly --param)
   a.b.c         any TOML value              a scenario value by its dotted key, e.g. mission.altitude;
-                                            the key must exist in the scenario (the run flies a copy)
+                                            the key must exist in the scenario (the run flies a copy);
+                                            a list's item by its index: faults.0.t, faults.1.SIM_BATT_VOLTAGE
 
 A sweep file (TOML) gives a grid (the cartesian product of its lists) and/or an explicit list
 of runs; each explicit run is crossed with the grid::
@@ -46,11 +50,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping
 
+from tools.vehicle_params import param_table
+
 NAMED_FACTORS = ("seed", "wind", "tower_loss", "follow_frame", "finish")
 FOLLOW_FRAMES = ("drone", "drone_yaw")
 FINISH = ("land", "rtl", "none")
 PARAM_NAME = re.compile(r"^[A-Z][A-Z0-9_]{0,15}$")       # ArduPilot: at most 16 characters
-SCENARIO_KEY = re.compile(r"^[a-z_][a-z0-9_]*(\.[a-z_][a-z0-9_]*)*$")
+SCENARIO_KEY = re.compile(r"^[a-z_][a-z0-9_]*(\.([a-z_][a-z0-9_]*|[0-9]+|[A-Z][A-Z0-9_]*))*$")
+LINK_PREFIX = "tower_link."
 DEFAULT_WIND_DIRECTION = 270.0
 
 
@@ -155,19 +162,12 @@ def parse_seeds(spec: str | int | Iterable[int]) -> list[int]:
 # ----------------------------------------------------------------------------- factors
 
 
-def param_table() -> dict[str, Any]:
-    """Every vehicle parameter a run may set: name -> ParamDef (copter and rover tables)."""
-    from vehicle.autopilot.params import COPTER_TABLE, ROVER_TABLE, core_table
-    table: dict[str, Any] = {}
-    for d in [*core_table("copter"), *COPTER_TABLE, *core_table("rover"), *ROVER_TABLE]:
-        table.setdefault(d.name, d)
-    return table
-
-
 def factor_kind(name: str, scenario_data: Mapping[str, Any]) -> str:
-    """'named', 'param' or 'scenario'; SweepError for a name that is none of them."""
+    """'named', 'link', 'param' or 'scenario'; SweepError for a name that is none of them."""
     if name in NAMED_FACTORS:
         return "named"
+    if name.startswith(LINK_PREFIX):
+        return "link"
     if PARAM_NAME.match(name):
         return "param"
     if SCENARIO_KEY.match(name):
@@ -177,25 +177,36 @@ def factor_kind(name: str, scenario_data: Mapping[str, Any]) -> str:
         close = difflib.get_close_matches(name, keys, n=1)
         hint = f" (did you mean {close[0]}?)" if close else ""
         raise SweepError(f"unknown factor {name!r}{hint}: not one of {', '.join(NAMED_FACTORS)}, "
-                         f"a parameter (UPPER_CASE, e.g. WPNAV_SPEED) or a key of the scenario "
-                         f"(e.g. mission.altitude)")
-    raise SweepError(f"unknown factor {name!r}: factors are {', '.join(NAMED_FACTORS)}, a parameter "
-                     f"name (e.g. WPNAV_SPEED) or a dotted scenario key (e.g. mission.altitude)")
+                         f"a tower-link setting ({LINK_PREFIX}latency), a parameter (UPPER_CASE, e.g. WPNAV_SPEED) "
+                         f"or a key of the scenario (e.g. mission.altitude)")
+    raise SweepError(f"unknown factor {name!r}: factors are {', '.join(NAMED_FACTORS)}, a tower-link setting "
+                     f"({LINK_PREFIX}latency), a parameter name (e.g. WPNAV_SPEED) or a dotted scenario key "
+                     f"(e.g. mission.altitude)")
+
+
+def _child(node: Any, part: str) -> tuple[bool, Any]:
+    """(found, value) of a table's key or a list's index (a dotted key's one step)."""
+    if isinstance(node, Mapping):
+        return (part in node, node.get(part))
+    if isinstance(node, list) and part.isdigit() and int(part) < len(node):
+        return (True, node[int(part)])
+    return (False, None)
 
 
 def _has_key(data: Mapping[str, Any], dotted: str) -> bool:
     node: Any = data
     for part in dotted.split("."):
-        if not isinstance(node, Mapping) or part not in node:
+        found, node = _child(node, part)
+        if not found:
             return False
-        node = node[part]
     return True
 
 
-def _dotted_keys(data: Mapping[str, Any], prefix: str = "") -> Iterable[str]:
-    for k, v in data.items():
+def _dotted_keys(data: Any, prefix: str = "") -> Iterable[str]:
+    items = data.items() if isinstance(data, Mapping) else ((str(i), v) for i, v in enumerate(data))
+    for k, v in items:
         yield prefix + k
-        if isinstance(v, Mapping):
+        if isinstance(v, (Mapping, list)):
             yield from _dotted_keys(v, prefix + k + ".")
 
 
@@ -224,6 +235,13 @@ def check_value(name: str, v: Any, scenario_data: Mapping[str, Any],
                 raise SweepError(f"{name}: {x:g} must be a whole number")
             return int(x)
         return x
+    if kind == "link":
+        from common.link_settings import check_setting, split_key
+        try:
+            split_key(name[len(LINK_PREFIX):])
+            return check_setting(name.rpartition(".")[2], _number(name, v))
+        except ValueError as exc:
+            raise SweepError(f"{name}: {exc}") from None
     if kind == "scenario":
         if isinstance(v, float) and not math.isfinite(v):
             raise SweepError(f"{name}: {v!r} is not a finite number")
@@ -400,7 +418,8 @@ def varying_factors(runs: list[Run]) -> list[str]:
 
 def scenario_copy(scenario_data: Mapping[str, Any], factors: Mapping[str, Any]) -> dict | None:
     """The scenario a run flies when it sets wind or scenario keys (a deep copy); None if unchanged."""
-    changes = {k: v for k, v in factors.items() if k == "wind" or (k not in NAMED_FACTORS and not PARAM_NAME.match(k))}
+    changes = {k: v for k, v in factors.items() if k == "wind" or (
+        k not in NAMED_FACTORS and not PARAM_NAME.match(k) and not k.startswith(LINK_PREFIX))}
     if not changes:
         return None
     data = json.loads(json.dumps(scenario_data))
@@ -411,8 +430,11 @@ def scenario_copy(scenario_data: Mapping[str, Any], factors: Mapping[str, Any]) 
         *path, last = k.split(".")
         node = data
         for p in path:
-            node = node[p]
-        node[last] = v
+            node = node[int(p)] if isinstance(node, list) else node[p]
+        if isinstance(node, list):
+            node[int(last)] = v
+        else:
+            node[last] = v
     return data
 
 
@@ -430,6 +452,9 @@ def fly_args(factors: Mapping[str, Any], scenario: str | None, run_dir: str, *,
         args += ["--follow-frame", factors["follow_frame"]]
     if "finish" in factors:
         args += ["--finish", factors["finish"]]
+    link = [f"{k[len(LINK_PREFIX):]}={v:g}" for k, v in factors.items() if k.startswith(LINK_PREFIX)]
+    if link:
+        args += ["--tower-link", ",".join(link)]
     for k, v in factors.items():
         if PARAM_NAME.match(k):
             args += ["--param", f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"]

@@ -2,8 +2,9 @@
 
 sweep.png: for each factor that varies, its levels on x and, left to right, the rover's follow
 error RMS (m), the wobble RMS of the followed frame (m), every goal's reach-time ratio (reach
-time / minimum time, 1 = as fast as the limits allow) and the failure rate. Each run is a dot
-(failed runs as crosses), the level's mean a bar.
+time / minimum time, 1 = as fast as the limits allow), when any run had a failsafe the sim
+seconds from its fault to the first failsafe (failsafe_s), and the failure rate. Each run is a
+dot (failed runs as crosses), the level's mean a bar.
 """
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from typing import Any, Mapping
 
 PANELS = (("follow_rms", "follow error RMS (m)"), ("wobble_rms", "wobble RMS, followed frame (m)"),
           ("ratios", "goal reach-time ratio"), ("fail", "failure rate"))
+FAILSAFE_PANEL = ("failsafe_s", "fault -> first failsafe (sim s)")
 
 
 def _levels(rows: list[Mapping[str, Any]], factor: str) -> list[Any]:
@@ -35,13 +37,16 @@ def plot_sweep(rows: list[Mapping[str, Any]], factors: list[str], path: Path, ti
     from tools.sweep_grid import format_value
 
     factors = factors or ["seed"]
-    fig, axes = plt.subplots(len(factors), len(PANELS), figsize=(4.2 * len(PANELS), 3.0 * len(factors) + 0.6),
+    panels = PANELS
+    if any(isinstance(r.get(FAILSAFE_PANEL[0]), (int, float)) for r in rows):
+        panels = (*PANELS[:-1], FAILSAFE_PANEL, PANELS[-1])
+    fig, axes = plt.subplots(len(factors), len(panels), figsize=(4.2 * len(panels), 3.0 * len(factors) + 0.6),
                              squeeze=False)
     rng = np.random.default_rng(0)          # jitter only; the same picture every time
     for i, f in enumerate(factors):
         levels = _levels(rows, f)
         labels = [format_value(v) if v is not None else "-" for v in levels]
-        for j, (key, name) in enumerate(PANELS):
+        for j, (key, name) in enumerate(panels):
             ax = axes[i][j]
             for x, level in enumerate(levels):
                 rs = [r for r in rows if r.get(f) == level]

@@ -59,8 +59,9 @@ def finished(run_dir: Path) -> dict | None:
     return row
 
 
-def _fly_reason(log: Path) -> str | None:
-    """fly's own last word on a failure ('towerlink fly: timed out after 300 s wall; ...')."""
+def _fly_reason(log: Path, own_only: bool = False) -> str | None:
+    """fly's own last word on a failure ('towerlink fly: timed out after 300 s wall; ...'); else
+    (not `own_only`) the log's last line that says something."""
     try:
         lines = log.read_text(errors="replace").splitlines()
     except OSError:
@@ -68,6 +69,8 @@ def _fly_reason(log: Path) -> str | None:
     for line in reversed(lines):
         if line.startswith("towerlink fly: ") and "run folder" not in line and "(ports" not in line:
             return line[len("towerlink fly: "):].removesuffix("; all processes stopped")
+    if own_only:
+        return None
     # else the last line that says something: not fly's closing list of the run folder's files
     tail = [ln for ln in lines if ln.strip() and not ln.startswith("run folder ")][-1:]
     return tail[0][:200] if tail else None
@@ -174,7 +177,9 @@ def run_one(spec: dict[str, Any]) -> dict[str, Any]:
     wall = time.monotonic() - t0
     summary = read_json(run_dir / "summary.json")
     if reason is None and (summary is None or not summary.get("ok") or rc != 0):
-        said = _fly_reason(log)
+        # with a summary, the row's own reason (the tower's error, the goals, the first failsafe)
+        # unless fly itself said what went wrong
+        said = _fly_reason(log, own_only=summary is not None)
         if summary is None:
             reason = f"fly exited with status {rc}" + (f": {said}" if said else "") + " (no summary.json)"
         elif rc not in (0, 1) or (said and "could not summarise" not in said and not summary.get("ok")):

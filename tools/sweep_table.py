@@ -10,6 +10,7 @@ Key figures (derived, so every row has them whatever the scenario):
   ratio_mean      -    mean over the goals of reach time / minimum time
   ratio_max       -    the worst goal's ratio
   mission_s       s    sim seconds from the first goal sent to the last reached
+  failsafe_s      s    sim seconds from a fault to the first failsafe it caused (none: empty)
 """
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ import math
 import statistics
 from typing import Any, Iterable, Mapping
 
-KEY_FIGURES = ("follow_rms", "wobble_rms", "ratio_mean", "ratio_max", "mission_s")
+KEY_FIGURES = ("follow_rms", "wobble_rms", "ratio_mean", "ratio_max", "mission_s", "failsafe_s")
 FIXED_COLUMNS = ("run_id", "pass", "reason", "wall_s")
 # figures that measure the machine, not the mission (the wall clock); kept out of the table
 WALL_FIELDS = {"achieved_speedup"}
@@ -49,7 +50,8 @@ def flatten(d: Any, prefix: str = "") -> dict[str, float]:
 
 
 def key_figures(s: Mapping[str, Any]) -> dict[str, float | None]:
-    """The five figures the plots and the effects table use (None when the run has none)."""
+    """The figures the plots and the effects table use (None when the run has none)."""
+    from tools.fault_summary import first_failsafe_delay
     fe = s.get("follow_error") or {}
     wob = s.get("wobble") or {}
     frame = wob.get("follow_frame") or s.get("follow_frame") or "drone_yaw"
@@ -59,7 +61,8 @@ def key_figures(s: Mapping[str, Any]) -> dict[str, float | None]:
     mission = (win[1] - win[0]) if len(win) == 2 and all(isinstance(x, (int, float)) for x in win) else None
     return {"follow_rms": _num(fe.get("rms")), "wobble_rms": _num(wf.get("rms")),
             "ratio_mean": statistics.fmean(ratios) if ratios else None,
-            "ratio_max": max(ratios) if ratios else None, "mission_s": _num(mission)}
+            "ratio_max": max(ratios) if ratios else None, "mission_s": _num(mission),
+            "failsafe_s": _num(first_failsafe_delay(s.get("faults")))}
 
 
 def _num(x: Any) -> float | None:
@@ -80,7 +83,8 @@ def make_row(run_id: str, factors: Mapping[str, Any], summary: Mapping[str, Any]
             reason = "no summary"
         else:
             reason = summary.get("tower_error") or summary.get("error") or \
-                f"{summary.get('goals_reached', 0)}/{summary.get('goals_total', '?')} goals reached"
+                f"{summary.get('goals_reached', 0)}/{summary.get('goals_total', '?')} goals reached" + \
+                _first_failsafe(summary)
     row.update({"pass": ok, "reason": "" if ok else str(reason), "wall_s": wall_s})
     if summary:
         row.update(key_figures(summary))
@@ -89,6 +93,15 @@ def make_row(run_id: str, factors: Mapping[str, Any], summary: Mapping[str, Any]
     else:
         row.update({k: None for k in KEY_FIGURES})
     return row
+
+
+def _first_failsafe(summary: Mapping[str, Any]) -> str:
+    """'; after drone: 'GCS Failsafe On: RTL' at 24.26 s' (the run's first failsafe), or ''."""
+    events = (summary.get("faults") or {}).get("failsafes") or []
+    if not events:
+        return ""
+    e = min(events, key=lambda x: x["t"])
+    return f"; after {e['vehicle']}: {e['text']!r} at {e['t']:.2f} s"
 
 
 def columns(rows: list[Mapping[str, Any]], factor_names: Iterable[str]) -> list[str]:
@@ -123,9 +136,17 @@ def normalise(rows: list[Mapping[str, Any]], cols: list[str]) -> list[dict[str, 
 
 # ----------------------------------------------------------------------------- effects
 
+EFFECT_FIGURES = ("follow_rms", "wobble_rms", "ratio_mean")
+
+
+def effect_figures(rows: list[Mapping[str, Any]]) -> tuple[str, ...]:
+    """The figures the effects table shows: the three above, and failsafe_s when a run had one."""
+    extra = ("failsafe_s",) if any(_num(r.get("failsafe_s")) is not None for r in rows) else ()
+    return EFFECT_FIGURES + extra
+
 
 def effects(rows: list[Mapping[str, Any]], factors: Iterable[str],
-            figures: Iterable[str] = ("follow_rms", "wobble_rms", "ratio_mean")) -> list[dict[str, Any]]:
+            figures: Iterable[str] = EFFECT_FIGURES) -> list[dict[str, Any]]:
     """Per factor and level: runs, pass rate, and mean/std of each figure over the runs that
     have it. Levels in first-seen order (numbers sorted)."""
     figures = list(figures)
@@ -150,7 +171,7 @@ def effects(rows: list[Mapping[str, Any]], factors: Iterable[str],
 
 
 def format_effects(eff: list[Mapping[str, Any]],
-                   figures: Iterable[str] = ("follow_rms", "wobble_rms", "ratio_mean")) -> str:
+                   figures: Iterable[str] = EFFECT_FIGURES) -> str:
     """The effects as a short fixed-width table (mean ± std per figure, pass rate)."""
     from tools.sweep_grid import format_value
     figures = list(figures)

@@ -7,6 +7,7 @@ row with its error, never the end of the grading.
 """
 from __future__ import annotations
 
+import importlib.util
 import os
 import random
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -52,11 +53,10 @@ def ray_or_none(use_ray: bool | None, cpus: int):
     """Ray, started quietly, when it is installed (and not refused); None otherwise."""
     if use_ray is False:
         return None
-    try:
-        import ray  # noqa: F401
-    except ImportError:
+    # only tools.sweep imports Ray (the sweep extra); here we just ask whether it is there
+    if importlib.util.find_spec("ray") is None:
         if use_ray:
-            raise RuntimeError("--ray: Ray is not installed (pip install 'towerlink[sweep]')") from None
+            raise RuntimeError("--ray: Ray is not installed (pip install 'towerlink[sweep]')")
         return None
     from tools.sweep import start_ray
     return start_ray(None, cpus)
