@@ -16,12 +16,13 @@ waits until everything queued so far is done (tests, stopping).
 """
 from __future__ import annotations
 
-import os
 import threading
 import time
 import traceback
 from collections import deque
 from collections.abc import Callable
+
+from vehicle.files.durable import fsync_path
 
 MAX_PENDING = 64 * 1024 * 1024          # bytes queued before chunks are dropped
 WAKE_BYTES = 256 * 1024                 # producers wake the thread when this much waits
@@ -114,7 +115,7 @@ class LogWriter:
                 if kind == "w":
                     self._append(path, data)
                 elif kind == "c":
-                    self._fsync(path)
+                    fsync_path(path)
                 else:
                     try:
                         path()
@@ -135,15 +136,3 @@ class LogWriter:
         except OSError:
             self.failed += len(data)
 
-    @staticmethod
-    def _fsync(path: str) -> None:
-        try:
-            fd = os.open(path, os.O_RDONLY)
-        except OSError:
-            return
-        try:
-            os.fsync(fd)
-        except OSError:
-            pass
-        finally:
-            os.close(fd)
