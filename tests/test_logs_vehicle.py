@@ -262,3 +262,39 @@ def test_gps_reading_either_sampling_path():
         assert a.gps_reading(i)[:3] == pytest.approx(pos[i], abs=2.0)
     b.sample_rows(False, True, pos.tolist(), vel.tolist(), acc.tolist(), quat.tolist())
     assert b.gps_reading(1) is not None          # a baro-only epoch keeps the last fix
+
+
+def test_the_link_serves_the_log_and_drops_a_gone_channel(tmp_path):
+    """The link's LOG_* handling in process: a download over a channel, replies on it only,
+    a reboot closing the log, and a transfer whose peer went away ending."""
+    from pymavlink.dialects.v20 import ardupilotmega as mav
+
+    from vehicle.link.endpoints import Channel
+    lw = LoggedWorld(tmp_path)
+    lw.ready()
+    lw.arm(seconds=2.0).disarm()
+    lw.run_for(0.5)
+    link = lw.w.vehicles[0].link
+    got: list[bytes] = []
+    ch = Channel("gcs", got.append)
+    parser = mav.MAVLink(None)
+    link.logs.handle(mav.MAVLink_log_request_list_message(1, 1, 0, 0xFFFF), ch)
+    entry = parser.parse_buffer(b"".join(got))[0]
+    assert (entry.get_type(), entry.id, entry.num_logs) == ("LOG_ENTRY", 1, 1)
+    assert entry.size == lw.files()[0][1]
+    got.clear()
+    link.logs.handle(mav.MAVLink_log_request_data_message(1, 1, 1, 0, 0xFFFFFFFF), ch)
+    while link.logs.transfer.channel is not None:
+        lw.run_for(0.02)
+    data = b"".join(bytes(m.data[:m.count]) for m in parser.parse_buffer(b"".join(got)))
+    assert data == (lw.folder() / "00000001.BIN").read_bytes()
+    # a peer that went away mid-transfer: the transfer ends at the next tick
+    link.logs.handle(mav.MAVLink_log_request_data_message(1, 1, 1, 0, 0xFFFFFFFF), ch)
+    ch.closed = True
+    lw.run_for(0.02)
+    assert link.logs.transfer.channel is None
+    # a reboot closes the log: the next arming opens log 2
+    link.reboot()
+    lw.ready()
+    lw.arm(seconds=0.5)
+    assert [n for n, _ in lw.files()] == [1, 2]
