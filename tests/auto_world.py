@@ -13,6 +13,7 @@ from vehicle.autopilot.mission_store import FENCE, MISSION, RALLY, MissionItem
 from vehicle.world import World, WorldConfig
 
 REL = mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+POS_ONLY = 0b110111111000          # SET_POSITION_TARGET type_mask: position only
 
 
 class Flight:
@@ -96,3 +97,17 @@ class Flight:
         p = np.array(geo.lla_to_ned(self.origin, lat, lon, self.origin[2]))
         p[2] = home_z - item.z
         return p
+
+
+def airborne(f: Flight, alt: float = 10.0) -> None:
+    """Settle, then GUIDED, arm and take off to `alt` m; returns once there."""
+    f.settle()
+    assert f.ap.set_mode(f.ap.GUIDED)
+    assert f.ap.arm() == mav.MAV_RESULT_ACCEPTED
+    assert f.ap.command(mav.MAV_CMD_NAV_TAKEOFF, [0, 0, 0, 0, 0, 0, alt]) == mav.MAV_RESULT_ACCEPTED
+    f.until(lambda: f.ap.pos[2] < f.ap.home[2] - alt + 0.3, 30, "takeoff")
+
+
+def goto(f: Flight, n: float, e: float, d: float) -> bool:
+    """A GUIDED position target, local NED (from the EKF origin); False if refused."""
+    return f.ap.position_target_local(mav.MAV_FRAME_LOCAL_NED, POS_ONLY, [n, e, d], [0, 0, 0], [0, 0, 0], 0, 0)

@@ -39,3 +39,12 @@ def autopilot(port: int, timeout: float = 20.0):
     step("discovered")
     _ALIVE.append(sdk)           # the Mavsdk instance must live as long as the program
     return system
+
+
+def land_and_finish(act, tel) -> int:
+    """Land (Action.land), wait until disarmed on the ground, say MAVSDK OK; the exit status."""
+    act.land()
+    wait(lambda: not tel.armed(), 60, "landed and disarmed")
+    step("landed")
+    print("MAVSDK OK", flush=True)
+    return 0

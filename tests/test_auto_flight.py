@@ -1,6 +1,7 @@
 """AUTO flown by the real fleet and autopilot in-process (sim time, no sockets): the copter's
 6-item mission with a DO_JUMP, the mission's end, mode changes and MIS_RESTART, uploads while
-flying, AUTO's refusals in ArduPilot's words, pause/continue, the rover's mission."""
+flying, AUTO's refusals and corner cases in ArduPilot's words (disarmed without a mission,
+AUTO_OPTIONS), unknown modes and the gripper, pause/continue, the rover's mission."""
 from __future__ import annotations
 
 import numpy as np
@@ -96,12 +97,73 @@ def test_auto_without_a_mission_is_refused_in_arducopters_words():
     assert f.ap.mission_current() == (0, mav.MISSION_STATE_NO_MISSION)
 
 
+def test_disarmed_copter_enters_auto_without_a_mission_and_arming_says_why_not():
+    """ArduCopter's set_mode passes ignore_checks = !armed to ModeAuto::init, which enters with
+    a mission present OR ignore_checks; AP_Arming::mission_checks then refuses to arm in AUTO
+    with no mission ("Mode requires mission"). Disarmed, the mission completes at once and
+    MISSION_START after an upload flies it."""
+    f = Flight("copter", params={"AUTO_OPTIONS": 1})
+    f.settle()
+    texts = len(f.texts)
+    assert f.ap.set_mode(modes.AUTO) is True and f.ap.mode == modes.AUTO
+    assert f.said()[texts:] == []                         # accepted silently
+    f.step(1.0)
+    assert f.ap.mission_current() == (0, mav.MISSION_STATE_NO_MISSION)
+    assert f.ap.arm() == C.MAV_RESULT_FAILED and not f.ap.armed
+    assert f.said()[-1] == "PreArm: Mode requires mission"
+    f.upload([f.at(0, 0, 6, C.MAV_CMD_NAV_TAKEOFF), f.at(10, 0, 6)])
+    assert f.ap.prearm_ok() and f.ap.arm() == C.MAV_RESULT_ACCEPTED
+    assert f.ap.command(C.MAV_CMD_MISSION_START, [0] * 7) == C.MAV_RESULT_ACCEPTED
+    f.until(lambda: 2 in f.reached_seqs(), 60, "takeoff and first waypoint")
+
+
 def test_armed_on_the_ground_auto_needs_a_takeoff_first():
+    """ModeAuto::init: armed, landed and the first command not a takeoff -> "Auto: Missing
+    Takeoff Cmd" (CRITICAL), then Copter::mode_change_failed's "init failed" (WARNING)."""
     f = Flight("copter")
     f.upload([f.at(10, 0, 10), f.at(0, 10, 10)])
     armed_in_guided(f)
     assert f.ap.set_mode(modes.AUTO) is False
-    assert f.said()[-2:] == ["Auto: Missing Takeoff Cmd", "Mode change to AUTO failed: init failed"]
+    assert [(sev, m) for _, sev, m in f.texts[-2:]] == [
+        (mav.MAV_SEVERITY_CRITICAL, "Auto: Missing Takeoff Cmd"),
+        (mav.MAV_SEVERITY_WARNING, "Mode change to AUTO failed: init failed")]
+    assert f.ap.mode == modes.GUIDED
+
+
+def test_armed_in_guided_then_auto_with_auto_options_2_takes_off():
+    """AUTO_OPTIONS 2 (AllowTakeOffWithoutRaisingThrottle): ModeAuto::takeoff_run auto-arms
+    every cycle, so a copter armed in GUIDED and switched to AUTO takes off (the way GCS-only
+    scripts start missions); without the bit it sits on the ground until DISARM_DELAY."""
+    for options, flies in ((2, True), (0, False)):
+        f = Flight("copter", params={"AUTO_OPTIONS": options, "DISARM_DELAY": 4})
+        f.upload([f.at(0, 0, 6, C.MAV_CMD_NAV_TAKEOFF), f.at(10, 0, 6)])
+        armed_in_guided(f)
+        assert f.ap.set_mode(modes.AUTO)
+        if flies:
+            f.until(lambda: 2 in f.reached_seqs(), 60, "takeoff and first waypoint")
+            assert f.ap.armed and f.reached_seqs()[:2] == [1, 2]
+        else:
+            f.step(3.0)
+            assert f.ap.on_ground and f.ap.armed and not f.ap.auto_armed
+            f.until(lambda: not f.ap.armed, 5, "auto-disarm after DISARM_DELAY")
+            assert f.reached_seqs() == []
+
+
+def test_unknown_modes_and_the_gripper_answered_as_arducopter():
+    """A mode this build has not (AUTOTUNE 15, ACRO 1): AP_Vehicle::notify_no_such_mode's "No
+    such mode N" and the change fails; DO_GRIPPER with no gripper enabled (GRIP_ENABLE 0):
+    FAILED, nothing said."""
+    f = Flight("copter")
+    f.settle()
+    for number in (15, 1, 99):
+        assert f.ap.set_mode(number) is False
+        assert f.said()[-1] == f"No such mode {number}"
+    assert f.ap.command(C.MAV_CMD_DO_SET_MODE, [C.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 15, 0, 0, 0, 0, 0]) \
+        == C.MAV_RESULT_FAILED
+    n = len(f.texts)
+    for action in (0, 1):
+        assert f.ap.command(C.MAV_CMD_DO_GRIPPER, [1, action, 0, 0, 0, 0, 0]) == C.MAV_RESULT_FAILED
+    assert len(f.texts) == n
 
 
 def test_disarmed_copter_enters_auto_but_arms_there_only_with_auto_options():

@@ -7,25 +7,12 @@ from __future__ import annotations
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from auto_world import Flight
+from auto_world import Flight, airborne, goto
 from vehicle.autopilot import modes
 from vehicle.autopilot.fence_geometry import POLY_IN
 
 C = mav
-POS_ONLY = 0b110111111000
 VEL_ONLY = 0b110111000111
-
-
-def airborne(f: Flight, alt: float = 10.0) -> None:
-    f.settle()
-    assert f.ap.set_mode(modes.GUIDED)
-    assert f.ap.arm() == C.MAV_RESULT_ACCEPTED
-    assert f.ap.command(C.MAV_CMD_NAV_TAKEOFF, [0, 0, 0, 0, 0, 0, alt]) == C.MAV_RESULT_ACCEPTED
-    f.until(lambda: f.ap.pos[2] < f.ap.home[2] - alt + 0.3, 30, "takeoff")
-
-
-def goto(f: Flight, n: float, e: float, d: float) -> bool:
-    return f.ap.position_target_local(C.MAV_FRAME_LOCAL_NED, POS_ONLY, [n, e, d], [0, 0, 0], [0, 0, 0], 0, 0)
 
 
 def test_guided_goal_outside_the_circle_fence_is_ignored_and_the_copter_stays_inside():

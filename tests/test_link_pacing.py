@@ -148,7 +148,7 @@ def test_statustext_per_received_chunk_is_bounded():
     acks = [m for m in gcs.got if m.get_type() == "COMMAND_ACK"]
     texts = [m for b in sent for m in gcs.dec.parse_buffer(b) or [] if m.get_type() == "STATUSTEXT"]
     assert len(acks) == 1000 and all(a.result == mav.MAV_RESULT_FAILED for a in acks)
-    assert len(texts) == 30 and texts[0].text == "Mode change to 77 failed: unknown mode"
+    assert len(texts) == 30 and texts[0].text == "No such mode 77"         # AP_Vehicle's words
     assert link.stats["text_dropped"] == 970
     sent.clear()
     assert link.on_data(one, gcs.ch)

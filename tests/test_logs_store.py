@@ -17,6 +17,10 @@ def test_names_numbers_and_lastlog(tmp_path):
     assert (tmp_path / "logs" / LASTLOG).read_bytes() == b"1\r\n"
     # an empty newest log is re-used (ArduPilot: a log that got no data takes the same number)
     assert s.new_log() == p1
+    # ...unless its bytes are still queued for the disk: a busy number is not re-used
+    assert s.new_log(busy={1}).name == "00000002.BIN"
+    (tmp_path / "logs" / "00000002.BIN").unlink()
+    (tmp_path / "logs" / "LASTLOG.TXT").write_text("1\r\n")
     p1.write_bytes(b"abc")
     p2 = s.new_log()
     assert p2.name == "00000002.BIN" and s.last_number() == 2

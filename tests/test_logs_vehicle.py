@@ -15,6 +15,7 @@ from common import geo
 from vehicle.autopilot import modes
 from vehicle.autopilot.mission_store import MISSION, MissionItem
 from vehicle.logs import messages
+from vehicle.telemetry import version
 from vehicle.world import World, WorldConfig
 
 
@@ -184,17 +185,19 @@ def test_log_contents_against_the_truth(tmp_path):
     assert names[:len(lw.logs[0].schema.encoders)] == ["FMT"] * len(lw.logs[0].schema.encoders)
     assert len(of(msgs, "PARM")) == len(ap.params.names)
     assert r.params["LOG_DISARMED"] == 0 and r.params["SYSID_THISMAV"] == ap.sysid
-    assert of(msgs, "MSG")[0].Message == "ArduCopter V4.5.0 (00000000)"
+    assert [m.Message for m in of(msgs, "MSG")[:3]] == version.banner("copter", ap.sysid)
+    assert of(msgs, "MSG")[0].Message.startswith("ArduCopter V4.5.0 (")
     assert [o.Type for o in of(msgs, "ORGN")] == [messages.ORIGIN_EKF, messages.ORIGIN_AHRS_HOME]
     modes_seen = [(m.ModeNum, m.Rsn) for m in of(msgs, "MODE")]
     assert modes_seen == [(modes.GUIDED, 0), (modes.AUTO, 2), (modes.LAND, 2)]    # GCS_COMMAND
     # ARM: armed by MAVLink (1), disarmed by LAND's landing (LANDED, 13); the texts in order
     assert [(a.ArmState, a.Method, a.Forced) for a in of(msgs, "ARM")] == [(1, 1, 0), (0, 13, 1)]
     texts = [m.Message for m in of(msgs, "MSG")]
-    assert "Arming motors" in texts and texts.index("Arming motors") == 1
+    assert "Arming motors" in texts and texts.index("Arming motors") == len(version.banner("copter", ap.sysid))
     assert texts[-1] == "Disarming motors: landed", texts
+    banner = len(version.banner("copter", ap.sysid))
     order = [m.get_type() for m in msgs if m.get_type() in ("ARM", "MSG")]
-    assert order[1:3] == ["ARM", "MSG"]                 # ARM, then the "Arming motors" it said
+    assert order[banner:banner + 2] == ["ARM", "MSG"]   # the banner, ARM, then the "Arming motors" it said
     cmds = of(msgs, "CMD")
     assert [c.CNum for c in cmds[:3]] == [0, 1, 2] and cmds[0].CTot == 3        # the whole mission at start
     assert any(c.CNum == 2 and c.CId == A.MAV_CMD_NAV_WAYPOINT for c in cmds[3:])   # AUTO started item 2

@@ -41,12 +41,16 @@ COPTER = {
     modes.LAND: (False, False, False, True),
     modes.POSHOLD: (True, False, True, False),
     modes.BRAKE: (True, False, False, False),
+    modes.GUIDED_NOGPS: (False, False, True, True),  # allows_arming: ModeGuided's, inherited
     modes.SMART_RTL: (True, False, False, True),
     modes.FOLLOW: (True, False, False, True),
 }
-# has_user_takeoff(must_navigate) for must_navigate False, True (default false)
+# has_user_takeoff(must_navigate) for must_navigate False, True (default false). GUIDED_NOGPS
+# inherits ModeGuided's (True, True) in ArduCopter, whose takeoff it then never flies:
+# towerlink refuses the takeoff there (copter_modes/guided_nogps.py says so)
 COPTER_USER_TAKEOFF = {modes.ALT_HOLD: (True, False), modes.GUIDED: (True, True), modes.LOITER: (True, True),
                        modes.POSHOLD: (True, True)}
+GUIDED_MODES = {modes.GUIDED, modes.GUIDED_NOGPS}           # in_guided_mode()
 # where towerlink answers otherwise, and says why in the hook's docstring
 COPTER_DIFFERENCES = {(modes.LAND, "requires_position")}
 
@@ -97,7 +101,7 @@ def test_copter_hooks_are_arducopters(copter):
             assert m.allows_arming(ArmingMethod.MAVLINK) is arming, m
         for must_navigate, want_takeoff in zip((False, True), COPTER_USER_TAKEOFF.get(number, (False, False))):
             assert m.has_user_takeoff(must_navigate) is want_takeoff, (m, must_navigate)
-        assert m.in_guided_mode() is (number == modes.GUIDED)
+        assert m.in_guided_mode() is (number in GUIDED_MODES)
     # ModeGuided: the GCS always may arm it, the transmitter only with GUID_OPTIONS (not modelled)
     guided = copter.flightmodes[modes.GUIDED]
     assert guided.allows_arming(ArmingMethod.MAVLINK) and not guided.allows_arming(ArmingMethod.RUDDER)

@@ -13,7 +13,7 @@ import pytest
 
 
 def client(port: int) -> int:
-    from mavsdk_client import autopilot, step, wait
+    from mavsdk_client import autopilot, land_and_finish, step, wait
     from mavsdk.plugins.action import Action
     from mavsdk.plugins.offboard import Offboard, PositionNedYaw
     from mavsdk.plugins.telemetry import Telemetry
@@ -44,11 +44,7 @@ def client(port: int) -> int:
         off.stop()
     except Exception:
         pass
-    act.land()
-    wait(lambda: not tel.armed(), 60, "landed and disarmed")
-    step("landed")
-    print("MAVSDK OK", flush=True)
-    return 0
+    return land_and_finish(act, tel)
 
 
 @pytest.mark.timeout(150)

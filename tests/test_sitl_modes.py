@@ -200,7 +200,9 @@ def test_do_reposition_and_guided_commands(sitl):
 STREAMED_OR_ASKED = ["HEARTBEAT", "SYS_STATUS", "GPS_RAW_INT", "GLOBAL_POSITION_INT", "LOCAL_POSITION_NED",
                      "ATTITUDE", "ATTITUDE_QUATERNION", "VFR_HUD", "HOME_POSITION", "EXTENDED_SYS_STATE",
                      "SYSTEM_TIME", "BATTERY_STATUS", "POSITION_TARGET_LOCAL_NED", "SIM_STATE", "MISSION_CURRENT",
-                     "GPS_GLOBAL_ORIGIN", "AUTOPILOT_VERSION"]
+                     "GPS_GLOBAL_ORIGIN", "AUTOPILOT_VERSION", "RAW_IMU", "SCALED_IMU2", "SCALED_PRESSURE",
+                     "SERVO_OUTPUT_RAW", "RC_CHANNELS", "RC_CHANNELS_SCALED", "EKF_STATUS_REPORT", "VIBRATION",
+                     "POWER_STATUS", "MEMINFO", "AHRS", "AHRS2"]     # the rover's (NAV_CONTROLLER_OUTPUT: only in AUTO...)
 
 
 @pytest.mark.timeout(120)
@@ -223,8 +225,8 @@ def test_request_message_for_every_message_the_vehicle_sends(sitl):
         assert got.index(acks[0]) < next(i for i, g in enumerate(got) if g.get_type() == name), name
         if name != "AUTOPILOT_VERSION":
             assert command(m, mav.MAV_CMD_SET_MESSAGE_INTERVAL, msgid, 0) == mav.MAV_RESULT_ACCEPTED
-    # an id the vehicle has no message for: FAILED, as ArduPilot
-    assert command(m, mav.MAV_CMD_REQUEST_MESSAGE, mav.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT) == mav.MAV_RESULT_FAILED
+    # an id the vehicle has no message for (ArduPilot never sends MANUAL_CONTROL): FAILED, as ArduPilot
+    assert command(m, mav.MAV_CMD_REQUEST_MESSAGE, mav.MAVLINK_MSG_ID_MANUAL_CONTROL) == mav.MAV_RESULT_FAILED
 
 
 @pytest.mark.timeout(90)

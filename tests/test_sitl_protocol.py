@@ -50,7 +50,9 @@ def test_command_ack_each_result(drone):
     assert command(drone, 203) == mav.MAV_RESULT_UNSUPPORTED                  # DO_DIGICAM_CONTROL
     assert command(drone, mav.MAV_CMD_DO_SET_MODE, 0, 4) == mav.MAV_RESULT_DENIED   # no CUSTOM flag
     assert command(drone, mav.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 5) == mav.MAV_RESULT_FAILED  # disarmed
-    assert command(drone, mav.MAV_CMD_DO_SET_MODE, 1, 3) == mav.MAV_RESULT_FAILED    # AUTO: no mission
+    # AUTO with no mission: disarmed, accepted (ArduCopter: ignore_checks = !armed)
+    assert command(drone, mav.MAV_CMD_DO_SET_MODE, 1, 3) == mav.MAV_RESULT_ACCEPTED
+    assert command(drone, mav.MAV_CMD_DO_SET_MODE, 1, 15) == mav.MAV_RESULT_FAILED   # AUTOTUNE: no such mode
     assert command(drone, mav.MAV_CMD_DO_SET_MODE, 1, 4) == mav.MAV_RESULT_ACCEPTED  # GUIDED
     assert command(drone, mav.MAV_CMD_DO_CHANGE_SPEED, 0, 4, -1) == mav.MAV_RESULT_ACCEPTED
     assert command(drone, mav.MAV_CMD_DO_CHANGE_SPEED, 0, -5, -1) == mav.MAV_RESULT_FAILED
@@ -107,7 +109,7 @@ def test_sys_status_gps_raw_home_and_capabilities(drone):
     v = recv(drone, "AUTOPILOT_VERSION", 5)
     for cap in (mav.MAV_PROTOCOL_CAPABILITY_MAVLINK2, mav.MAV_PROTOCOL_CAPABILITY_COMMAND_INT,
                 mav.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED, mav.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT,
-                mav.MAV_PROTOCOL_CAPABILITY_MISSION_INT):
+                mav.MAV_PROTOCOL_CAPABILITY_MISSION_INT, mav.MAV_PROTOCOL_CAPABILITY_SET_ATTITUDE_TARGET):
         assert v.capabilities & cap
     assert command(drone, mav.MAV_CMD_REQUEST_MESSAGE, 99999) == mav.MAV_RESULT_FAILED
     e = recv(drone, "EXTENDED_SYS_STATE", 5)

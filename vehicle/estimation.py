@@ -34,6 +34,7 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 
 from common.frames.batch import quat_mul, quat_mul_one, rotate, rotate_one
+from vehicle.innovations import InnovationLog
 
 G = np.array([0.0, 0.0, 9.80665])
 
@@ -103,6 +104,7 @@ class BatchedKF:
         PHT = self.P @ H.T
         S = H @ PHT + R
         K = PHT @ np.linalg.inv(S)
+        self.y, self.S = y, S          # the innovations, as filterpy keeps them
         self.x = self.x + np.einsum("nij,nj->ni", K, y)
         I_KH = self._I - K @ H
         self.P = I_KH @ self.P @ I_KH.transpose(0, 2, 1) + K @ R @ K.transpose(0, 2, 1)
@@ -143,6 +145,7 @@ class Estimator:
         self.gps_count = np.zeros(n, dtype=int)
         self.ok = np.zeros(n, dtype=bool)
         self.k = 0
+        self.innovations = InnovationLog(n)     # read by EKF_STATUS_REPORT
 
     def _setup(self, dt: float) -> None:
         sp = self.spec
@@ -205,8 +208,10 @@ class Estimator:
         b.predict(acc_w)
         if gps:
             b.update(np.hstack([sensors.gps_pos, sensors.gps_vel]))
+            self.innovations.gps_all(b.y, b.S, self.k - 1)
         if baro:
             b.update(-sensors.baro_alt[:, None], R=self.R_baro, H=self.H_baro)
+            self.innovations.baro_all(b.y, b.S)
         self.pos = b.x[:, 0:3].copy()
         self.vel = b.x[:, 3:6].copy()
         self.bias = b.x[:, 6:9].copy()
@@ -223,6 +228,7 @@ class Estimator:
                                                                    acc.tolist(), Q)
         a, drive, g = self._ahrs_a, self._ahrs_drive, G[2]
         zg, zb, u = self._z_gps, self._z_baro, self._u
+        log, step = self.innovations, self.k - 1
         rows = []
         for i, (kf, zi, qt, w, ge, err, f) in enumerate(zip(self.kfs, z, Q, rates.tolist(), gyro_err.tolist(),
                                                             self.ahrs_err.tolist(), accel)):
@@ -240,9 +246,11 @@ class Estimator:
                 zg[0:3] = gps_pos[i]
                 zg[3:6] = gps_vel[i]
                 kf.update(zg)
+                log.gps(i, kf.y, kf.S, step)
             if baro:
                 zb[0] = -baro_alt[i]
                 kf.update(zb, R=self.R_baro, H=self.H_baro)
+                log.baro(i, kf.y, kf.S)
             x = kf.x.tolist()
             acc_i = (awx + 0.0 - x[6], awy + 0.0 - x[7], awz + g - x[8])
             rows.append((*x, *acc_i, *q, *dq, w[0] + ge[0], w[1] + ge[1], w[2] + ge[2], ex, ey, ez))

@@ -19,6 +19,11 @@ How modes use Setpoints (copter; all world NED, z down, ground at the vehicle's 
                                      true ~1 s after touch-down; the autopilot then disarms.
   STABILIZE without RC:              Setpoint(level=True)         roll/pitch level, altitude
                                      and yaw held, no horizontal control (drifts)
+  attitude (GUIDED's attitude target): Setpoint(roll=r, pitch=p, yaw=psi, vel=(0, 0, vz))
+                                     lean to (r, p) at heading psi (ZYX, rad; |r|, |p| <= 80 deg),
+                                     no horizontal control, climb at -vz; rates=(p, q) body
+                                     roll/pitch and yaw_rate: feed-forward of a moving target;
+                                     thrust=t (0..1): collective t instead of the climb rate
   yaw: yaw=psi slews at ATC_RATE_Y_MAX; yaw_rate=r turns at r; neither = hold heading.
 An armed copter on the ground idles (MOT_SPIN_ARM) until its setpoint is above ground
 (position z more than 0.25 m above ground, or a climb velocity). Disarmed: motors stop.
@@ -67,6 +72,10 @@ class Setpoint:
     yaw: float | None = None
     yaw_rate: float | None = None
     level: bool = False
+    roll: float | None = None        # attitude target (rad, with pitch): see the module docstring
+    pitch: float | None = None
+    rates: Sequence[float] | None = None    # body roll, pitch rate feed-forward (rad/s)
+    thrust: float | None = None      # collective 0..1 in place of the climb rate (attitude only)
 
 
 @dataclass
@@ -100,6 +109,29 @@ def _angle(a) -> float | None:
         return None
     a = float(a)
     return a if math.isfinite(a) else None
+
+
+MAX_LEAN = math.radians(80.0)   # an attitude target's roll and pitch are flown within this
+
+
+def _attitude_values(sp: Setpoint, flags: dict) -> dict:
+    """The controller's attitude-target values of `sp` (zeros, and flags att/use_thrust
+    False, when it has no finite roll and pitch). A thrust target flies no vertical loop:
+    its velocity target only tells the ground logic whether the copter wants up (ArduCopter
+    takes off on a positive thrust)."""
+    roll, pitch = _angle(sp.roll), _angle(sp.pitch)
+    att = roll is not None and pitch is not None
+    thrust = _angle(sp.thrust) if att else None
+    flags.update(att=att, use_thrust=thrust is not None)
+    if not att:
+        return dict(tan_roll=0.0, tan_pitch=0.0, wx=0.0, wy=0.0, thrust=0.0)
+    rates = np.zeros(3) if sp.rates is None else np.nan_to_num(np.asarray(sp.rates, float), posinf=0.0, neginf=0.0)
+    out = dict(tan_roll=math.tan(max(-MAX_LEAN, min(MAX_LEAN, roll))),
+               tan_pitch=math.tan(max(-MAX_LEAN, min(MAX_LEAN, pitch))),
+               wx=float(rates[0]), wy=float(rates[1]), thrust=0.0 if thrust is None else thrust)
+    if thrust is not None:
+        out.update(vx=0.0, vy=0.0, vz=-1.0 if thrust > 0 else 0.0)
+    return out
 
 
 class _Est:
@@ -538,6 +570,7 @@ class CopterFleet(_FleetBase):
                     ax=acc[0], ay=acc[1], az=acc[2],
                     yaw=0.0 if yaw is None else yaw, yaw_rate=0.0 if yaw_rate is None else yaw_rate)
         flags = dict(use_pos_xy=use_xy, use_pos_z=use_z, level=bool(sp.level), use_yaw=yaw is not None)
+        vals.update(_attitude_values(sp, flags))
         if self.scalar:
             o = self._ss[i]
             for k, v in vals.items():
@@ -572,24 +605,30 @@ class CopterFleet(_FleetBase):
         p = mc.rotor_power(s, self.airframe)
         return float(p if self.scalar else p[i])
 
+    def motor_outputs(self, i: int) -> tuple[float, float, float, float]:
+        """Vehicle i's rotor speeds as fractions of full speed (0..1), ArduPilot's motor
+        order (front-right, back-left, front-left, back-right): SERVO_OUTPUT_RAW's motors."""
+        s = self._ps[i] if self.scalar else self._phys
+        k = 1.0 / self.airframe.omega_max
+        if self.scalar:
+            return (s.m0 * k, s.m1 * k, s.m2 * k, s.m3 * k)
+        return (float(s.m0[i]) * k, float(s.m1[i]) * k, float(s.m2[i]) * k, float(s.m3[i]) * k)
+
+    def controller_of(self, i: int) -> ccore.CopterCtrlState:
+        """Vehicle i's controller memory as floats (read only): the position controller's
+        target (px..az, yaw) and the attitude target (tan_roll_t, tan_pitch_t), for
+        NAV_CONTROLLER_OUTPUT."""
+        if self.scalar:
+            return self._cs[i]
+        out = ccore.CopterCtrlState(None)
+        for f in ccore.CopterCtrlState.FIELDS:
+            setattr(out, f, float(getattr(self._ctrl, f)[i]))
+        return out
+
     @property
     def thrust_demand(self) -> np.ndarray:
         """Collective thrust fraction the controller asked for (0..1; 0 when idle)."""
         return np.where(np.array(self._run, dtype=bool), self.ctrl.coll, 0.0)
-
-    def control_row(self, i: int) -> list[float]:
-        """What the onboard log records of vehicle i's controller: its reference down
-        position pz (world NED m) and down velocity vz (m/s), reference acceleration
-        ax, ay, az (world NED m/s^2) and yaw (rad), the collective thrust fraction (0..1)
-        and the four rotor speeds as fractions of the airframe's omega_max (0..1), in that order."""
-        k = 1.0 / self.airframe.omega_max
-        if self.scalar:
-            c, s = self._cs[i], self._ps[i]
-            return [c.pz, c.vz, c.ax, c.ay, c.az, c.yaw, c.coll, s.m0 * k, s.m1 * k, s.m2 * k, s.m3 * k]
-        c, s = self._ctrl, self._phys
-        return [float(c.pz[i]), float(c.vz[i]), float(c.ax[i]), float(c.ay[i]), float(c.az[i]),
-                float(c.yaw[i]), float(c.coll[i]), float(s.m0[i]) * k, float(s.m1[i]) * k,
-                float(s.m2[i]) * k, float(s.m3[i]) * k]
 
     def step(self, dt: float) -> None:
         """Controller (on the estimate) -> physics -> sensors -> estimator -> land detector."""
@@ -670,14 +709,13 @@ class RoverFleet(_FleetBase):
     def landed(self, i: int) -> bool:
         return True
 
-    def control_row(self, i: int) -> list[float]:
-        """What the onboard log records of rover i's controller: its speed command (m/s),
-        its true speed (m/s) and turn rate (rad/s)."""
+    def drive_outputs(self, i: int) -> tuple[float, float, float]:
+        """Vehicle i's drive: (commanded speed, speed, turn rate) in m/s, m/s and rad/s
+        (positive turns right), for SERVO_OUTPUT_RAW and NAV_CONTROLLER_OUTPUT."""
         if self.scalar:
-            s = self._ps[i]
-            return [float(self._ss[i].v_cmd), float(s.speed), float(s.rate)]
-        s = self._phys
-        return [float(self.sp.v_cmd[i]), float(s.speed[i]), float(s.rate[i])]
+            s, sp = self._ps[i], self._ss[i]
+            return (float(sp.v_cmd), float(s.speed), float(s.rate))
+        return (float(self.sp.v_cmd[i]), float(self._phys.speed[i]), float(self._phys.rate[i]))
 
     def step(self, dt: float) -> None:
         """Controller (on the estimate) -> kinematics -> sensors -> estimator."""

@@ -3,7 +3,8 @@ vehicle subclasses' arm()/disarm()).
 
 Pre-arm (ARMING_CHECK 0 skips them): "Need Position Estimate", "Waiting for home" (never
 long: home follows the first good estimate), "Mode not armable" (the mode's allows_arming),
-and the fence's (fence.py). Each failure is said as "PreArm: <why>" (CRITICAL) and the
+"Mode requires mission" (AUTO with no mission: a disarmed copter may select it) and the
+fence's (fence.py). Each failure is said as "PreArm: <why>" (CRITICAL) and the
 request FAILS. Arming takes home here if there is none yet and the hold point where the
 vehicle stands. Disarming drops GUIDED's target and AUTO's auto-armed state; ArduCopter resets
 the mission on every disarm, ArduRover outside AUTO (auto.py). The copter's differences are
@@ -38,6 +39,8 @@ class Arming:
             out.append("Waiting for home")
         if not ap.flightmode.allows_arming(ArmingMethod.MAVLINK):
             out.append("Mode not armable")
+        if ap.flightmode.requires_mission() and not ap.auto.mission.runner.present():
+            out.append("Mode requires mission")
         why = ap.fence.prearm_failure()
         if why:
             out.append(why)

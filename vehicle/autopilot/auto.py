@@ -6,8 +6,11 @@ mode object's.
 
 What the mode does around the commands (learned from ArduPilot's source, re-expressed here):
 - Entering: no mission -> refused (Copter "Mode change to AUTO failed: init failed"; Rover
-  "No Mission. Can't set AUTO." then "Flight mode change failed"); a copter armed on the
-  ground whose next navigation command is not a takeoff -> "Auto: Missing Takeoff Cmd".
+  "No Mission. Can't set AUTO." then "Flight mode change failed"), except a disarmed copter:
+  ArduCopter's set_mode passes ignore_checks = !armed and ModeAuto::init enters with a
+  mission present OR ignore_checks; arming is then refused ("PreArm: Mode requires mission",
+  AP_Arming::mission_checks). A copter armed on the ground whose next navigation command
+  is not a takeoff -> "Auto: Missing Takeoff Cmd" (CRITICAL), then "init failed".
   Speeds go back to the parameters' (DO_CHANGE_SPEED lasts until AUTO is entered again).
   The mission starts or resumes (MIS_RESTART) on the next step once a position is known.
 - Leaving: a running mission is stopped (a later resume restarts the command it was flying).
@@ -62,11 +65,13 @@ class AutoMission(AutoCommands):
         self.paused = False
 
     # ----- mode entry / exit ----------------------------------------------------------
-    def init(self) -> bool:
-        """Entering AUTO; False (with ArduPilot's text) when it must be refused."""
+    def init(self, ignore_checks: bool) -> bool:
+        """Entering AUTO; False (with ArduPilot's text) when it must be refused.
+        ignore_checks (disarmed): a copter enters without a mission (ModeAuto::init); a
+        rover never does (Rover's ModeAuto::_enter checks the mission whatever the arming)."""
         ap = self.ap
         ap.refresh()
-        if not self.runner.present():
+        if not self.runner.present() and not (self.copter and ignore_checks):
             if not self.copter:
                 ap.text(SEV_NOTICE, "No Mission. Can't set AUTO.")
             return False
@@ -172,15 +177,15 @@ class MissionMode:
     flies), paused and left through its AutoMission, which flies the RTL mode for
     NAV_RETURN_TO_LAUNCH."""
 
+    mission_required = True
+
     def __init__(self, ap) -> None:
         super().__init__(ap)
         self.mission = AutoMission(ap, ap.flightmodes[ap.RTL])
 
     def init(self, ignore_checks: bool) -> bool:
-        """AutoMission.init's checks. ArduCopter's ModeAuto::init also enters AUTO without a
-        mission when ignore_checks (disarmed); towerlink refuses it armed or not, as it
-        always has."""
-        return self.mission.init()
+        """AutoMission.init's checks (ignore_checks: disarmed)."""
+        return self.mission.init(ignore_checks)
 
     def exit(self) -> None:
         super().exit()
@@ -194,4 +199,9 @@ class MissionMode:
 
     def run(self, dt: float) -> None:
         self.mission.step()
+        self.mission_stepped()
         super().run(dt)
+
+    def mission_stepped(self) -> None:
+        """After the mission's step, before the vehicle flies: what the vehicle's AUTO does
+        with the sub-mode the step left (nothing by default)."""

@@ -204,10 +204,13 @@ class Autopilot:
         return mav.MAV_STATE_ACTIVE if self.armed else mav.MAV_STATE_STANDBY
 
     def set_mode(self, number: int, reason: str = "GCS") -> bool:
-        """The one way modes change (mode.py): refused when the number is not a mode of this
-        vehicle, when the mode requires a position estimate there is not (checked armed or
-        not: ArduCopter skips it disarmed, towerlink never has), or when its init() says no;
-        then the old mode's exit(), the hold point here, the new mode's enter(). `reason` is
+        """The one way modes change (mode.py), in ArduCopter's Copter::set_mode order: a number
+        that is not a mode of this vehicle -> "No such mode N" (AP_Vehicle::notify_no_such_mode);
+        the current mode -> True at once; ignore_checks = not armed: disarmed, any mode may be
+        selected and the arming checks catch what is missing (Rover's Mode::enter does the
+        same); armed, a mode that requires a position estimate refuses without one; then the
+        new mode's init(ignore_checks). Failures are said by mode_change_failed(). Then the
+        old mode's exit(), the hold point here, the new mode's enter(). `reason` is
         ArduPilot's ModeReason (it logs it; nothing here reads it)."""
         number = wire_int(number, 0, 2**32 - 1)
         if number is None:
@@ -215,15 +218,16 @@ class Autopilot:
             return False
         new = self.flightmodes.get(number)
         if new is None:
-            self.text(SEV_WARNING, f"Mode change to {number} failed: unknown mode")
+            self.text(SEV_WARNING, f"No such mode {number}")
             return False
         if new is self.flightmode:
             return True
-        if new.requires_position() and not self.est_ok:
-            self.text(SEV_WARNING, f"Mode change to {new.name} failed: requires position")
+        ignore_checks = not self.armed
+        if not ignore_checks and new.requires_position() and not self.est_ok:
+            self.mode_change_failed(new, "requires position")
             return False
-        if not new.init(not self.armed):
-            self.mode_change_failed(new)
+        if not new.init(ignore_checks):
+            self.mode_change_failed(new, "init failed")
             return False
         self.flightmode.exit()
         self.flightmode = new
@@ -232,9 +236,11 @@ class Autopilot:
         self.outbox.mode(number, reason)
         return True
 
-    def mode_change_failed(self, mode: Mode) -> None:
-        """What the vehicle says when a mode's init() refuses."""
-        self.text(SEV_WARNING, f"Mode change to {mode.name} failed: init failed")
+    def mode_change_failed(self, mode: Mode, reason: str) -> None:
+        """What the vehicle says when a mode change is refused: ArduCopter's
+        Copter::mode_change_failed words, "Mode change to <NAME> failed: <reason>" (Rover
+        overrides)."""
+        self.text(SEV_WARNING, f"Mode change to {mode.name} failed: {reason}")
 
     def hold_here(self) -> None:
         """Hold where the vehicle is, heading as it is (refreshed first)."""
@@ -280,16 +286,23 @@ class Autopilot:
         self.failsafe.gcs_heartbeat()
 
     def position_target_local(self, frame, type_mask, p, v, a, yaw, yaw_rate) -> bool:
-        """SET_POSITION_TARGET_LOCAL_NED: GUIDED's target; False (ignored) in other modes."""
+        """SET_POSITION_TARGET_LOCAL_NED: the guided mode's target; False (ignored) in other modes."""
         if not self.flightmode.in_guided_mode():
             return False
-        return self.guided.position_target_local(frame, type_mask, p, v, a, yaw, yaw_rate)
+        return self.flightmode.position_target_local(frame, type_mask, p, v, a, yaw, yaw_rate)
 
     def position_target_global(self, frame, type_mask, lat_int, lon_int, alt, v, a, yaw, yaw_rate) -> bool:
-        """SET_POSITION_TARGET_GLOBAL_INT: GUIDED's target; False (ignored) in other modes."""
+        """SET_POSITION_TARGET_GLOBAL_INT: the guided mode's target; False (ignored) in other modes."""
         if not self.flightmode.in_guided_mode():
             return False
-        return self.guided.position_target_global(frame, type_mask, lat_int, lon_int, alt, v, a, yaw, yaw_rate)
+        return self.flightmode.position_target_global(frame, type_mask, lat_int, lon_int, alt, v, a, yaw, yaw_rate)
+
+    def attitude_target(self, type_mask: int, q, body_rates, thrust: float) -> bool:
+        """SET_ATTITUDE_TARGET (q: w, x, y, z; body_rates: roll, pitch, yaw rad/s): the guided
+        mode's target (attitude_target.py); False (ignored, as ArduPilot) in other modes."""
+        if not self.flightmode.in_guided_mode():
+            return False
+        return self.flightmode.attitude_target(type_mask, q, body_rates, thrust)
 
     def mission_uploaded(self, mission_type: int) -> None:
         """A new list of `mission_type` was stored (upload, partial write or clear): AUTO sees
@@ -305,12 +318,14 @@ class Autopilot:
 
     _sp_key = None
 
-    def setpoint(self, pos=None, vel=None, acc=None, yaw=None, yaw_rate=None, level=False) -> None:
-        """Give the fleet a Setpoint (skipped when identical to the last one: cheap at 100 vehicles)."""
+    def setpoint(self, pos=None, vel=None, acc=None, yaw=None, yaw_rate=None, level=False,
+                 roll=None, pitch=None, rates=None, thrust=None) -> None:
+        """Give the fleet a Setpoint (vehicle/fleet.py; skipped when identical to the last one:
+        cheap at 100 vehicles)."""
         key = (None if pos is None else tuple(pos), None if vel is None else tuple(vel),
-               None if acc is None else tuple(acc), yaw, yaw_rate, level)
+               None if acc is None else tuple(acc), yaw, yaw_rate, level, roll, pitch, rates, thrust)
         if key == self._sp_key:
             return
         self._sp_key = key
         self.fleet.set_setpoint(self.i, Setpoint(pos=pos, vel=vel, acc=acc, yaw=yaw, yaw_rate=yaw_rate,
-                                                 level=level))
+                                                 level=level, roll=roll, pitch=pitch, rates=rates, thrust=thrust))

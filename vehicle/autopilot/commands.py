@@ -4,6 +4,10 @@ adds its own (copter_commands.py, rover_commands.py).
 
 Parameters arrive as floats (NaN and infinities included: a bad one is DENIED where ArduPilot
 checks it). COMMAND_INT gives x, y = latitude, longitude * 1e7 and its frame.
+
+MAV_CMD_DO_GRIPPER is answered as ArduPilot answers it with no gripper enabled (GRIP_ENABLE 0,
+its default: GCS_MAVLINK's gripper handler says FAILED and nothing else); towerlink
+simulates no gripper.
 """
 from __future__ import annotations
 
@@ -62,6 +66,7 @@ class Commands:
             mav.MAV_CMD_DO_REPOSITION: self.reposition,
             mav.MAV_CMD_DO_FLIGHTTERMINATION: self.flight_termination,
             mav.MAV_CMD_PREFLIGHT_CALIBRATION: self.calibration,
+            mav.MAV_CMD_DO_GRIPPER: lambda p, frame, x, y: FAILED,     # no gripper enabled
         }
 
     def handle(self, cmd: int, p: list[float], frame: int | None = None,

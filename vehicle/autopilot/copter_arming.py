@@ -1,7 +1,7 @@
 """A copter's arming (AP_Arming_Copter): it refuses an unforced disarm in the air ("Disarm:
-not landed"); arming starts the DISARM_DELAY clock and, in AUTO with AUTO_OPTIONS bit 1
-(AllowTakeOffWithoutRaisingThrottle), auto-arms; disarming stops any user takeoff and the
-motors (no setpoint)."""
+not landed"); arming starts the DISARM_DELAY clock (AUTO's takeoff auto-arms with
+AUTO_OPTIONS bit 1: copter_modes/auto.py); disarming stops any user takeoff and the motors
+(no setpoint)."""
 from __future__ import annotations
 
 from vehicle.autopilot.arming import Arming
@@ -16,8 +16,6 @@ class CopterArming(Arming):
     def on_armed(self) -> None:
         ap = self.ap
         ap.landed_since = ap.t
-        if ap.flightmode is ap.auto and ap.auto.takeoff_without_throttle():
-            ap.auto_armed = True
 
     def on_disarmed(self) -> None:
         self.ap.takeoff.stop()

@@ -53,6 +53,8 @@ class Fence:
     def __init__(self, ap) -> None:
         self.ap = ap
         self.breaches = 0
+        self.breach_count = 0             # AC_Fence's: one per new breach (FENCE_STATUS)
+        self.breach_time = 0.0            # sim s of the last breach that began from none
         self.alt_max_backup = 0.0
         self.circle_backup = 0.0
         self.breach_distance = 0.0
@@ -179,6 +181,10 @@ class Fence:
             self.circle_backup = dist + BACKUP_M
         self.breach_distance = max(alt - float(ap.params.get("FENCE_ALT_MAX", 100)) if now & ALT_MAX else 0.0,
                                    dist - float(ap.params.get("FENCE_RADIUS", 300)) if now & CIRCLE else 0.0)
+        if new:
+            if not self.breaches:
+                self.breach_time = t
+            self.breach_count += bin(new).count("1")
         self.breaches = now
         if not now & ALT_MAX:
             self.alt_max_backup = 0.0

@@ -22,11 +22,14 @@ EXPIRING = ("vel", "acc", "posvel")
 
 class GuidedTargets:
     """`destination_ok(ned) -> bool` may refuse position targets (the copter's fence check:
-    ArduPilot keeps flying its previous target)."""
+    ArduPilot keeps flying its previous target); `accepted()` is called for every target
+    taken (its mode's other controls, such as attitude targets, stop)."""
 
-    def __init__(self, ap, destination_ok: Callable[[np.ndarray], bool] | None = None) -> None:
+    def __init__(self, ap, destination_ok: Callable[[np.ndarray], bool] | None = None,
+                 accepted: Callable[[], None] | None = None) -> None:
         self.ap = ap
         self.destination_ok = destination_ok
+        self.accepted = accepted
         self.target: GuidedTarget | None = None
         self.time = 0.0                       # sim s the target arrived
 
@@ -72,6 +75,8 @@ class GuidedTargets:
         self.target = tgt
         self.time = self.ap.t
         self.ap.echo = tgt
+        if self.accepted is not None:
+            self.accepted()
         return True
 
     def timed_out(self) -> bool:

@@ -47,8 +47,9 @@ class Mode:
     # ----- life cycle ----------------------------------------------------------------
     def init(self, ignore_checks: bool) -> bool:
         """May this mode start now? False refuses the change (the autopilot then says
-        "... failed"). `ignore_checks` is ArduPilot's (True when disarmed); towerlink's modes
-        check the same whether armed or not, as they always have."""
+        "... failed"). `ignore_checks` is ArduPilot's: True when disarmed, when a mode skips
+        the checks the arming checks make again (ArduCopter's AUTO without a mission); the
+        checks a mode makes either way (FOLLOW's FOLL_ENABLE, SMART_RTL's path) ignore it."""
         return True
 
     def enter(self) -> None:
@@ -72,11 +73,17 @@ class Mode:
     position_required: ClassVar[bool] = True     # requires_position()
     arming_allowed: ClassVar[bool] = True        # allows_arming()
     autopilot_mode: ClassVar[bool] = False       # is_autopilot()
+    mission_required: ClassVar[bool] = False     # the vehicle's current_mode_requires_mission()
 
     def requires_position(self) -> bool:
         """ArduCopter requires_GPS() / Rover requires_position(): refused without a
-        position estimate ("Mode change to X failed: requires position")."""
+        position estimate while armed ("Mode change to X failed: requires position")."""
         return self.position_required
+
+    def requires_mission(self) -> bool:
+        """Copter/Rover current_mode_requires_mission() (AUTO): no arming without a mission
+        ("PreArm: Mode requires mission", AP_Arming::mission_checks)."""
+        return self.mission_required
 
     def allows_arming(self, method: ArmingMethod) -> bool:
         """May the vehicle arm in this mode (pre-arm "Mode not armable" otherwise)?"""
@@ -87,7 +94,21 @@ class Mode:
         return self.autopilot_mode
 
     def in_guided_mode(self) -> bool:
-        """External position targets (SET_POSITION_TARGET_*, DO_REPOSITION) are taken."""
+        """External targets (SET_POSITION_TARGET_*, SET_ATTITUDE_TARGET, DO_REPOSITION) are
+        taken; the mode's own hooks below say what it does with each."""
+        return False
+
+    def position_target_local(self, frame, type_mask, p, v, a, yaw, yaw_rate) -> bool:
+        """SET_POSITION_TARGET_LOCAL_NED in this mode; False: ignored."""
+        return False
+
+    def position_target_global(self, frame, type_mask, lat_int, lon_int, alt, v, a, yaw, yaw_rate) -> bool:
+        """SET_POSITION_TARGET_GLOBAL_INT in this mode; False: ignored."""
+        return False
+
+    def attitude_target(self, type_mask: int, q, body_rates, thrust: float) -> bool:
+        """SET_ATTITUDE_TARGET in this mode (vehicle/autopilot/attitude_target.py); False:
+        ignored or refused."""
         return False
 
     def is_taking_off(self) -> bool:

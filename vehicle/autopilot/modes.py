@@ -6,7 +6,7 @@ does, allows and reports is its mode object's (copter_modes/, rover_modes/; mode
 """
 from __future__ import annotations
 
-from common.mavlink.modes import (ALT_HOLD, AUTO, BRAKE, COPTER_MODES, FOLLOW, GUIDED, LAND,  # noqa: F401 (re-exported)
-                                  LOITER, POSHOLD, ROVER_ACRO, ROVER_AUTO, ROVER_FOLLOW, ROVER_GUIDED,
+from common.mavlink.modes import (ALT_HOLD, AUTO, BRAKE, COPTER_MODES, FOLLOW, GUIDED,  # noqa: F401 (re-exported)
+                                  GUIDED_NOGPS, LAND, LOITER, POSHOLD, ROVER_ACRO, ROVER_AUTO, ROVER_FOLLOW, ROVER_GUIDED,
                                   ROVER_HOLD, ROVER_LOITER, ROVER_MANUAL, ROVER_MODES, ROVER_RTL,
                                   ROVER_SMART_RTL, ROVER_STEERING, RTL, SMART_RTL, STABILIZE, mode_name)

@@ -40,5 +40,6 @@ class RoverAutopilot(Autopilot):
         """Home at the first good estimate: here."""
         return self.pos.copy()
 
-    def mode_change_failed(self, mode) -> None:
-        self.text(mav.MAV_SEVERITY_WARNING, "Flight mode change failed")     # Rover::set_mode's words
+    def mode_change_failed(self, mode, reason: str) -> None:
+        """Rover::set_mode says the same whatever Mode::enter refused for (no reason)."""
+        self.text(mav.MAV_SEVERITY_WARNING, "Flight mode change failed")

@@ -65,27 +65,38 @@ class SetpointArrays:
     """Per-vehicle guidance targets, component-wise. use_pos_xy/use_pos_z select position
     control per axis group; velocity and acceleration are targets (pos unused) or
     feed-forward (pos used). level=True: STABILIZE-like, roll/pitch held level (no
-    horizontal control), altitude and yaw held."""
+    horizontal control), altitude and yaw held.
+
+    att=True: an attitude target (ArduCopter GUIDED's angle control): no horizontal control;
+    the copter leans to roll/pitch given as tan_roll/tan_pitch (ZYX Euler in the yaw frame)
+    at heading yaw (yaw_rate its feed-forward), wx/wy are body roll/pitch rate feed-forward
+    (rad/s), the vertical loop flies the velocity target vz (climb rate), or with use_thrust
+    `thrust` (0..1) is the collective, boosted for the tilt as ArduPilot's angle boost."""
 
     __slots__ = ("px", "py", "pz", "vx", "vy", "vz", "ax", "ay", "az", "yaw", "yaw_rate",
-                 "use_pos_xy", "use_pos_z", "use_yaw", "level")
+                 "tan_roll", "tan_pitch", "wx", "wy", "thrust",
+                 "use_pos_xy", "use_pos_z", "use_yaw", "level", "att", "use_thrust")
 
     def __init__(self, n: int | None):
         z = (lambda: 0.0) if n is None else (lambda: np.zeros(n))
         b = (lambda v: v) if n is None else (lambda v: np.full(n, v, dtype=bool))
-        for f in ("px", "py", "pz", "vx", "vy", "vz", "ax", "ay", "az", "yaw", "yaw_rate"):
+        for f in ("px", "py", "pz", "vx", "vy", "vz", "ax", "ay", "az", "yaw", "yaw_rate",
+                  "tan_roll", "tan_pitch", "wx", "wy", "thrust"):
             setattr(self, f, z())
         self.use_pos_xy = b(False)
         self.use_pos_z = b(False)
         self.use_yaw = b(False)
         self.level = b(False)
+        self.att = b(False)
+        self.use_thrust = b(False)
 
 
 class CopterCtrlState:
     """Controller memory: shaped reference, yaw reference, integrators, D filters."""
     FIELDS = ("px", "py", "pz", "vx", "vy", "vz", "ax", "ay", "az", "yaw",
               "ivx", "ivy", "ivz", "evx", "evy", "dvx", "dvy",
-              "irx", "iry", "irz", "erx", "ery", "erz", "drx", "dry", "drz", "coll")
+              "irx", "iry", "irz", "erx", "ery", "erz", "drx", "dry", "drz", "coll",
+              "tan_roll_t", "tan_pitch_t")
     __slots__ = FIELDS + ("yaw_seen", "yaw_half")
 
     def __init__(self, n: int | None):
@@ -136,6 +147,10 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     Returns the four rotor-speed fractions (0..1; multiply by omega_max) and stores the
     collective thrust fraction in c.coll."""
     level = sp.level
+    att = sp.att
+    any_att = xp.any(att)
+    if any_att:
+        level = level | att       # an attitude target has no horizontal control either
     # ---- shaping of the reference ------------------------------------------------
     shaping.shape_xy(c, sp.px, sp.py, sp.use_pos_xy, sp.vx, sp.vy, sp.ax, sp.ay,
                      g.v_xy, g.a_xy, g.j_xy, dt, xp)
@@ -150,7 +165,9 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     ymax = g.rate_y_max
     if xp.any(sp.use_yaw):
         dy = wrap_pi(sp.yaw - c.yaw)
-        yr = xp.where(sp.use_yaw, xp.clip(dy * g.ang_y, -ymax, ymax), xp.clip(sp.yaw_rate, -ymax, ymax))
+        # an attitude target's heading moves at its yaw rate: the reference's feed-forward
+        ff = xp.where(att, sp.yaw_rate, 0.0) if any_att else 0.0
+        yr = xp.where(sp.use_yaw, xp.clip(dy * g.ang_y + ff, -ymax, ymax), xp.clip(sp.yaw_rate, -ymax, ymax))
     else:                     # no yaw targets: the wrap (np.remainder, dear) is not needed
         yr = xp.clip(sp.yaw_rate, -ymax, ymax)
     c.yaw = wrap_pi(c.yaw + yr * dt)
@@ -198,9 +215,13 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     a_f = atx * cy + aty * sy                 # lean angles in the target-yaw frame
     a_r = -atx * sy + aty * cy
     tp = -a_f / g_eff                         # tan(pitch); g_eff >= 0.2 g, |pitch| < pi/2
+    if any_att:
+        tp = xp.where(att, sp.tan_pitch, tp)  # an attitude target's own lean angles
     cpf = 1.0 / xp.sqrt(1.0 + tp * tp)        # cos(pitch)
     cp, spp = _half_angle(cpf, tp * cpf, xp)
     tr = a_r * cpf / g_eff                    # tan(roll)
+    if any_att:
+        tr = xp.where(att, sp.tan_roll, tr)
     crf = 1.0 / xp.sqrt(1.0 + tr * tr)
     cr, sr = _half_angle(crf, tr * crf, xp)
     dw = cr * cp * cyy + sr * spp * syy
@@ -217,6 +238,8 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     rtx = xp.clip(g.ang_r * sgn * ex, -rpm, rpm)
     rty = xp.clip(g.ang_p * sgn * ey, -rpm, rpm)
     rtz = xp.clip(g.ang_y * sgn * ez, -ymax, ymax) + yr
+    if any_att:
+        rtx, rty = rtx + sp.wx, rty + sp.wy   # body-rate feed-forward (0 where no attitude target)
 
     # ---- rate PID -----------------------------------------------------------------
     (pr, ir, dr, mr), (pp, ip, dp, mp), (py, iy, dyy, my) = g.rat
@@ -240,8 +263,25 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     r33 = 1.0 - 2.0 * (qx * qx + qy * qy)
     f_proj = -(atx * r13 + aty * r23 + (atz - GRAVITY) * r33)
     coll = xp.clip(g.hover * f_proj / GRAVITY, 0.0, 1.0)
+    if any_att:
+        coll = _attitude_collective(c, est, sp, g, g_eff, r33, coll, xp)
     c.coll = coll
+    c.tan_roll_t, c.tan_pitch_t = tr, tp      # the attitude target (NAV_CONTROLLER_OUTPUT)
     return mix(coll, u_r, u_p, u_y, g.spin_min, xp)
+
+
+@generic
+def _attitude_collective(c, est, sp, g, g_eff, r33, coll, xp=NumpyOps):
+    """The collective where an attitude target flies (elsewhere `coll` as it was): the
+    vertical loop's force over the current tilt, or the target's thrust, both boosted by
+    1/cos(tilt) (faded out past 84 deg, as ArduPilot's angle boost). In thrust lanes the
+    vertical loop rides on the estimate, so climb-rate control resumes without a jump."""
+    boost = xp.clip(10.0 * r33, 0.0, 1.0) / xp.maximum(r33, 0.1)
+    ut = sp.use_thrust
+    c.pz, c.vz = xp.where(ut, est.pz, c.pz), xp.where(ut, est.vz, c.vz)
+    c.az, c.ivz = xp.where(ut, 0.0, c.az), xp.where(ut, 0.0, c.ivz)
+    want = xp.where(ut, sp.thrust, g.hover * g_eff / GRAVITY) * boost
+    return xp.where(sp.att, xp.clip(want, 0.0, 1.0), coll)
 
 
 @generic

@@ -16,19 +16,11 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-from vehicle.link.telemetry import FLIGHT_SW_VERSION
 from vehicle.logs.transfer import LogTransfer
 from vehicle.logs.world_logs import WorldLogs
+from vehicle.telemetry import version
 
 LOG_MESSAGES = frozenset(("LOG_REQUEST_LIST", "LOG_REQUEST_DATA", "LOG_REQUEST_END", "LOG_ERASE"))
-FIRMWARE_NAMES = {"copter": "ArduCopter", "rover": "ArduRover"}
-
-
-def firmware_string(kind: str) -> str:
-    """ArduPilot's fw_string, the first MSG of every log ("ArduCopter V4.5.0 (00000000)"):
-    the version AUTOPILOT_VERSION reports, and its git hash (flight_custom_version, zeros)."""
-    v = FLIGHT_SW_VERSION
-    return f"{FIRMWARE_NAMES.get(kind, 'ArduPilot')} V{v >> 24}.{(v >> 16) & 0xFF}.{(v >> 8) & 0xFF} (00000000)"
 
 
 class LogLink:
@@ -37,8 +29,9 @@ class LogLink:
         autopilot; logs: the world's; folder(): where this vehicle's logs live."""
         self.link = link
         self.ap = ap
-        self.log = logs.for_vehicle(ap.kind, folder, link.clock, unix_start_us, firmware_string(ap.kind),
-                                    phase=ap.sysid)
+        # a log opens with ArduPilot's banner (firmware string, system id, frame) of this boot
+        self.log = logs.for_vehicle(ap.kind, folder, link.clock, unix_start_us,
+                                    lambda: version.banner(ap.kind, ap.sysid), phase=ap.sysid)
         self.transfer = LogTransfer(self.log)
         ap.outbox.subscribe(text=self.log.text, mode=self.log.mode_changed, arming=self.log.arming_changed)
 

@@ -15,33 +15,14 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from common import geo
 from common.frames import euler_from_quaternion
 from vehicle.link.framing import layout
+from vehicle.telemetry import version
+from vehicle.telemetry.messages import message_builders
+from vehicle.telemetry.stream_groups import DATA_STREAMS, stream_groups  # noqa: F401 (DATA_STREAMS re-exported)
+from vehicle.telemetry.wire import wire_clamp as _i
 
 
-# stream group parameter -> MAVLink message ids it schedules (ArduPilot's groups, plus
-# ATTITUDE_QUATERNION, EXTENDED_SYS_STATE, HOME_POSITION and SIM_STATE, which the bridge,
-# MAVSDK and the scorers want without asking)
-STREAM_GROUPS: dict[str, tuple[int, ...]] = {
-    "SR0_EXT_STAT": (mav.MAVLINK_MSG_ID_SYS_STATUS, mav.MAVLINK_MSG_ID_GPS_RAW_INT,
-                     mav.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED, mav.MAVLINK_MSG_ID_EXTENDED_SYS_STATE,
-                     mav.MAVLINK_MSG_ID_MISSION_CURRENT),
-    "SR0_POSITION": (mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED),
-    "SR0_EXTRA1": (mav.MAVLINK_MSG_ID_ATTITUDE, mav.MAVLINK_MSG_ID_ATTITUDE_QUATERNION,
-                   mav.MAVLINK_MSG_ID_SIM_STATE),
-    "SR0_EXTRA2": (mav.MAVLINK_MSG_ID_VFR_HUD,),
-    "SR0_EXTRA3": (mav.MAVLINK_MSG_ID_SYSTEM_TIME, mav.MAVLINK_MSG_ID_BATTERY_STATUS,
-                   mav.MAVLINK_MSG_ID_HOME_POSITION),
-}
-# REQUEST_DATA_STREAM stream ids -> group parameter
-DATA_STREAMS = {
-    mav.MAV_DATA_STREAM_RAW_SENSORS: "SR0_RAW_SENS",
-    mav.MAV_DATA_STREAM_EXTENDED_STATUS: "SR0_EXT_STAT",
-    mav.MAV_DATA_STREAM_RC_CHANNELS: "SR0_RC_CHAN",
-    mav.MAV_DATA_STREAM_RAW_CONTROLLER: "SR0_RAW_CTRL",
-    mav.MAV_DATA_STREAM_POSITION: "SR0_POSITION",
-    mav.MAV_DATA_STREAM_EXTRA1: "SR0_EXTRA1",
-    mav.MAV_DATA_STREAM_EXTRA2: "SR0_EXTRA2",
-    mav.MAV_DATA_STREAM_EXTRA3: "SR0_EXTRA3",
-}
+# the stream groups (SR0_*) and REQUEST_DATA_STREAM's ids: vehicle/telemetry/stream_groups.py
+STREAM_GROUPS = stream_groups("copter")
 
 S = mav  # short alias for the sensor bits
 SENSORS_PRESENT = (S.MAV_SYS_STATUS_SENSOR_3D_GYRO | S.MAV_SYS_STATUS_SENSOR_3D_ACCEL
@@ -57,15 +38,10 @@ CAPABILITIES = (mav.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT | mav.MAV_PROTOCOL_CAP
                 | mav.MAV_PROTOCOL_CAPABILITY_MISSION_INT | mav.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
                 | mav.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
                 | mav.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
+                | mav.MAV_PROTOCOL_CAPABILITY_SET_ATTITUDE_TARGET
                 | mav.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE | mav.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY
                 | mav.MAV_PROTOCOL_CAPABILITY_MAVLINK2 | mav.MAV_PROTOCOL_CAPABILITY_COMPASS_CALIBRATION * 0)
-FLIGHT_SW_VERSION = (4 << 24) | (5 << 16) | (0 << 8) | mav.FIRMWARE_VERSION_TYPE_OFFICIAL
-
-
-def _i(v: float, lo: int, hi: int) -> int:
-    if not math.isfinite(v):
-        return 0
-    return int(max(lo, min(hi, round(v))))
+FLIGHT_SW_VERSION = version.FLIGHT_SW_VERSION
 
 
 class Telemetry:
@@ -98,6 +74,10 @@ class Telemetry:
             mav.MAVLINK_MSG_ID_MISSION_CURRENT: self.mission_current_fields,
             mav.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN: self.gps_global_origin_fields,
         }
+        # sensors, estimator health, outputs, navigation, board (vehicle/telemetry/)
+        ap = link.ap if link is not None else None
+        self.builders.update(message_builders(ap, lambda: self.link.clock()))
+        self.groups = stream_groups(ap.kind if ap is not None else "copter")   # SR0_* -> message ids
 
     def build(self, msgid: int):
         """The message object with this id, or None if not available now (unknown id, home unset)."""
@@ -295,5 +275,5 @@ class Telemetry:
 
     def autopilot_version_fields(self) -> tuple:
         ap = self.link.ap
-        return (CAPABILITIES, FLIGHT_SW_VERSION, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0,
+        return (CAPABILITIES, FLIGHT_SW_VERSION, 0, 0, 0, version.custom_version_bytes(), [0] * 8, [0] * 8, 0, 0,
                 0x746C0000 + ap.sysid, [0] * 18)

@@ -45,15 +45,16 @@ from vehicle.link.framing import Framer
 from vehicle.link.log_link import LOG_MESSAGES, LogLink
 from vehicle.link.mission_link import MISSION_MESSAGES, MissionLink
 from vehicle.link.paced_queue import PacedQueue
-from vehicle.link.telemetry import DATA_STREAMS, STREAM_GROUPS, Telemetry
+from vehicle.link.telemetry import DATA_STREAMS, Telemetry
 from vehicle.logs.world_logs import WorldLogs
+from vehicle.telemetry import version
 from vehicle.vehicle_root import logs_dir
 
 COMP_ID = mav.MAV_COMP_ID_AUTOPILOT1
 
 LINK_COMMANDS = {mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAV_CMD_GET_MESSAGE_INTERVAL,
                  mav.MAV_CMD_REQUEST_MESSAGE, mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,
-                 mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN}
+                 mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, mav.MAV_CMD_DO_SEND_BANNER}
 MAX_INTERVAL_US = 2**31 - 1   # MESSAGE_INTERVAL.interval_us is an int32
 
 
@@ -170,7 +171,7 @@ class VehicleLink:
     # ----- streams ----------------------------------------------------------------------
     def _rebuild_schedule(self) -> None:
         sched: dict[int, float] = {mav.MAVLINK_MSG_ID_HEARTBEAT: 1.0}
-        for group, ids in STREAM_GROUPS.items():
+        for group, ids in self.telemetry.groups.items():
             hz = float(self.ap.params.get(group, 0) or 0)
             if hz > 0:
                 for i in ids:
@@ -411,6 +412,10 @@ class VehicleLink:
         return int(self.ap.command(cmd, p, frame, x, y))
 
     def _link_command(self, cmd, p, ch) -> int:
+        if cmd == mav.MAV_CMD_DO_SEND_BANNER:      # ArduPilot: the banner, on this link only
+            self._after_ack += [self._statustext_msg(mav.MAV_SEVERITY_INFO, line)
+                                for line in version.banner(self.ap.kind, self.ap.sysid)]
+            return mav.MAV_RESULT_ACCEPTED
         if not all(math.isfinite(v) for v in p[:2]):
             return mav.MAV_RESULT_DENIED
         if cmd == mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
@@ -502,6 +507,9 @@ class VehicleLink:
     def on_SET_POSITION_TARGET_GLOBAL_INT(self, m, ch) -> None:
         self.ap.position_target_global(m.coordinate_frame, m.type_mask, m.lat_int, m.lon_int, m.alt,
                                        (m.vx, m.vy, m.vz), (m.afx, m.afy, m.afz), m.yaw, m.yaw_rate)
+
+    def on_SET_ATTITUDE_TARGET(self, m, ch) -> None:
+        self.ap.attitude_target(m.type_mask, m.q, (m.body_roll_rate, m.body_pitch_rate, m.body_yaw_rate), m.thrust)
 
     def on_GLOBAL_POSITION_INT(self, m, ch) -> None:
         """Another vehicle's position: FOLLOW's lead, when FOLL_ENABLE is set (AP_Follow)."""

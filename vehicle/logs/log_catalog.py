@@ -27,6 +27,10 @@ class LogCatalog:
         """A log just opened: list it with the size it will have until it is on disk."""
         self._unwritten[int(session.path.stem)] = session
 
+    def busy(self) -> set[int]:
+        """Numbers of the logs whose bytes may still be on their way to the disk."""
+        return set(self._unwritten)
+
     @property
     def erasing(self) -> bool:
         """An erase is queued on the writer and not done yet."""

@@ -9,24 +9,27 @@ five 50 Hz ticks in a 10 Hz period (its index), so a big world spreads the work.
 
 Which state is which (as ArduPilot's): ATT, POS, CTUN.Alt and XKF1 are the estimate
 (vehicle/estimation.py: what the autopilot believes), GPS is the noisy receiver sample
-the estimator fuses, ATT's Des* and CTUN's DAlt / DCRt / ThO the controller's reference
-and output, BAT the battery monitor. Angles are degrees, yaw 0..360.
+the estimator fuses, ATT's DesRoll / DesPitch / DesYaw the controller's attitude target
+(what NAV_CONTROLLER_OUTPUT says), CTUN's DAlt / DCRt its position target and ThO its
+collective, BAT the battery monitor. RCOU and RCIN are what SERVO_OUTPUT_RAW and
+RC_CHANNELS say (vehicle/telemetry/outputs.py: the motors' PWM; no radio, every stick at its
+trim). Angles are degrees, yaw 0..360.
 
-Not simulated, logged as ArduPilot logs an absent input: RCIN all 0 (no RC receiver),
-CTUN.ThI / ABst 0, no rangefinder (DSAlt / SAlt / TAlt 0), ATT.ErrRP / ErrYaw 0, XKF1's
-gyro bias 0. RCOU: a copter's motors 1..4 as PWM between MOT_PWM_MIN and MOT_PWM_MAX from
-their rotor speed; a rover's steering (1) and throttle (3) around 1500.
+Not simulated, logged as ArduPilot logs an absent input: CTUN.ThI / ABst 0, no rangefinder
+(DSAlt / SAlt / TAlt 0), ATT.ErrRP / ErrYaw 0, XKF1's gyro bias 0; a rover's ATT.Des* are
+its attitude (ArduRover has no attitude target to log).
 """
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 from common import geo
 from vehicle.logs.dataflash import Schema
+from vehicle.telemetry.outputs import OutputsTelemetry
 
 LOG_RATE = 10.0             # Hz: ATT, POS, CTUN / THR, XKF1, GPS, BAT, RCIN, RCOU
 R2D = 180.0 / math.pi
-G = 9.80665
 AEKF_EKF3 = 3               # ATT.AEKF: the active estimator is EKF3
 GPS_FIX_3D = 3              # AP_GPS::GPS_OK_FIX_3D
 GPS_EPOCH_UNIX = 315964800  # 1980-01-06 00:00:00 UTC
@@ -46,11 +49,13 @@ def _deg360(rad: float) -> float:
 
 class Sampler:
     """Builds one vehicle's periodic records (`sample`) from its autopilot (`ap`: the
-    estimate, home, EKF origin, battery, parameters, and its fleet's `control_row` /
-    `gps_fix` for vehicle `ap.i`)."""
+    estimate, home, EKF origin, battery, parameters, and its fleet's `controller_of` /
+    `drive_outputs` / `gps_fix` for vehicle `ap.i`)."""
 
-    def __init__(self, kind: str, schema: Schema, phase: int = 0, ap_rate: float = 50.0) -> None:
+    def __init__(self, kind: str, schema: Schema, clock: Callable[[], float], phase: int = 0,
+                 ap_rate: float = 50.0) -> None:
         self.kind = kind
+        self.clock = clock
         self.every = max(1, round(ap_rate / LOG_RATE))
         self.phase = phase % self.every
         self.ap_rate = ap_rate
@@ -58,6 +63,7 @@ class Sampler:
         self.att, self.pos, self.xkf1, self.gps = s["ATT"].pack, s["POS"].pack, s["XKF1"].pack, s["GPS"].pack
         self.bat, self.rcin, self.rcou = s["BAT"].pack, s["RCIN"].pack, s["RCOU"].pack
         self.tune = s["CTUN"].pack if kind == "copter" else s["THR"].pack
+        self._outputs: OutputsTelemetry | None = None
 
     def due(self, t: float) -> bool:
         """True when the autopilot tick at sim time t is one this vehicle logs on (the
@@ -69,7 +75,6 @@ class Sampler:
         roll, pitch, yaw = ap.euler
         lat, lon, alt = ap.lla()
         vn, ve, vd = ap.vel.tolist()
-        home_alt = ap.home_lla()[2]
         origin = ap.ekf_origin()
         if origin is not None:
             pn, pe, pd = ap.local_origin.to_local(ap.pos).tolist()
@@ -78,36 +83,18 @@ class Sampler:
             pn = pe = pd = 0.0
             oalt = alt
         p = ap.params.values
-        row = ap.fleet.control_row(ap.i)
-        out = []
+        roll_d, pitch_d, yaw_d = roll * R2D, pitch * R2D, _deg360(yaw)
         if self.kind == "copter":
-            dr, dp, dy = self._desired(row, yaw)
-            out.append(self.att(time_us, dr, roll * R2D, dp, pitch * R2D, dy, _deg360(yaw), 0, 0, AEKF_EKF3))
-            # altitudes above the EKF origin (m), climb rates up (cm/s)
-            out.append(self.tune(time_us, 0.0, 0.0, row[6], p.get("MOT_THST_HOVER", 0.45),
-                                 ap.origin[2] - row[0] - oalt, alt - oalt, alt - oalt, 0.0, 0.0, 0.0,
-                                 -row[1] * 100.0, -vd * 100.0))
-            lo, hi = p.get("MOT_PWM_MIN", 1000), p.get("MOT_PWM_MAX", 2000)
-            span = hi - lo
-            if ap.armed:
-                out.append(self.rcou(time_us, lo + span * row[7], lo + span * row[8], lo + span * row[9],
-                                     lo + span * row[10], 0, 0, 0, 0, 0, 0, 0, 0, 0, 0))
-            else:
-                out.append(self.rcou(time_us, lo, lo, lo, lo, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0))
+            out = self._copter(ap, p, time_us, yaw, alt, oalt, vd, roll_d, pitch_d, yaw_d)
         else:
-            v_cmd, speed, rate = row
-            out.append(self.att(time_us, roll * R2D, roll * R2D, pitch * R2D, pitch * R2D,
-                                _deg360(yaw), _deg360(yaw), 0, 0, AEKF_EKF3))
-            vmax = p.get("SIM_RVR_MAX_SPD", 0) or p.get("CRUISE_SPEED", 8) or 1.0
-            rmax = (p.get("ATC_STR_RAT_MAX", 120) or 120) / R2D
-            thr = max(-1.0, min(1.0, v_cmd / vmax))
-            out.append(self.tune(time_us, 0, thr * 100.0, v_cmd, speed, speed * rate))
-            out.append(self.rcou(time_us, 1500 + 500 * max(-1.0, min(1.0, rate / rmax)), 0,
-                                 1500 + 500 * thr, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0))
-        out.append(self.rcin(time_us, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0))
-        out.append(self.pos(time_us, lat, lon, alt, alt - home_alt, alt - oalt))
-        out.append(self.xkf1(time_us, 0, roll * R2D, pitch * R2D, _deg360(yaw), vn, ve, vd, vd,
-                             pn, pe, pd, 0.0, 0.0, 0.0, oalt))
+            out = self._rover(ap, time_us, roll_d, pitch_d, yaw_d)
+        outputs = self._outputs
+        if outputs is None or outputs.ap is not ap:
+            outputs = self._outputs = OutputsTelemetry(ap, self.clock)
+        out.append(self.rcou(time_us, *outputs.servo_outputs()[:14]))
+        out.append(self.rcin(time_us, *outputs.rc_channels_fields()[2:16]))
+        out.append(self.pos(time_us, lat, lon, alt, alt - ap.home_lla()[2], alt - oalt))
+        out.append(self.xkf1(time_us, 0, roll_d, pitch_d, yaw_d, vn, ve, vd, vd, pn, pe, pd, 0.0, 0.0, 0.0, oalt))
         fix = ap.fleet.gps_fix(ap.i)
         if fix is not None:
             glat, glon, galt = geo.ned_to_lla(ap.origin, fix[0:3])
@@ -122,11 +109,22 @@ class Sampler:
                                 b.consumed_wh, 0.0, 0.0))
         return b"".join(out)
 
-    @staticmethod
-    def _desired(row, yaw: float) -> tuple[float, float, float]:
-        """(roll, pitch, yaw) in degrees the controller's reference acceleration asks for:
-        lean into the horizontal acceleration in the heading frame, yaw its reference."""
-        an, ae = row[2], row[3]
-        c, s = math.cos(yaw), math.sin(yaw)
-        fwd, right = c * an + s * ae, -s * an + c * ae
-        return math.atan2(right, G) * R2D, -math.atan2(fwd, G) * R2D, _deg360(row[5])
+    def _copter(self, ap, p, time_us, yaw, alt, oalt, vd, roll_d, pitch_d, yaw_d) -> list[bytes]:
+        """ATT with the attitude target, CTUN with the position target (altitudes above the
+        EKF origin in m, climb rates up in cm/s) and the collective."""
+        c = ap.fleet.controller_of(ap.i)
+        des_yaw = math.atan2(math.sin(c.yaw), math.cos(c.yaw))
+        att = self.att(time_us, math.atan(c.tan_roll_t) * R2D, roll_d, math.atan(c.tan_pitch_t) * R2D, pitch_d,
+                       _deg360(des_yaw), yaw_d, 0, 0, AEKF_EKF3)
+        ctun = self.tune(time_us, 0.0, 0.0, c.coll, p.get("MOT_THST_HOVER", 0.45), ap.origin[2] - c.pz - oalt,
+                         alt - oalt, alt - oalt, 0.0, 0.0, 0.0, -c.vz * 100.0, -vd * 100.0)
+        return [att, ctun]
+
+    def _rover(self, ap, time_us, roll_d, pitch_d, yaw_d) -> list[bytes]:
+        """ATT (no attitude target: the attitude), THR: the speed command against the
+        speed, throttle as the command's share of the top speed (%), lateral acceleration."""
+        v_cmd, speed, rate = ap.fleet.drive_outputs(ap.i)
+        top = ap.fleet.gains_of(ap.i).max_speed or 1.0
+        att = self.att(time_us, roll_d, roll_d, pitch_d, pitch_d, yaw_d, yaw_d, 0, 0, AEKF_EKF3)
+        thr = self.tune(time_us, 0, max(-100.0, min(100.0, 100.0 * v_cmd / top)), v_cmd, speed, speed * rate)
+        return [att, thr]

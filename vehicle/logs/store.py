@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -87,13 +87,14 @@ class LogStore:
             out.append(LogInfo(n, st.st_size, int(st.st_mtime)))
         return out
 
-    def new_log(self) -> Path:
+    def new_log(self, busy: Collection[int] = ()) -> Path:
         """Name the next log, create it empty and record its number in LASTLOG.TXT;
-        returns its path."""
+        returns its path. An empty newest log is re-used unless its number is `busy` (its
+        bytes are still on their way to the disk)."""
         self.folder.mkdir(parents=True, exist_ok=True)
         last = self.last_number() or max(self.numbers(), default=0)
         num = last
-        if last == 0 or not self._empty(last):
+        if last == 0 or last in busy or not self._empty(last):
             num = last + 1 if last < self.max_files else 1
         path = self.path(num)
         with open(path, "wb"):

@@ -11,7 +11,7 @@ When a log is open (AP_Logger_File, AP_Logger_Backend):
 - LOG_ERASE removes every log (the open one too, which then starts afresh).
 
 What a log holds: it opens with FMT / UNIT / MULT / FMTU, PARM for every parameter, MSG
-with the firmware string, ORGN (EKF origin, home) when set, the mode (MODE) and the whole
+with the banner (firmware string, system id, frame), ORGN (EKF origin, home) when set, the mode (MODE) and the whole
 mission (CMD); then the 10 Hz samples (vehicle/logs/sampler.py), MSG for every
 STATUSTEXT, MODE at every mode change, ARM and EV (ARMED / DISARMED) at arming, CMD when
 AUTO starts a mission item.
@@ -24,7 +24,7 @@ through `entries` / `read` / `erase`).
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from vehicle.autopilot.mission_store import MISSION
@@ -43,16 +43,16 @@ class VehicleLog:
 
     def __init__(self, kind: str, folder: str | os.PathLike | Callable[[], Path], writer: LogWriter,
                  clock: Callable[[], float],
-                 unix_start_us: int, firmware: str, phase: int = 0, ap_rate: float = 50.0,
+                 unix_start_us: int, banner: Callable[[], Sequence[str]], phase: int = 0, ap_rate: float = 50.0,
                  max_files: int = MAX_FILES) -> None:
         self.kind = kind
         self.store = LogStore(folder, max_files)
         self.schema = messages.schema(kind)
-        self.sampler = Sampler(kind, self.schema, phase, ap_rate)
+        self.sampler = Sampler(kind, self.schema, clock, phase, ap_rate)
         self.writer = writer
         self.clock = clock
         self.unix_start_us = unix_start_us
-        self.firmware = firmware
+        self.banner = banner               # () -> the MSG lines a log starts with
         self.session: LogSession | None = None
         self._armed = False
         self._mode: int | None = None
@@ -177,7 +177,7 @@ class VehicleLog:
     # ----- opening and closing ---------------------------------------------------------
     def start(self, ap, t: float) -> None:
         """Open the next log and write what a log starts with."""
-        path = self.store.new_log()
+        path = self.store.new_log(busy=self.catalog.busy())
         s = self.session = LogSession(path, self.schema, self.writer, t)
         self.catalog.track(s)
         us = self._us(t)
@@ -185,7 +185,8 @@ class VehicleLog:
         ps = ap.params
         for name in ps.names:
             s.write("PARM", us, name, float(ps[name]), float(ps.defs[name].default))
-        s.write("MSG", us, self.firmware)
+        for line in self.banner():
+            s.write("MSG", us, line)
         origin = ap.ekf_origin()
         if origin is not None:
             s.write("ORGN", us, messages.ORIGIN_EKF, *origin)

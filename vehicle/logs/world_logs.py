@@ -8,7 +8,7 @@ called when the first log opens, so a vehicle that never logs makes no folder.
 """
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from vehicle.logs.vehicle_log import VehicleLog
@@ -22,10 +22,12 @@ class WorldLogs:
         self.writer = LogWriter()
 
     def for_vehicle(self, kind: str, folder: Callable[[], Path], clock: Callable[[], float],
-                    unix_start_us: int, firmware: str, phase: int, ap_rate: float = 50.0) -> VehicleLog:
-        """The log of a vehicle ("copter" / "rover") kept in folder(); its 10 Hz samples
+                    unix_start_us: int, banner: Callable[[], Sequence[str]], phase: int,
+                    ap_rate: float = 50.0) -> VehicleLog:
+        """The log of a vehicle ("copter" / "rover") kept in folder(), each opening with the
+        MSG lines banner() gives (firmware string, system id, frame); its 10 Hz samples
         fall on the autopilot tick `phase` picks (vehicles of a big world spread theirs)."""
-        return VehicleLog(kind, folder, self.writer, clock, unix_start_us, firmware, phase=phase, ap_rate=ap_rate)
+        return VehicleLog(kind, folder, self.writer, clock, unix_start_us, banner, phase=phase, ap_rate=ap_rate)
 
     def close(self) -> None:
         """Write what is queued (the vehicles' logs closed first) and end the writer thread."""

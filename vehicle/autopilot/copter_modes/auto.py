@@ -7,8 +7,9 @@ mode object's climb, return and landing, without RTL's own disarm: the mission d
 circle (NAV_LOITER_TURNS: to the edge, then round at CIRCLE_RATE deg/s capped by WPNAV_SPEED,
 facing the centre), loiter. On the ground it idles until "auto armed" and a takeoff;
 DISARM_DELAY still applies. The mission runs disarmed too, as ArduCopter's. Arming in AUTO
-needs AUTO_OPTIONS bit 0 (AllowArming); bit 1 (AllowTakeOffWithoutRaisingThrottle) makes
-the arming auto-arm. WP_YAW_BEHAVIOR: 0 keep heading, 1 face next waypoint, 2 face next
+needs AUTO_OPTIONS bit 0 (AllowArming); with bit 1 (AllowTakeOffWithoutRaisingThrottle) the
+takeoff sub-mode auto-arms an armed copter every tick, as ModeAuto::takeoff_run does, so a
+copter armed in GUIDED and switched to AUTO takes off too. WP_YAW_BEHAVIOR: 0 keep heading, 1 face next waypoint, 2 face next
 waypoint except RTL (default), 3 face along the track (here: as 1). Setpoints: world NED.
 """
 from __future__ import annotations
@@ -44,8 +45,14 @@ class ModeAuto(MissionMode, CopterMode):
         return bool(int(self.ap.params.get("AUTO_OPTIONS", 0)) & ALLOW_ARMING)
 
     def takeoff_without_throttle(self) -> bool:
-        """AUTO_OPTIONS bit 1: arming in AUTO also auto-arms (no throttle to raise)."""
+        """AUTO_OPTIONS bit 1: the takeoff auto-arms (no throttle to raise)."""
         return bool(int(self.ap.params.get("AUTO_OPTIONS", 0)) & ALLOW_TAKEOFF_WITHOUT_THROTTLE)
+
+    def mission_stepped(self) -> None:
+        """ModeAuto::takeoff_run: AUTO_OPTIONS bit 1 auto-arms (no throttle to raise)."""
+        ap = self.ap
+        if self.mission.sub == "takeoff" and ap.armed and self.takeoff_without_throttle():
+            ap.auto_armed = True
 
     def is_taking_off(self) -> bool:
         return self.mission.sub == "takeoff" and self.ap.auto_armed

@@ -80,7 +80,7 @@ class CopterMode(Mode):
         if not ap.armed:
             ap.setpoint()
             return
-        if ap.on_ground and not self.is_taking_off():
+        if ap.on_ground and not self.leaves_ground():
             if self.disarm_on_land and ap.t - ap.arm_time > LANDED_DISARM_S:
                 ap.disarm(force=True, reason="landed")
                 return
@@ -88,6 +88,11 @@ class CopterMode(Mode):
             return
         ap.landed_since = None
         self.fly(dt)
+
+    def leaves_ground(self) -> bool:
+        """Armed on the ground: does the mode fly now rather than idle? (a takeoff under way,
+        or GUIDED's attitude control asking to climb)"""
+        return self.is_taking_off()
 
     def fly(self, dt: float) -> None:
         """Setpoints in the air (armed, or taking off)."""

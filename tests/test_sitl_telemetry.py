@@ -1,0 +1,138 @@
+"""ArduPilot's telemetry from `towerlink sitl`, asked for as pymavlink users ask: every
+message by SET_MESSAGE_INTERVAL (arriving at that interval, measured on the vehicle's clock)
+and by REQUEST_MESSAGE, ArduPilot's message set from REQUEST_DATA_STREAM ALL (Copter and
+Rover), MAV_CMD_DO_SEND_BANNER's texts and AUTOPILOT_VERSION's git-hash bytes."""
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from support import Processes
+from test_sitl_support import Sitl, command, connect, goto_local, mav, recv, set_mode, wait_armable
+
+pytestmark = pytest.mark.timeout(120)
+
+C = mav
+# the messages ArduPilot sends that towerlink did not (SET_MESSAGE_INTERVAL was DENIED)
+NEW = ["RAW_IMU", "SCALED_IMU2", "SCALED_PRESSURE", "SERVO_OUTPUT_RAW", "RC_CHANNELS", "NAV_CONTROLLER_OUTPUT",
+       "POSITION_TARGET_GLOBAL_INT", "EKF_STATUS_REPORT", "VIBRATION", "FENCE_STATUS", "POWER_STATUS", "MEMINFO",
+       "AHRS", "AHRS2"]
+# what REQUEST_DATA_STREAM ALL brings from ArduCopter / ArduRover (SITL, fence on, flying); SITL
+# sends its truth as SIM_STATE and as the older SIMSTATE, towerlink as SIM_STATE only
+ARDUPILOT_SET = {"HEARTBEAT", "RAW_IMU", "SCALED_IMU2", "SCALED_PRESSURE", "SYS_STATUS", "POWER_STATUS", "MEMINFO",
+                 "MISSION_CURRENT", "GPS_RAW_INT", "NAV_CONTROLLER_OUTPUT", "FENCE_STATUS", "SERVO_OUTPUT_RAW",
+                 "RC_CHANNELS", "GLOBAL_POSITION_INT", "LOCAL_POSITION_NED", "ATTITUDE", "SIM_STATE", "AHRS2",
+                 "VFR_HUD", "AHRS", "SYSTEM_TIME", "BATTERY_STATUS", "EKF_STATUS_REPORT", "VIBRATION"}
+
+
+def msgid(name: str) -> int:
+    return getattr(C, "MAVLINK_MSG_ID_" + name)
+
+
+def set_param(m, name: str, value: float) -> None:
+    m.mav.param_set_send(m.target_system, m.target_component, name.encode(), value, C.MAV_PARAM_TYPE_REAL32)
+    recv(m, "PARAM_VALUE", 5, cond=lambda p: p.param_id == name and p.param_value == value)
+
+
+def counts_over(m, seconds: int) -> tuple[dict[str, int], float]:
+    """Messages of each type between two SYSTEM_TIMEs `seconds` apart on the vehicle's clock
+    (SR0_EXTRA3 sends it at 1 Hz), and that span in s."""
+    recv(m, "SYSTEM_TIME", 10)               # what was in flight before the request goes by
+    t0 = recv(m, "SYSTEM_TIME", 10).time_boot_ms
+    counts: dict[str, int] = {}
+    while True:
+        msg = recv(m, None, 10)
+        if msg.get_type() == "SYSTEM_TIME" and msg.time_boot_ms - t0 >= seconds * 1000 - 50:
+            return counts, (msg.time_boot_ms - t0) / 1000.0
+        counts[msg.get_type()] = counts.get(msg.get_type(), 0) + 1
+
+
+@pytest.fixture(scope="module")
+def sitl(tmp_path_factory):
+    """A copter and a rover; the copter over TCP, fence on, flying a GUIDED leg (so every
+    message has content): (Sitl, the copter's connection)."""
+    procs = Processes()
+    try:
+        s = Sitl(procs, tmp_path_factory.mktemp("telem"), drones=1, rovers=1, speedup=5)
+        m = connect(s.tcp[0], tcp=True)
+        wait_armable(m)
+        set_param(m, "FENCE_ENABLE", 1)
+        set_param(m, "FENCE_ACTION", 0)
+        assert set_mode(m, "GUIDED") == C.MAV_RESULT_ACCEPTED
+        assert command(m, C.MAV_CMD_COMPONENT_ARM_DISARM, 1) == C.MAV_RESULT_ACCEPTED
+        assert command(m, C.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 5) == C.MAV_RESULT_ACCEPTED
+        recv(m, "GLOBAL_POSITION_INT", 30, cond=lambda g: g.relative_alt > 4500)
+        goto_local(m, 40, 30, -5)
+        yield s, m
+        m.close()
+    finally:
+        procs.stop_all()
+
+
+@pytest.fixture(scope="module")
+def flying(sitl):
+    return sitl[1]
+
+
+def test_set_message_interval_sends_each_message_at_its_interval(flying):
+    m = flying
+    for name in NEW:
+        assert command(m, C.MAV_CMD_SET_MESSAGE_INTERVAL, msgid(name), 250000) == C.MAV_RESULT_ACCEPTED, name
+    counts, span = counts_over(m, 4)
+    for name in NEW:
+        rate = counts.get(name, 0) / span
+        assert 3.0 <= rate <= 5.0, (name, counts.get(name, 0), span)
+    assert command(m, C.MAV_CMD_GET_MESSAGE_INTERVAL, msgid("EKF_STATUS_REPORT")) == C.MAV_RESULT_ACCEPTED
+    assert recv(m, "MESSAGE_INTERVAL", 5, cond=lambda i: i.message_id == msgid("EKF_STATUS_REPORT")).interval_us == 250000
+    for name in NEW:                          # -1 stops them all
+        assert command(m, C.MAV_CMD_SET_MESSAGE_INTERVAL, msgid(name), -1) == C.MAV_RESULT_ACCEPTED
+    counts, _ = counts_over(m, 2)
+    assert not set(counts) & set(NEW), counts
+    for name in NEW:                          # 0: back to the stream groups' defaults
+        assert command(m, C.MAV_CMD_SET_MESSAGE_INTERVAL, msgid(name), 0) == C.MAV_RESULT_ACCEPTED
+
+
+def test_request_message_answers_with_each(flying):
+    m = flying
+    got = {}
+    for name in NEW + ["AUTOPILOT_VERSION"]:
+        assert command(m, C.MAV_CMD_REQUEST_MESSAGE, msgid(name)) == C.MAV_RESULT_ACCEPTED, name
+        got[name] = recv(m, name, 5)
+    ekf = got["EKF_STATUS_REPORT"]
+    assert ekf.flags == 0x33F and 0 < ekf.pos_horiz_variance < 1
+    servo = got["SERVO_OUTPUT_RAW"]
+    assert all(1300 < getattr(servo, f"servo{k}_raw") < 1900 for k in range(1, 5))     # flying
+    assert got["FENCE_STATUS"].breach_status == 0 and got["RC_CHANNELS"].chan3_raw == 1500
+    assert got["POSITION_TARGET_GLOBAL_INT"].coordinate_frame == C.MAV_FRAME_GLOBAL
+    assert command(m, C.MAV_CMD_REQUEST_MESSAGE, 12345) == C.MAV_RESULT_FAILED        # no such message
+
+
+def test_banner_and_version_hash(sitl, flying):
+    m = flying
+    assert command(m, C.MAV_CMD_DO_SEND_BANNER) == C.MAV_RESULT_ACCEPTED
+    texts = [recv(m, "STATUSTEXT", 5).text for _ in range(3)]
+    match = re.fullmatch(r"ArduCopter V4\.5\.0 \(([0-9a-f]{8})\)", texts[0])
+    assert match, texts
+    assert texts[2] == "Frame: QUAD/X"
+    assert command(m, C.MAV_CMD_REQUEST_MESSAGE, msgid("AUTOPILOT_VERSION")) == C.MAV_RESULT_ACCEPTED
+    av = recv(m, "AUTOPILOT_VERSION", 5)
+    assert bytes(av.flight_custom_version).decode("ascii") == match.group(1)
+    rover = connect(sitl[0].tcp[1], tcp=True)
+    assert command(rover, C.MAV_CMD_DO_SEND_BANNER) == C.MAV_RESULT_ACCEPTED
+    assert recv(rover, "STATUSTEXT", 5).text == f"ArduRover V4.5.0 ({match.group(1)})"
+    rover.close()
+
+
+def test_request_data_stream_all_brings_ardupilots_set(sitl, flying):
+    m = flying
+    m.mav.request_data_stream_send(m.target_system, m.target_component, C.MAV_DATA_STREAM_ALL, 4, 1)
+    counts, _ = counts_over(m, 3)
+    assert ARDUPILOT_SET <= set(counts), ARDUPILOT_SET - set(counts)
+    assert counts["EKF_STATUS_REPORT"] >= 9 and counts["RAW_IMU"] >= 9
+    rover = connect(sitl[0].tcp[1], tcp=True)
+    rover.mav.request_data_stream_send(rover.target_system, rover.target_component, C.MAV_DATA_STREAM_ALL, 4, 1)
+    counts, _ = counts_over(rover, 3)
+    rover_set = (ARDUPILOT_SET - {"FENCE_STATUS", "NAV_CONTROLLER_OUTPUT"}) | {"RC_CHANNELS_SCALED"}
+    assert rover_set <= set(counts), rover_set - set(counts)
+    rover.close()

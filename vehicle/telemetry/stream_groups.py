@@ -1,0 +1,58 @@
+"""ArduPilot's telemetry stream groups (SRx_* parameters), per vehicle kind.
+
+As ArduPilot's GCS_MAVLink_Parameters.cpp (`STREAM_*_msgs`, master of 2025; 4.5's
+ArduCopter/GCS_Mavlink.cpp and Rover/GCS_Mavlink.cpp list the same messages for what
+towerlink simulates): which MAVLink messages each SR0_* rate schedules. Messages ArduPilot
+lists but towerlink has no source for are left out (SCALED_IMU3, SCALED_PRESSURE2/3 and
+AIRSPEED: two IMUs and one barometer are simulated; GPS_RTK/GPS2_*: one plain GPS; WIND,
+RANGEFINDER, DISTANCE_SENSOR, TERRAIN_*, OPTICAL_FLOW, MAG_CAL_*, gimbal, RPM, ESC and
+WHEEL_DISTANCE: no such sensor or estimate; PID_TUNING: GCS_PID_MASK 0). Rover adds
+RC_CHANNELS_SCALED (MSG_SERVO_OUT) in SR0_RAW_CTRL.
+
+towerlink adds ATTITUDE_QUATERNION, EXTENDED_SYS_STATE, POSITION_TARGET_LOCAL_NED and
+HOME_POSITION, which the bridge, MAVSDK and the scorers want without asking.
+"""
+from __future__ import annotations
+
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+_M = mav
+_COMMON: dict[str, tuple[int, ...]] = {
+    "SR0_RAW_SENS": (_M.MAVLINK_MSG_ID_RAW_IMU, _M.MAVLINK_MSG_ID_SCALED_IMU2, _M.MAVLINK_MSG_ID_SCALED_PRESSURE),
+    "SR0_EXT_STAT": (_M.MAVLINK_MSG_ID_SYS_STATUS, _M.MAVLINK_MSG_ID_POWER_STATUS, _M.MAVLINK_MSG_ID_MEMINFO,
+                     _M.MAVLINK_MSG_ID_MISSION_CURRENT, _M.MAVLINK_MSG_ID_GPS_RAW_INT,
+                     _M.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT, _M.MAVLINK_MSG_ID_FENCE_STATUS,
+                     _M.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT,
+                     _M.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED, _M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE),
+    "SR0_RC_CHAN": (_M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, _M.MAVLINK_MSG_ID_RC_CHANNELS),
+    "SR0_RAW_CTRL": (),
+    "SR0_POSITION": (_M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, _M.MAVLINK_MSG_ID_LOCAL_POSITION_NED),
+    "SR0_EXTRA1": (_M.MAVLINK_MSG_ID_ATTITUDE, _M.MAVLINK_MSG_ID_SIM_STATE, _M.MAVLINK_MSG_ID_AHRS2,
+                   _M.MAVLINK_MSG_ID_ATTITUDE_QUATERNION),
+    "SR0_EXTRA2": (_M.MAVLINK_MSG_ID_VFR_HUD,),
+    "SR0_EXTRA3": (_M.MAVLINK_MSG_ID_AHRS, _M.MAVLINK_MSG_ID_SYSTEM_TIME, _M.MAVLINK_MSG_ID_BATTERY_STATUS,
+                   _M.MAVLINK_MSG_ID_EKF_STATUS_REPORT, _M.MAVLINK_MSG_ID_VIBRATION,
+                   _M.MAVLINK_MSG_ID_HOME_POSITION),
+}
+_ROVER_EXTRA = {"SR0_RAW_CTRL": (_M.MAVLINK_MSG_ID_RC_CHANNELS_SCALED,)}
+
+# REQUEST_DATA_STREAM stream ids -> group parameter (MAV_DATA_STREAM_ALL sets them all)
+DATA_STREAMS = {
+    _M.MAV_DATA_STREAM_RAW_SENSORS: "SR0_RAW_SENS",
+    _M.MAV_DATA_STREAM_EXTENDED_STATUS: "SR0_EXT_STAT",
+    _M.MAV_DATA_STREAM_RC_CHANNELS: "SR0_RC_CHAN",
+    _M.MAV_DATA_STREAM_RAW_CONTROLLER: "SR0_RAW_CTRL",
+    _M.MAV_DATA_STREAM_POSITION: "SR0_POSITION",
+    _M.MAV_DATA_STREAM_EXTRA1: "SR0_EXTRA1",
+    _M.MAV_DATA_STREAM_EXTRA2: "SR0_EXTRA2",
+    _M.MAV_DATA_STREAM_EXTRA3: "SR0_EXTRA3",
+}
+
+
+def stream_groups(kind: str) -> dict[str, tuple[int, ...]]:
+    """Group parameter -> the message ids it schedules, for a "copter" or a "rover"."""
+    groups = dict(_COMMON)
+    if kind == "rover":
+        for g, ids in _ROVER_EXTRA.items():
+            groups[g] = groups[g] + ids
+    return groups

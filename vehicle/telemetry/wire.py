@@ -1,0 +1,28 @@
+"""Putting simulated values into MAVLink's integer fields and time stamps."""
+from __future__ import annotations
+
+import math
+
+INT32 = (-2**31, 2**31 - 1)
+
+
+def wire_clamp(v: float, lo: int, hi: int) -> int:
+    """v rounded and clamped into [lo, hi]; 0 when not finite (a field cannot carry NaN)."""
+    if not math.isfinite(v):
+        return 0
+    return int(max(lo, min(hi, round(v))))
+
+
+def e7(deg: float) -> int:
+    """Degrees as MAVLink's int32 degE7."""
+    return wire_clamp(deg * 1e7, *INT32)
+
+
+def boot_ms(t: float) -> int:
+    """time_boot_ms of sim time t (s): the world's clock is every vehicle's boot clock."""
+    return int(t * 1000.0) & 0xFFFFFFFF
+
+
+def usec(t: float) -> int:
+    """time_usec (64-bit) of sim time t (s)."""
+    return int(t * 1e6)
