@@ -220,6 +220,9 @@ def test_log_contents_against_the_truth(tmp_path):
         assert abs((a.Yaw - yaw + 180) % 360 - 180) < 3.0
         checked += 1
     assert checked > 100
+    # the attitude target: the controller gets there (in hover and on the leg alike)
+    assert np.median([abs(a.DesRoll - a.Roll) + abs(a.DesPitch - a.Pitch) for a in atts]) < 3.0
+    assert max(abs(a.DesPitch) for a in atts) > 2.0           # it leaned into the leg
     home = ap.home_lla()
     errs = []
     for g in gpss:
