@@ -9,7 +9,8 @@ import pytest
 from vehicle import params_core
 from vehicle.control.copter import CopterGains
 from vehicle.control.rover import RoverGains
-from vehicle.fleet import CopterFleet, RoverFleet, Setpoint, VehicleState
+from vehicle.fleet import CopterFleet, RoverFleet, Setpoint
+from vehicle.fleet_base import VehicleState
 
 DT = 1.0 / 400.0
 TARGETS = [np.array([5.0, 0.0, -4.0]), np.array([-3.0, 6.0, -8.0]), np.array([2.0, -2.0, -2.0])]

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vehicle.fleet import SCALAR_MAX, CopterFleet, RoverFleet, Setpoint
+from vehicle.fleet import CopterFleet, RoverFleet, Setpoint
+from vehicle.fleet_base import SCALAR_MAX
 
 
 def _fleets():

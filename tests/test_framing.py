@@ -72,7 +72,7 @@ def _same_fields(got, want) -> None:
 
 def test_the_layouts_cover_every_telemetry_message():
     from vehicle.link.telemetry import Telemetry
-    assert set(TELEMETRY_IDS) == set(Telemetry(None).builders)
+    assert set(TELEMETRY_IDS) == set(Telemetry(None, None, None).builders)
     for msgid in TELEMETRY_IDS:
         assert layout(msgid).cls is mav.mavlink_map[msgid]
 

@@ -46,7 +46,7 @@ def test_a_world_without_state_dir_serves_a_temporary_root_removed_at_stop():
     try:
         m = connect(ports[0])
         _upload(m, b"/notes.txt", b"kept across a reboot")
-        root = w.vehicles[0].link.files_root.path()
+        root = w.vehicles[0].link.files.root.path()
         assert (root / "notes.txt").read_bytes() == b"kept across a reboot"
         assert command(m, mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1) == mav.MAV_RESULT_ACCEPTED
         wait_until(lambda: w.vehicles[0].link.stats["reboots"] == 1, 5, "reboot")

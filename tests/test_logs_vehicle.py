@@ -102,7 +102,7 @@ def test_no_log_until_armed_then_one_per_boot(tmp_path):
     assert [m.ArmState for m in of(msgs, "ARM")] == [1, 0, 1, 0]
     assert [m.Id for m in of(msgs, "EV")] == [messages.EV_ARMED, messages.EV_DISARMED] * 2
     # a reboot closes it; the next arming opens the next number
-    lw.w.vehicles[0].link.reboot()
+    lw.w.vehicles[0].link.commands.reboot()
     lw.run_for(2.0)
     assert [n for n, _ in lw.files()] == [1]
     lw.ready()
@@ -284,23 +284,23 @@ def test_the_link_serves_the_log_and_drops_a_gone_channel(tmp_path):
     got: list[bytes] = []
     ch = Channel("gcs", got.append)
     parser = mav.MAVLink(None)
-    link.logs.handle(mav.MAVLink_log_request_list_message(1, 1, 0, 0xFFFF), ch)
+    link.logs.on_log_message(mav.MAVLink_log_request_list_message(1, 1, 0, 0xFFFF), ch)
     entry = parser.parse_buffer(b"".join(got))[0]
     assert (entry.get_type(), entry.id, entry.num_logs) == ("LOG_ENTRY", 1, 1)
     assert entry.size == lw.files()[0][1]
     got.clear()
-    link.logs.handle(mav.MAVLink_log_request_data_message(1, 1, 1, 0, 0xFFFFFFFF), ch)
+    link.logs.on_log_message(mav.MAVLink_log_request_data_message(1, 1, 1, 0, 0xFFFFFFFF), ch)
     while link.logs.transfer.channel is not None:
         lw.run_for(0.02)
     data = b"".join(bytes(m.data[:m.count]) for m in parser.parse_buffer(b"".join(got)))
     assert data == (lw.folder() / "00000001.BIN").read_bytes()
     # a peer that went away mid-transfer: the transfer ends at the next tick
-    link.logs.handle(mav.MAVLink_log_request_data_message(1, 1, 1, 0, 0xFFFFFFFF), ch)
+    link.logs.on_log_message(mav.MAVLink_log_request_data_message(1, 1, 1, 0, 0xFFFFFFFF), ch)
     ch.closed = True
     lw.run_for(0.02)
     assert link.logs.transfer.channel is None
     # a reboot closes the log: the next arming opens log 2
-    link.reboot()
+    link.commands.reboot()
     lw.ready()
     lw.arm(seconds=0.5)
     assert [n for n, _ in lw.files()] == [1, 2]

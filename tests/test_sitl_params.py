@@ -88,7 +88,7 @@ def test_param_changes_reach_only_their_vehicle_in_world():
     w = World(WorldConfig(drones=2, rovers=2, state_dir=None, tcp_base=None, udp_base=None))
     (_, drones), (_, rovers) = w.fleets
     d0, d1, r0, r1 = w.vehicles
-    d1.link.params_changed({"WPNAV_SPEED": 250.0})
+    d1.link.params.params_changed({"WPNAV_SPEED": 250.0})
     assert [drones.gains_of(i).v_xy for i in range(2)] == [5.0, 2.5]
     assert d0.ap.command(mav.MAV_CMD_DO_CHANGE_SPEED, [0, 3.0, -1, 0, 0, 0, 0]) == mav.MAV_RESULT_ACCEPTED
     assert [drones.gains_of(i).v_xy for i in range(2)] == [3.0, 2.5]
@@ -96,5 +96,5 @@ def test_param_changes_reach_only_their_vehicle_in_world():
     assert [drones.gains_of(i).v_xy for i in range(2)] == [5.0, 2.5]
     assert r1.ap.command(mav.MAV_CMD_DO_CHANGE_SPEED, [1, 2.0, -1, 0, 0, 0, 0]) == mav.MAV_RESULT_ACCEPTED
     assert [rovers.gains_of(i).cruise for i in range(2)] == [8.0, 2.0]
-    r0.link.params_changed({"CRUISE_SPEED": 4.0})
+    r0.link.params.params_changed({"CRUISE_SPEED": 4.0})
     assert rovers.params_of(0)["CRUISE_SPEED"] == 4.0 and rovers.params_of(1)["CRUISE_SPEED"] == 8.0

@@ -45,7 +45,7 @@ vehicle changes it. With ArduPilot's default profile (SIM_WIND_T 0) the wind gro
 root of height up to SIM_WIND_T_ALT (60 m); SIM_WIND_T 1 blows at full speed at every height.
   towerlink sitl --wind 8,270,1                     # 8 m/s westerly, 1 m/s turbulence
 
-Lockstep (issue 11): with --lockstep N the world waits at t=0 for N participants (towerlink
+Lockstep: with --lockstep N the world waits at t=0 for N participants (towerlink
 bridge --lockstep, towerlink tower --lockstep through it) and never steps past a TOWERLINK_LOCKSTEP
 TICK until each has ACKed it; one silent for --lockstep-timeout wall seconds is dropped. Other
 clients see an ordinary vehicle. --speedup max then runs as fast as the slowest participant allows:
@@ -71,7 +71,8 @@ import sys
 from common.collector import tune_for_long_run
 from common.mavlink.lockstep import speedup_type
 from common.mavlink.signing import add_signing_argument, key_from_text as signing_key
-from vehicle.world import DEFAULT_HOME, DEFAULT_STATE_DIR, PLAN_FILE, World, WorldConfig
+from vehicle.world import World
+from vehicle.world_config import DEFAULT_HOME, DEFAULT_STATE_DIR, PLAN_FILE, WorldConfig
 
 
 def _home(s: str) -> tuple[float, float, float]:
@@ -151,7 +152,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="at most N sim seconds per wall second (default 1); 'max': as fast as the CPU "
                         "and the --lockstep participants allow")
     p.add_argument("--lockstep", type=int, default=0, metavar="N",
-                   help="whole-system lockstep (issue 11): wait at t=0 until N participants (bridge, "
+                   help="whole-system lockstep: wait at t=0 until N participants (bridge, "
                         "tower) sent TOWERLINK_LOCKSTEP JOIN on every vehicle, then never step past a "
                         "TICK until every participant ACKed it; participants reach the world over its UDP "
                         "endpoints (default 0: off)")
@@ -287,14 +288,15 @@ def _run_workers(args: argparse.Namespace) -> int:
     paths = ([os.path.join(args.state_dir, PLAN_FILE)] if not args.no_save else []) + \
         ([args.plan_out] if args.plan_out else [])
 
+    worlds: list = []                    # this process's World, once built
+
     def out(text: str) -> None:
-        if text.startswith("towerlink sitl:") and out.world is not None:   # the banner: plan is final
-            for path in paths:                                             # (written before it shows)
-                out.world.write_plan(path)
+        if text.startswith("towerlink sitl:") and worlds:     # the banner: the plan is final
+            for path in paths:                                 # (written before it shows)
+                worlds[0].write_plan(path)
         print(text, flush=True)
-    out.world = None
     try:
-        return workers.run(cfg, args.workers, out=out, on_world=lambda w: setattr(out, "world", w))
+        return workers.run(cfg, args.workers, out=out, on_world=worlds.append)
     except PlanError as e:
         print(f"towerlink sitl: refused: {e}", file=sys.stderr)
         return 2

@@ -1,4 +1,4 @@
-"""The world's lockstep gate (issue 11): who the world waits for, and whether it may step on.
+"""The world's lockstep gate: who the world waits for, and whether it may step on.
 
 Pure: no sockets, no clocks of its own (wall times are passed in). The world
 (vehicle/world.py) feeds it every TOWERLINK_LOCKSTEP it receives (common.mavlink.lockstep) with the

@@ -12,7 +12,7 @@ behind count). Workers are forked (they start with the parent's imports); they s
 SIGTERM/SIGINT, when the parent goes away, or when told to; the parent stops when a worker
 dies. Each prints its own stats line at exit.
 
-With --lockstep N (issue 11) each worker runs its own gate (vehicle/lockstep.py) for its own
+With --lockstep N each worker runs its own gate (vehicle/lockstep.py) for its own
 vehicles and waits at t = 0 for the same N participants, which join every vehicle link. Then
 the wall instant does not matter: a participant ACKs TICK(t) only when TICK(t) came on all its
 links (bridge.lockstep_desk's barrier), so no worker passes t before every worker reached it

@@ -13,7 +13,7 @@ second; when the CPU cannot keep up it runs slower (re-anchoring its wall refere
 skipping or stretching a step. All MAVLink time fields are this sim time. `speedup`
 inf (`--speedup max`) does not pace at all.
 
-Lockstep (issue 11, `lockstep` N > 0, off by default): the world waits at t = 0 for N
+Lockstep (`lockstep` N > 0, off by default): the world waits at t = 0 for N
 participants (TOWERLINK_LOCKSTEP JOIN on every vehicle), then at every lockstep frame sends
 TICK(t) after everything it sent up to t and does not step on until every participant ACKed
 t (vehicle/lockstep.py). Participants' packets arriving between TICKs are held to the next
@@ -32,85 +32,22 @@ import math
 import os
 import threading
 import time
-from dataclasses import dataclass, field
 
-import numpy as np
-
-from vehicle.autopilot import CopterAutopilot, ParamStore, RoverAutopilot
-from vehicle.autopilot.mission_persist import PersistentMissionStore, missions_path
-from vehicle.autopilot.mission_store import MISSION, MissionItem, MissionStore
-from vehicle.autopilot.params import (COPTER_TABLE, ROVER_TABLE, _warn, core_table, file_warnings,
-                                      read_parm_file)
-from vehicle.link import VehicleLink
+from vehicle.autopilot import ParamStore
 from vehicle.logs.world_logs import WorldLogs
-from vehicle.world_lockstep import WorldLockstep
-from vehicle.network_plan import NetworkPlan
-from vehicle.vehicle_root import vehicle_root
-from vehicle.network_plan import plan as plan_world
 from vehicle.physics.wind import WindField, WindParams
+from vehicle.world_build import Vehicle, build, start_position
+from vehicle.world_config import DEFAULT_HOME, WorldConfig
+from vehicle.world_lockstep import WorldLockstep
 
-DEFAULT_HOME = (-35.363261, 149.165230, 584.0)      # ArduPilot SITL's default (CMAC)
-PLAN_FILE = "network_plan.json"      # in the state dir: the network plan of the running world
-DEFAULT_STATE_DIR = os.path.join(os.environ.get("XDG_STATE_HOME", os.path.expanduser("~/.local/state")),
-                                 "towerlink", "sitl")
+__all__ = ["DEFAULT_HOME", "Vehicle", "World", "WorldConfig"]     # what the world's users import here
+
 AP_RATE = 50.0
 SHARE_RATE = 10.0        # Hz sim: GLOBAL_POSITION_INT heard by the other vehicles (FOLLOW)
 
 
-@dataclass
-class WorldConfig:
-    drones: int = 1
-    rovers: int = 1
-    speedup: float = 1.0
-    rate: float = 400.0
-    home: tuple[float, float, float] = DEFAULT_HOME
-    seed: int = 0
-    params_file: str | None = None
-    state_dir: str | None = DEFAULT_STATE_DIR    # None: nothing persisted
-    tcp_base: int | None = 5760                   # None: no default TCP endpoint
-    udp_base: int | None = 14560                  # None: no default UDP endpoint
-    host: str = "127.0.0.1"
-    outs: list[str] = field(default_factory=list)              # added to every vehicle
-    endpoints: dict[int, list[str]] = field(default_factory=dict)  # vehicle index -> replaces defaults
-    sysid_base: int = 1
-    signing_key: bytes | None = None
-    missions: dict[int, list[MissionItem]] = field(default_factory=dict)  # vehicle index -> MISSION at start
-    sysids: dict[int, int] = field(default_factory=dict)       # vehicle index -> explicit sysid
-    group_size: int | None = None                               # vehicles per MAVLink network (default 254)
-    share: tuple[int, int] | None = None      # vehicle indices [lo, hi) this process runs (--workers)
-    start_at: float | None = None             # unix time of sim t = 0 (default: now)
-    wind: WindParams | None = None            # None: from the vehicles' SIM_WIND_* parameters
-
-    def network_plan(self) -> NetworkPlan:
-        """Sysids, networks and ports of every vehicle (vehicle/network_plan.py); PlanError."""
-        return plan_world(self.drones, self.rovers, tcp_base=self.tcp_base, udp_base=self.udp_base,
-                          host=self.host, outs=self.outs, endpoints=self.endpoints,
-                          sysid_base=self.sysid_base, sysids=self.sysids, group_size=self.group_size)
-    # whole-system lockstep (issue 11): 0 = off; N = wait at t = 0 for N participants
-    lockstep: int = 0
-    lockstep_period: float = 0.04     # sim s between TICKs (a multiple of the 50 Hz autopilot tick)
-    lockstep_timeout: float = 10.0    # wall s a participant may stay silent before it is dropped
-
-    def vehicle_endpoints(self, i: int) -> list[str]:
-        return list(self.network_plan().vehicles[i].endpoints)
-
-
-@dataclass
-class Vehicle:
-    index: int
-    kind: str          # "copter" | "rover"
-    kind_index: int
-    ap: object
-    link: VehicleLink
-
-    @property
-    def sysid(self) -> int:
-        return self.ap.sysid
-
-
 class World:
     def __init__(self, cfg: WorldConfig) -> None:
-        from vehicle.fleet import CopterFleet, RoverFleet   # the physics/control cores
         if cfg.rate <= 0 or cfg.speedup <= 0:
             raise ValueError("rate and speedup must be positive")
         self.cfg = cfg
@@ -123,64 +60,18 @@ class World:
         self.start_at = cfg.start_at if cfg.start_at is not None else time.time()
         self.unix_start_us = int(self.start_at * 1e6)
         self.vehicles: list[Vehicle] = []
-        self.logs = WorldLogs()          # the onboard logs' writer thread (vehicle/logs/)
-        self.fleets: list[tuple[str, object]] = []
         self.plan = cfg.network_plan()        # PlanError before anything is built
         # one air mass for the world (SIM_WIND_*), turbulence seeded by the world's seed
         self.wind = WindField(cfg.wind, cfg.seed)
-        self._fleet_ids: dict[str, list[int]] = {}
-        file_params = read_parm_file(cfg.params_file) if cfg.params_file else {}
-        file_params.pop("SYSID_THISMAV", None)
-        lo, hi = cfg.share if cfg.share is not None else (0, cfg.drones + cfg.rovers)
-        first = 0                                  # world index of the kind's vehicle 0
-        for kind, n, table, fleet_cls, ap_cls in (
-                ("copter", cfg.drones, COPTER_TABLE, CopterFleet, CopterAutopilot),
-                ("rover", cfg.rovers, ROVER_TABLE, RoverFleet, RoverAutopilot)):
-            js = [j for j in range(n) if lo <= first + j < hi]     # this process's share
-            if not js:
-                first += n
-                continue
-            core = core_table(kind)
-            core_names = {d.name for d in core}
-            stores, saves = [], []
-            for j in js:
-                defaults = dict(file_params)
-                defaults["SYSID_THISMAV"] = self.plan.vehicles[first + j].sysid
-                save = (os.path.join(cfg.state_dir, f"{'drone' if kind == 'copter' else 'rover'}{j}.parm")
-                        if cfg.state_dir else None)
-                stores.append(ParamStore(core + table, defaults, save))
-                saves.append(save)
-            if cfg.params_file:          # once per kind: unknown names / bad values, not fatal
-                for msg in file_warnings(file_params, stores[0].defs, kind, cfg.params_file):
-                    _warn(msg)
-            starts = np.array([self.start_position(kind, j) for j in js], float)
-            fleet_params = {name: stores[0][name] for name in core_names} if core_names else \
-                {name: stores[0][name] for name in stores[0].names}
-            base_seed = cfg.seed + (0 if kind == "copter" else 7919)
-            # vehicle j's noise is seeded [seed, j] whichever process runs it
-            seed = base_seed if len(js) == n else [(base_seed, j) for j in js]
-            fleet = fleet_cls(len(js), fleet_params, seed, starts)
-            for k in range(1, len(js)):    # each vehicle starts from its own (saved) parameters
-                own = {name: stores[k][name] for name in fleet_params if name in stores[k]}
-                if any(own[x] != fleet_params[x] for x in own):
-                    fleet.set_params(own, i=k)
-            self.fleets.append((kind, fleet))
-            self._fleet_ids[kind] = [first + j for j in js]     # world indices (wind streams)
-            for k, j in enumerate(js):     # k: index in the fleet, j: the kind's index
-                index = first + j
-                push = self._pusher(fleet, core_names, k, stores[k])
-                # missions, fence and rally points persist beside the parameters
-                missions = PersistentMissionStore(missions_path(saves[k])) if saves[k] else MissionStore()
-                ap = ap_cls(fleet, k, stores[k], cfg.home, starts[k], push_params=push, missions=missions)
-                link = VehicleLink(ap, self.clock, self.unix_start_us, list(self.plan.vehicles[index].endpoints),
-                                   signing_key=cfg.signing_key, params_changed=push,
-                                   files_root=vehicle_root(cfg.state_dir, index) if cfg.state_dir else None,
-                                   logs=self.logs)
-                self.vehicles.append(Vehicle(index, kind, j, ap, link))
-                if index in cfg.missions:        # --mission I=FILE: as if uploaded at start
-                    ap.missions.replace_all(MISSION, cfg.missions[index])
-                    ap.mission_uploaded(MISSION)
-            first += n
+        lo, hi = cfg.share_range()
+        self.lockstep = (WorldLockstep(self, hi - lo, cfg.lockstep, cfg.lockstep_period, cfg.lockstep_timeout)
+                         if cfg.lockstep > 0 else None)
+        self.logs = WorldLogs()          # the onboard logs' writer thread (vehicle/logs/)
+        built = build(cfg, self.plan, self.clock, self.unix_start_us, self._wind_set,
+                      self.lockstep.intake if self.lockstep is not None else lambda index: None, self.logs)
+        self.fleets: list[tuple[str, object]] = built.fleets
+        self.vehicles = built.vehicles
+        self._fleet_ids = built.fleet_ids
         # a saved SYSID_THISMAV (a PARAM_SET before a restart) wins over the plan's: refuse a
         # clash (with --workers, among this process's vehicles and the others' planned sysids)
         booted = [v.sysid for v in self.plan.vehicles]
@@ -193,27 +84,15 @@ class World:
         self._thread: threading.Thread | None = None
         self.ready = threading.Event()
         self.behind_events = 0
-        self.lockstep = (WorldLockstep(self, cfg.lockstep, cfg.lockstep_period, cfg.lockstep_timeout)
-                         if cfg.lockstep > 0 else None)
 
-    @staticmethod
-    def start_position(kind: str, j: int) -> tuple[float, float, float]:
-        """World NED start of the j-th drone / rover: drones on the y axis from the origin
-        every 2 m, rovers 3 m south of them."""
-        return (0.0, 2.0 * j, 0.0) if kind == "copter" else (-3.0, 2.0 * j, 0.0)
-
-    def _pusher(self, fleet, core_names, j, store):
-        """Parameter changes of vehicle j (PARAM_SET, DO_CHANGE_SPEED) reach vehicle j only;
-        SIM_WIND_* change the world's air (there is one) and every vehicle's copy of them."""
-        def push(values: dict) -> None:
-            sel = {k: float(v) for k, v in values.items() if not core_names or k in core_names}
-            if sel:
-                fleet.set_params(sel, i=j)
-            if any(k in WindParams.NAMES for k in values) and self.vehicles:
-                self.set_wind(WindParams.from_params(store.values))
-        return push
+    start_position = staticmethod(start_position)
 
     # ----- wind ---------------------------------------------------------------------------
+    def _wind_set(self, store: ParamStore) -> None:
+        """A vehicle's SIM_WIND_* were set (PARAM_SET): the world's air follows them."""
+        if self.vehicles:               # (not while the vehicles are being built)
+            self.set_wind(WindParams.from_params(store.values))
+
     def _init_wind(self) -> None:
         if self.cfg.wind is not None:
             self.set_wind(self.cfg.wind)
@@ -296,20 +175,23 @@ class World:
             await v.link.start()
 
     async def run(self, started=None) -> None:
+        """Open the endpoints, step until request_stop(), close them (also when an endpoint
+        cannot be opened: the ones already open are closed before the OSError goes on)."""
         self._loop = asyncio.get_running_loop()
         self._stop = asyncio.Event()
-        await self.start_endpoints()
-        for v in self.vehicles:
-            v.ap.update(self.t)
-        if started is not None:
-            started()
-        self.ready.set()
         try:
+            await self.start_endpoints()
+            for v in self.vehicles:
+                v.ap.update(self.t)
+            if started is not None:
+                started()
+            self.ready.set()
             await self._lockstep()
         finally:
             for v in self.vehicles:
                 v.link.close()
-            self.logs.close()
+            self.logs.close()           # the logs' last bytes written (the links closed them)
+            await asyncio.sleep(0)      # closed connections end while the loop still runs
 
     async def _lockstep(self) -> None:
         speedup, dt = self.cfg.speedup, self.dt
@@ -410,7 +292,7 @@ class World:
         self.cfg.start_at = self.start_at = start_at
         self.unix_start_us = int(start_at * 1e6)
         for v in self.vehicles:
-            v.link.unix_start_us = self.unix_start_us
+            v.link.telemetry.set_unix_start(self.unix_start_us)
             v.link.logs.set_unix_start(self.unix_start_us)
 
     def stats_line(self) -> str:

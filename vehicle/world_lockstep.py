@@ -1,7 +1,8 @@
-"""The world's side of the lockstep handshake (issue 11): the I/O around the pure gate.
+"""The world's side of the lockstep handshake: the I/O around the pure gate.
 
 `WorldLockstep` reads TOWERLINK_LOCKSTEP (common.mavlink.lockstep) off every UDP endpoint before the
-vehicle's link sees it (the link speaks ardupilotmega; this one message is the world's),
+vehicle's link sees it (the link speaks ardupilotmega; this one message is the world's):
+each vehicle's link is given `intake(index)`, which sees its datagrams first,
 feeds the gate (vehicle.lockstep), sends the TICKs and waits for the ACKs. The world's
 stepping loop asks :meth:`WorldLockstep.boundary` before every step.
 
@@ -19,65 +20,68 @@ counted as the link counts any unsigned packet) and the TICKs are signed.
 from __future__ import annotations
 
 import asyncio
+import functools
 import time
 
 from common.mavlink import lockstep as wire
+from vehicle.link.link_core import Intake, LinkCore
 from vehicle.lockstep import LockstepGate
 
 TICK_RESEND = 0.5       # wall s without every ACK: TICK again to whoever owes one (UDP may drop either)
 
 
 class WorldLockstep:
-    def __init__(self, world, expect: int, period: float, timeout: float) -> None:
+    def __init__(self, world, vehicles: int, expect: int, period: float, timeout: float) -> None:
+        """world: its dt, ap_every, steps and (once built) vehicles; vehicles: how many this
+        process runs; expect participants; a TICK every `period` sim s; `timeout` wall s."""
         self.world = world
         ap_dt = world.dt * world.ap_every
         # TICKs fall on autopilot ticks, so a TICK always follows that tick's telemetry
         self.frame_steps = world.ap_every * max(1, int(round(period / ap_dt)))
         self.period_usec = int(round(self.frame_steps * world.dt * 1e6))    # what each TICK says
-        self.gate = LockstepGate(len(world.vehicles), expect, timeout)
+        self.gate = LockstepGate(vehicles, expect, timeout)
         self.expect = expect
         self.ticked_steps = -1
         self.event: asyncio.Event | None = None
-        self.held: list[tuple] = []
+        self.held: list[tuple[LinkCore, bytes, object]] = []
         self.at_boundary = True
         self.waits = 0
         self.wait_wall = 0.0
         self.tick_wall = 0.0                # when the newest TICK went out (wall s)
         self.tick_resends = 0
-        for v in world.vehicles:
-            for ep in v.link.endpoints:
-                if ep.spec.startswith(("udpin:", "udpout:")):
-                    ep.on_data = self._filter(v, ep.on_data)
 
     def t_usec(self) -> int:
         """The world's sim time in whole microseconds (the TICKs' and ACKs' unit)."""
         w = self.world
         return int(round(w.steps * w.dt * 1e6))
 
-    def _filter(self, v, inner):
-        def on_data(data: bytes, channel) -> bool:
-            m, rest = wire.unpack(data)
-            if m is None:
-                sender = wire.sender(data)
-                boundary = self.t_usec() if self.at_boundary else None
-                if sender is not None and self.gate.holds(*sender, v.index, boundary):
-                    self.held.append((inner, data, channel))
-                    return True
-                return inner(data, channel)
-            # with --signing-key a participant must sign (an unsigned one is counted by the link)
-            signed_ok = not v.link.signing_key or v.link.signature_ok(data[:len(data) - len(rest)],
-                                                                      m.sysid, m.compid)
-            if signed_ok and m.target_system in (0, v.sysid):
-                now = None
-                if self.gate.is_started and self.ticked_steps >= 0:
-                    now = int(round(self.ticked_steps * self.world.dt * 1e6))
-                line = self.gate.on_message(m, v.index, channel, time.monotonic(), now)
-                if line:
-                    self.world.log(line)
-                if self.event is not None:
-                    self.event.set()
-            return (inner(rest, channel) if rest else False) or True
-        return on_data
+    def intake(self, index: int) -> Intake:
+        """What the link of vehicle `index` (world index) hands its UDP datagrams to first."""
+        return functools.partial(self._take, index)
+
+    def _take(self, index: int, link: LinkCore, data: bytes, channel) -> bool:
+        """A TOWERLINK_LOCKSTEP feeds the gate (the rest of its datagram goes to the link); a
+        participant's other packets wait for the next TICK boundary; anyone else's go on."""
+        m, rest = wire.unpack(data)
+        if m is None:
+            sender = wire.sender(data)
+            boundary = self.t_usec() if self.at_boundary else None
+            if sender is not None and self.gate.holds(*sender, index, boundary):
+                self.held.append((link, data, channel))
+                return True
+            return link.on_data(data, channel)
+        # with --signing-key a participant must sign (an unsigned one is counted by the link)
+        signed_ok = not link.signing_key or link.signature_ok(data[:len(data) - len(rest)], m.sysid, m.compid)
+        if signed_ok and m.target_system in (0, link.sysid):
+            now = None
+            if self.gate.is_started and self.ticked_steps >= 0:
+                now = int(round(self.ticked_steps * self.world.dt * 1e6))
+            line = self.gate.on_message(m, index, channel, time.monotonic(), now)
+            if line:
+                self.world.log(line)
+            if self.event is not None:
+                self.event.set()
+        return (link.on_data(rest, channel) if rest else False) or True
 
     def boundary(self) -> bool:
         """Before each step: True when the world stands at a TICK it may not pass yet."""
@@ -88,8 +92,8 @@ class WorldLockstep:
         if self.ticked_steps != w.steps:
             self.ticked_steps = w.steps
             held, self.held = self.held, []
-            for inner, data, channel in held:       # what came between TICKs, in arrival order
-                inner(data, channel)
+            for link, data, channel in held:        # what came between TICKs, in arrival order
+                link.on_data(data, channel)
             self._send_ticks()
         if not self.gate.passed(self.t_usec()):
             return True
@@ -106,7 +110,8 @@ class WorldLockstep:
 
     def _tick(self, v, channel, t: int) -> None:
         channel.send(wire.pack(wire.TICK, t, participant=wire.WORLD, target_system=0,
-                               period_usec=self.period_usec, sysid=v.sysid, compid=1, signing=self._signing(v)))
+                               period_usec=self.period_usec, sysid=v.sysid, compid=1,
+                               signing=v.link.take_signing()))
 
     def _resend(self, t: int) -> None:
         """TICK(t) again where an ACK is still owed after TICK_RESEND wall s: the TICK or the ACK
@@ -118,16 +123,6 @@ class WorldLockstep:
             self.tick_resends += 1          # before the send: a test reading it on arrival sees it
             self._tick(by_index[index], ch, t)
         self.tick_wall = time.monotonic()
-
-    @staticmethod
-    def _signing(v) -> tuple | None:
-        """With --signing-key: sign as the vehicle's own stream (its link's signing timestamp,
-        which then moves on, so the receiver sees it grow), else None."""
-        if not v.link.signing_key:
-            return None
-        sig = v.link.mav.signing
-        ts, sig.timestamp = sig.timestamp, sig.timestamp + 1
-        return v.link.signing_key, sig.link_id, ts
 
     async def _until(self, done, stop: asyncio.Event, every=None) -> None:
         while not done() and not stop.is_set():

@@ -35,13 +35,16 @@ def parse_endpoint(spec: str) -> tuple[str, str, int]:
 
 class Channel:
     """One reply path. `stream` is True for TCP (a parser keeps state across chunks)."""
-    stream = False
 
-    def __init__(self, name: str, sender: Callable[[bytes], None]) -> None:
+    def __init__(self, name: str, sender: Callable[[bytes], None], stream: bool = False) -> None:
         self.name = name
         self._send = sender
-        self.parser = None          # set by the link on first use (TCP only)
+        self.stream = stream
         self.closed = False         # the peer was dropped (its queued replies are discarded)
+
+    def close(self) -> None:
+        """The peer is gone: what is queued for it is dropped, nothing more is sent."""
+        self.closed = True
 
     def send(self, buf: bytes) -> None:
         try:
@@ -120,7 +123,7 @@ class UdpIn(Endpoint):
 
     def _closed(self, dropped) -> None:
         for _addr, ch in dropped:
-            ch.closed = True
+            ch.close()
             self.dropped_peers += 1
 
     def expire(self) -> None:
@@ -186,6 +189,24 @@ class UdpOut(Endpoint):
             self.transport.close()
 
 
+class _TcpClient(asyncio.Protocol):
+    """One TCP client of a TcpIn: its bytes go to the endpoint as they arrive (no task per
+    client, so closing the server leaves nothing running for the event loop to cancel)."""
+
+    def __init__(self, owner: "TcpIn") -> None:
+        self.owner = owner
+        self.channel: Channel | None = None
+
+    def connection_made(self, transport) -> None:
+        self.channel = self.owner.connected(transport)
+
+    def data_received(self, data: bytes) -> None:
+        self.owner.on_data(data, self.channel)
+
+    def connection_lost(self, exc) -> None:
+        self.owner.disconnected(self.channel)
+
+
 class TcpIn(Endpoint):
     """TCP server; every connected client gets everything; each has its own parser."""
     MAX_BUFFERED = 1 << 20    # a client that stops reading is dropped past this
@@ -194,58 +215,45 @@ class TcpIn(Endpoint):
         self.spec = f"tcpin:{host}:{port}"
         self.host, self.port, self.on_data = host, port, on_data
         self.server = None
-        self.clients: dict[asyncio.StreamWriter, Channel] = {}
+        self.clients: dict[Channel, asyncio.Transport] = {}
 
     async def start(self) -> None:
-        self.server = await asyncio.start_server(self._client, self.host, self.port, reuse_address=True)
+        loop = asyncio.get_running_loop()
+        self.server = await loop.create_server(lambda: _TcpClient(self), self.host, self.port,
+                                               reuse_address=True)
 
-    async def _client(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
-        peer = writer.get_extra_info("peername")
-        sock = writer.get_extra_info("socket")
-        if sock is not None:
-            try:
-                sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            except OSError:
-                pass
+    def connected(self, transport: asyncio.Transport) -> Channel:
+        """A new client: its reply channel (asyncio sets TCP_NODELAY on TCP transports)."""
+        peer = transport.get_extra_info("peername")
         ch = Channel(f"{self.spec}<-{peer[0]}:{peer[1]}" if peer else self.spec,
-                     lambda b, w=writer: self._write(w, b))
-        ch.stream = True
-        self.clients[writer] = ch
-        try:
-            while True:
-                data = await reader.read(65536)
-                if not data:
-                    break
-                self.on_data(data, ch)
-        except (ConnectionError, OSError):
-            pass
-        finally:
-            ch.closed = True            # its queued replies are dropped
-            self.clients.pop(writer, None)
-            writer.close()
+                     lambda b, t=transport: self._write(t, b), stream=True)
+        self.clients[ch] = transport
+        return ch
 
-    def _write(self, w: asyncio.StreamWriter, buf: bytes) -> None:
-        if w.is_closing():
+    def disconnected(self, ch: Channel) -> None:
+        ch.close()                  # its queued replies are dropped
+        self.clients.pop(ch, None)
+
+    def _write(self, t: asyncio.Transport, buf: bytes) -> None:
+        if t.is_closing():
             return
-        if w.transport.get_write_buffer_size() > self.MAX_BUFFERED:
-            self.clients.pop(w, None)
-            w.close()
+        if t.get_write_buffer_size() > self.MAX_BUFFERED:
+            t.abort()               # a client that stopped reading: dropped (connection_lost follows)
             return
-        w.write(buf)
+        t.write(buf)
 
     def listened(self) -> bool:
         return bool(self.clients)
 
     def send(self, buf: bytes) -> None:
-        for w in list(self.clients):
-            self._write(w, buf)
+        for t in list(self.clients.values()):
+            self._write(t, buf)
 
     def close(self) -> None:
-        for w in list(self.clients):
-            w.close()
-        self.clients.clear()
         if self.server is not None:
-            self.server.close()
+            self.server.close()     # no new clients
+        for t in list(self.clients.values()):
+            t.close()               # each client's connection_lost runs on the loop's next pass
 
 
 def make_endpoint(spec: str, on_data: Handler) -> Endpoint:

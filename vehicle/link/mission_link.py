@@ -1,10 +1,11 @@
-"""Glue between a VehicleLink and the pure mission protocol: messages in, replies out, plus the
-autopilot side (MISSION_SET_CURRENT, MAV_CMD_DO_SET_MISSION_CURRENT, MISSION_ITEM_REACHED,
-the GUIDED "fly to here" item with current = 2).
+"""Missions, the link capability: the pure mission protocol (vehicle/link/mission_protocol.py)
+between the link core and the autopilot: messages in, replies out, plus the autopilot side
+(MISSION_SET_CURRENT, MAV_CMD_DO_SET_MISSION_CURRENT, MISSION_ITEM_REACHED, the GUIDED "fly
+to here" item with current = 2).
 
 Replies go back on the channel the request came from; STATUSTEXT goes to every endpoint
-(ArduPilot's gcs().send_text). MISSION_CURRENT is built here for the SR0_EXT_STAT stream
-(ArduPilot streams it in the EXTENDED_STATUS group).
+(ArduPilot's gcs().send_text). MISSION_CURRENT (also streamed in SR0_EXT_STAT) is built by
+the telemetry.
 """
 from __future__ import annotations
 
@@ -13,8 +14,11 @@ import math
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from vehicle.autopilot.mission_store import MISSION
+from vehicle.link.command_link import Command, CommandLink
+from vehicle.link.link_core import LinkCore
 from vehicle.link.mission_items import check_mission_item, from_int, from_legacy
 from vehicle.link.mission_protocol import MissionProtocol, home_item
+from vehicle.link.telemetry import Telemetry
 
 # a guided item's frame as SET_POSITION_TARGET_GLOBAL_INT names it
 GUIDED_FRAMES = {mav.MAV_FRAME_GLOBAL: mav.MAV_FRAME_GLOBAL_INT, mav.MAV_FRAME_MISSION: mav.MAV_FRAME_GLOBAL_INT,
@@ -27,17 +31,23 @@ MISSION_MESSAGES = frozenset({"MISSION_COUNT", "MISSION_ITEM", "MISSION_ITEM_INT
 
 
 class MissionLink:
-    def __init__(self, link) -> None:
-        self.link = link
-        ap = link.ap
+    def __init__(self, core: LinkCore, ap, telemetry: Telemetry, commands: CommandLink) -> None:
+        """ap: the vehicle's autopilot (its mission store, runner and GUIDED target)."""
+        self.core = core
+        self.ap = ap
+        self.telemetry = telemetry
         self.protocol = MissionProtocol(
             store=ap.missions, home_item=lambda: home_item(*ap.home_lla()),
             running=lambda: ap.mission_current()[1] == mav.MISSION_STATE_ACTIVE,
             current_seq=self._current_seq, stored=lambda t: ap.mission_uploaded(t))
         ap.outbox.subscribe(item_reached=self.item_reached)
+        for msg_type in sorted(MISSION_MESSAGES | {"MISSION_SET_CURRENT"}):
+            core.register(msg_type, self.handle)
+        commands.register(mav.MAV_CMD_DO_SET_MISSION_CURRENT, self.command_set_current)
+        core.on_tick(self.update)
 
     def _current_seq(self) -> int:
-        seq, state = self.link.ap.mission_current()
+        seq, state = self.ap.mission_current()
         return seq if state in (mav.MISSION_STATE_ACTIVE, mav.MISSION_STATE_PAUSED) else -1
 
     def _send(self, outs) -> None:
@@ -45,10 +55,10 @@ class MissionLink:
         # MISSION_ACK / next request before "Flight plan received" or a warning
         for o in outs:
             if o.msg is not None:
-                self.link.send(o.msg, o.to)
+                self.core.send(o.msg, o.to)
         for o in outs:
             if o.msg is None:
-                self.link.statustext(o.severity, o.text)
+                self.core.statustext(o.severity, o.text)
 
     def handle(self, m, channel) -> None:
         """A MISSION_* message for us."""
@@ -60,11 +70,12 @@ class MissionLink:
             self._guided_item(m, channel)
             return
         self._send(self.protocol.handle(m, (m.get_srcSystem(), m.get_srcComponent()), channel,
-                                        self.link.clock()))
+                                        self.core.clock()))
 
-    def update(self, t: float) -> None:
+    def update(self) -> None:
+        """Every tick: re-request what an upload is missing, or give up on a stalled one."""
         if self.protocol.uploads:
-            self._send(self.protocol.update(t))
+            self._send(self.protocol.update(self.core.clock()))
 
     def _guided_item(self, m, channel) -> None:
         """A mission item with current = 2 is a GUIDED "fly to here" (ArduPilot's
@@ -81,36 +92,27 @@ class MissionLink:
             result = check_mission_item(item)
         if result == mav.MAV_MISSION_ACCEPTED:
             frame = GUIDED_FRAMES.get(item.frame, item.frame)
-            ok = self.link.ap.position_target_global(frame, POSITION_ONLY, item.x, item.y, item.z,
-                                                     (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, 0.0)
+            ok = self.ap.position_target_global(frame, POSITION_ONLY, item.x, item.y, item.z,
+                                                (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, 0.0)
             result = mav.MAV_MISSION_ACCEPTED if ok else mav.MAV_MISSION_ERROR
-        self.link.send(mav.MAVLink_mission_ack_message(src[0], src[1], result, MISSION), channel)
+        self.core.send(mav.MAVLink_mission_ack_message(src[0], src[1], result, MISSION), channel)
 
     # ----- the autopilot side -------------------------------------------------------------
     def set_current(self, seq) -> bool:
         """MISSION_SET_CURRENT: ArduPilot answers with MISSION_CURRENT when the seq is valid
         (and says nothing otherwise)."""
-        ok = self.link.ap.set_mission_current(int(seq))
+        ok = self.ap.set_mission_current(int(seq))
         if ok:
-            self.link.send(self.mission_current())
+            self.core.send(self.telemetry.mission_current())
         return ok
 
-    def command_set_current(self, p) -> int:
+    def command_set_current(self, c: Command) -> int:
         """MAV_CMD_DO_SET_MISSION_CURRENT (224): param1 seq, param2 1 = reset the mission first
         (handled by the runner through set_mission_current's seq)."""
-        seq = p[0]
+        seq = c.params[0]
         if not math.isfinite(seq) or seq < 0 or seq > 65535:
             return mav.MAV_RESULT_DENIED
         return mav.MAV_RESULT_ACCEPTED if self.set_current(int(seq)) else mav.MAV_RESULT_FAILED
 
     def item_reached(self, seq: int) -> None:
-        self.link.send(mav.MAVLink_mission_item_reached_message(int(seq)))
-
-    def mission_current(self):
-        """MISSION_CURRENT: seq, total (items after home, as ArduPilot), state, mission_mode
-        (1 in AUTO)."""
-        ap = self.link.ap
-        seq, state = ap.mission_current()
-        total = max(0, ap.missions.count(MISSION) - 1)
-        mode = 1 if ap.mode_name == "AUTO" else 0
-        return mav.MAVLink_mission_current_message(int(seq), total, int(state), mode)
+        self.core.send(mav.MAVLink_mission_item_reached_message(int(seq)))

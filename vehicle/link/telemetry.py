@@ -7,6 +7,7 @@ the world started; SYSTEM_TIME.time_unix_usec is the wall time at start plus sim
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -14,7 +15,9 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from common import geo
 from common.frames import euler_from_quaternion
-from vehicle.link.framing import layout
+from vehicle.autopilot.mission_store import MISSION
+from vehicle.link.framing import Framer, layout
+from vehicle.link.link_core import time_boot_ms
 from vehicle.telemetry import version
 from vehicle.telemetry.messages import message_builders
 from vehicle.telemetry.stream_groups import DATA_STREAMS, stream_groups  # noqa: F401 (DATA_STREAMS re-exported)
@@ -45,15 +48,20 @@ FLIGHT_SW_VERSION = version.FLIGHT_SW_VERSION
 
 
 class Telemetry:
-    """Builds messages for one vehicle; `link` gives framer, ap (autopilot), clock.
+    """Builds messages for one vehicle from its autopilot `ap`; `framer` packs them for its
+    link, `clock` is the world's sim time (s), `unix_start_us` the unix time of sim t = 0.
 
     Each message has one builder, `<name>_fields()`: the field values in the order of
     pymavlink's constructor (None when not available now). `frame(msgid)` packs them straight
     onto the wire (vehicle/link/framing.py: no message object); `build(msgid)` and the
     `<name>()` methods give pymavlink message objects for replies and tests."""
 
-    def __init__(self, link) -> None:
-        self.link = link
+    def __init__(self, ap, framer: Framer | None, clock: Callable[[], float] | None,
+                 unix_start_us: int = 0) -> None:
+        self.ap = ap
+        self.framer = framer
+        self.clock = clock
+        self.unix_start_us = unix_start_us
         # msgid -> its field builder (the messages this vehicle can send on request or stream)
         self.builders = {
             mav.MAVLINK_MSG_ID_HEARTBEAT: self.heartbeat_fields,
@@ -75,8 +83,7 @@ class Telemetry:
             mav.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN: self.gps_global_origin_fields,
         }
         # sensors, estimator health, outputs, navigation, board (vehicle/telemetry/)
-        ap = link.ap if link is not None else None
-        self.builders.update(message_builders(ap, lambda: self.link.clock()))
+        self.builders.update(message_builders(ap, lambda: self.clock()))
         self.groups = stream_groups(ap.kind if ap is not None else "copter")   # SR0_* -> message ids
 
     def build(self, msgid: int):
@@ -91,7 +98,11 @@ class Telemetry:
         """The message with this id framed for the link (advances nothing: the caller counts
         the sequence number), or None if not available now."""
         v = self.builders[msgid]()
-        return None if v is None else self.link.framer.frame(msgid, v)
+        return None if v is None else self.framer.frame(msgid, v)
+
+    def set_unix_start(self, unix_start_us: int) -> None:
+        """Sim t = 0 is this unix time (us) from now on (SYSTEM_TIME.time_unix_usec)."""
+        self.unix_start_us = unix_start_us
 
     # the message objects (replies, share_positions, tests)
     def heartbeat(self):
@@ -112,25 +123,32 @@ class Telemetry:
     def autopilot_version(self):
         return self.build(mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
 
-    def mission_current_fields(self) -> tuple:
-        m = self.link.missions.mission_current()
-        return tuple(getattr(m, f) for f in m.fieldnames)
+    def mission_current(self):
+        return self.build(mav.MAVLINK_MSG_ID_MISSION_CURRENT)
 
     # time
     def boot_ms(self) -> int:
-        return int(self.link.clock() * 1000.0) & 0xFFFFFFFF
+        return time_boot_ms(self.clock())
 
     def usec(self) -> int:
-        return int(self.link.clock() * 1e6)
+        return int(self.clock() * 1e6)
 
     # messages
+    def mission_current_fields(self) -> tuple:
+        """MISSION_CURRENT: seq, total (items after home, as ArduPilot), state, mission_mode
+        (1 in AUTO)."""
+        ap = self.ap
+        seq, state = ap.mission_current()
+        total = max(0, ap.missions.count(MISSION) - 1)
+        return (int(seq), total, int(state), 1 if ap.mode_name == "AUTO" else 0)
+
     def heartbeat_fields(self) -> tuple:
-        ap = self.link.ap
+        ap = self.ap
         return (ap.mav_type, mav.MAV_AUTOPILOT_ARDUPILOTMEGA, ap.base_mode(),
                 ap.mode, ap.system_status(), 3)
 
     def sys_status_fields(self) -> tuple:
-        ap = self.link.ap
+        ap = self.ap
         health = SENSORS_PRESENT & ~(S.MAV_SYS_STATUS_PREARM_CHECK)
         if not ap.est_ok:
             health &= ~POSITION_DEPENDENT
@@ -158,7 +176,7 @@ class Telemetry:
                 -1 if b.remaining_pct is None else b.remaining_pct, 0, 0, 0, 0, 0, 0, 0, 0, 0)
 
     def gps_raw_int_fields(self) -> tuple:
-        ap = self.link.ap
+        ap = self.ap
         lat, lon, alt = ap.lla()
         ok = ap.est_ok
         vx, vy, _ = ap.vel.tolist()
@@ -171,7 +189,7 @@ class Telemetry:
                 _i(alt * 1000, -2**31, 2**31 - 1), 300, 500, 100, 0, 0)
 
     def global_position_int_fields(self) -> tuple:
-        ap = self.link.ap
+        ap = self.ap
         lat, lon, alt = ap.lla()
         home_alt = ap.home_lla()[2]
         hdg = math.degrees(ap.yaw) % 360.0
@@ -184,29 +202,29 @@ class Telemetry:
     def local_position_ned_fields(self) -> tuple | None:
         # NED from this vehicle's EKF origin; none before it is set (ArduPilot has no local
         # position then either)
-        ap = self.link.ap
+        ap = self.ap
         if not ap.local_origin.is_set:
             return None
         return (self.boot_ms(), *ap.local_origin.to_local(ap.pos).tolist(), *ap.vel.tolist())
 
     def attitude_fields(self) -> tuple:
-        ap = self.link.ap
+        ap = self.ap
         return (self.boot_ms(), *ap.euler, *ap.rates.tolist())
 
     def attitude_quaternion_fields(self) -> tuple:
-        ap = self.link.ap
+        ap = self.ap
         x, y, z, w = ap.quat.tolist()
         return (self.boot_ms(), w, x, y, z, *ap.rates.tolist(), [0.0, 0.0, 0.0, 0.0])
 
     def vfr_hud_fields(self) -> tuple:
-        ap = self.link.ap
+        ap = self.ap
         vx, vy, vz = ap.vel.tolist()
         gs = float(np.hypot(vx, vy))
         thr = 0 if not ap.armed else (15 if ap.on_ground else 50)
         return (gs, gs, _i(math.degrees(ap.yaw) % 360.0, 0, 359), thr, float(ap.lla()[2]), -vz)
 
     def home_position_fields(self) -> tuple | None:
-        ap = self.link.ap
+        ap = self.ap
         if ap.home is None:
             return None
         lat, lon, alt = ap.home_lla()
@@ -216,7 +234,7 @@ class Telemetry:
 
     def gps_global_origin_fields(self) -> tuple | None:
         """Where the vehicle's local NED (0, 0, 0) is; None until the EKF origin is set."""
-        o = self.link.ap.ekf_origin()
+        o = self.ap.ekf_origin()
         if o is None:
             return None
         lat, lon, alt = o
@@ -224,21 +242,21 @@ class Telemetry:
                 _i(alt * 1000, -2**31, 2**31 - 1), self.usec())
 
     def extended_sys_state_fields(self) -> tuple:
-        return (mav.MAV_VTOL_STATE_UNDEFINED, self.link.ap.landed_state())
+        return (mav.MAV_VTOL_STATE_UNDEFINED, self.ap.landed_state())
 
     def system_time_fields(self) -> tuple:
         # one clock reading for both fields: time_unix_usec - time_boot_ms * 1000 is then the
         # world's start in unix time (to the ms truncation of time_boot_ms), the offset a
         # bridge uses to put vehicles of different worlds/processes on one timeline
-        t = self.link.clock()
-        return (int(self.link.unix_start_us + int(t * 1e6)),
+        t = self.clock()
+        return (int(self.unix_start_us + int(t * 1e6)),
                 int(t * 1000.0) & 0xFFFFFFFF)
 
     def battery_status_fields(self) -> tuple | None:
         """As ArduPilot's send_battery_status: no cell voltages, so voltages[0] is the pack
         (mV), the rest UINT16_MAX; energy in hJ; -1 where the monitor cannot measure;
         charge_state from the battery failsafe. None with BATT_MONITOR 0 (no battery)."""
-        ap = self.link.ap
+        ap = self.ap
         r = ap.battery.reading(ap.params.values)
         if r.voltage is None:
             return None
@@ -254,7 +272,7 @@ class Telemetry:
                 state, [0, 0, 0, 0], 0, 0)
 
     def position_target_local_ned_fields(self) -> tuple | None:
-        ap = self.link.ap
+        ap = self.ap
         t = ap.echo
         if t is None:
             return None
@@ -266,7 +284,7 @@ class Telemetry:
                 float(t.yaw or 0.0), float(t.yaw_rate or 0.0))
 
     def sim_state_fields(self) -> tuple:
-        ap = self.link.ap
+        ap = self.ap
         px, py, pz, vx, vy, vz, qx, qy, qz, qw, wx, wy, wz, ax, ay, az = ap.fleet.truth_row(ap.i)
         r, p, y = euler_from_quaternion((qx, qy, qz, qw))
         lat, lon, alt = geo.ned_to_lla(ap.origin, (px, py, pz))
@@ -274,6 +292,6 @@ class Telemetry:
                 _i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1))
 
     def autopilot_version_fields(self) -> tuple:
-        ap = self.link.ap
+        ap = self.ap
         return (CAPABILITIES, FLIGHT_SW_VERSION, 0, 0, 0, version.custom_version_bytes(), [0] * 8, [0] * 8, 0, 0,
                 0x746C0000 + ap.sysid, [0] * 18)
