@@ -10,6 +10,8 @@ default world in-process.
     CPU of the world process from /proc/PID/stat over a steady window; sim seconds per
     wall second from network 0 / sysid 1's SYSTEM_TIME; an in-process, unpaced split of
     CPU per sim second between the fleets and the autopilots + telemetry.
+    Onboard logging is on, with ArduPilot's defaults (a log opens at arming): nothing arms
+    here, so no log is written; `towerlink bench logs` gives an armed vehicle's cost.
     Peer (stated, not run): ArduPilot SITL runs one process per vehicle and stops at 256
     instances (PX4's multi-vehicle scripts at 254), each with its own ports.
 (b) 10,000 drones (CopterFleet on truth: controller + physics, no sensors) stepped at
@@ -239,6 +241,7 @@ def world_bench(drones: int, rovers: int, seconds: float, workers: int = 2) -> t
             ["messages / s per vehicle", f"{(p1 - p0) / wall / n:.1f}", "", "-"],
             ["UDP datagrams / s", f"{(d1 - d0) / wall:.0f}", "", "-"],
             ["kB / s", f"{(b1 - b0) / wall / 1024:.0f}", "", "-"],
+            ["onboard logs (vehicle/logs/)", "on, none written", "", "-"],   # default LOG_*: a log opens at arming; nothing arms here
             ["peer: ArduPilot SITL (stated, not run)", "1 process per vehicle", "at most 256 instances", "-"]]
     ok = seen == n and sink.misrouted == 0
     return table(f"(a) World of {n} vehicles ({drones} drones, {rovers} rovers), full default MAVLink telemetry "

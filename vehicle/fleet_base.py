@@ -296,6 +296,14 @@ class FleetBase:
             snap = self._est_snap = (self.sim_time, *arrays)
         return snap[1][i], snap[2][i], snap[3][i], snap[4][i]
 
+    def gps_fix(self, i: int) -> list[float] | None:
+        """Vehicle i's latest GPS sample as [n, e, d, vn, ve, vd] (world NED m, m/s; the
+        noisy receiver the estimator fuses), None before the first one; the truth when
+        the fleet flies without an estimator (no GPS model)."""
+        if not self.use_estimator:
+            return self.truth_row(i)[0:6]
+        return self.sensors.gps_reading(i)
+
     def estimate_ok(self, i: int) -> bool:
         """Position estimate good (pre-arm): always True when flying on truth."""
         return True if not self.use_estimator else bool(self.estimator.ok[i])

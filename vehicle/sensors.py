@@ -102,6 +102,7 @@ class Sensors:
         self.noise = NoiseSource(rngs, ROW)
         self.gyro_src = NoiseSource(rngs, 3, scale=sp.gyro_sigma, offset=self.gyro_bias)
         self.gps_pos = self.gps_vel = self.baro_alt = None
+        self._gps_rows: tuple[list, list] | None = None     # sample_rows' latest GPS reading
         self.gps_fresh = False
         self.baro_fresh = False
         self.z = None
@@ -124,6 +125,7 @@ class Sensors:
             sig = np.array([sp.gps_pos_sigma, sp.gps_pos_sigma, sp.gps_alt_sigma])
             self.gps_pos = pos + sig * z[:, _GPS_P:_GPS_P + 3]
             self.gps_vel = vel + sp.gps_vel_sigma * z[:, _GPS_V:_GPS_V + 3]
+            self._gps_rows = None
         self.baro_fresh = baro
         if baro:
             self.baro_alt = -pos[:, 2] + sp.baro_sigma * z[:, _BARO]
@@ -149,6 +151,17 @@ class Sensors:
                        for p, zi in zip(pos, z)]
             gps_vel = [(v[0] + sg_v * zi[_GPS_V], v[1] + sg_v * zi[_GPS_V + 1], v[2] + sg_v * zi[_GPS_V + 2])
                        for v, zi in zip(vel, z)]
+            self._gps_rows = (gps_pos, gps_vel)
         if baro:
             baro_alt = [-p[2] + sb * zi[_BARO] for p, zi in zip(pos, z)]
         return z, accel, gps_pos, gps_vel, baro_alt
+
+    def gps_reading(self, i: int) -> list[float] | None:
+        """Vehicle i's latest GPS reading [n, e, d, vn, ve, vd] (world NED m, m/s), from
+        sample() or sample_rows(); None before the first."""
+        rows = self._gps_rows
+        if rows is not None:
+            return [*rows[0][i], *rows[1][i]]
+        if self.gps_pos is None:
+            return None
+        return [*self.gps_pos[i].tolist(), *self.gps_vel[i].tolist()]

@@ -34,6 +34,7 @@ import threading
 import time
 
 from vehicle.autopilot import ParamStore
+from vehicle.logs.world_logs import WorldLogs
 from vehicle.physics.wind import WindField, WindParams
 from vehicle.world_build import Vehicle, build, start_position
 from vehicle.world_config import DEFAULT_HOME, WorldConfig
@@ -65,8 +66,9 @@ class World:
         lo, hi = cfg.share_range()
         self.lockstep = (WorldLockstep(self, hi - lo, cfg.lockstep, cfg.lockstep_period, cfg.lockstep_timeout)
                          if cfg.lockstep > 0 else None)
+        self.logs = WorldLogs()          # the onboard logs' writer thread (vehicle/logs/)
         built = build(cfg, self.plan, self.clock, self.unix_start_us, self._wind_set,
-                      self.lockstep.intake if self.lockstep is not None else lambda index: None)
+                      self.lockstep.intake if self.lockstep is not None else lambda index: None, self.logs)
         self.fleets: list[tuple[str, object]] = built.fleets
         self.vehicles = built.vehicles
         self._fleet_ids = built.fleet_ids
@@ -188,6 +190,7 @@ class World:
         finally:
             for v in self.vehicles:
                 v.link.close()
+            self.logs.close()           # the logs' last bytes written (the links closed them)
             await asyncio.sleep(0)      # closed connections end while the loop still runs
 
     async def _lockstep(self) -> None:
@@ -290,6 +293,7 @@ class World:
         self.unix_start_us = int(start_at * 1e6)
         for v in self.vehicles:
             v.link.telemetry.set_unix_start(self.unix_start_us)
+            v.link.logs.set_unix_start(self.unix_start_us)
 
     def stats_line(self) -> str:
         parts = []

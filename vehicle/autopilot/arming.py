@@ -65,6 +65,7 @@ class Arming:
         ap.fleet.set_armed(ap.i, True)
         ap.hold_here()
         self.on_armed()
+        ap.outbox.arming(True, force, "")
         ap.text(mav.MAV_SEVERITY_INFO, "Arming motors")
         return ACCEPTED
 
@@ -83,6 +84,7 @@ class Arming:
         ap.auto.mission.on_disarmed(ap.flightmode is ap.auto)
         ap.auto_armed = False
         self.on_disarmed()
+        ap.outbox.arming(False, force, reason)
         ap.text(mav.MAV_SEVERITY_INFO, f"Disarming motors{': ' + reason if reason else ''}")
         return ACCEPTED
 

@@ -233,6 +233,7 @@ class Autopilot:
         self.flightmode = new
         self.hold_here()
         new.enter()
+        self.outbox.mode(number, reason)
         return True
 
     def mode_change_failed(self, mode: Mode, reason: str) -> None:

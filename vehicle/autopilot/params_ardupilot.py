@@ -6,7 +6,7 @@ QGroundControl's setup pages (airframe, radio, flight modes, safety, power), MAV
 look these up; a missing name shows as an error or an empty page. Each doc says what towerlink
 does with the parameter: most are honoured where the simulation has the concept (listed in
 USED_*), the rest are stored, range-checked and persisted as ArduPilot would, and the doc starts
-"not simulated" (no RC radio, no compass calibration, no logging...) or names the issue-10 part
+"not simulated" (no RC radio, no compass calibration...) or names the issue-10 part
 that will use them (FOLL_*: FOLLOW; SIM_WIND_*: wind; BATT_LOW_*/BATT_FS_*: battery failsafe).
 
 Tables: list of ParamDef (vehicle/autopilot/param_def.py, tables in params.py); the first table that names a
@@ -70,9 +70,10 @@ _SHARED = [
     ("BRD_SAFETY_DEFLT", 0, 0, 1, I8, "", f"safety switch default state ({NS}: no safety switch)"),
     ("SERIAL0_BAUD", 115, 1, 2000, I32, "", f"USB console baud (kbaud code) ({NS})"),
     ("SERIAL0_PROTOCOL", 2, -1, 50, I8, "", f"USB console protocol: 2 MAVLink2 ({NS})"),
-    ("LOG_BITMASK", 176126, 0, 2**31 - 1, I32, "", f"what the dataflash log records ({NS}: no dataflash log)"),
-    ("LOG_BACKEND_TYPE", 1, 0, 15, I8, "", f"log backends bitmask ({NS})"),
-    ("LOG_DISARMED", 0, 0, 4, I8, "", f"log while disarmed ({NS})"),
+    ("LOG_BITMASK", 176126, 0, 2**31 - 1, I32, "", f"what the dataflash log records ({NS}: the onboard log records its fixed set)"),
+    ("LOG_BACKEND_TYPE", 1, 0, 15, I8, "", "log backends bitmask: bit 0 the File backend (the onboard .BIN logs), 0 no logging"),
+    ("LOG_DISARMED", 0, 0, 4, I8, "", "log while disarmed: 0 no (a log opens at arming), 1 and 2 yes, 3 yes but a log that never saw arming is discarded"),
+    ("LOG_FILE_DSRMROT", 0, 0, 1, I8, "", "close the log at disarm (one log per arming) instead of at reboot"),
     ("AHRS_EKF_TYPE", 3, 0, 11, I8, "", "estimator: 3 EKF3 (towerlink's estimator plays that part)"),
     ("EK3_ENABLE", 1, 0, 1, I8, "", "EKF3 enabled (towerlink's estimator)"),
     ("EK2_ENABLE", 0, 0, 1, I8, "", f"EKF2 enabled ({NS})"),

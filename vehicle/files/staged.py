@@ -22,6 +22,8 @@ import shutil
 import stat
 import tempfile
 
+from vehicle.files.durable import fsync_path
+
 
 def staging_dir_for(root: bytes) -> bytes:
     """The staging directory of a root: a hidden sibling, on the same file system."""
@@ -75,7 +77,7 @@ class StagedFile:
         except OSError:
             _unlink(self.path)
             raise
-        _fsync_dir(os.path.dirname(self.target))
+        fsync_path(os.path.dirname(self.target), directory=True)
 
     def discard(self) -> None:
         if self.fd is not None:
@@ -90,15 +92,3 @@ def _unlink(path: bytes) -> None:
     except OSError:
         pass
 
-
-def _fsync_dir(path: bytes) -> None:
-    try:
-        fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
