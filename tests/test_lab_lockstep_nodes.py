@@ -236,7 +236,7 @@ def test_a_lockstep_node_joins_runs_its_loop_at_each_tick_and_acks_after_what_it
         assert got[0].get_type() == "NAMED_VALUE_FLOAT" and got[0].value == pytest.approx(0.12)
         assert (got[1].kind, got[1].time_usec, got[1].period_usec) == (ls.ACK, 120_000, 7)
         bridge.mav.statustext_send(6, b"to the node")
-        time.sleep(0.3)                         # the callback ran and sent: held until a TICK
+        time.sleep(0.3)   # a negative: give the callback time to send; nothing may leave before the TICK
         bridge.mav.towerlink_lockstep_send(160_000, 0, ls.TICK, ls.BRIDGE, 1)   # not due for the loop
         got = [recv(("STATUSTEXT", "TOWERLINK_LOCKSTEP")) for _ in range(2)]
         assert got[0].get_type() == "STATUSTEXT" and got[1].kind == ls.ACK and got[1].time_usec == 160_000

@@ -47,8 +47,8 @@ def test_world(k, request):
     open(os.path.join(OUT, f"started-{me}"), "w").close()
     end = time.time() + 60
     while len([n for n in os.listdir(OUT) if n.startswith("started-")]) < 2 and time.time() < end:
-        time.sleep(0.05)
-    time.sleep(0.5)
+        time.sleep(0.05)  # poll
+    time.sleep(0.5)   # hold the worlds open so the two workers' worlds overlap (the point of the test)
     rec = {"k": k, "worker": os.environ.get("PYTEST_XDIST_WORKER"), "ports": ports, "t0": t0, "t1": time.time()}
     with open(os.path.join(OUT, f"{k}.json"), "w") as f:
         json.dump(rec, f)
