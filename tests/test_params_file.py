@@ -72,3 +72,13 @@ def test_sitl_starts_with_a_damaged_saved_file(processes, tmp_path, content):
         assert value == 2500 and f"{state / 'drone0.parm'}:2: skipped a bad line" in out
     assert "Traceback" not in out
     m.close()
+
+
+def test_a_deferred_store_writes_on_flush_only(tmp_path):
+    """The link's stores are deferred: a burst of PARAM_SETs is one file write, at flush()."""
+    p = tmp_path / "drone0.parm"
+    ps = ParamStore(COPTER_TABLE, None, str(p), deferred=True)
+    assert ps.set("RTL_ALT", 2000) is None and ps.set("DISARM_DELAY", 4) is None
+    assert not p.exists() and ps["RTL_ALT"] == 2000
+    ps.flush()
+    assert p.read_text().splitlines() == ["DISARM_DELAY 4", "RTL_ALT 2000"]

@@ -84,7 +84,7 @@ def build(cfg: WorldConfig, plan: NetworkPlan, clock: Callable[[], float], unix_
             defaults["SYSID_THISMAV"] = plan.vehicles[first + j].sysid
             save = (os.path.join(cfg.state_dir, f"{'drone' if kind == 'copter' else 'rover'}{j}.parm")
                     if cfg.state_dir else None)
-            stores.append(ParamStore(core + table, defaults, save))
+            stores.append(ParamStore(core + table, defaults, save, deferred=True))   # the link flushes
             saves.append(save)
         if cfg.params_file:          # once per kind: unknown names / bad values, not fatal
             for msg in file_warnings(file_params, stores[0].defs, kind, cfg.params_file):

@@ -32,11 +32,10 @@ class ParamLink:
         self.params = params
         self.streams = streams
         self.params_changed = params_changed or (lambda values: None)
-        params.deferred = True                 # saved once a tick by flush(), and at close
         core.register("PARAM_REQUEST_LIST", self.on_param_request_list)
         core.register("PARAM_REQUEST_READ", self.on_param_request_read)
         core.register("PARAM_SET", self.on_param_set)
-        core.on_tick(params.flush)             # the PARAM_SETs of a tick reach the file together
+        core.on_tick(params.flush)             # a deferred store's PARAM_SETs of a tick reach the file together
         core.on_close(params.flush)
 
     def param_value(self, name: str):
