@@ -168,3 +168,11 @@ def test_summarize_and_format(tmp_path):
     assert "MISSION OK: 1/1 goals reached" in text
     assert "[ -4.00,  -2.00]" in text
     assert "yaw-only" in text and "RMS 0.50 m" in text
+
+
+def test_the_follower_is_named_by_who_sent_the_rover_its_goals():
+    from tools.run_summary import follower
+    assert follower({}, None) == "bridge tf follow (sysid 2)"
+    assert follower({"nodes": ["drone_frames", "follow_rover"]}, None) == \
+        "the nodes' follow (drone_frames, follow_rover) (sysid 2)"
+    assert follower({"nodes": ["follow_rover"]}, 2) == "ArduPilot FOLLOW (sysid 2)"

@@ -96,7 +96,7 @@ def summarize(run_dir: str | os.PathLike, *, data: RunData | None = None,
             follow_ap["by"] = f"ArduPilot FOLLOW (sysid {ap_sysid})"
     if drone_truth is not None and rover_truth is not None and len(drone_truth) and len(rover_truth):
         follow = _follow_error(drone_truth, rover_truth, t0, t1)
-        follow["by"] = "ArduPilot FOLLOW (sysid 2)" if ap_sysid == ROVER else "bridge tf follow (sysid 2)"
+        follow["by"] = follower(meta, ap_sysid)
     elif data.follow:  # no truth recorded: the bridge's view (telemetry estimates)
         f = data.follow
         m = in_window(f["t"], t0, t1) & np.isfinite(f["rover_x"])
@@ -162,6 +162,16 @@ def read_applied(run_dir: str | os.PathLike) -> list[dict]:
     if not p.exists():
         return []
     return list(json.loads(p.read_text()).get("applied", []))
+
+
+def follower(meta: dict, ap_sysid: int | None) -> str:
+    """Who made rover sysid 2 follow the drone: ArduPilot's FOLLOW mode on it, the lab's nodes
+    (fly --nodes: a node sends the rover its goals), or the bridge's tf follow."""
+    if ap_sysid == ROVER:
+        return "ArduPilot FOLLOW (sysid 2)"
+    if meta.get("nodes"):
+        return f"the nodes' follow ({', '.join(meta['nodes'])}) (sysid 2)"
+    return "bridge tf follow (sysid 2)"
 
 
 def _follow_error(drone_truth, rover_truth, t0, t1) -> dict[str, Any]:
