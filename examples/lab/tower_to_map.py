@@ -10,11 +10,11 @@ fly.launch), transforms the goal into world and publishes it to the drone (the l
     python tower_to_map.py --connect udpout:127.0.0.1:14620
 """
 from common.mavlink.dialect import towerlink as tl
+from common.mavlink.ids import TOWER_SYSID      # the tower: its goals come from this system
 from common.frames import InvalidArgumentException
 from common.tf2_ros import (LATEST, Buffer, DroneGoalPublisher, Node, PointStamped, TransformException,
                             TransformListener, do_transform_point, node_args)
 
-TOWER_SYSID = 255                   # the tower: its goals come from this system
 DRONE_SYSID = 1
 
 

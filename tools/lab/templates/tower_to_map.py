@@ -7,10 +7,10 @@ publish it to the drone. Try it: `towerlink lab check . --checkpoint 1`.
 """
 # ruff: noqa: F401  (the skeleton imports the names its TODOs need)
 from common.mavlink.dialect import towerlink as tl
+from common.mavlink.ids import TOWER_SYSID      # the tower: its goals come from this system
 from common.tf2_ros import (LATEST, Buffer, DroneGoalPublisher, Node, PointStamped, TransformException,
                             TransformListener, do_transform_point, node_args)
 
-TOWER_SYSID = 255                   # the tower: its goals come from this system
 DRONE_SYSID = 1
 
 
