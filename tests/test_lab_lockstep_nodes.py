@@ -192,9 +192,11 @@ def test_a_lockstep_node_joins_runs_its_loop_at_each_tick_and_acks_after_what_it
     bridge = mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=250, source_component=191)
     node = Node("lab_probe", f"udpout:127.0.0.1:{port}", lockstep=True, heartbeat=False)
     loop_times: list[float] = []
+    callbacks: list[float] = []
 
     def on_text(m):                            # a callback's send between TICKs waits for the next TICK
         node.send(tl.MAVLink_statustext_message(6, b"from the callback"))
+        callbacks.append(node.now())
 
     node.subscribe("STATUSTEXT", on_text)
 
@@ -236,7 +238,12 @@ def test_a_lockstep_node_joins_runs_its_loop_at_each_tick_and_acks_after_what_it
         assert got[0].get_type() == "NAMED_VALUE_FLOAT" and got[0].value == pytest.approx(0.12)
         assert (got[1].kind, got[1].time_usec, got[1].period_usec) == (ls.ACK, 120_000, 7)
         bridge.mav.statustext_send(6, b"to the node")
-        time.sleep(0.3)   # a negative: give the callback time to send; nothing may leave before the TICK
+        wait_until(lambda: callbacks, 5, "the node's STATUSTEXT callback")
+        # its send returned before the append: a datagram sent at once would be queued on the
+        # bridge's socket by now (loopback); none may be there before the TICK
+        early = [m for m in iter(lambda: bridge.recv_match(blocking=False), None)]
+        assert [m.get_type() for m in early if m.get_type() == "STATUSTEXT"] == []
+        backlog.extend(early)
         bridge.mav.towerlink_lockstep_send(160_000, 0, ls.TICK, ls.BRIDGE, 1)   # not due for the loop
         got = [recv(("STATUSTEXT", "TOWERLINK_LOCKSTEP")) for _ in range(2)]
         assert got[0].get_type() == "STATUSTEXT" and got[1].kind == ls.ACK and got[1].time_usec == 160_000
