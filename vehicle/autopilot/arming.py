@@ -58,6 +58,10 @@ class Arming:
                 for f in fails:
                     ap.text(mav.MAV_SEVERITY_CRITICAL, f"PreArm: {f}")
                 return FAILED
+            why = self.arm_check_failure()
+            if why:
+                ap.text(mav.MAV_SEVERITY_CRITICAL, f"Arm: {why}")
+                return FAILED
         if ap.home is None:
             ap.home = ap.pos.copy()
         ap.armed = True
@@ -89,6 +93,11 @@ class Arming:
         return ACCEPTED
 
     # ----- what a vehicle adds ------------------------------------------------------------
+    def arm_check_failure(self) -> str:
+        """The first of the vehicle's arm checks (AP_Arming::arm_checks, after the pre-arm
+        ones; said as "Arm: <why>") that fails now, '' when none does."""
+        return ""
+
     def may_disarm(self) -> bool:
         """May it disarm unforced now?"""
         return True

@@ -33,6 +33,8 @@ from vehicle.autopilot.mission_store import MissionStore
 from vehicle.autopilot.mode import Mode
 from vehicle.autopilot.outbox import Outbox
 from vehicle.autopilot.params import ParamStore
+from vehicle.autopilot.radio_failsafe import RadioFailsafe
+from vehicle.autopilot.rc_input import RcInput
 from vehicle.autopilot.smartrtl import SmartRTLPath
 from vehicle.autopilot.speed import SpeedOverride
 from vehicle.fleet import Setpoint
@@ -53,6 +55,7 @@ class Autopilot:
     arming_class: type = Arming
     commands_class: type = object
     failsafe_class: type = object
+    radio_failsafe_class: type = RadioFailsafe
     speed_param: tuple[str, float, float, float] = ("", 1.0, 0.0, 100.0)   # name, per m/s, default, max m/s
 
     def __init__(self, fleet, index: int, params: ParamStore, origin: tuple[float, float, float],
@@ -91,6 +94,8 @@ class Autopilot:
         self.arming = self.arming_class(self)
         self.commands = self.commands_class(self)
         self.failsafe = self.failsafe_class(self)
+        self.rc = RcInput(params)                    # the pilot's sticks (rc_input.py)
+        self.radio = self.radio_failsafe_class(self)
         self.flightmodes: dict[int, Mode] = {}
         for cls in self.mode_classes:                # in order: AUTO takes the RTL object
             self.flightmodes[cls.number] = cls(self)
@@ -199,7 +204,7 @@ class Autopilot:
         return flags | (mav.MAV_MODE_FLAG_SAFETY_ARMED if self.armed else 0)
 
     def system_status(self) -> int:
-        if self.failsafe.gcs_failsafe and self.armed:
+        if (self.failsafe.gcs_failsafe or self.radio.active) and self.armed:
             return mav.MAV_STATE_CRITICAL
         return mav.MAV_STATE_ACTIVE if self.armed else mav.MAV_STATE_STANDBY
 
@@ -260,6 +265,7 @@ class Autopilot:
         if self.home is None and self.est_ok:
             self.home = self.home_from_fix()
             self.text(SEV_INFO, "Home set")       # ArduPilot: EKF origin/home from GPS
+        self.radio.update(t, self.rc.read(t))
         self.failsafe.update(t, dt)
         self.fence.check(t)
         mode = self.flightmode

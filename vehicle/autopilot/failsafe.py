@@ -44,6 +44,7 @@ class Failsafes:
         enable = int(ap.params.get("FS_GCS_ENABLE", 0))
         if enable and ap.t - self.last_gcs > float(ap.params.get("FS_GCS_TIMEOUT", 5.0)):
             self.gcs_failsafe = True
+            ap.rc.clear_overrides()          # RC control goes back to the radio
             self.gcs_action(enable)
 
     # ----- GCS ----------------------------------------------------------------------------

@@ -5,6 +5,7 @@
 - Battery, BATT_FS_*_ACT: 1 RTL or Hold, 2 Hold, 3 SmartRTL or RTL or Hold, 4 SmartRTL or
   Hold, 5 Terminate (disarm).
 - Fence, FENCE_ACTION: as FS_ACTION 1..4.
+- Radio (radio_failsafe.py decides when), FS_ACTION: as the GCS failsafe's, 5 disarms.
 """
 from __future__ import annotations
 
@@ -38,6 +39,14 @@ class RoverFailsafes(Failsafes):
             return
         got = self._action_mode(action, "GCS failsafe")
         ap.text(mav.MAV_SEVERITY_WARNING, f"GCS Failsafe On: {SAID.get(got, 'Hold')}")
+
+    def radio_action(self, action: int) -> None:
+        """FS_ACTION on a radio failsafe (radio_failsafe.py): 0 nothing, 5 disarm, else as
+        the GCS failsafe's modes."""
+        if action == TERMINATE:
+            self.ap.disarm(force=True)
+        elif action:
+            self._action_mode(action, "radio failsafe")
 
     def battery_action(self, action: int) -> None:
         if action == TERMINATE:

@@ -9,6 +9,7 @@ of an ArduPilot vehicle plugged in, as MAVSDK's plugins sit on its core.
   files       vehicle/link/ftp_link.py        MAVFTP (the vehicle's root directory, @PARAM/param.pck)
   positions   vehicle/link/position_link.py   position targets, the EKF origin, FOLLOW's lead
   logs        vehicle/link/log_link.py        the onboard DataFlash log and LOG_* (its download)
+  sticks      vehicle/link/rc_link.py         RC_CHANNELS_OVERRIDE, MANUAL_CONTROL (pilot input)
 
 Each registers with the core the message types and commands it answers; STATUSTEXT and
 MISSION_ITEM_REACHED come from the autopilot's outbox, to which the link subscribes.
@@ -25,6 +26,7 @@ from vehicle.link.log_link import LogLink
 from vehicle.link.mission_link import MissionLink
 from vehicle.link.param_link import ParamLink
 from vehicle.link.position_link import PositionLink
+from vehicle.link.rc_link import RcLink
 from vehicle.link.stream_link import StreamLink
 from vehicle.link.telemetry import Telemetry
 from vehicle.logs.world_logs import WorldLogs
@@ -57,4 +59,5 @@ class VehicleLink(LinkCore):
                      if logs is not None else None)
         self.files = FtpLink(self, ap.params, files_root)
         self.positions = PositionLink(self, ap, self.telemetry)
+        self.sticks = RcLink(self, ap)
         ap.outbox.subscribe(text=self.statustext)

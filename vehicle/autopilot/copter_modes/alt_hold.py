@@ -1,7 +1,10 @@
 """ALT_HOLD (ArduCopter/mode_althold.cpp ModeAltHold): the pilot's angles, automatic throttle.
 
-Sticks centred: level attitude (roll/pitch 0) and climb rate 0, so the altitude at entry is
-held and the copter drifts horizontally with what momentum it has.
+Sticks: lean angles up to ANGLE_MAX, the yaw stick's rate, the throttle stick a climb rate
+(PILOT_SPEED_UP / PILOT_SPEED_DN, THR_DZ about mid stick, slewed at PILOT_ACCEL_Z); on the
+ground a climb takes off. Sticks centred (or no RC input): level attitude (roll/pitch 0)
+and climb rate 0, so the altitude is held and the copter drifts horizontally with what
+momentum it has.
 """
 from __future__ import annotations
 
@@ -22,7 +25,19 @@ class ModeAltHold(CopterMode):
         """Only a takeoff the pilot may steer (it holds no position)."""
         return not must_navigate
 
+    def leaves_ground(self) -> bool:
+        """A climb asked for on the ground takes off (the pilot takeoff)."""
+        return self.is_taking_off() or self.pilot.wanted_climb() > 0.0
+
     def fly(self, dt: float) -> None:
         ap = self.ap
-        ap.echo = GuidedTarget("acc", None, None, np.zeros(3), ap.hold_yaw, None)
-        ap.setpoint(pos=np.array([NAN, NAN, ap.hold_pos[2]]), level=True, yaw=ap.hold_yaw)
+        z, vz = self.pilot.vertical(dt)
+        roll, pitch = self.pilot.lean()
+        rate = self.pilot.yaw(dt)
+        if roll == pitch == rate == vz == 0.0:
+            ap.echo = GuidedTarget("acc", None, None, np.zeros(3), ap.hold_yaw, None)
+            ap.setpoint(pos=np.array([NAN, NAN, z]), level=True, yaw=ap.hold_yaw)
+            return
+        ap.echo = None
+        ap.setpoint(pos=np.array([NAN, NAN, z]), vel=np.array([0.0, 0.0, vz]), roll=roll, pitch=pitch,
+                    yaw=ap.hold_yaw, yaw_rate=rate)

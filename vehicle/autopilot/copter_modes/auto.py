@@ -80,7 +80,7 @@ class ModeAuto(MissionMode, CopterMode):
         self.ap.echo = GuidedTarget("pos", m.dest.copy(), None, None, yaw, None)
 
     def _land(self, dt: float) -> None:
-        self.land_run()
+        self.land_run(dt)
 
     def _rtl(self, dt: float) -> None:
         self.mission.rtl.fly(dt)

@@ -2,8 +2,14 @@
 helpers): the hooks ArduCopter adds for a multicopter, the ground handling every mode runs
 first, the user takeoff and the landing descent.
 
-No RC is simulated, so each mode runs as ArduCopter does with the sticks centred.
-Setpoints are world NED (m, z down) for the CopterFleet.
+The pilot's sticks come from the RC input (vehicle/autopilot/rc_input.py: a GCS's
+RC_CHANNELS_OVERRIDE or MANUAL_CONTROL); each mode reads them through its PilotControl
+(pilot_control.py). Without RC input every stick reads centred and each mode runs as
+ArduCopter does with the sticks centred. With it, read_pilot_input() keeps ArduCopter's
+auto_armed (update_auto_armed): set once armed with the throttle above zero, cleared in a
+manual-throttle mode when the throttle is back at zero (not in the radio failsafe).
+LAND_REPOSITION lets the sticks move a landing (LAND, RTL's and AUTO's final descent) and
+the yaw stick turns it. Setpoints are world NED (m, z down) for the CopterFleet.
 """
 from __future__ import annotations
 
@@ -14,6 +20,7 @@ import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from vehicle.autopilot import modes
+from vehicle.autopilot.copter_modes.pilot_control import PilotControl
 from vehicle.autopilot.guided import GuidedTarget
 from vehicle.autopilot.mode import Mode
 
@@ -41,6 +48,10 @@ class CopterMode(Mode):
     """A copter mode. Subclasses fly in `fly(dt)`; run() first handles disarmed and landed."""
 
     names = modes.COPTER_MODES
+
+    def __init__(self, ap) -> None:
+        super().__init__(ap)
+        self.pilot = PilotControl(ap)
 
     disarm_on_land = False      # LAND, RTL, SMART_RTL: disarm once landed (after LANDED_DISARM_S armed)
     reports_guided_enabled = False
@@ -71,6 +82,21 @@ class CopterMode(Mode):
 
     def exit(self) -> None:
         self.ap.takeoff.stop()          # Copter::exit_mode cancels any takeoff in progress
+
+    def enter(self) -> None:
+        self.pilot.reset()
+
+    def read_pilot_input(self) -> None:
+        """update_auto_armed from the throttle (only once there is RC input)."""
+        ap = self.ap
+        if ap.rc.sticks is None or not ap.armed:
+            return
+        zero = ap.radio.throttle_zero
+        if ap.auto_armed:
+            if self.has_manual_throttle() and zero and not ap.radio.active:
+                ap.auto_armed = False
+        elif not zero:
+            ap.auto_armed = True
 
     # ----- the tick ---------------------------------------------------------------------
     def run(self, dt: float) -> None:
@@ -143,11 +169,22 @@ class CopterMode(Mode):
             return hi / 100.0
         return float(p.get("LAND_SPEED", 50)) / 100.0
 
-    def land_run(self) -> None:
-        """Descend at descent_speed() over ap.hold_pos's x, y (altitude free)."""
+    def land_run(self, dt: float = 0.0) -> None:
+        """Descend at descent_speed() over ap.hold_pos's x, y (altitude free). With
+        LAND_REPOSITION the roll and pitch sticks move that point at LOITER's pilot velocity
+        (the copter flies it as feed-forward); the yaw stick turns the heading."""
         ap = self.ap
         speed = self.descent_speed()
+        vn = ve = 0.0
+        rate = None
+        if ap.rc.sticks is not None and not ap.radio.active:
+            if int(ap.params.get("LAND_REPOSITION", 1)):
+                vn, ve = self.pilot.velocity(dt)
+                ap.hold_pos[0] += vn * dt
+                ap.hold_pos[1] += ve * dt
+            rate = self.pilot.yaw(dt) or None
         x, y = ap.hold_pos[0], ap.hold_pos[1]
-        ap.echo = GuidedTarget("posvel", np.array([x, y, ap.pos[2]]), np.array([0.0, 0.0, speed]),
+        ap.echo = GuidedTarget("posvel", np.array([x, y, ap.pos[2]]), np.array([vn, ve, speed]),
                                None, ap.hold_yaw, None)
-        ap.setpoint(pos=np.array([x, y, np.nan]), vel=np.array([0.0, 0.0, speed]), yaw=ap.hold_yaw)
+        ap.setpoint(pos=np.array([x, y, np.nan]), vel=np.array([vn, ve, speed]), yaw=ap.hold_yaw,
+                    yaw_rate=rate)

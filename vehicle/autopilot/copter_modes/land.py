@@ -25,7 +25,8 @@ class ModeLand(CopterMode):
         return True
 
     def enter(self) -> None:
+        super().enter()
         self.ap.text(mav.MAV_SEVERITY_INFO, "Landing")
 
     def fly(self, dt: float) -> None:
-        self.land_run()
+        self.land_run(dt)

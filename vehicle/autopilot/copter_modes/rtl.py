@@ -89,7 +89,8 @@ class ModeRTL(CopterMode):
             home_z = ap.home[2] if ap.home is not None else home[2]
             tgt = np.array([home[0], home[1], home_z - float(ap.params.get("RTL_ALT_FINAL", 0)) / 100.0])
         if self.stage == "land":
-            self.land_run()
+            self.land_run(dt)
             return
+        self.pilot.yaw(dt)                     # the yaw stick turns the returning copter
         ap.echo = GuidedTarget("pos", tgt, None, None, ap.hold_yaw, None)
         ap.setpoint(pos=tgt, yaw=ap.hold_yaw)

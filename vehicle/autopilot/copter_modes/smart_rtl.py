@@ -64,7 +64,7 @@ class ModeSmartRTL(ModeRTL):
     def fly(self, dt: float) -> None:
         ap = self.ap
         if self.stage == "land":
-            self.land_run()
+            self.land_run(dt)
             return
         if self.dest is None:
             self._next()
@@ -76,7 +76,7 @@ class ModeSmartRTL(ModeRTL):
                     self.stage = "land"
                     self.popped = None
                     ap.hold_pos = np.array([dest[0], dest[1], ap.pos[2]])
-                    self.land_run()
+                    self.land_run(dt)
                     return
             else:
                 self._next()

@@ -104,6 +104,7 @@ class StoppingMode(CopterMode):
         raise NotImplementedError
 
     def enter(self) -> None:
+        super().enter()
         if self.ap.armed and not self.ap.on_ground:
             self.stop.start(*self.stop_limits())
 

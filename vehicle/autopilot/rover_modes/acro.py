@@ -1,11 +1,12 @@
 """ACRO (Rover/mode_acro.cpp ModeAcro): the pilot's speed and turn rate, held by the controllers.
 
-No RC: target speed 0 and no turn, so the rover stops and stays stopped. It needs a velocity
+Sticks (rover_pilot.acro): throttle x SPEED_MAX, steering x ACRO_TURN_RATE. No RC input:
+target speed 0 and no turn, so the rover stops and stays stopped. It needs a velocity
 estimate unless the rover is skid-steered (towerlink's rovers steer).
 """
 from __future__ import annotations
 
-from vehicle.autopilot import modes
+from vehicle.autopilot import modes, rover_pilot
 from vehicle.autopilot.rover_modes.rover_mode import RoverMode
 
 
@@ -14,4 +15,4 @@ class ModeAcro(RoverMode):
     position_required, velocity_required, manual_input = False, True, True
 
     def drive(self, dt: float) -> None:
-        self.stop()
+        self.drive_sticks(rover_pilot.acro)

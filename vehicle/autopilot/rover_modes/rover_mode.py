@@ -1,12 +1,15 @@
 """What every rover mode shares (Rover/mode.h `Mode`): the hooks ArduRover's modes answer,
 the stop when disarmed, and the two ways a mode drives (stop; drive to a point).
 
-No RC is simulated: the throttle and steering sticks are centred. Setpoints are world NED;
-the RoverFleet ignores z.
+The pilot's sticks (vehicle/autopilot/rc_input.py: RC_CHANNELS_OVERRIDE or MANUAL_CONTROL
+from the GCS) drive MANUAL, ACRO and STEERING through drive_sticks(); without RC input they
+read neutral and those modes stop. Setpoints are world NED; the RoverFleet ignores z.
 """
 from __future__ import annotations
 
 from typing import ClassVar
+
+import math
 
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
@@ -55,6 +58,29 @@ class RoverMode(Mode):
         ap = self.ap
         ap.setpoint(vel=ZERO.copy(), yaw_rate=0.0)
         ap.echo = GuidedTarget("vel", None, ZERO.copy(), None, None, 0.0)
+
+    def drive_sticks(self, pilot) -> None:
+        """Drive as the sticks ask: `pilot(sticks, params, top_speed)` -> (speed m/s, turn
+        rate rad/s) (rover_pilot.py). The fleet steers to a velocity's heading at
+        ATC_STR_ANG_P, so the heading asked for leads the rover's by rate / ATC_STR_ANG_P;
+        it drives forwards only (a backwards speed stops it)."""
+        ap = self.ap
+        s = ap.rc.sticks
+        if s is None:
+            self.stop()
+            return
+        g = ap.fleet.gains_of(ap.i)
+        speed, rate = pilot(s, ap.params, g.max_speed)
+        speed = max(0.0, speed)
+        if speed < 0.05:
+            ap.echo = GuidedTarget("vel", None, ZERO.copy(), None, None, rate)
+            ap.setpoint(vel=ZERO.copy(), yaw_rate=rate)
+            return
+        lead = max(-0.9 * g.pivot, min(0.9 * g.pivot, rate / max(g.k_hdg, 1e-6)))
+        h = ap.yaw + lead
+        vel = np.array([speed * math.cos(h), speed * math.sin(h), 0.0])
+        ap.echo = GuidedTarget("vel", None, vel, None, None, rate)
+        ap.setpoint(vel=vel)
 
     def drive_to(self, dest) -> None:
         """Drive to dest's x, y (and stop there: the fleet's waypoint controller)."""

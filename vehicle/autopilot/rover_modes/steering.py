@@ -1,10 +1,11 @@
 """STEERING (Rover/mode_steering.cpp ModeSteering): the pilot's speed and lateral acceleration.
 
-No RC: target speed 0 and no turn, so the rover stops and stays stopped.
+Sticks (rover_pilot.steering): throttle x SPEED_MAX, steering x TURN_MAX_G of lateral
+acceleration. No RC input: target speed 0 and no turn, so the rover stops and stays stopped.
 """
 from __future__ import annotations
 
-from vehicle.autopilot import modes
+from vehicle.autopilot import modes, rover_pilot
 from vehicle.autopilot.rover_modes.rover_mode import RoverMode
 
 
@@ -13,4 +14,4 @@ class ModeSteering(RoverMode):
     position_required, velocity_required, manual_input = False, True, True
 
     def drive(self, dt: float) -> None:
-        self.stop()
+        self.drive_sticks(rover_pilot.steering)

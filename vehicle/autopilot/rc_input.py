@@ -1,0 +1,225 @@
+"""The vehicle's RC input as ArduPilot's RC_Channels / RC_Channel read it (pure: no sockets,
+no clocks; times are sim seconds passed in).
+
+Where the pulses come from:
+- RC_CHANNELS_OVERRIDE (GCS_MAVLINK::handle_rc_channels_override), accepted by the link only
+  from SYSID_MYGCS: chan1..8 = 65535 leaves that channel as it is, any other value (0
+  included) is set as its override; chan9..18 = 0 or 65535 leave it, 65534 releases it
+  (override 0), others are set. Channels past NUM_CHANNELS (17, 18) are dropped.
+- MANUAL_CONTROL (the vehicle's handle_manual_control_axes, mapped here by the caller with
+  `manual_override`): pwm = RCn_MIN + (RCn_MAX - RCn_MIN) * (value + offset) / scaler, the
+  value negated first when reversed; INT16_MAX releases the channel (override 0).
+- A simulated receiver only while SIM_RC_FAIL = 2 (ArduPilot SITL's "All Channels neutral
+  except Throttle is 950us"). towerlink simulates no transmitter otherwise (SIM_RC_FAIL 0 and
+  1 are alike: no pulses), so without a GCS's overrides there is no RC input at all.
+
+An override counts while it is non-zero and younger than RC_OVERRIDE_TIME (s; 0 disables
+overrides, negative never times out) (RC_Channel::has_override). Each tick `read(t)` is
+RC_Channels::read_input: a new frame when a receiver pulse or a new override arrived since
+the last read; then every channel with an override (or the receiver) takes its value as
+radio_in, the others keep the last one. `last_frame` is the sim time of the last frame,
+`override_active(t)` says whether any override still counts (the radio failsafe's timeout is
+longer then).
+
+Sticks (RC_Channel's conversions, RCn_MIN/MAX/TRIM/DZ/REVERSED, channels by RCMAP_*):
+roll, pitch and yaw as norm_input_dz (-1..1: right, nose-up, right), the throttle as
+pwm_to_range (0..1000, dead zone at the bottom) and as norm_input_dz (-1..1, Rover's).
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+NUM_CHANNELS = 16              # ArduPilot's NUM_RC_CHANNELS
+UINT16_MAX = 65535
+RELEASE = UINT16_MAX - 1       # chan9..18: back to the radio
+INT16_MAX = 32767              # MANUAL_CONTROL: axis not used -> release
+SITL_FAIL_THROTTLE = 950       # SIM_RC_FAIL 2: the throttle's pulse (us)
+SITL_NEUTRAL = 1500
+
+
+@dataclass(frozen=True)
+class Sticks:
+    """The pilot's sticks after RC_Channel's scaling. roll, pitch, yaw: -1..1 after the dead
+    zone (positive: roll right, pitch back / nose up, yaw right). throttle: 0..1000
+    (pwm_to_range: Copter's control_in); throttle_norm: -1..1 about trim (Rover's throttle);
+    throttle_mid: the mid stick as a control_in value (get_control_mid); throttle_pwm: us."""
+    roll: float
+    pitch: float
+    yaw: float
+    throttle: int
+    throttle_norm: float
+    throttle_mid: int
+    throttle_pwm: int
+
+
+def _p(params: Mapping[str, float], n: int, what: str, default: float) -> int:
+    return int(params.get(f"RC{n}_{what}", default))
+
+
+def channel_numbers(params: Mapping[str, float]) -> tuple[int, int, int, int]:
+    """(roll, pitch, throttle, yaw) channel numbers, 1-based (RCMAP_*; defaults 1, 2, 3, 4)."""
+    return (int(params.get("RCMAP_ROLL", 1)), int(params.get("RCMAP_PITCH", 2)),
+            int(params.get("RCMAP_THROTTLE", 3)), int(params.get("RCMAP_YAW", 4)))
+
+
+def norm_input_dz(pwm: int, lo: int, hi: int, trim: int, dz: int, reversed_: bool) -> float:
+    """RC_Channel::norm_input_dz: -1..1 about trim, 0 within dz of it."""
+    dz_min, dz_max = trim - dz, trim + dz
+    sign = -1.0 if reversed_ else 1.0
+    if pwm < dz_min and dz_min > lo:
+        out = sign * (pwm - dz_min) / (dz_min - lo)
+    elif pwm > dz_max and hi > dz_max:
+        out = sign * (pwm - dz_max) / (hi - dz_max)
+    else:
+        out = 0.0
+    return max(-1.0, min(1.0, out))
+
+
+def pwm_to_range(pwm: int, lo: int, hi: int, dz: int, reversed_: bool, high: int = 1000) -> int:
+    """RC_Channel::pwm_to_range_dz: 0..high above lo + dz (integer arithmetic as ArduPilot's)."""
+    r = max(lo, min(hi, pwm))
+    if reversed_:
+        r = hi - (r - lo)
+    low = lo + dz
+    if r > low and hi != low:
+        return int(high * (r - low) / (hi - low))
+    return 0
+
+
+def control_mid(lo: int, hi: int, dz: int, high: int = 1000) -> int:
+    """RC_Channel::get_control_mid of a range channel: mid stick as a control_in value."""
+    if hi == lo + dz:
+        return 0
+    return int(high * ((lo + hi) // 2 - (lo + dz)) / (hi - (lo + dz)))
+
+
+def manual_pwm(value: int, offset: int, scaler: float, lo: int, hi: int, reversed_: bool = False) -> int:
+    """GCS_MAVLINK::manual_override's PWM for one MANUAL_CONTROL axis (0: release)."""
+    if value == INT16_MAX:
+        return 0
+    if reversed_:
+        value = -value
+    return int(lo + (hi - lo) * (value + offset) / scaler)
+
+
+class RcInput:
+    """One vehicle's RC input: overrides, the simulated receiver, radio_in per channel."""
+
+    def __init__(self, params: Mapping[str, float]) -> None:
+        self.params = params
+        self.override = [0] * NUM_CHANNELS          # us; 0 = none
+        self.override_t = [0.0] * NUM_CHANNELS      # sim s it was set
+        self.radio_in = [0] * NUM_CHANNELS          # us; 0 = never had a value
+        self.new_overrides = False
+        self.last_frame: float | None = None        # sim s of the last RC frame
+        self.receiver_seen = False                  # ArduPilot's has_had_rc_receiver
+        self.override_seen = False                  # has_had_rc_override
+        self.sticks: Sticks | None = None           # None until the first frame
+
+    # ----- what comes in --------------------------------------------------------------
+    def set_override(self, ch: int, value: int, t: float) -> None:
+        """RC_Channel::set_override of channel index ch (0-based)."""
+        if 0 <= ch < NUM_CHANNELS:
+            self.override[ch] = int(value)
+            self.override_t[ch] = t
+            self.new_overrides = True
+            self.override_seen = True
+
+    def channels_override(self, values: Sequence[int], t: float) -> None:
+        """RC_CHANNELS_OVERRIDE's chan1_raw..chan18_raw (the sender already checked)."""
+        for i, v in enumerate(values):
+            v = int(v)
+            if i < 8:
+                if v != UINT16_MAX:
+                    self.set_override(i, v, t)
+            elif v not in (0, UINT16_MAX):
+                self.set_override(i, 0 if v == RELEASE else v, t)
+
+    def manual_override(self, channel: int, value: int, offset: int, scaler: float, t: float,
+                        reversed_: bool = False) -> None:
+        """One MANUAL_CONTROL axis onto channel number `channel` (1-based)."""
+        p = self.params
+        lo, hi = _p(p, channel, "MIN", 1100), _p(p, channel, "MAX", 1900)
+        self.set_override(channel - 1, manual_pwm(value, offset, scaler, lo, hi, reversed_), t)
+
+    def clear_overrides(self) -> None:
+        """RC_Channels::clear_overrides (the GCS failsafe drops them)."""
+        self.override = [0] * NUM_CHANNELS
+        self.override_t = [0.0] * NUM_CHANNELS
+
+    # ----- reading ----------------------------------------------------------------------
+    def has_override(self, ch: int, t: float) -> bool:
+        """RC_Channel::has_override: non-zero and not timed out (RC_OVERRIDE_TIME)."""
+        if self.override[ch] == 0:
+            return False
+        timeout = float(self.params.get("RC_OVERRIDE_TIME", 3.0))
+        if timeout < 0:
+            return True
+        if timeout == 0:
+            return False
+        return t - self.override_t[ch] < timeout
+
+    def override_active(self, t: float) -> bool:
+        """RC_Channels::has_active_overrides."""
+        return any(self.has_override(ch, t) for ch in range(NUM_CHANNELS) if self.override[ch])
+
+    def receiver_frame(self) -> list[int] | None:
+        """The simulated receiver's pulses this tick (SIM_RC_FAIL 2), else None."""
+        if int(self.params.get("SIM_RC_FAIL", 0)) != 2:
+            return None
+        out = [SITL_NEUTRAL] * NUM_CHANNELS
+        thr = channel_numbers(self.params)[2] - 1
+        if 0 <= thr < NUM_CHANNELS:
+            out[thr] = SITL_FAIL_THROTTLE
+        return out
+
+    def read(self, t: float) -> bool:
+        """RC_Channels::read_input at sim time t: True when a new frame was read (the
+        channels then hold it and `sticks` is updated)."""
+        rx = self.receiver_frame()
+        if rx is not None:
+            self.receiver_seen = True
+        elif not self.new_overrides:
+            return False
+        self.new_overrides = False
+        got = False
+        for ch in range(NUM_CHANNELS):
+            if self.override[ch] and self.has_override(ch, t):
+                self.radio_in[ch] = self.override[ch]
+            elif rx is not None:
+                self.radio_in[ch] = rx[ch]
+            else:
+                continue
+            got = True
+        if got:
+            self.last_frame = t
+            self.sticks = self.scale()
+        return got
+
+    def pwm(self, channel: int) -> int:
+        """radio_in of channel number `channel` (1-based; 0 = none yet)."""
+        return self.radio_in[channel - 1] if 1 <= channel <= NUM_CHANNELS else 0
+
+    def scale(self) -> Sticks:
+        """The sticks from radio_in (channels without a value yet read as their trim)."""
+        p = self.params
+        roll_ch, pitch_ch, thr_ch, yaw_ch = channel_numbers(p)
+
+        def norm(n: int) -> float:
+            lo, hi, trim = _p(p, n, "MIN", 1100), _p(p, n, "MAX", 1900), _p(p, n, "TRIM", 1500)
+            pwm = self.pwm(n) or trim
+            return norm_input_dz(pwm, lo, hi, trim, _p(p, n, "DZ", 0), bool(_p(p, n, "REVERSED", 0)))
+
+        lo, hi = _p(p, thr_ch, "MIN", 1100), _p(p, thr_ch, "MAX", 1900)
+        dz, rev = _p(p, thr_ch, "DZ", 0), bool(_p(p, thr_ch, "REVERSED", 0))
+        thr_pwm = self.pwm(thr_ch) or _p(p, thr_ch, "TRIM", 1500)
+        return Sticks(roll=norm(roll_ch), pitch=norm(pitch_ch), yaw=norm(yaw_ch),
+                      throttle=pwm_to_range(thr_pwm, lo, hi, dz, rev), throttle_norm=norm(thr_ch),
+                      throttle_mid=control_mid(lo, hi, dz), throttle_pwm=thr_pwm)
+
+    def channels(self, n: int = NUM_CHANNELS) -> list[int]:
+        """radio_in of channels 1..n for RC_CHANNELS: a channel without a value reads as its
+        RCn_TRIM (1500 past the channels with parameters)."""
+        p = self.params
+        return [self.radio_in[i] or _p(p, i + 1, "TRIM", 1500) for i in range(n)]
