@@ -11,9 +11,8 @@ GUIDED_NOGPS or an AUTO that allows arming (allows_GCS_or_SCR_arming_with_thrott
 """
 from __future__ import annotations
 
-from vehicle.autopilot import copter_pilot, modes
+from vehicle.autopilot import copter_pilot
 from vehicle.autopilot.arming import Arming
-from vehicle.autopilot.mode import ArmingMethod
 
 
 class CopterArming(Arming):
@@ -35,9 +34,7 @@ class CopterArming(Arming):
         if s is None or ap.params.get("ARMING_CHECK", 1) == 0:
             return ""
         mode = ap.flightmode
-        if mode.in_guided_mode() and ap.mode != modes.AUTO:
-            return ""
-        if ap.mode == modes.AUTO and mode.allows_arming(ArmingMethod.MAVLINK):
+        if mode.allows_arming_with_throttle_high():
             return ""
         if copter_pilot.climb_rate(s, ap.params) > 0.0 or (mode.has_manual_throttle() and s.throttle > 0):
             return "Throttle too high"

@@ -6,7 +6,7 @@ QGroundControl's setup pages (airframe, radio, flight modes, safety, power), MAV
 look these up; a missing name shows as an error or an empty page. Each doc says what towerlink
 does with the parameter: most are honoured where the simulation has the concept (listed in
 USED_*), the rest are stored, range-checked and persisted as ArduPilot would, and the doc starts
-"not simulated" (no RC radio, no compass calibration...) or names the issue-10 part
+"not simulated" (RC auxiliary functions, no compass calibration...) or names the issue-10 part
 that will use them (FOLL_*: FOLLOW; SIM_WIND_*: wind; BATT_LOW_*/BATT_FS_*: battery failsafe).
 
 Tables: list of ParamDef (vehicle/autopilot/param_def.py, tables in params.py); the first table that names a
@@ -30,13 +30,30 @@ def _defs(rows):
     return out
 
 
-def _rc(n: int):
-    return [(f"RC{n}_MIN", 1100, 800, 2200, I16, "PWM", f"RC{n} minimum ({NS}: no RC radio)"),
-            (f"RC{n}_MAX", 1900, 800, 2200, I16, "PWM", f"RC{n} maximum ({NS})"),
-            (f"RC{n}_TRIM", 1500, 800, 2200, I16, "PWM", f"RC{n} trim ({NS})"),
-            (f"RC{n}_REVERSED", 0, 0, 1, I8, "", f"RC{n} reversed ({NS})"),
-            (f"RC{n}_DZ", 30 if n <= 4 else 0, 0, 200, I16, "PWM", f"RC{n} dead zone ({NS})"),
+SIM = "simulated: the RC input from RC_CHANNELS_OVERRIDE / MANUAL_CONTROL (rc_input.py)"
+
+
+def _rc(n: int, dz: int = 0):
+    """RCn_* (RC_Channel.cpp); `dz` the vehicle's default dead zone (its default_dead_zones)."""
+    return [(f"RC{n}_MIN", 1100, 800, 2200, I16, "PWM", f"RC{n} minimum pulse ({SIM})"),
+            (f"RC{n}_MAX", 1900, 800, 2200, I16, "PWM", f"RC{n} maximum pulse ({SIM})"),
+            (f"RC{n}_TRIM", 1500, 800, 2200, I16, "PWM", f"RC{n} trim (neutral) pulse ({SIM})"),
+            (f"RC{n}_REVERSED", 0, 0, 1, I8, "", f"RC{n} reversed ({SIM})"),
+            (f"RC{n}_DZ", dz, 0, 200, I16, "PWM", f"RC{n} dead zone about trim, or above the minimum for the throttle ({SIM})"),
             (f"RC{n}_OPTION", 0, 0, 400, I16, "", f"RC{n} auxiliary function ({NS})")]
+
+
+_PILOT_SHARED = [
+    ("RCMAP_ROLL", 1, 1, 16, I8, "", "roll (Rover: steering) input channel (reboot required)"),
+    ("RCMAP_PITCH", 2, 1, 16, I8, "", "pitch input channel (reboot required)"),
+    ("RCMAP_THROTTLE", 3, 1, 16, I8, "", "throttle input channel (reboot required)"),
+    ("RCMAP_YAW", 4, 1, 16, I8, "", "yaw input channel (reboot required)"),
+    ("RC_OVERRIDE_TIME", 3.0, -1, 120, F, "s", "RC override timeout: 0 disables overrides, -1 never times out"),
+    ("RC_OPTIONS", 32, 0, 2**31 - 1, I32, "", "RC input options: bit 0 ignore the receiver, bit 1 ignore MAVLink "
+     "overrides (the others stored only)"),
+    ("SIM_RC_FAIL", 0, 0, 2, I8, "", "simulated RC failure: 0 none, 1 no RC pulses, 2 all channels neutral except "
+     "the throttle at 950 us (towerlink has no transmitter: 0 and 1 alike, 2 adds a receiver sending that)"),
+]
 
 
 _SHARED = [
@@ -112,8 +129,11 @@ _SHARED = [
     ("FOLL_ALT_TYPE", 1, 0, 1, I8, "", "lead altitude: 0 absolute, 1 relative"),
     ("FOLL_OPTIONS", 0, 0, 1, I16, "", "follow options bitmask"),
 ]
-for _n in range(1, 9):
-    _SHARED += _rc(_n)
+_SHARED += _PILOT_SHARED
+# Copter's default dead zones: 20 on roll, pitch and yaw, 30 on the throttle (radio.cpp)
+_COPTER_RC = [row for n in range(1, 9) for row in _rc(n, {1: 20, 2: 20, 3: 30, 4: 20}.get(n, 0))]
+# Rover's: 30 on steering and throttle
+_ROVER_RC = [row for n in range(1, 9) for row in _rc(n, {1: 30, 3: 30}.get(n, 0))]
 
 _COPTER_ONLY = [
     ("FRAME_CLASS", 1, 0, 17, I8, "", "frame class: 1 Quad (towerlink simulates a quad only; reboot required)"),
@@ -129,25 +149,26 @@ _COPTER_ONLY = [
     ("RTL_OPTIONS", 0, 0, 7, I32, "", f"RTL options bitmask ({NS})"),
     ("RTL_ALT_TYPE", 0, 0, 1, I8, "", f"RTL altitude type ({NS}: relative)"),
     ("LAND_ALT_LOW", 1000, 100, 10000, I16, "cm", "altitude below which LAND descends at LAND_SPEED"),
-    ("LAND_REPOSITION", 1, 0, 1, I8, "", f"pilot repositioning while landing ({NS}: no RC)"),
+    ("LAND_REPOSITION", 1, 0, 1, I8, "", "the sticks move the copter while it lands (LAND, RTL and AUTO landings)"),
     ("WPNAV_JERK", 1, 1, 20, F, "m/s/s/s", f"waypoint jerk limit ({NS}: PSC_JERK_XY shapes the path)"),
     ("WPNAV_RFND_USE", 1, 0, 1, I8, "", f"use the rangefinder for terrain following ({NS})"),
     ("WPNAV_TER_MARGIN", 10, 0.1, 100, F, "m", f"terrain following margin ({NS})"),
     ("WPNAV_ACCEL_C", 0, 0, 500, F, "cm/s/s", f"waypoint cornering acceleration ({NS})"),
-    ("LOIT_SPEED", 1250, 20, 3500, F, "cm/s", f"LOITER maximum pilot speed ({NS}: no RC)"),
-    ("LOIT_ACC_MAX", 500, 100, 981, F, "cm/s/s", f"LOITER maximum correction acceleration ({NS})"),
-    ("LOIT_BRK_ACCEL", 250, 25, 250, F, "cm/s/s", f"LOITER braking acceleration ({NS})"),
+    ("LOIT_SPEED", 1250, 20, 3500, F, "cm/s", "LOITER maximum pilot speed"),
+    ("LOIT_ACC_MAX", 500, 100, 981, F, "cm/s/s", "LOITER acceleration to the pilot's velocity"),
+    ("LOIT_BRK_ACCEL", 250, 25, 250, F, "cm/s/s", "LOITER deceleration when the sticks are eased or released"),
     ("LOIT_BRK_JERK", 500, 500, 5000, F, "cm/s/s/s", f"LOITER braking jerk ({NS})"),
     ("LOIT_BRK_DELAY", 1.0, 0, 2, F, "s", f"LOITER braking delay ({NS})"),
     ("LOIT_ANG_MAX", 0, 0, 45, F, "deg", f"LOITER maximum lean angle ({NS})"),
-    ("PILOT_SPEED_UP", 250, 50, 500, I16, "cm/s", f"pilot maximum climb rate ({NS}: no RC)"),
-    ("PILOT_SPEED_DN", 0, 0, 500, I16, "cm/s", f"pilot maximum descent rate ({NS})"),
-    ("PILOT_ACCEL_Z", 250, 50, 500, I16, "cm/s/s", f"pilot vertical acceleration ({NS})"),
+    ("PILOT_SPEED_UP", 250, 50, 500, I16, "cm/s", "pilot maximum climb rate (ALT_HOLD, LOITER, POSHOLD)"),
+    ("PILOT_SPEED_DN", 0, 0, 500, I16, "cm/s", "pilot maximum descent rate, 0 = PILOT_SPEED_UP"),
+    ("PILOT_ACCEL_Z", 250, 50, 500, I16, "cm/s/s", "pilot vertical acceleration (the climb rate's slew)"),
+    ("THR_DZ", 100, 0, 300, I16, "PWM", "throttle dead band either side of mid stick (ALT_HOLD, LOITER, POSHOLD)"),
     ("PILOT_THR_FILT", 0, 0, 10, F, "Hz", f"throttle filter ({NS})"),
     ("PILOT_THR_BHV", 0, 0, 7, I16, "", f"throttle behaviour bitmask ({NS})"),
     ("PILOT_TKOFF_ALT", 0, 0, 1000, F, "cm", f"pilot takeoff altitude ({NS}: GUIDED NAV_TAKEOFF gives it)"),
-    ("PILOT_Y_RATE", 202.5, 1, 360, F, "deg/s", f"pilot yaw rate ({NS})"),
-    ("PILOT_Y_EXPO", 0, -0.5, 1.0, F, "", f"pilot yaw expo ({NS})"),
+    ("PILOT_Y_RATE", 202.5, 1, 360, F, "deg/s", "pilot yaw rate at full yaw stick"),
+    ("PILOT_Y_EXPO", 0, -0.5, 1.0, F, "", "pilot yaw expo (a cubic blend of the stick)"),
     ("CIRCLE_RADIUS", 1000, 0, 200000, F, "cm", "CIRCLE radius (AUTO's NAV_LOITER_TURNS uses its own)"),
     ("GUID_OPTIONS", 0, 0, 255, I32, "", f"GUIDED options bitmask ({NS})"),
     ("FLTMODE_CH", 5, 0, 16, I8, "", f"flight mode channel ({NS}: no RC)"),
@@ -159,8 +180,9 @@ _COPTER_ONLY = [
     ("FLTMODE6", 0, 0, 28, I8, "", f"flight mode 6 ({NS})"),
     ("SIMPLE", 0, 0, 63, I8, "", f"simple mode bitmask ({NS})"),
     ("SUPER_SIMPLE", 0, 0, 63, I8, "", f"super simple mode bitmask ({NS})"),
-    ("FS_THR_ENABLE", 1, 0, 7, I8, "", f"radio failsafe ({NS}: no RC, so it never triggers)"),
-    ("FS_THR_VALUE", 975, 910, 1100, I16, "PWM", f"radio failsafe PWM ({NS})"),
+    ("FS_THR_ENABLE", 1, 0, 7, I8, "", "radio failsafe: 0 off, 1 RTL, 2 RTL (continue in AUTO: FS_OPTIONS), 3 LAND, "
+     "4 SmartRTL or RTL, 5 SmartRTL or LAND, 6 DO_LAND_START or RTL, 7 BRAKE or LAND"),
+    ("FS_THR_VALUE", 975, 910, 1100, I16, "PWM", "throttle pulse below which the radio failsafe triggers"),
     ("FS_CRASH_CHECK", 1, 0, 2, I8, "", f"crash check ({NS})"),
     ("FS_VIBE_ENABLE", 1, 0, 1, I8, "", f"vibration failsafe ({NS})"),
     ("MOT_PWM_MIN", 1000, 0, 2000, I16, "PWM", f"motor PWM minimum ({NS})"),
@@ -183,9 +205,9 @@ _ROVER_ONLY = [
     ("WP_OVERSHOOT", 2, 0, 10, F, "m", f"waypoint overshoot ({NS})"),
     ("TURN_RADIUS", 0.9, 0, 10, F, "m", f"turn radius ({NS}: skid steering turns in place)"),
     ("CRUISE_THROTTLE", 50, 0, 100, I8, "%", f"throttle at CRUISE_SPEED ({NS})"),
-    ("SPEED_MAX", 0, 0, 30, F, "m/s", f"maximum speed, 0 = estimated ({NS}: SIM_RVR_MAX_SPD)"),
+    ("SPEED_MAX", 0, 0, 30, F, "m/s", "pilot top speed in ACRO and STEERING, 0 = the drive's (SIM_RVR_MAX_SPD)"),
     ("LOIT_TYPE", 0, 0, 2, I8, "", "LOITER type: 0 forward or reverse to the point"),
-    ("ACRO_TURN_RATE", 180, 0, 360, F, "deg/s", f"ACRO maximum turn rate ({NS}: no RC)"),
+    ("ACRO_TURN_RATE", 180, 0, 360, F, "deg/s", "ACRO (and STEERING's) maximum turn rate"),
     ("MODE_CH", 8, 0, 16, I8, "", f"mode channel ({NS}: no RC)"),
     ("MODE1", 0, 0, 16, I8, "", f"mode 1 ({NS})"),
     ("MODE2", 0, 0, 16, I8, "", f"mode 2 ({NS})"),
@@ -193,19 +215,20 @@ _ROVER_ONLY = [
     ("MODE4", 0, 0, 16, I8, "", f"mode 4 ({NS})"),
     ("MODE5", 0, 0, 16, I8, "", f"mode 5 ({NS})"),
     ("MODE6", 0, 0, 16, I8, "", f"mode 6 ({NS})"),
-    ("FS_THR_ENABLE", 1, 0, 2, I8, "", f"radio failsafe ({NS}: no RC, so it never triggers)"),
-    ("FS_THR_VALUE", 910, 0, 2200, I16, "PWM", f"radio failsafe PWM ({NS})"),
-    ("FS_TIMEOUT", 1.5, 1, 100, F, "s", f"radio / throttle failsafe timeout ({NS})"),
+    ("FS_THR_ENABLE", 1, 0, 2, I8, "", "radio failsafe: 0 off, 1 on, 2 on (continue in AUTO)"),
+    ("FS_THR_VALUE", 910, 0, 2200, I16, "PWM", "throttle pulse below which the radio failsafe triggers"),
+    ("FS_TIMEOUT", 1.5, 1, 100, F, "s", "how long a radio failsafe condition lasts before FS_ACTION"),
     ("FS_CRASH_CHECK", 0, 0, 2, I8, "", f"crash check ({NS})"),
     ("MOT_PWM_TYPE", 0, 0, 8, I8, "", f"motor output type ({NS})"),
+    ("TURN_MAX_G", 0.6, 0.1, 10, F, "gravities", "STEERING's lateral acceleration at full steering"),
 ]
 
-COPTER_EXTRA = _defs(_COPTER_ONLY + _SHARED)
-ROVER_EXTRA = _defs(_ROVER_ONLY + _SHARED)
+COPTER_EXTRA = _defs(_COPTER_ONLY + _COPTER_RC + _SHARED)
+ROVER_EXTRA = _defs(_ROVER_ONLY + _ROVER_RC + _SHARED)
 # units and type by name from the rows above, for a parameter params.py defines itself (its
 # definition wins, but ArduPilot's type and units stay): the first row naming it
 META: dict[str, tuple[str, int]] = {}
-for _row in _COPTER_ONLY + _SHARED + _ROVER_ONLY:
+for _row in _COPTER_ONLY + _COPTER_RC + _SHARED + _ROVER_ONLY:
     META.setdefault(_row[0], (_row[5], _row[4]))
 
 # ArduPilot's type (and units) of the parameters params.py and the cores define, by name

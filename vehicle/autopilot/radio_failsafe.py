@@ -111,16 +111,6 @@ class CopterRadioFailsafe(RadioFailsafe):
         else:
             self.ap.text(SEV_WARNING, "Radio Failsafe Cleared")
 
-    def should_disarm(self) -> bool:
-        """should_disarm_on_failsafe."""
-        ap = self.ap
-        landed = ap.on_ground and not ap.takeoff.running
-        if ap.mode == modes.STABILIZE:
-            return self.throttle_zero or landed
-        if ap.mode == modes.AUTO:
-            return not ap.auto_armed and landed
-        return landed
-
     def on_event(self) -> None:
         """failsafe_radio_on_event."""
         ap = self.ap
@@ -129,7 +119,7 @@ class CopterRadioFailsafe(RadioFailsafe):
         mode = ap.flightmode
         chain = COPTER_ACTIONS.get(int(p.get("FS_THR_ENABLE", 1)), (modes.LAND,))
         battery = ap.failsafe.battery_priority
-        if self.should_disarm():
+        if mode.disarms_on_failsafe(self.throttle_zero):
             ap.text(SEV_WARNING, "Radio Failsafe - Disarming")
             ap.disarm(force=True, reason="radio failsafe")
             return
@@ -139,7 +129,7 @@ class CopterRadioFailsafe(RadioFailsafe):
         elif mode.is_landing() and options & CONTINUE_IF_LANDING:
             ap.text(SEV_WARNING, "Radio Failsafe - Continuing Landing")
             chain = (modes.LAND,)
-        elif ap.mode == modes.AUTO and options & RC_CONTINUE_IF_AUTO:
+        elif mode is ap.auto and options & RC_CONTINUE_IF_AUTO:
             ap.text(SEV_WARNING, "Radio Failsafe - Continuing Auto Mode")
             return
         elif (mode.in_guided_mode() and options & RC_CONTINUE_IF_GUIDED
@@ -182,7 +172,7 @@ class RoverRadioFailsafe(RadioFailsafe):
         if self.failing_since is None:
             self.failing_since = t
         if (not self.triggered and t - self.failing_since > float(ap.params.get("FS_TIMEOUT", 1.5))
-                and ap.mode not in (modes.ROVER_RTL, modes.ROVER_HOLD)):
+                and ap.flightmode.radio_failsafe_acts):
             self.triggered = True
             ap.text(SEV_WARNING, "Radio Failsafe")
             ap.rc.clear_overrides()

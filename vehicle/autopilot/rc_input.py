@@ -36,6 +36,7 @@ RELEASE = UINT16_MAX - 1       # chan9..18: back to the radio
 INT16_MAX = 32767              # MANUAL_CONTROL: axis not used -> release
 SITL_FAIL_THROTTLE = 950       # SIM_RC_FAIL 2: the throttle's pulse (us)
 SITL_NEUTRAL = 1500
+IGNORE_RECEIVER, IGNORE_OVERRIDES = 1, 2    # RC_OPTIONS bits
 
 
 @dataclass(frozen=True)
@@ -176,8 +177,12 @@ class RcInput:
 
     def read(self, t: float) -> bool:
         """RC_Channels::read_input at sim time t: True when a new frame was read (the
-        channels then hold it and `sticks` is updated)."""
-        rx = self.receiver_frame()
+        channels then hold it and `sticks` is updated). RC_OPTIONS bit 0 ignores the
+        receiver, bit 1 the overrides (ignore_receiver, ignore_overrides)."""
+        options = int(self.params.get("RC_OPTIONS", 32))
+        rx = None if options & IGNORE_RECEIVER else self.receiver_frame()
+        if options & IGNORE_OVERRIDES:
+            self.new_overrides = False
         if rx is not None:
             self.receiver_seen = True
         elif not self.new_overrides:
@@ -185,7 +190,7 @@ class RcInput:
         self.new_overrides = False
         got = False
         for ch in range(NUM_CHANNELS):
-            if self.override[ch] and self.has_override(ch, t):
+            if self.override[ch] and not options & IGNORE_OVERRIDES and self.has_override(ch, t):
                 self.radio_in[ch] = self.override[ch]
             elif rx is not None:
                 self.radio_in[ch] = rx[ch]

@@ -11,10 +11,12 @@ Servo outputs are the simulated drive's, as ArduPilot's output stage would write
   1100 / 1500 / 1900 us (SERVOn_MIN / TRIM / MAX defaults).
 Outputs with no function are 0.
 
-No radio is simulated (vehicle/autopilot/mode.py: every stick centred), so RC_CHANNELS
-reports the sticks where the simulation holds them: each channel at its RCn_TRIM (1500 for
-channels 9-16, which have no parameters here), 16 channels as SITL's RC input has, RSSI
-unknown (255).
+RC_CHANNELS reports the RC input (vehicle/autopilot/rc_input.py) as ArduPilot's radio_in:
+a channel the GCS has overridden (RC_CHANNELS_OVERRIDE, MANUAL_CONTROL; the simulated
+receiver of SIM_RC_FAIL 2) at its pulse, which it keeps once the override stops; a channel
+that never had one at its RCn_TRIM (1500 for channels 9-16, which have no parameters here);
+16 channels as SITL's RC input has, RSSI unknown (255). The servo outputs follow what the
+sticks fly, through the simulated drive.
 """
 from __future__ import annotations
 
@@ -72,8 +74,7 @@ class OutputsTelemetry:
         return (t_us, 0, *self.servo_outputs())
 
     def rc_channels_fields(self) -> tuple:
-        p = self.ap.params
-        chans = [wire_clamp(float(p.get(f"RC{n}_TRIM", 1500)), *U16) for n in range(1, RC_CHANNELS_SIM + 1)]
+        chans = [wire_clamp(v, *U16) for v in self.ap.rc.channels(RC_CHANNELS_SIM)]
         return (boot_ms(self.clock()), RC_CHANNELS_SIM, *chans, 0, 0, RSSI_UNKNOWN)
 
     def rc_channels_scaled_fields(self) -> tuple | None:

@@ -44,6 +44,13 @@ class ModeAuto(MissionMode, CopterMode):
     def allows_arming(self, method: ArmingMethod) -> bool:
         return bool(int(self.ap.params.get("AUTO_OPTIONS", 0)) & ALLOW_ARMING)
 
+    def allows_arming_with_throttle_high(self) -> bool:
+        return self.allows_arming(ArmingMethod.MAVLINK)
+
+    def disarms_on_failsafe(self, throttle_zero: bool) -> bool:
+        """Landed with the mission not started (not auto-armed)."""
+        return not self.ap.auto_armed and self.ap.on_ground and not self.ap.takeoff.running
+
     def takeoff_without_throttle(self) -> bool:
         """AUTO_OPTIONS bit 1: the takeoff auto-arms (no throttle to raise)."""
         return bool(int(self.ap.params.get("AUTO_OPTIONS", 0)) & ALLOW_TAKEOFF_WITHOUT_THROTTLE)

@@ -76,6 +76,17 @@ class CopterMode(Mode):
     def is_taking_off(self) -> bool:
         return self.ap.takeoff.running
 
+    def allows_arming_with_throttle_high(self) -> bool:
+        """allows_GCS_or_SCR_arming_with_throttle_high: a GCS may arm with the throttle up
+        (the "Throttle too high" arm check is skipped)."""
+        return False
+
+    def disarms_on_failsafe(self, throttle_zero: bool) -> bool:
+        """Copter::should_disarm_on_failsafe in this mode: landed (no takeoff under way),
+        or in a manual-throttle mode with the throttle at zero."""
+        landed = self.ap.on_ground and not self.ap.takeoff.running
+        return landed or (self.has_manual_throttle() and throttle_zero)
+
     def base_mode_flags(self) -> int:
         flags = mav.MAV_MODE_FLAG_STABILIZE_ENABLED | mav.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED
         return flags | (mav.MAV_MODE_FLAG_GUIDED_ENABLED if self.reports_guided_enabled else 0)

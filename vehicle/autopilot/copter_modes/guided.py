@@ -48,6 +48,9 @@ class ModeGuided(CopterMode):
         (AllowArmingFromTX), which towerlink does not model: never."""
         return method is ArmingMethod.MAVLINK
 
+    def allows_arming_with_throttle_high(self) -> bool:
+        return True
+
     def in_guided_mode(self) -> bool:
         return True
 

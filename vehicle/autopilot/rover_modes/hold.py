@@ -7,6 +7,7 @@ from vehicle.autopilot.rover_modes.rover_mode import RoverMode
 
 class ModeHold(RoverMode):
     number = modes.ROVER_HOLD
+    radio_failsafe_acts = False
     position_required, velocity_required = False, False
 
     def drive(self, dt: float) -> None:

@@ -29,6 +29,7 @@ class RoverMode(Mode):
     # ----- Rover's Mode hooks (values declared as in Mode; defaults as Rover/mode.h) -----
     velocity_required: ClassVar[bool] = True     # requires_velocity()
     manual_input: ClassVar[bool] = False         # has_manual_input()
+    radio_failsafe_acts: ClassVar[bool] = True   # a radio failsafe triggers (not in RTL, HOLD)
 
     def requires_velocity(self) -> bool:
         """Refused without a velocity estimate (towerlink's estimate has both or neither)."""

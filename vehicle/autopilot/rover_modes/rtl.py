@@ -19,6 +19,7 @@ ARRIVE_MARGIN_M = 0.5     # m beyond WP_RADIUS still counts as arrived
 
 class ModeRTL(RoverMode):
     number = modes.ROVER_RTL
+    radio_failsafe_acts = False
     arming_allowed, autopilot_mode = False, True
 
     def __init__(self, ap) -> None:
