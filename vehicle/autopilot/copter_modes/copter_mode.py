@@ -93,6 +93,7 @@ class CopterMode(Mode):
 
     def exit(self) -> None:
         self.ap.takeoff.stop()          # Copter::exit_mode cancels any takeoff in progress
+        self.pilot.release()
 
     def enter(self) -> None:
         self.pilot.reset()

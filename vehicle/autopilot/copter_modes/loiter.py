@@ -36,5 +36,8 @@ class ModeLoiter(CopterMode):
             ap.setpoint(pos=np.array([NAN, NAN, z]), vel=np.array([vn, ve, vz]), yaw=ap.hold_yaw,
                         yaw_rate=rate or None)
             return
-        ap.setpoint(pos=ap.hold_pos, vel=np.array([0.0, 0.0, vz]) if vz else None, yaw=ap.hold_yaw,
-                    yaw_rate=rate or None)
+        if vz:
+            ap.setpoint(pos=np.array([ap.hold_pos[0], ap.hold_pos[1], z]), vel=np.array([0.0, 0.0, vz]),
+                        yaw=ap.hold_yaw, yaw_rate=rate or None)
+            return
+        ap.setpoint(pos=ap.hold_pos, yaw=ap.hold_yaw, yaw_rate=rate or None)

@@ -2,9 +2,12 @@
 the lean angles, the climb rate slewed at PILOT_ACCEL_Z, the heading turned at the yaw
 stick's rate, LOITER's velocity slewed at LOIT_ACC_MAX (LOIT_BRK_ACCEL when slowing).
 
-The vertical target is a moving position: the hold altitude (ap.hold_pos z) moves at the
-climb rate, kept within MAX_LEAD of the copter, and flies with the climb rate as its
-feed-forward; sticks centred, it stays put and the altitude is held. With no RC input
+Vertically the copter flies the climb rate while there is one (the hold altitude, ap.hold_pos
+z, following it) and then holds the altitude where the copter's vertical speed, at the
+moment the slewed climb rate came back to zero, stops it at PILOT_ACCEL_Z. As
+ArduCopter's pilot modes set the position controller's vertical limits to PILOT_SPEED_UP /
+PILOT_SPEED_DN and PILOT_ACCEL_Z, the fleet's WPNAV_SPEED_UP / _DN / WPNAV_ACCEL_Z are those
+while the sticks fly the climb (from the first RC input in the mode until it is left). With no RC input
 (ap.rc.sticks None) or in the radio failsafe every stick reads centred: climb 0, no lean,
 no turn. World NED (m, z down); rates rad/s, speeds m/s.
 """
@@ -17,7 +20,7 @@ import numpy as np
 from vehicle.autopilot import copter_pilot
 from vehicle.autopilot.rc_input import Sticks
 
-MAX_LEAD = 1.0      # m the moving altitude target may run ahead of the copter
+NAN = float("nan")
 
 
 class PilotControl:
@@ -25,11 +28,27 @@ class PilotControl:
         self.ap = ap
         self.climb = 0.0                    # slewed climb rate, m/s up
         self.vel = np.zeros(2)              # slewed LOITER velocity (north, east), m/s
+        self.engaged = False                # the fleet flies the pilot's vertical limits
 
     def reset(self) -> None:
         """A mode starts: nothing carried over from the last time it flew."""
         self.climb = 0.0
         self.vel = np.zeros(2)
+
+    def release(self) -> None:
+        """The mode is left: the fleet's vertical limits back to the parameters'."""
+        if self.engaged:
+            self.engaged = False
+            p = self.ap.params
+            self.ap.push_params({k: float(p.get(k, d)) for k, d in
+                                 (("WPNAV_SPEED_UP", 250), ("WPNAV_SPEED_DN", 150), ("WPNAV_ACCEL_Z", 100))})
+
+    def _engage(self) -> None:
+        p = self.ap.params
+        up = abs(float(p.get("PILOT_SPEED_UP", 250)))
+        self.engaged = True
+        self.ap.push_params({"WPNAV_SPEED_UP": up, "WPNAV_SPEED_DN": abs(float(p.get("PILOT_SPEED_DN", 0))) or up,
+                             "WPNAV_ACCEL_Z": float(p.get("PILOT_ACCEL_Z", 250))})
 
     @property
     def sticks(self) -> Sticks | None:
@@ -73,14 +92,21 @@ class PilotControl:
         return rate
 
     def vertical(self, dt: float) -> tuple[float, float]:
-        """(z target, vz) of the climb stick: the hold altitude moved at the slewed climb
-        rate (m, m/s down)."""
+        """(z target, vz) of the climb stick (m, m/s down): while climbing, no altitude
+        (NaN) and the slewed climb rate; else the hold altitude and 0."""
         ap = self.ap
+        if not self.engaged and self.sticks is not None:
+            self._engage()
+        was = self.climb
         climb = self.climb_rate(dt)
         if climb:
-            z = ap.hold_pos[2] - climb * dt
-            ap.hold_pos[2] = max(ap.pos[2] - MAX_LEAD, min(ap.pos[2] + MAX_LEAD, z))
-        return ap.hold_pos[2], -climb
+            ap.hold_pos[2] = ap.pos[2]
+            return NAN, -climb
+        if was:
+            # the climb just ended: hold where the copter's own vertical speed stops it
+            vz = float(ap.vel[2])
+            ap.hold_pos[2] = ap.pos[2] + vz * abs(vz) / (2.0 * float(ap.params.get("PILOT_ACCEL_Z", 250)) / 100.0)
+        return ap.hold_pos[2], 0.0
 
     def velocity(self, dt: float) -> np.ndarray:
         """LOITER's pilot velocity (north, east) m/s, slewed at LOIT_ACC_MAX, or at

@@ -54,4 +54,9 @@ class ModePosHold(StoppingMode):
         if self.leaning:                 # sticks released: brake, then hold
             self.leaning = False
             self.stop.start(*self.stop_limits())
+        if vz and not self.stop.active:  # holding: the throttle climbs
+            ap.echo = None
+            ap.setpoint(pos=np.array([ap.hold_pos[0], ap.hold_pos[1], z]), vel=np.array([0.0, 0.0, vz]),
+                        yaw=ap.hold_yaw, yaw_rate=rate or None)
+            return
         self.stop.run(dt)
