@@ -7,7 +7,7 @@ never touches physics. Truth (``truth(i)``, ``pos``...) is for scoring only; the
 autopilot reads ``estimate(i)`` / ``est_pos`` etc. and ``estimate_ok(i)`` (pre-arm).
 
 How modes use Setpoints (copter; all world NED, z down, ground at the vehicle's home z):
-  hold / LOITER without RC / BRAKE: Setpoint()                    velocity 0: brakes, holds
+  hold / LOITER sticks centred / BRAKE: Setpoint()                velocity 0: brakes, holds
   position (GUIDED, AUTO, RTL legs): Setpoint(pos=p, yaw=psi)     jerk/accel/speed limited
                                      by WPNAV_SPEED(_UP/_DN), WPNAV_ACCEL(_Z), PSC_JERK_XY/Z
   follow / moving target:            Setpoint(pos=p, vel=v)       vel is feed-forward
@@ -17,9 +17,10 @@ How modes use Setpoints (copter; all world NED, z down, ground at the vehicle's 
                                      built by land_setpoint(i); NaN in pos = that axis
                                      group (xy or z) is velocity-controlled. landed(i) goes
                                      true ~1 s after touch-down; the autopilot then disarms.
-  STABILIZE without RC:              Setpoint(level=True)         roll/pitch level, altitude
+  STABILIZE without RC input:        Setpoint(level=True)         roll/pitch level, altitude
                                      and yaw held, no horizontal control (drifts)
-  attitude (GUIDED's attitude target): Setpoint(roll=r, pitch=p, yaw=psi, vel=(0, 0, vz))
+  attitude (GUIDED's attitude target, the pilot's lean angles in STABILIZE, ALT_HOLD, POSHOLD):
+                                     Setpoint(roll=r, pitch=p, yaw=psi, vel=(0, 0, vz))
                                      lean to (r, p) at heading psi (ZYX, rad; |r|, |p| <= 80 deg),
                                      no horizontal control, climb at -vz; rates=(p, q) body
                                      roll/pitch and yaw_rate: feed-forward of a moving target;

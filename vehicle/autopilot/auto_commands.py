@@ -13,8 +13,8 @@ source, re-expressed here):
   (WP_YAW_BEHAVIOR 2, the default) unless an ROI or CONDITION_YAW says otherwise.
 - NAV_TAKEOFF (copter): climb straight up to the item's altitude (at least 1 m up);
   done at that altitude. On the ground it waits for "auto armed": MISSION_START, a
-  GUIDED takeoff, or AUTO_OPTIONS bit 1 (AllowTakeOffWithoutRaisingThrottle); towerlink
-  has no RC throttle to raise.
+  GUIDED takeoff, AUTO_OPTIONS bit 1 (AllowTakeOffWithoutRaisingThrottle), or the pilot's
+  throttle raised above zero (an RC override: vehicle/autopilot/rc_input.py).
 - NAV_LAND (copter): at a position -> fly there at the current altitude, then descend;
   else descend here. Landed -> disarm (the land item is not reported reached, as
   ArduCopter). NAV_RETURN_TO_LAUNCH: the vehicle's RTL mode object flies it (rally points

@@ -24,7 +24,7 @@ from typing import ClassVar
 
 class ArmingMethod(enum.Enum):
     """AP_Arming::Method: who asks to arm. Every request towerlink gets comes over MAVLink;
-    RC ones (the rudder stick, an auxiliary switch) need a simulated transmitter."""
+    the RC ones (the rudder stick, an auxiliary switch) are not modelled."""
     MAVLINK = "mavlink"
     RUDDER = "rudder"
     AUXSWITCH = "auxswitch"
@@ -63,9 +63,9 @@ class Mode:
         raise NotImplementedError
 
     def read_pilot_input(self) -> None:
-        """Where this mode would read the pilot's sticks each tick (ArduPilot's
-        get_pilot_desired_* in run()). No RC is simulated, so every stick is centred and this
-        does nothing; a simulated transmitter plugs in here, before run()."""
+        """Each tick before run(): what the mode keeps from the pilot's sticks
+        (ap.rc.sticks, vehicle/autopilot/rc_input.py; the copter's auto_armed). The modes
+        flown by the sticks read them in run() (ArduPilot's get_pilot_desired_*)."""
 
     # ----- what the mode is ------------------------------------------------------------
     # Each mode declares ArduPilot's answers here; the hooks below return them, and a mode
