@@ -53,10 +53,16 @@ class Pilot:
         return self.hold(sticks, "LOCAL_POSITION_NED", lambda p: p.time_boot_ms >= end, timeout)
 
 
-def _param(m, name, value):
-    m.mav.param_set_send(m.target_system, m.target_component, name.encode(), float(value),
-                         mav.MAV_PARAM_TYPE_REAL32)
-    recv(m, "PARAM_VALUE", 5, cond=lambda p: p.param_id == name and abs(p.param_value - value) < 1e-6)
+def _param(m, name, value, tries=3):
+    """PARAM_SET until its PARAM_VALUE echo comes (re-sent as MAVProxy does: UDP may drop it)."""
+    for i in range(tries):
+        m.mav.param_set_send(m.target_system, m.target_component, name.encode(), float(value),
+                             mav.MAV_PARAM_TYPE_REAL32)
+        try:
+            return recv(m, "PARAM_VALUE", 2, cond=lambda p: p.param_id == name and abs(p.param_value - value) < 1e-6)
+        except AssertionError:
+            if i == tries - 1:
+                raise
 
 
 def _interval(m, msgid, hz=10):
@@ -190,7 +196,7 @@ def test_radio_failsafe_on_lost_overrides_and_cleared(sitl):
     assert set_mode(drone, "ALT_HOLD") == mav.MAV_RESULT_ACCEPTED
     pilot.hold_for(CENTRE, 0.5)
     _param(drone, "FS_THR_ENABLE", 1)
-    # the overrides stop (heartbeats go on): 2 s later the radio failsafe, RTL
+    # the overrides stop (heartbeats go on): RC_FS_TIMEOUT (1 s) later the radio failsafe, RTL
     _text(drone, "Radio Failsafe", 20)
     recv(drone, "HEARTBEAT", 5, cond=lambda h: h.custom_mode == 6 and h.system_status == mav.MAV_STATE_CRITICAL)
     _text(drone, "Radio Failsafe Cleared", 10, pilot, CENTRE)

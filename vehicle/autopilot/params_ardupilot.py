@@ -49,6 +49,7 @@ _PILOT_SHARED = [
     ("RCMAP_THROTTLE", 3, 1, 16, I8, "", "throttle input channel (reboot required)"),
     ("RCMAP_YAW", 4, 1, 16, I8, "", "yaw input channel (reboot required)"),
     ("RC_OVERRIDE_TIME", 3.0, -1, 120, F, "s", "RC override timeout: 0 disables overrides, -1 never times out"),
+    ("RC_FS_TIMEOUT", 1.0, 0.1, 10, F, "s", "radio failsafe after this long without an RC frame (override or receiver)"),
     ("RC_OPTIONS", 32, 0, 2**31 - 1, I32, "", "RC input options: bit 0 ignore the receiver, bit 1 ignore MAVLink "
      "overrides (the others stored only)"),
     ("SIM_RC_FAIL", 0, 0, 2, I8, "", "simulated RC failure: 0 none, 1 no RC pulses, 2 all channels neutral except "

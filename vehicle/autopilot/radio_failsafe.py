@@ -6,8 +6,8 @@ failsafe_radio_on_event; Rover's FS_ACTION). Sim time throughout.
 Copter (FS_THR_ENABLE != 0):
 - a frame's throttle below FS_THR_VALUE three reads running triggers it; good throttle
   frames count back down and at zero clear it ("Radio Failsafe Cleared", WARNING);
-- no RC frame for 0.5 s, or 2 s while an override still counts (RC_OVERRIDE_TIME), triggers
-  it, armed or once a receiver (here: any RC input) has been seen. towerlink has no radio
+- no RC frame for RC_FS_TIMEOUT s (at least 0.1) triggers it, armed or once RC input
+  (a receiver or an override) has been seen (has_ever_seen_rc_input). towerlink has no radio
   receiver unless SIM_RC_FAIL is 2, so before the first RC input nothing can time out (in
   ArduPilot SITL a receiver is always there: arming with none fails its checks instead).
 - then, in events.cpp's order: should disarm (STABILIZE with the throttle at zero, AUTO not
@@ -17,8 +17,8 @@ Copter (FS_THR_ENABLE != 0):
   Mode"; GUIDED with bit 2 and FS_GCS_ENABLE: "... - Continuing Guided Mode"; else "Radio
   Failsafe" and FS_THR_ENABLE's action: 1, 2, 6 RTL or LAND; 3 LAND; 4 SmartRTL, RTL or LAND;
   5 SmartRTL or LAND; 7 BRAKE or LAND.
-Rover (FS_THR_ENABLE != 0): throttle below FS_THR_VALUE or no RC frame for 0.5 s (after the
-first RC input, as above) for FS_TIMEOUT s, outside RTL and HOLD: "Radio Failsafe" (WARNING),
+Rover (FS_THR_ENABLE != 0): throttle below FS_THR_VALUE or no RC frame for RC_FS_TIMEOUT s
+(after the first RC input, as above) for FS_TIMEOUT s, outside RTL and HOLD: "Radio Failsafe" (WARNING),
 overrides cleared, FS_ACTION (rover_failsafe.py's chains); "Radio Failsafe Cleared" (INFO).
 """
 from __future__ import annotations
@@ -28,8 +28,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from vehicle.autopilot import modes
 
 FS_COUNTER = 3                     # low-throttle frames in a row that trigger (Copter)
-RADIO_TIMEOUT = 0.5                # s without a frame (FS_RADIO_TIMEOUT_MS)
-OVERRIDE_TIMEOUT = 2.0             # s while overrides count (FS_RADIO_RC_OVERRIDE_TIMEOUT_MS)
+MIN_TIMEOUT = 0.1                  # s: RC_Channels::get_fs_timeout_ms's floor
 THROTTLE_ZERO_DEBOUNCE = 0.4       # s of zero throttle before throttle_zero (Copter)
 SEV_WARNING, SEV_INFO = mav.MAV_SEVERITY_WARNING, mav.MAV_SEVERITY_INFO
 # FS_OPTIONS bits (Copter's FailsafeOption)
@@ -51,12 +50,11 @@ class RadioFailsafe:
         return int(self.ap.params.get("FS_THR_ENABLE", 1)) != 0
 
     def timed_out(self, t: float) -> bool:
-        """No RC frame for the timeout (after the first one)."""
+        """No RC frame for RC_FS_TIMEOUT s (after the first one)."""
         rc = self.ap.rc
         if rc.last_frame is None:
             return False
-        timeout = OVERRIDE_TIMEOUT if rc.override_active(t) else RADIO_TIMEOUT
-        return t - rc.last_frame >= timeout
+        return t - rc.last_frame >= max(MIN_TIMEOUT, float(self.ap.params.get("RC_FS_TIMEOUT", 1.0)))
 
     def throttle_low(self) -> bool:
         rc = self.ap.rc
@@ -161,7 +159,7 @@ class RoverRadioFailsafe(RadioFailsafe):
         if not self.enabled() or ap.rc.last_frame is None:
             failed = False
         else:
-            failed = self.throttle_low() or t - ap.rc.last_frame > RADIO_TIMEOUT
+            failed = self.throttle_low() or self.timed_out(t)
         self.active = failed
         if not failed:
             self.failing_since = None

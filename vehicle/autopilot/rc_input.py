@@ -17,9 +17,8 @@ An override counts while it is non-zero and younger than RC_OVERRIDE_TIME (s; 0 
 overrides, negative never times out) (RC_Channel::has_override). Each tick `read(t)` is
 RC_Channels::read_input: a new frame when a receiver pulse or a new override arrived since
 the last read; then every channel with an override (or the receiver) takes its value as
-radio_in, the others keep the last one. `last_frame` is the sim time of the last frame,
-`override_active(t)` says whether any override still counts (the radio failsafe's timeout is
-longer then).
+radio_in, the others keep the last one. `last_frame` is the sim time of the last frame (the
+radio failsafe's RC_FS_TIMEOUT counts from it).
 
 Sticks (RC_Channel's conversions, RCn_MIN/MAX/TRIM/DZ/REVERSED, channels by RCMAP_*):
 roll, pitch and yaw as norm_input_dz (-1..1: right, nose-up, right), the throttle as
@@ -160,10 +159,6 @@ class RcInput:
         if timeout == 0:
             return False
         return t - self.override_t[ch] < timeout
-
-    def override_active(self, t: float) -> bool:
-        """RC_Channels::has_active_overrides."""
-        return any(self.has_override(ch, t) for ch in range(NUM_CHANNELS) if self.override[ch])
 
     def receiver_frame(self) -> list[int] | None:
         """The simulated receiver's pulses this tick (SIM_RC_FAIL 2), else None."""
