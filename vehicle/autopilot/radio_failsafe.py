@@ -74,6 +74,8 @@ class CopterRadioFailsafe(RadioFailsafe):
 
     def update(self, t: float, new_frame: bool) -> None:
         ap = self.ap
+        if ap.rc.last_frame is None:
+            return                     # never any RC input: nothing to lose (the common case)
         if new_frame:
             self._throttle_zero(t)
             if not self.enabled():
@@ -156,6 +158,8 @@ class RoverRadioFailsafe(RadioFailsafe):
 
     def update(self, t: float, new_frame: bool) -> None:
         ap = self.ap
+        if ap.rc.last_frame is None and not self.triggered:
+            return                     # never any RC input: nothing to lose (the common case)
         if not self.enabled() or ap.rc.last_frame is None:
             failed = False
         else:

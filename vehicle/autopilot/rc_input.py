@@ -174,6 +174,8 @@ class RcInput:
         """RC_Channels::read_input at sim time t: True when a new frame was read (the
         channels then hold it and `sticks` is updated). RC_OPTIONS bit 0 ignores the
         receiver, bit 1 the overrides (ignore_receiver, ignore_overrides)."""
+        if not self.new_overrides and self.params.get("SIM_RC_FAIL", 0) != 2:
+            return False               # the common tick: nothing came (no receiver, no override)
         options = int(self.params.get("RC_OPTIONS", 32))
         rx = None if options & IGNORE_RECEIVER else self.receiver_frame()
         if options & IGNORE_OVERRIDES:
