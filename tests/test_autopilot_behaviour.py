@@ -51,13 +51,17 @@ def _goto(ap, x, y, z):
 
 # ---------------------------------------------------------------- rover
 
-@pytest.fixture
-def rover():
-    w = _world(drones=0, rovers=1)
+def _with_texts(w: World):
+    """(world, its first vehicle's autopilot, the STATUSTEXTs it says from now on)."""
     ap = w.vehicles[0].ap
     texts = []
     ap.outbox.subscribe(text=lambda sev, t: texts.append(t))
     return w, ap, texts
+
+
+@pytest.fixture
+def rover():
+    return _with_texts(_world(drones=0, rovers=1))
 
 
 def test_rover_unknown_command_unsupported(rover):

@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from test_autopilot_behaviour import _until, _world
+from test_autopilot_behaviour import _until, _with_texts, _world
 from test_sitl_support import mav
 from vehicle.autopilot import copter_pilot, modes
 from vehicle.autopilot.rc_input import (INT16_MAX, NUM_CHANNELS, RcInput, Sticks, control_mid, manual_pwm,
@@ -145,11 +145,7 @@ def _hold(w, ap, chans, secs):
 
 @pytest.fixture
 def copter():
-    w = _world()
-    ap = w.vehicles[0].ap
-    texts = []
-    ap.outbox.subscribe(text=lambda sev, t: texts.append(t))
-    return w, ap, texts
+    return _with_texts(_world())
 
 
 def test_arming_refused_with_the_throttle_up(copter):

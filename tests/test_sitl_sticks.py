@@ -89,6 +89,21 @@ def _arm(m):
     return recv(m, ["COMMAND_ACK", "STATUSTEXT"], 5, cond=ack).result, texts
 
 
+def _drift_after_stop(pilot, sticks) -> tuple[float, float]:
+    """Hold `sticks` until the copter stops, then 3 s more: (horizontal, vertical) m moved."""
+    pilot.hold(sticks, "LOCAL_POSITION_NED", lambda p: math.hypot(p.vx, p.vy) < 0.1, 30)
+    p0 = recv(pilot.m, "LOCAL_POSITION_NED", 5)
+    p1 = pilot.hold_for(sticks, 3.0)
+    return math.hypot(p1.x - p0.x, p1.y - p0.y), abs(p1.z - p0.z)
+
+
+def _flying_in(sitl, mode):
+    """The drone switched to `mode`: (connection, its Pilot, the ATTITUDE then)."""
+    drone = sitl[1]
+    assert set_mode(drone, mode) == mav.MAV_RESULT_ACCEPTED
+    return drone, Pilot(drone), recv(drone, "ATTITUDE", 5)
+
+
 def _forward(p, att) -> float:
     return p.vx * math.cos(att.yaw) + p.vy * math.sin(att.yaw)
 
@@ -156,33 +171,22 @@ def test_alt_hold_pilot_takeoff_climb_and_hold_on_release(sitl):
 
 @pytest.mark.timeout(120)
 def test_poshold_pitch_stick_moves_forward_then_brakes_to_a_hold(sitl):
-    _, drone, _ = sitl
-    pilot = Pilot(drone)
-    assert set_mode(drone, "POSHOLD") == mav.MAV_RESULT_ACCEPTED
-    att = recv(drone, "ATTITUDE", 5)
+    drone, pilot, att = _flying_in(sitl, "POSHOLD")
     fwd = pilot.hold((1500, 1250, 1500, 1500), "LOCAL_POSITION_NED", lambda p: _forward(p, att) > 3.0, 30)
     assert abs(fwd.vx * math.sin(att.yaw) - fwd.vy * math.cos(att.yaw)) < 1.0   # no sideways drift
-    pilot.hold(CENTRE, "LOCAL_POSITION_NED", lambda p: math.hypot(p.vx, p.vy) < 0.1, 30)
-    p0 = recv(drone, "LOCAL_POSITION_NED", 5)
-    p1 = pilot.hold_for(CENTRE, 3.0)
-    assert math.hypot(p1.x - p0.x, p1.y - p0.y) < 0.5
+    assert _drift_after_stop(pilot, CENTRE)[0] < 0.5
 
 
 @pytest.mark.timeout(120)
 def test_loiter_flown_by_manual_control(sitl):
-    _, drone, _ = sitl
-    pilot = Pilot(drone)
-    assert set_mode(drone, "LOITER") == mav.MAV_RESULT_ACCEPTED
-    att = recv(drone, "ATTITUDE", 5)
+    drone, pilot, att = _flying_in(sitl, "LOITER")
     stick = {"x": 800, "y": 0, "z": 500, "r": 0}                       # forward, throttle mid
     pilot.hold(stick, "LOCAL_POSITION_NED", lambda p: _forward(p, att) > 4.0, 30)
     rc = pilot.hold(stick, "RC_CHANNELS", None)
     assert rc.chan2_raw < 1200 and rc.chan1_raw == 1500                # pitch forward is low PWM
     still = {"x": 0, "y": 0, "z": 500, "r": 0}
-    pilot.hold(still, "LOCAL_POSITION_NED", lambda p: math.hypot(p.vx, p.vy) < 0.1, 30)
-    p0 = recv(drone, "LOCAL_POSITION_NED", 5)
-    p1 = pilot.hold_for(still, 3.0)
-    assert math.hypot(p1.x - p0.x, p1.y - p0.y) < 0.5 and abs(p1.z - p0.z) < 0.3
+    horizontal, vertical = _drift_after_stop(pilot, still)
+    assert horizontal < 0.5 and vertical < 0.3
     yawing = {"x": 0, "y": 0, "z": 500, "r": 600}
     yaw0 = att.yaw
     a = pilot.hold(yawing, "ATTITUDE", lambda a: a.yawspeed > 1.0, 20)    # yaw stick right: turns right

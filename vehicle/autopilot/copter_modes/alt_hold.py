@@ -19,15 +19,11 @@ NAN = float("nan")
 
 class ModeAltHold(CopterMode):
     number = modes.ALT_HOLD
-    position_required, arming_allowed = False, True
+    position_required, arming_allowed, pilot_takeoff = False, True, True
 
     def has_user_takeoff(self, must_navigate: bool) -> bool:
         """Only a takeoff the pilot may steer (it holds no position)."""
         return not must_navigate
-
-    def leaves_ground(self) -> bool:
-        """A climb asked for on the ground takes off (the pilot takeoff)."""
-        return self.is_taking_off() or self.pilot.wanted_climb() > 0.0
 
     def fly(self, dt: float) -> None:
         ap = self.ap
@@ -38,6 +34,4 @@ class ModeAltHold(CopterMode):
             ap.echo = GuidedTarget("acc", None, None, np.zeros(3), ap.hold_yaw, None)
             ap.setpoint(pos=np.array([NAN, NAN, z]), level=True, yaw=ap.hold_yaw)
             return
-        ap.echo = None
-        ap.setpoint(pos=np.array([NAN, NAN, z]), vel=np.array([0.0, 0.0, vz]), roll=roll, pitch=pitch,
-                    yaw=ap.hold_yaw, yaw_rate=rate)
+        self.fly_pilot_angles(z, vz, roll, pitch, rate)

@@ -62,6 +62,7 @@ class CopterMode(Mode):
 
     # ----- ArduCopter's Mode hooks (values declared as in Mode) --------------------------
     manual_throttle: ClassVar[bool] = False      # has_manual_throttle()
+    pilot_takeoff: ClassVar[bool] = False        # a climb asked on the ground takes off (_TakeOff)
     user_takeoff: ClassVar[bool] = False         # has_user_takeoff()
 
     def has_manual_throttle(self) -> bool:
@@ -129,8 +130,17 @@ class CopterMode(Mode):
 
     def leaves_ground(self) -> bool:
         """Armed on the ground: does the mode fly now rather than idle? (a takeoff under way,
-        or GUIDED's attitude control asking to climb)"""
-        return self.is_taking_off()
+        the pilot's climb in a mode with a pilot takeoff, or GUIDED's attitude control asking
+        to climb)"""
+        return self.is_taking_off() or (self.pilot_takeoff and self.pilot.wanted_climb() > 0.0)
+
+    def fly_pilot_angles(self, z: float, vz: float, roll: float, pitch: float, yaw_rate: float) -> None:
+        """The pilot's lean angles (rad) at the held heading turning at yaw_rate (rad/s), the
+        altitude z held (NaN: climbing at -vz m/s)."""
+        ap = self.ap
+        ap.echo = None
+        ap.setpoint(pos=np.array([np.nan, np.nan, z]), vel=np.array([0.0, 0.0, vz]), roll=roll, pitch=pitch,
+                    yaw=ap.hold_yaw, yaw_rate=yaw_rate)
 
     def fly(self, dt: float) -> None:
         """Setpoints in the air (armed, or taking off)."""

@@ -19,11 +19,8 @@ NAN = float("nan")
 
 class ModeLoiter(CopterMode):
     number = modes.LOITER
-    position_required, arming_allowed, user_takeoff = True, True, True
+    position_required, arming_allowed, user_takeoff, pilot_takeoff = True, True, True, True
     reports_guided_enabled = True
-
-    def leaves_ground(self) -> bool:
-        return self.is_taking_off() or self.pilot.wanted_climb() > 0.0
 
     def fly(self, dt: float) -> None:
         ap = self.ap

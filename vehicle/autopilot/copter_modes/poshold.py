@@ -15,12 +15,11 @@ from vehicle.autopilot import modes
 from vehicle.autopilot.copter_modes.stopping import StoppingMode
 
 GRAVITY = 9.80665
-NAN = float("nan")
 
 
 class ModePosHold(StoppingMode):
     number = modes.POSHOLD
-    position_required, arming_allowed, user_takeoff = True, True, True
+    position_required, arming_allowed, user_takeoff, pilot_takeoff = True, True, True, True
 
     def __init__(self, ap) -> None:
         super().__init__(ap)
@@ -36,9 +35,6 @@ class ModePosHold(StoppingMode):
         rate = math.radians(float(p.get("PHLD_BRAKE_RATE", 8)))
         return GRAVITY * math.tan(angle), GRAVITY * rate
 
-    def leaves_ground(self) -> bool:
-        return self.is_taking_off() or self.pilot.wanted_climb() > 0.0
-
     def fly(self, dt: float) -> None:
         ap = self.ap
         z, vz = self.pilot.vertical(dt)
@@ -47,9 +43,7 @@ class ModePosHold(StoppingMode):
         if roll or pitch:
             self.leaning = True
             self.stop.release()
-            ap.echo = None
-            ap.setpoint(pos=np.array([NAN, NAN, z]), vel=np.array([0.0, 0.0, vz]), roll=roll, pitch=pitch,
-                        yaw=ap.hold_yaw, yaw_rate=rate)
+            self.fly_pilot_angles(z, vz, roll, pitch, rate)
             return
         if self.leaning:                 # sticks released: brake, then hold
             self.leaning = False
