@@ -43,7 +43,8 @@ class ControllerTelemetry:
     def __init__(self, ap, clock) -> None:
         self.ap = ap
         self.clock = clock
-        self._turn = 0              # the next enabled axis to send (they take turns)
+        self._turn = -1             # the enabled axis sent last (they take turns)
+        self._turn_t: float | None = None
 
     def pid_tuning_fields(self) -> tuple | None:
         ap = self.ap
@@ -51,8 +52,11 @@ class ControllerTelemetry:
         axes = [a for bit, a in (_COPTER_AXES if ap.kind == "copter" else _ROVER_AXES) if mask & bit]
         if not axes:
             return None
+        t = self.clock()
+        if t != self._turn_t:           # the next axis at each new instant: one built twice
+            self._turn_t = t            # at one time (a request and a stream) is the same
+            self._turn += 1
         axis = axes[self._turn % len(axes)]
-        self._turn += 1
         return self._copter_axis(axis) if ap.kind == "copter" else self._rover_speed()
 
     def _copter_axis(self, axis: int) -> tuple:
