@@ -116,9 +116,37 @@ def test_pid_tuning_follows_gcs_pid_mask_and_the_rate_controllers():
         f.step(0.02)
         a = build(f, "PID_TUNING")
     assert abs(a.desired) < 100 and abs(a.achieved) < 100 and a.FF == a.desired     # hovering, cm/s^2
-    r = Flight("rover", params={"GCS_PID_MASK": 3})
+
+def test_rover_pid_tuning_is_its_steering_and_speed_commands():
+    from vehicle.autopilot import modes
+    r = Flight("rover", params={"GCS_PID_MASK": 1})
     r.settle()
-    assert build(r, "PID_TUNING").axis == C.PID_TUNING_ACCZ              # speed; steering is not kept
+    assert r.ap.set_mode(modes.ROVER_GUIDED) and r.ap.arm() == C.MAV_RESULT_ACCEPTED
+    goto(r, 0, 30, 0)                                   # due east: a right turn
+    r.step(0.3)
+    p = build(r, "PID_TUNING")
+    assert p.axis == C.PID_TUNING_STEER and p.desired > 20                 # deg/s, turning right
+    assert p.achieved == pytest.approx(math.degrees(r.ap.fleet.drive_outputs(0)[2])) and p.FF == p.desired
+    r.ap.params.set("GCS_PID_MASK", 2, save=False)
+    r.step(3.0)
+    p = build(r, "PID_TUNING")
+    v_cmd, speed, _ = r.ap.fleet.drive_outputs(0)
+    assert p.axis == C.PID_TUNING_ACCZ and (p.desired, p.achieved) == pytest.approx((v_cmd, speed)) and speed > 0.5
+
+
+def test_esc_telemetry_is_each_motors_speed_and_the_pack():
+    f = Flight("copter", params={"BATT_MONITOR": 4})
+    f.settle()
+    assert f.world.t < 6.0 and build(f, "ESC_TELEMETRY_1_TO_4") is None        # SITL: nothing at first
+    airborne(f)
+    e = build(f, "ESC_TELEMETRY_1_TO_4")
+    w_max = f.ap.fleet.airframe.omega_max
+    assert e.rpm == [round(x * w_max * 60 / (2 * math.pi)) for x in f.ap.fleet.motor_outputs(0)]
+    assert all(3000 < r < 11000 for r in e.rpm), e.rpm                          # hovering
+    b = f.ap.battery.reading(f.ap.params.values)
+    assert e.voltage == [round(b.voltage * 100)] * 4 and e.current == [round(b.current * 25)] * 4
+    assert e.count[0] == int(f.world.t * 50) & 0xFFFF and e.temperature == [0] * 4
+    assert build(Flight("rover"), "ESC_TELEMETRY_1_TO_4") is None
 
 
 def test_attitude_target_is_the_attitude_controllers():
@@ -143,6 +171,7 @@ def test_stream_groups_carry_the_new_messages_where_ardupilot_does():
         g = stream_groups(kind)
         assert {C.MAVLINK_MSG_ID_SCALED_IMU3, C.MAVLINK_MSG_ID_SCALED_PRESSURE2,
                 C.MAVLINK_MSG_ID_SCALED_PRESSURE3} <= set(g["SR0_RAW_SENS"])
-        assert {C.MAVLINK_MSG_ID_SIMSTATE, C.MAVLINK_MSG_ID_PID_TUNING} <= set(g["SR0_EXTRA1"])
+        assert {C.MAVLINK_MSG_ID_SIMSTATE, C.MAVLINK_MSG_ID_PID_TUNING,
+                C.MAVLINK_MSG_ID_ESC_TELEMETRY_1_TO_4} <= set(g["SR0_EXTRA1"])
         assert C.MAVLINK_MSG_ID_WIND in g["SR0_EXTRA3"]
         assert all(C.MAVLINK_MSG_ID_ATTITUDE_TARGET not in ids for ids in g.values())    # on request only

@@ -11,9 +11,11 @@ PID_TUNING (GCS_MAVLINK_Copter::send_pid_tuning; SR0_EXTRA1, axes chosen by GCS_
   achieved = the estimate's vertical acceleration (cm/s^2, up positive, as AC_PosControl's
   accel PID in 4.5). Approximated: towerlink has no acceleration PID (the collective is
   computed from the target directly), so P, I and D are 0 and FF is the desired value.
-- Rover 2 speed (PID_TUNING_ACCZ, m/s): desired = the commanded speed, achieved = the
-  speed; FF = desired, P = I = D = 0 (the simulated drive follows its command, no PID).
-  Rover 1 (steering rate) is not sent: the commanded turn rate is not kept.
+- Rover 1 steering rate (PID_TUNING_STEER, deg/s as GCS_MAVLINK_Rover sends it): desired =
+  the turn rate the steering asked for, achieved = the turn rate; 2 speed (PID_TUNING_ACCZ,
+  m/s): desired = the commanded speed, achieved = the speed. Approximated: the simulated
+  drive follows its commands through its own lag, with no PID, so FF = desired and
+  P = I = D = 0.
 ArduPilot sends every enabled axis each time the message is due. One scheduled slot
 carries one message here, so the enabled axes take turns: with n axes enabled each arrives
 at 1/n of SR0_EXTRA1's rate (or of PID_TUNING's SET_MESSAGE_INTERVAL).
@@ -34,7 +36,7 @@ from vehicle.telemetry.wire import boot_ms
 
 _COPTER_AXES = ((1, mav.PID_TUNING_ROLL), (2, mav.PID_TUNING_PITCH), (4, mav.PID_TUNING_YAW),
                 (8, mav.PID_TUNING_ACCZ))
-_ROVER_AXES = ((2, mav.PID_TUNING_ACCZ),)
+_ROVER_AXES = ((1, mav.PID_TUNING_STEER), (2, mav.PID_TUNING_ACCZ))
 
 
 class ControllerTelemetry:
@@ -57,7 +59,7 @@ class ControllerTelemetry:
             self._turn_t = t            # at one time (a request and a stream) is the same
             self._turn += 1
         axis = axes[self._turn % len(axes)]
-        return self._copter_axis(axis) if ap.kind == "copter" else self._rover_speed()
+        return self._copter_axis(axis) if ap.kind == "copter" else self._rover_axis(axis)
 
     def _copter_axis(self, axis: int) -> tuple:
         ap = self.ap
@@ -74,9 +76,14 @@ class ControllerTelemetry:
         kp, _, kd, _ = ap.fleet.gains_of(ap.i).rat[k]
         return (axis, target, target - err, 0.0, kp * err, integ, kd * deriv, 0.0, 1.0)
 
-    def _rover_speed(self) -> tuple:
-        v_cmd, speed, _ = self.ap.fleet.drive_outputs(self.ap.i)
-        return (mav.PID_TUNING_ACCZ, v_cmd, speed, v_cmd, 0.0, 0.0, 0.0, 0.0, 1.0)
+    def _rover_axis(self, axis: int) -> tuple:
+        fleet, i = self.ap.fleet, self.ap.i
+        v_cmd, speed, rate = fleet.drive_outputs(i)
+        if axis == mav.PID_TUNING_STEER:
+            want, got = math.degrees(fleet.turn_command(i)), math.degrees(rate)
+        else:
+            want, got = v_cmd, speed
+        return (axis, want, got, want, 0.0, 0.0, 0.0, 0.0, 1.0)
 
     def attitude_target_fields(self) -> tuple | None:
         ap = self.ap

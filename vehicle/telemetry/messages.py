@@ -48,6 +48,7 @@ def message_builders(ap, clock: Callable[[], float]) -> dict[int, Builder]:
         mav.MAVLINK_MSG_ID_AHRS2: ekf.ahrs2_fields,
         mav.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW: out.servo_output_raw_fields,
         mav.MAVLINK_MSG_ID_RC_CHANNELS: out.rc_channels_fields,
+        mav.MAVLINK_MSG_ID_ESC_TELEMETRY_1_TO_4: out.esc_telemetry_1_to_4_fields,
         mav.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT: nav.nav_controller_output_fields,
         mav.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT: nav.position_target_global_int_fields,
         mav.MAVLINK_MSG_ID_POWER_STATUS: board.power_status_fields,

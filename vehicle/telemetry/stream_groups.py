@@ -4,10 +4,12 @@ As ArduPilot's GCS_MAVLink_Parameters.cpp (`STREAM_*_msgs`, master of 2025; 4.5'
 ArduCopter/GCS_Mavlink.cpp and Rover/GCS_Mavlink.cpp list the same messages for what
 towerlink simulates): which MAVLink messages each SR0_* rate schedules. A message whose
 builder has nothing to say is not sent, as ArduPilot's senders return early (SCALED_PRESSURE3:
-SITL has two barometers; WIND from a rover; PID_TUNING with GCS_PID_MASK 0). Messages
+SITL has two barometers; WIND, ESC_TELEMETRY_1_TO_4 from a rover; PID_TUNING with
+GCS_PID_MASK 0). ESC_TELEMETRY_1_TO_4 is in SR0_EXTRA1 as in master (4.5 lists it in
+SR0_EXTRA3). Messages
 ArduPilot lists but towerlink has no source for are left out: AIRSPEED (no sensor),
 MCU_STATUS, GPS_RTK and GPS2_* (one plain GPS), RC_CHANNELS_RAW (MAVLink 1 links only),
-RPM, ESC_TELEMETRY, WHEEL_DISTANCE, EFI, generator, winch (no such hardware), RANGEFINDER,
+RPM, WHEEL_DISTANCE, EFI, generator, winch (no such hardware), RANGEFINDER,
 DISTANCE_SENSOR, WATER_DEPTH, TERRAIN_*, OPTICAL_FLOW, MAG_CAL_* (no rangefinder, terrain,
 flow sensor or compass calibration), GIMBAL_DEVICE_ATTITUDE_STATUS, ADSB_VEHICLE and
 AVAILABLE_MODES. Rover adds RC_CHANNELS_SCALED (MSG_SERVO_OUT) in SR0_RAW_CTRL.
@@ -35,7 +37,8 @@ _COMMON: dict[str, tuple[int, ...]] = {
     "SR0_RAW_CTRL": (),
     "SR0_POSITION": (_M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, _M.MAVLINK_MSG_ID_LOCAL_POSITION_NED),
     "SR0_EXTRA1": (_M.MAVLINK_MSG_ID_ATTITUDE, _M.MAVLINK_MSG_ID_SIMSTATE, _M.MAVLINK_MSG_ID_SIM_STATE,
-                   _M.MAVLINK_MSG_ID_AHRS2, _M.MAVLINK_MSG_ID_PID_TUNING, _M.MAVLINK_MSG_ID_ATTITUDE_QUATERNION),
+                   _M.MAVLINK_MSG_ID_AHRS2, _M.MAVLINK_MSG_ID_PID_TUNING, _M.MAVLINK_MSG_ID_ESC_TELEMETRY_1_TO_4,
+                   _M.MAVLINK_MSG_ID_ATTITUDE_QUATERNION),
     "SR0_EXTRA2": (_M.MAVLINK_MSG_ID_VFR_HUD,),
     "SR0_EXTRA3": (_M.MAVLINK_MSG_ID_AHRS, _M.MAVLINK_MSG_ID_WIND, _M.MAVLINK_MSG_ID_SYSTEM_TIME, _M.MAVLINK_MSG_ID_BATTERY_STATUS,
                    _M.MAVLINK_MSG_ID_EKF_STATUS_REPORT, _M.MAVLINK_MSG_ID_VIBRATION,
