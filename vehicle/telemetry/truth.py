@@ -37,14 +37,20 @@ class TruthTelemetry:
 
     def __init__(self, ap) -> None:
         self.ap = ap
+        self._seen: tuple | None = None       # (fleet step time, _state) of the last reading
 
     def _state(self):
-        """(row, (roll, pitch, yaw), specific force, (lat, lon, alt)) of the truth now."""
+        """(row, (roll, pitch, yaw), specific force, (lat, lon, alt)) of the truth now; SIMSTATE
+        and SIM_STATE are due in the same tick and share one reading."""
         ap = self.ap
+        t = ap.fleet.sim_time
+        seen = self._seen
+        if seen is not None and seen[0] == t:
+            return seen[1]
         row = ap.fleet.truth_row(ap.i)
-        euler = euler_from_quaternion(row[6:10])
-        lla = geo.ned_to_lla(ap.origin, row[0:3])
-        return row, euler, specific_force_body(row), lla
+        state = (row, euler_from_quaternion(row[6:10]), specific_force_body(row), geo.ned_to_lla(ap.origin, row[0:3]))
+        self._seen = (t, state)
+        return state
 
     def simstate_fields(self) -> tuple:
         row, (r, p, y), f, (lat, lon, _) = self._state()
