@@ -8,9 +8,9 @@ import math
 
 import numpy as np
 import pytest
+from auto_world import Flight, airborne, goto
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from auto_world import Flight, airborne, goto
 from common import geo
 from common.frames import euler_from_quaternion
 from vehicle.physics.wind import WIND_TYPE_NO_LIMIT, WindParams

@@ -152,8 +152,7 @@ class ImuTelemetry:
         return self._pressure(1)
 
     def scaled_pressure3_fields(self) -> None:
-        """SITL's SIM_BARO_COUNT is 2: no third barometer, nothing to send."""
-        return None
+        """SITL's SIM_BARO_COUNT is 2: no third barometer, nothing to send (None)."""
 
     def _baro_alt(self) -> float:
         """The barometer's altitude (m AMSL): the truth plus the spec's noise."""
