@@ -81,8 +81,9 @@ def _attitude_values(sp: Setpoint, flags: dict) -> dict:
     return out
 
 
-def _copter_core(ph, c, est, sp, armed, landed, ground_z, g, af, dt, xp, air=None):
-    """Controller + physics for one step (backend-generic). Returns the 'running' mask."""
+def _copter_core(ph, c, est, sp, armed, landed, ground_z, g, af, dt, xp, air=None, mul=None):
+    """Controller + physics for one step (backend-generic). Returns the 'running' mask.
+    mul: None, or the four motors' output multipliers (SIM_ENGINE_FAIL / SIM_ENGINE_MUL)."""
     climb = xp.where(sp.use_pos_z, sp.pz < ground_z - 0.25, sp.vz < -0.05)
     idle = landed & xp.lnot(climb)
     stop = idle | xp.lnot(armed)
@@ -96,6 +97,8 @@ def _copter_core(ph, c, est, sp, armed, landed, ground_z, g, af, dt, xp, air=Non
     else:
         idle_w = xp.where(armed, om * g.spin_arm, 0.0)
         cmd = [xp.where(run, fi * om, idle_w) for fi in f]
+    if mul is not None:
+        cmd = [ci * m for ci, m in zip(cmd, mul)]
     mc.step(ph, cmd, af, dt, ground_z, xp, air)
     return run
 
@@ -254,8 +257,11 @@ class CopterFleet(FleetBase):
     def _step_vec(self, dt):
         g, xp = self.gains, NumpyOps
         est = self._est_view if self._est_view is not None else self._phys
+        mul = self._motor_mul
+        if mul is not None:      # (4,) arrays over the fleet
+            mul = [np.array([1.0 if m is None else m[k] for m in mul]) for k in range(4)]
         run = _copter_core(self._phys, self._ctrl, est, self.sp, self.armed, self._landed,
-                           self.ground_z, g, self.airframe, dt, xp, self._air_vec())
+                           self.ground_z, g, self.airframe, dt, xp, self._air_vec(), mul)
         self.sim_time += dt
         self._est_view = self._sense_and_estimate_vec(dt)
         e = self._est_view if self._est_view is not None else self._phys
@@ -267,9 +273,10 @@ class CopterFleet(FleetBase):
         gs, af, xp = self._gs, self.airframe, ScalarOps
         armed, landed, runs, timer = self._armed_l, self._landed, self._run, self._land_timer
         ps, cs, ss, ests = self._ps, self._cs, self._ss, self._ests
+        muls = self._motor_mul or (None,) * self.n
         for i in range(self.n):
             runs[i] = _copter_core(ps[i], cs[i], ests[i] or ps[i], ss[i], armed[i], landed[i],
-                                   self._gz[i], gs[i], af, dt, xp, self._air_of(i))
+                                   self._gz[i], gs[i], af, dt, xp, self._air_of(i), muls[i])
         self.sim_time += dt
         self._sense_and_estimate_scalar(dt)
         for i in range(self.n):

@@ -15,6 +15,7 @@ from vehicle.autopilot.base import Autopilot
 from vehicle.autopilot.battery import MOTOR_EFFICIENCY
 from vehicle.autopilot.copter_arming import CopterArming
 from vehicle.autopilot.copter_commands import CopterCommands
+from vehicle.autopilot.ekf_failsafe import CopterEkfCheck
 from vehicle.autopilot.copter_failsafe import CopterFailsafes
 from vehicle.autopilot.copter_modes.copter_mode import UserTakeoff
 
@@ -28,6 +29,7 @@ class CopterAutopilot(Autopilot):
     arming_class = CopterArming
     commands_class = CopterCommands
     failsafe_class = CopterFailsafes
+    ekf_check_class = CopterEkfCheck
     speed_param = ("WPNAV_SPEED", 100.0, 500.0, 20.0)      # cm/s; 20 m/s is WPNAV_SPEED's maximum
 
     def __init__(self, *a, **kw) -> None:

@@ -12,6 +12,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from vehicle.autopilot import modes, rover_modes
 from vehicle.autopilot.base import Autopilot
 from vehicle.autopilot.rover_commands import RoverCommands
+from vehicle.autopilot.ekf_failsafe import RoverEkfCheck
 from vehicle.autopilot.rover_failsafe import RoverFailsafes
 
 DRIVE_V = 11.1            # V: the drive's nominal voltage
@@ -27,6 +28,7 @@ class RoverAutopilot(Autopilot):
     GUIDED, AUTO, RTL, SMART_RTL = modes.ROVER_GUIDED, modes.ROVER_AUTO, modes.ROVER_RTL, modes.ROVER_SMART_RTL
     commands_class = RoverCommands
     failsafe_class = RoverFailsafes
+    ekf_check_class = RoverEkfCheck
     speed_param = ("WP_SPEED", 1.0, 0.0, 100.0)     # m/s; WP_SPEED 0 means CRUISE_SPEED to the rover core
 
     def electrical_load(self) -> float:

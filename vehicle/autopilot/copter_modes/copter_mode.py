@@ -144,9 +144,13 @@ class CopterMode(Mode):
         return float(p.get("LAND_SPEED", 50)) / 100.0
 
     def land_run(self) -> None:
-        """Descend at descent_speed() over ap.hold_pos's x, y (altitude free)."""
+        """Descend at descent_speed() over ap.hold_pos's x, y (altitude free); without a
+        position estimate level, drifting (ArduCopter's ModeLand::nogps_run)."""
         ap = self.ap
         speed = self.descent_speed()
+        if not ap.est_ok:
+            ap.setpoint(vel=np.array([0.0, 0.0, speed]), yaw=ap.hold_yaw, level=True)
+            return
         x, y = ap.hold_pos[0], ap.hold_pos[1]
         ap.echo = GuidedTarget("posvel", np.array([x, y, ap.pos[2]]), np.array([0.0, 0.0, speed]),
                                None, ap.hold_yaw, None)
