@@ -16,7 +16,8 @@ Copter (CopterEkfCheck):
   2 ALT_HOLD (LAND if that fails), else LAND, then CRITICAL "EKF Failsafe: changed to <MODE>
   Mode"; back at 0: CRITICAL "EKF Failsafe Cleared" if an action was taken.
 - GPS glitch: the filter's GPS position innovation fails its gate (EKF_STATUS_REPORT's
-  EKF_GPS_GLITCHING): CRITICAL "GPS Glitch", then "GPS Glitch cleared".
+  EKF_GPS_GLITCHING): CRITICAL "GPS Glitch", then "GPS Glitch cleared" once it has passed for
+  GLITCH_CLEAR_S.
 Rover (RoverEkfCheck): armed only; over threshold as the copter's (ArduRover counts the
 velocity variance in both of its tests, and so does this) or without a good position (armed:
 relative or absolute, not constant-position mode); FS_EKF_ACTION 0 nothing, 1 HOLD, 2 report:
@@ -36,6 +37,7 @@ ITERATIONS_MAX = 10          # EKF_CHECK_ITERATIONS_MAX: 1 s of failing checks
 WARNING_TIME = 30.0          # s between "EKF variance" texts
 SLEW_TIME, SLEW_ALT, SLEW_MIN = 10.0, 10.0, 0.5   # the copter's threshold slew after take-off
 CRITICAL = mav.MAV_SEVERITY_CRITICAL
+GLITCH_CLEAR_S = 1.0         # s of passing GPS fixes before "GPS Glitch cleared" (see _glitch)
 
 
 def copter_over_threshold(vel: float, pos: float, mag: float, thresh: float) -> bool:
@@ -127,6 +129,7 @@ class CopterEkfCheck(EkfCheck):
         self.takeoff_t = 0.0
         self.takeoff_alt = 0.0
         self.glitching = False
+        self._clear_ticks = 0
 
     def check(self, t: float) -> None:
         ap = self.ap
@@ -151,9 +154,20 @@ class CopterEkfCheck(EkfCheck):
             self.count(t, not passed)
 
     def _glitch(self, glitching: bool) -> None:
-        if glitching != self.glitching:
-            self.glitching = glitching
-            self.ap.text(CRITICAL, "GPS Glitch" if glitching else "GPS Glitch cleared")
+        """The glitch starts with the first failing fix and clears after GLITCH_CLEAR_S of
+        passing ones (EKF3 rejects the GPS for seconds, so its flag does not chatter; the
+        ratios of towerlink's filter, which fuses every fix, hover about 1 as it follows a
+        step)."""
+        if glitching:
+            self._clear_ticks = 0
+            if not self.glitching:
+                self.glitching = True
+                self.ap.text(CRITICAL, "GPS Glitch")
+        elif self.glitching:
+            self._clear_ticks += 1
+            if self._clear_ticks * PERIOD >= GLITCH_CLEAR_S - 1e-9:
+                self.glitching = False
+                self.ap.text(CRITICAL, "GPS Glitch cleared")
 
     def event(self) -> None:
         ap = self.ap
