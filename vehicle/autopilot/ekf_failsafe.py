@@ -176,7 +176,7 @@ class CopterEkfCheck(EkfCheck):
         self.failsafe = True
         if not ap.armed:
             return
-        if ap.mode == modes.LAND:        # already landing (towerlink's LAND needs no GPS)
+        if ap.flightmode is ap.flightmodes.get(modes.LAND):    # landing goes on without GPS
             return
         action = int(ap.params.get("FS_EKF_ACTION", 1))
         if not ap.flightmode.requires_position() and action != 3:
