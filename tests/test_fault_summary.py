@@ -105,14 +105,14 @@ def test_a_run_without_faults_has_no_section():
 
 
 def test_the_estimator_failsafes_go_to_the_sensor_fault_and_the_battery_one_to_the_battery():
-    """ArduCopter's EKF check and GPS glitch texts count (not their clearing), and each failsafe
+    """ArduCopter's EKF check texts count (not their clearing, nor the GPS glitch warning), and each failsafe
     goes to the latest fault that can cause it: "EKF variance" to the GPS fault although the
     battery sag came later, the battery's to the sag."""
     from common.scenario_faults import Fault
     from tools.fault_summary import fault_section
     from tools.run_data import RunData
-    assert is_failsafe("EKF variance") and is_failsafe("GPS Glitch") and is_failsafe("EKF Failsafe: changed to LAND Mode")
-    assert not is_failsafe("GPS Glitch cleared") and not is_failsafe("EKF Failsafe Cleared")
+    assert is_failsafe("EKF variance") and is_failsafe("EKF Failsafe: changed to LAND Mode") and is_failsafe("EKF failsafe")
+    assert not is_failsafe("GPS Glitch") and not is_failsafe("GPS Glitch cleared") and not is_failsafe("EKF Failsafe Cleared")
     assert not is_failsafe("EKF failsafe cleared")
     gps = Fault(0, 5.0, "drone", 1, params=(("SIM_GPS1_ENABLE", 0.0),))
     sag = Fault(1, 6.0, "drone", 1, params=(("SIM_BATT_VOLTAGE", 10.0),))

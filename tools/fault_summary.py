@@ -6,8 +6,8 @@ cleared each (faults.json, sim s: in lockstep the first lockstep frame at or aft
 time), the vehicles' STATUSTEXTs and mode changes (tools.run_data: texts, modes; sim s) and the
 tower's goals. A failsafe is a vehicle's STATUSTEXT that says so (ArduPilot's words: "GCS
 Failsafe On: RTL", "Battery Failsafe", the monitor's "Battery 1 is low ...", the EKF check's
-"EKF variance" and "EKF Failsafe: changed to LAND Mode", the glitch check's "GPS Glitch"; a
-"... Cleared" is not one). It is put down to the
+"EKF variance" and "EKF Failsafe: changed to LAND Mode"; a "... Cleared" is not one, nor is the
+warning "GPS Glitch"). It is put down to the
 latest fault applied before it of the kind that can cause it: a GCS failsafe (the ground
 station fell silent) to a tower-link fault, a battery one to a fault on the vehicle's battery
 parameters, an EKF or GPS one to a fault on its sensors or motors (SIM_GPS*, SIM_BARO*,
@@ -31,15 +31,16 @@ HEARTBEAT_S = 1.0       # s between a vehicle's HEARTBEATs (ArduPilot's 1 Hz)
 _BATTERY_LEVEL = re.compile(r"^Battery \d+ is (low|critical)\b")
 
 
-# what the EKF check says before its failsafe, and the GPS glitch check (ArduCopter's words)
-_ESTIMATOR = ("EKF variance", "GPS Glitch")
+# what the EKF check says as its failsafe triggers (ArduCopter's words)
+_ESTIMATOR = ("EKF variance",)
 
 
 def is_failsafe(text: str) -> bool:
     """Does this STATUSTEXT report a failsafe (not its clearing)? The vehicle's own ("GCS Failsafe
     On: RTL", "Battery Failsafe", "EKF Failsafe: changed to LAND Mode"), the battery monitor's
     level ("Battery 1 is low 10.20V ...", which a vehicle whose BATT_FS_LOW_ACT is 0 says
-    alone) and the estimator's checks ("EKF variance", "GPS Glitch")."""
+    alone) and the EKF check's "EKF variance". Not "GPS Glitch": a warning, its failsafe (if any)
+    is the EKF check's."""
     t = text.lower()
     return ("failsafe" in t and "cleared" not in t) or bool(_BATTERY_LEVEL.match(text)) or text in _ESTIMATOR
 

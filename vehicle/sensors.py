@@ -12,6 +12,10 @@ Noise (1 sigma, white unless noted):
   Baro 50 Hz: altitude 0.1 m.
   AHRS: attitude error as a first-order Gauss-Markov rotation vector (0.3 deg, 5 s),
        see vehicle.estimation.
+
+Injected faults (ArduPilot SITL's SIM_*: vehicle.sim_faults, set_faults) change a vehicle's
+readings after they are drawn, from the same normals: no GPS or baro reading (None in its
+row), a GPS or baro step, a baro drift, wider noise. Without faults nothing is added.
 """
 from __future__ import annotations
 
