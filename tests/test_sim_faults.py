@@ -226,3 +226,23 @@ def test_faults_off_change_nothing():
         w.run_for(2.0)
         runs.append(w.fleets[0][1].est_pos.tolist())
     assert runs[0] == runs[1]
+
+
+def test_fs_ekf_action_2_holds_altitude_and_gps_back_clears():
+    """FS_EKF_ACTION 2: ALT_HOLD instead of LAND; GPS back, the checks pass for 1 s: "EKF
+    Failsafe Cleared" (the mode stays: ArduCopter does not switch back)."""
+    w, ap, texts, _ = _loitering()
+    _set(ap, FS_EKF_ACTION=2, SIM_GPS1_ENABLE=0)
+    _until(w, lambda: _said(texts, "EKF Failsafe: changed to ALT_HOLD Mode") is not None, 15)
+    assert ap.mode == modes.ALT_HOLD
+    _set(ap, SIM_GPS1_ENABLE=1)
+    _until(w, lambda: _said(texts, "EKF Failsafe Cleared") is not None, 15)
+    assert ap.mode == modes.ALT_HOLD
+
+
+def test_fs_ekf_thresh_0_disables_the_check():
+    w, ap, texts, _ = _loitering()
+    _set(ap, FS_EKF_THRESH=0, SIM_GPS1_ENABLE=0)
+    w.run_for(12.0)
+    assert ap.mode == modes.LOITER and not ap.est_ok
+    assert _said(texts, "EKF variance") is None
