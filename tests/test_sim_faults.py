@@ -246,3 +246,28 @@ def test_fs_ekf_thresh_0_disables_the_check():
     w.run_for(12.0)
     assert ap.mode == modes.LOITER and not ap.est_ok
     assert _said(texts, "EKF variance") is None
+
+
+@given(v=st.floats(-5, 5), r=st.floats(-2, 2))
+def test_skid_mix_is_identity_without_a_fault_and_a_dead_left_side_turns_left(v, r):
+    assert sim_faults.skid_mix(v, r, 1.0, 1.0, 5.0, 2.0) == pytest.approx((v, r))
+    v2, r2 = sim_faults.skid_mix(v, 0.0, 0.0, 1.0, 5.0, 2.0)    # straight ahead on the right side alone
+    assert v2 == pytest.approx(v / 2) and r2 == pytest.approx(-v / 2 * 2.0 / 5.0)
+
+
+def test_rover_with_a_dead_left_motor_veers_left():
+    """SIM_ENGINE_FAIL 1 on a skid-steer rover (servo 1: the left throttle): told to drive north,
+    it pivots about its dead side, to the left (yaw falls), and gets nowhere straight."""
+    from vehicle.fleet import RoverFleet, Setpoint
+    ends = []
+    for fault in (sim_faults.NONE, sim_faults.SimFaults.from_params({"SIM_ENGINE_FAIL": 1}, 0.0)):
+        f = RoverFleet(1, estimator=False)
+        f.set_faults(0, fault)
+        f.set_armed(0, True)
+        f.set_setpoint(0, Setpoint(vel=[2.0, 0.0, 0.0]))
+        for _ in range(400):
+            f.step(1 / 400)
+        ends.append((f.pos[0].copy(), f.truth(0).yaw))
+    (ok_pos, ok_yaw), (bad_pos, bad_yaw) = ends
+    assert ok_pos[0] > 1.0 and abs(ok_yaw) < 0.05
+    assert bad_pos[0] < 0.8 * ok_pos[0] and bad_yaw < -0.1

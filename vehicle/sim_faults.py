@@ -20,7 +20,8 @@ Parameters (ArduPilot's names, units and defaults unless said):
   modelled AHRS error), so a compass fault has nothing to act on.
 - SIM_ENGINE_FAIL (bitmask of motors 1..32), SIM_ENGINE_MUL (0): each masked motor's output
   is multiplied by SIM_ENGINE_MUL (ArduPilot scales the servo output's 1000..2000 range by
-  it): a copter's rotor-speed command, a rover's throttle and steering.
+  it, a rover's about 1500): a copter's rotor-speed command; a skid-steer rover's left
+  (servo 1) and right (servo 3) throttle (skid_mix).
 """
 from __future__ import annotations
 
@@ -148,3 +149,13 @@ def gyro_error(f: SimFaults, spec, bias, err):
         return err
     k = extra_sigma(spec.gyro_sigma, combined_sigma(spec.gyro_sigma, f.gyro_sigma)) / spec.gyro_sigma
     return [e + k * (e - b) for e, b in zip(err, bias)]
+
+
+def skid_mix(speed, rate, mul_left: float, mul_right: float, max_speed, max_rate):
+    """A skid-steer rover's (speed m/s, turn rate rad/s, positive right) command with its left
+    (servo 1) and right (servo 3) throttles multiplied: ArduRover mixes left = throttle +
+    steering, right = throttle - steering (each a fraction of full), SITL multiplies the
+    failed outputs, the wheels' mean drives and their difference turns. Floats or arrays."""
+    t, st = speed / max_speed, rate / max_rate
+    left, right = (t + st) * mul_left, (t - st) * mul_right
+    return 0.5 * (left + right) * max_speed, 0.5 * (left - right) * max_rate
