@@ -16,8 +16,9 @@ from common.frames import euler_from_quaternion
 from vehicle import params_core
 from vehicle.estimation import Estimator, output_step_scalar
 from vehicle.innovations import POS_TIMEOUT_S
-from vehicle.sim_faults import NONE as NO_FAULTS, SimFaults
 from vehicle.sensors import Sensors, SensorSpec, vehicle_rngs
+from vehicle.sim_faults import NONE as NO_FAULTS
+from vehicle.sim_faults import SimFaults
 
 
 @dataclass
@@ -158,16 +159,20 @@ class FleetBase:
         self.setpoints: list[Setpoint] = [Setpoint() for _ in range(self.n)]
         self.air: np.ndarray | None = None    # (n,3) air velocity, world NED m/s (wind); None = still
         self._air_rows: list | None = None
-        self.faults: list[SimFaults] = [NO_FAULTS] * self.n    # injected faults (vehicle.sim_faults)
+        self._faults: list[SimFaults] = [NO_FAULTS] * self.n    # injected faults (vehicle.sim_faults)
         self._motor_mul: list | None = None    # per vehicle: motor multipliers or None; None: all 1
 
     def set_faults(self, i: int, faults: SimFaults) -> None:
         """Vehicle i's injected faults from now on (ArduPilot's SIM_*: vehicle.sim_faults)."""
-        self.faults[i] = faults
+        self._faults[i] = faults
         if self.use_estimator:
-            self.sensors.set_faults(self.faults)
-        muls = [None if f.motors_ok else f.motor_mul for f in self.faults]
+            self.sensors.set_faults(self._faults)
+        muls = [None if f.motors_ok else f.motor_mul for f in self._faults]
         self._motor_mul = None if all(m is None for m in muls) else muls
+
+    def faults_of(self, i: int) -> SimFaults:
+        """Vehicle i's injected faults (vehicle.sim_faults.NONE: none)."""
+        return self._faults[i]
 
     def set_air(self, air: np.ndarray | None) -> None:
         """The air velocity each vehicle flies in from now on ((n,3) world NED m/s, the wind

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vehicle import sim_faults
 from vehicle.autopilot import CopterAutopilot, ParamStore, RoverAutopilot
 from vehicle.autopilot.mission_persist import PersistentMissionStore, missions_path
 from vehicle.autopilot.mission_store import MISSION, MissionStore
@@ -24,7 +25,6 @@ from vehicle.link import VehicleLink
 from vehicle.link.link_core import Intake
 from vehicle.logs.world_logs import WorldLogs
 from vehicle.network_plan import NetworkPlan
-from vehicle import sim_faults
 from vehicle.physics.wind import WindParams
 from vehicle.vehicle_root import vehicle_root
 from vehicle.world_config import WorldConfig

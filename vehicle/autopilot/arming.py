@@ -34,7 +34,7 @@ class Arming:
         if ap.params.get("ARMING_CHECK", 1) == 0:
             return []
         out = []
-        if not ap.fleet.faults[ap.i].gps_fix:
+        if not ap.fleet.faults_of(ap.i).gps_fix:
             out.append("GPS 1: Bad fix")            # AP_Arming::gps_checks (SIM_GPS1_ENABLE 0)
         if not ap.est_ok:
             out.append("Need Position Estimate")

@@ -15,9 +15,9 @@ from vehicle.autopilot.base import Autopilot
 from vehicle.autopilot.battery import MOTOR_EFFICIENCY
 from vehicle.autopilot.copter_arming import CopterArming
 from vehicle.autopilot.copter_commands import CopterCommands
-from vehicle.autopilot.ekf_failsafe import CopterEkfCheck
 from vehicle.autopilot.copter_failsafe import CopterFailsafes
 from vehicle.autopilot.copter_modes.copter_mode import UserTakeoff
+from vehicle.autopilot.ekf_failsafe import CopterEkfCheck
 
 
 class CopterAutopilot(Autopilot):

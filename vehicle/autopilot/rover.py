@@ -11,8 +11,8 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from vehicle.autopilot import modes, rover_modes
 from vehicle.autopilot.base import Autopilot
-from vehicle.autopilot.rover_commands import RoverCommands
 from vehicle.autopilot.ekf_failsafe import RoverEkfCheck
+from vehicle.autopilot.rover_commands import RoverCommands
 from vehicle.autopilot.rover_failsafe import RoverFailsafes
 
 DRIVE_V = 11.1            # V: the drive's nominal voltage

@@ -179,7 +179,7 @@ class Telemetry:
         ap = self.ap
         lat, lon, alt = ap.lla()
         ok = ap.est_ok
-        fault = ap.fleet.faults[ap.i]            # SIM_GPS1_* (vehicle/sim_faults.py)
+        fault = ap.fleet.faults_of(ap.i)            # SIM_GPS1_* (vehicle/sim_faults.py)
         ok = ok and fault.gps_fix
         vx, vy, _ = ap.vel.tolist()
         gs = float(np.hypot(vx, vy))

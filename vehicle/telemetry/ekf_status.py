@@ -20,7 +20,8 @@ Flags follow EKF3's filter status from how long GPS has not been fused (AP_NavEK
 - the filter is unhealthy (attitude and every estimate flag clear) when all three ratios
   exceed 1;
 - GPS_GLITCHING while the horizontal position ratio exceeds 1 (the GPS position fails the
-  gate; towerlink's filter fuses it all the same, EKF3 would reject it). Before the first filter epoch the flags are EKF_UNINITIALIZED only.
+  gate; towerlink's filter fuses it all the same, EKF3 would reject it).
+Before the first filter epoch the flags are EKF_UNINITIALIZED only.
 A vehicle flying on truth (no estimator) reports the healthy GPS flags and zero ratios.
 
 AHRS: no gyro drift is estimated (omegaI 0); error_rp / error_yaw are the AHRS model's
