@@ -271,3 +271,29 @@ def test_rover_with_a_dead_left_motor_veers_left():
     (ok_pos, ok_yaw), (bad_pos, bad_yaw) = ends
     assert ok_pos[0] > 1.0 and abs(ok_yaw) < 0.05
     assert bad_pos[0] < 0.8 * ok_pos[0] and bad_yaw < -0.1
+
+
+@pytest.mark.parametrize("estimator", ["filterpy", "batched"])
+def test_one_vehicles_gps_fault_leaves_the_others_alone(estimator):
+    """Per-vehicle filters and the batched one alike: vehicle 1 without GPS loses its position
+    after the EKF's 7 s and is not corrected, vehicle 2's glitch moves its estimate by the step,
+    vehicle 0 is as it was."""
+    from vehicle.fleet import CopterFleet
+    n = 3
+    home = np.array([[0.0, 2.0 * i, 0.0] for i in range(n)])
+    runs = {}
+    for faulty in (False, True):
+        f = CopterFleet(n, seed=2, home=home, estimator=estimator)
+        for _ in range(400 * 3):
+            f.step(1 / 400)
+        assert all(f.estimate_ok(i) for i in range(n))
+        if faulty:
+            f.set_faults(1, sim_faults.SimFaults.from_params({"SIM_GPS1_ENABLE": 0}, 0.0))
+            f.set_faults(2, sim_faults.SimFaults.from_params({"SIM_GPS1_GLTCH_X": 1e-4}, 0.0))
+        for _ in range(400 * 8):
+            f.step(1 / 400)
+        runs[faulty] = (f.est_pos.copy(), [f.estimate_ok(i) for i in range(n)])
+    (clean, ok_clean), (est, ok) = runs[False], runs[True]
+    assert ok_clean == [True] * n and ok == [True, False, True]
+    assert est[0].tolist() == clean[0].tolist()
+    assert est[2][0] - clean[2][0] == pytest.approx(1e-4 * LATLON_TO_M, abs=1.0)    # at rest: the estimate follows the step north
