@@ -174,7 +174,7 @@ _COPTER_ONLY = [
 ]
 
 _ROVER_ONLY = [
-    ("FS_EKF_ACTION", 1, 0, 2, I8, "", "EKF failsafe action: 0 report only, 1 Hold, 2 report only (ArduRover's)"),
+    ("FS_EKF_ACTION", 1, 0, 2, I8, "", "EKF failsafe action: 0 disabled, 1 Hold, 2 report only"),
     ("FS_EKF_THRESH", 0.8, 0, 1.0, F, "", "EKF failsafe variance threshold (0 disables the EKF check)"),
     ("FRAME_CLASS", 1, 0, 3, I8, "", "frame class: 1 Rover (towerlink simulates a skid-steer rover)"),
     ("FRAME_TYPE", 0, 0, 6, I8, "", "frame type: 0 Undefined (not omni)"),
