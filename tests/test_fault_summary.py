@@ -102,3 +102,24 @@ def test_a_run_without_faults_has_no_section():
     assert is_failsafe("GCS Failsafe On: RTL") and is_failsafe("Battery Failsafe")
     assert is_failsafe("Battery 1 is low 9.34V used 98 mAh") and is_failsafe("Battery 2 is critical 9.0V used 1 mAh")
     assert not is_failsafe("GCS Failsafe Cleared") and not is_failsafe("Battery 1 is fine")
+
+
+def test_the_estimator_failsafes_go_to_the_sensor_fault_and_the_battery_one_to_the_battery():
+    """ArduCopter's EKF check texts count (not their clearing, nor the GPS glitch warning), and each failsafe
+    goes to the latest fault that can cause it: "EKF variance" to the GPS fault although the
+    battery sag came later, the battery's to the sag."""
+    from common.scenario_faults import Fault
+    from tools.fault_summary import fault_section
+    from tools.run_data import RunData
+    assert is_failsafe("EKF variance") and is_failsafe("EKF Failsafe: changed to LAND Mode") and is_failsafe("EKF failsafe")
+    assert not is_failsafe("GPS Glitch") and not is_failsafe("GPS Glitch cleared") and not is_failsafe("EKF Failsafe Cleared")
+    assert not is_failsafe("EKF failsafe cleared")
+    gps = Fault(0, 5.0, "drone", 1, params=(("SIM_GPS1_ENABLE", 0.0),))
+    sag = Fault(1, 6.0, "drone", 1, params=(("SIM_BATT_VOLTAGE", 10.0),))
+    data = RunData()
+    data.texts[1] = [(13.0, 2, "EKF variance"), (13.0, 2, "EKF Failsafe: changed to LAND Mode"),
+                     (16.0, 4, "Battery Failsafe")]
+    applied = [{"fault": 0, "kind": "apply", "at": 5.0}, {"fault": 1, "kind": "apply", "at": 6.0}]
+    s = fault_section([gps, sag], applied, data, {1: "drone"}, [])
+    assert [x["fault"] for x in s["failsafes"]] == [0, 0, 1]
+    assert [x["after"] for x in s["faults"][0]["failsafes"]] == [8.0, 8.0]

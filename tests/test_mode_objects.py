@@ -52,7 +52,7 @@ COPTER_USER_TAKEOFF = {modes.ALT_HOLD: (True, False), modes.GUIDED: (True, True)
                        modes.POSHOLD: (True, True)}
 GUIDED_MODES = {modes.GUIDED, modes.GUIDED_NOGPS}           # in_guided_mode()
 # where towerlink answers otherwise, and says why in the hook's docstring
-COPTER_DIFFERENCES = {(modes.LAND, "requires_position")}
+COPTER_DIFFERENCES: set = set()      # LAND descends without a position now, as ArduCopter's
 
 # Rover/mode.h: (requires_position, requires_velocity, has_manual_input, is_autopilot_mode, allows_arming)
 ROVER = {

@@ -3,8 +3,9 @@
 The lab's short mission over a lossy, slow, jittery, narrow tower link (10 % loss, 0.2 s
 latency, reordering, duplicates, 12 kB/s down: below the telemetry's rate, so the
 queue fills and drops), with a battery sag on the drone at t = 2 s and
-a 2 s outage of the tower link at t = 14 s. The mission still completes, and the summary says
-which failsafe the sag caused and when. Flown twice, at --speedup 2 beside a CPU-burning
+a 2 s outage of the tower link at t = 14 s, and a 3 s GPS glitch on the drone at t = 6 s (SIM_GPS1_GLTCH_X:
+5.6 m north: "GPS Glitch" without an EKF failsafe). The mission still completes, and the
+summary says which failsafe the sag caused and when. Flown twice, at --speedup 2 beside a CPU-burning
 process and at --speedup max: every figure of the two summaries is equal, the faults' times,
 the failsafes and the link's frame counts included (system_support.WALL_FIELDS aside).
 """
@@ -18,6 +19,7 @@ import pytest
 
 from common.scenario import DEFAULT_SCENARIO
 from system_support import HOUSE, figures, finish, launched, tower_goals
+from tools.run_data import load_run
 
 pytestmark = pytest.mark.slow
 
@@ -43,6 +45,12 @@ t = 14
 duration = 2
 target = "tower_link"
 loss = 1.0
+
+[[faults]]
+t = 6
+until = 9
+target = "drone"
+SIM_GPS1_GLTCH_X = 0.00005
 '''
 
 
@@ -65,8 +73,13 @@ def test_a_fault_timeline_gives_the_same_summary_at_2x_under_load_and_at_max(tmp
     fast = fly(tmp_path / "max", scenario, float("inf"))
     assert slow["ok"] and fast["ok"], slow.get("text")
     f = fast["faults"]
-    link, battery, outage = f["faults"]
+    link, battery, outage, glitch = f["faults"]
     assert (link["applied"], battery["applied"], outage["applied"], outage["cleared"]) == (0.0, 2.0, 14.0, 16.0)
+    assert (glitch["applied"], glitch["cleared"]) == (6.0, 9.0)
+    assert glitch["failsafes"] == []                                  # a small step: no EKF failsafe,
+    for run in ("x2_loaded", "max"):                                  # but the glitch check's warning
+        said = [(round(t, 2), text) for t, _, text in load_run(tmp_path / run).texts[1] if "Glitch" in text]
+        assert said and said[0] == (6.06, "GPS Glitch") and said[1][1] == "GPS Glitch cleared", said
     level, action = battery["failsafes"]                              # the monitor's level, the vehicle's words
     assert level["text"].startswith("Battery 1 is low") and action["text"] == "Battery Failsafe"
     assert 10.0 <= action["after"] < 10.5 and level["t"] == action["t"]    # BATT_LOW_TIMER after the sag

@@ -5,10 +5,13 @@ Inputs: the scenario's faults (common.scenario_faults.Fault), when the link prox
 cleared each (faults.json, sim s: in lockstep the first lockstep frame at or after the fault's
 time), the vehicles' STATUSTEXTs and mode changes (tools.run_data: texts, modes; sim s) and the
 tower's goals. A failsafe is a vehicle's STATUSTEXT that says so (ArduPilot's words: "GCS
-Failsafe On: RTL", "Battery Failsafe", the monitor's "Battery 1 is low ..."; a "... Cleared" is
-not one). It is put down to the
+Failsafe On: RTL", "Battery Failsafe", the monitor's "Battery 1 is low ...", the EKF check's
+"EKF variance" and "EKF Failsafe: changed to LAND Mode"; a "... Cleared" is not one, nor is the
+warning "GPS Glitch"). It is put down to the
 latest fault applied before it of the kind that can cause it: a GCS failsafe (the ground
-station fell silent) to a tower-link fault, any other to a fault on that vehicle; failing that,
+station fell silent) to a tower-link fault, a battery one to a fault on the vehicle's battery
+parameters, an EKF or GPS one to a fault on its sensors or motors (SIM_GPS*, SIM_BARO*,
+SIM_ENGINE_*...), any other to a fault on that vehicle; failing that,
 to the latest fault on either (none: a failsafe without a fault). Its mode is the vehicle's
 mode a heartbeat period (HEARTBEAT_S) later, when its HEARTBEAT has told it.
 """
@@ -28,12 +31,18 @@ HEARTBEAT_S = 1.0       # s between a vehicle's HEARTBEATs (ArduPilot's 1 Hz)
 _BATTERY_LEVEL = re.compile(r"^Battery \d+ is (low|critical)\b")
 
 
+# what the EKF check says as its failsafe triggers (ArduCopter's words)
+_ESTIMATOR = ("EKF variance",)
+
+
 def is_failsafe(text: str) -> bool:
     """Does this STATUSTEXT report a failsafe (not its clearing)? The vehicle's own ("GCS Failsafe
-    On: RTL", "Battery Failsafe") and the battery monitor's level ("Battery 1 is low 10.20V ...",
-    which a vehicle whose BATT_FS_LOW_ACT is 0 says alone)."""
+    On: RTL", "Battery Failsafe", "EKF Failsafe: changed to LAND Mode"), the battery monitor's
+    level ("Battery 1 is low 10.20V ...", which a vehicle whose BATT_FS_LOW_ACT is 0 says
+    alone) and the EKF check's "EKF variance". Not "GPS Glitch": a warning, its failsafe (if any)
+    is the EKF check's."""
     t = text.lower()
-    return ("failsafe" in t and "cleared" not in t) or bool(_BATTERY_LEVEL.match(text))
+    return ("failsafe" in t and "cleared" not in t) or bool(_BATTERY_LEVEL.match(text)) or text in _ESTIMATOR
 
 
 def fault_section(faults: Sequence[Fault], applied: Sequence[Mapping[str, Any]], data: RunData,
@@ -71,9 +80,26 @@ def _cause(faults: Sequence[Fault], at: Mapping, sysid: int, t: float, text: str
               and at[(f.index, "apply")] <= t + EPS and (f.on_link or f.sysid == sysid)]
     if not before:
         return None
-    link_kind = "gcs" in text.lower()
-    likely = [f for f in before if f.on_link == link_kind] or before
+    likely = [f for f in before if _can_cause(f, text)] or before
     return max(likely, key=lambda f: (at[(f.index, "apply")], f.index))
+
+
+# a vehicle failsafe's words -> the parameters (by prefix) of the faults that can cause it
+_CAUSES = (("battery", ("SIM_BATT", "BATT_")),
+           ("ekf", ("SIM_GPS", "SIM_BARO", "SIM_ACC", "SIM_GYR", "SIM_ENGINE", "SIM_MAG", "FS_EKF")),
+           ("gps", ("SIM_GPS",)))
+
+
+def _can_cause(f: Fault, text: str) -> bool:
+    """Can fault f cause this failsafe? A GCS failsafe comes from the tower link; a battery,
+    EKF or GPS one from a vehicle fault on those parameters; any other from a vehicle fault."""
+    t = text.lower()
+    if f.on_link or "gcs" in t:
+        return f.on_link and "gcs" in t
+    for word, prefixes in _CAUSES:
+        if word in t:
+            return any(name.startswith(prefixes) for name, _ in f.params)
+    return True
 
 
 def _mode_at(data: RunData, sysid: int, t: float) -> str | None:

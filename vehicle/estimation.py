@@ -207,16 +207,20 @@ class Estimator:
         b = self.bkf
         b.predict(acc_w)
         if gps:
+            kept = self.innovations.keep(b, sensors.gps_missing)
             b.update(np.hstack([sensors.gps_pos, sensors.gps_vel]))
             self.innovations.gps_all(b.y, b.S, self.k - 1)
+            self.innovations.restore(b, kept)
         if baro:
+            kept = self.innovations.keep(b, sensors.baro_missing)
             b.update(-sensors.baro_alt[:, None], R=self.R_baro, H=self.H_baro)
             self.innovations.baro_all(b.y, b.S)
+            self.innovations.restore(b, kept)
         self.pos = b.x[:, 0:3].copy()
         self.vel = b.x[:, 3:6].copy()
         self.bias = b.x[:, 6:9].copy()
         if gps:
-            self.gps_count += 1
+            self.gps_count += 1 if sensors.gps_missing is None else ~sensors.gps_missing
             pv = np.diagonal(b.P, axis1=1, axis2=2)[:, 0:3]
             self.ok = (self.gps_count >= self.min_gps) & np.all(pv < self.ok_var, axis=1)
         self.acc = acc_w - self.bias
@@ -242,19 +246,20 @@ class Estimator:
             awx, awy, awz = rotate_one(*q, *f)
             u[0], u[1], u[2] = awx + 0.0, awy + 0.0, awz + g
             kf.predict(u=u)
-            if gps:
+            fix = gps and gps_pos[i] is not None        # None: no fix (vehicle.sim_faults)
+            if fix:
                 zg[0:3] = gps_pos[i]
                 zg[3:6] = gps_vel[i]
                 kf.update(zg)
                 log.gps(i, kf.y, kf.S, step)
-            if baro:
+            if baro and baro_alt[i] is not None:
                 zb[0] = -baro_alt[i]
                 kf.update(zb, R=self.R_baro, H=self.H_baro)
                 log.baro(i, kf.y, kf.S)
             x = kf.x.tolist()
             acc_i = (awx + 0.0 - x[6], awy + 0.0 - x[7], awz + g - x[8])
             rows.append((*x, *acc_i, *q, *dq, w[0] + ge[0], w[1] + ge[1], w[2] + ge[2], ex, ey, ez))
-            if gps:
+            if fix:
                 self.gps_count[i] += 1
                 P = kf.P
                 self.ok[i] = (self.gps_count[i] >= self.min_gps and P[0, 0] < self.ok_var

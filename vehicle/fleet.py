@@ -35,6 +35,10 @@ Setpoint(pos=p, vel=v) follow a moving target; Setpoint(vel=v) drive at a veloci
 Setpoint() stop and hold; Setpoint(yaw=psi) turns in place when stopped, as does
 Setpoint(yaw_rate=r) (yaw wins when both are given). z is ignored.
 
+Injected faults (ArduPilot SITL's SIM_*, vehicle/sim_faults.py): set_faults(i, faults) gives
+vehicle i's; a failed motor's output is multiplied in the step (a copter's rotor command, a
+rover's left or right throttle), the sensor faults act in the sensors and the estimator.
+
 Parameters are per vehicle (ArduPilot names): set_params(params, i) tunes vehicle i only,
 set_params(params) all of them; params_of(i) / gains_of(i) read one vehicle's. The batched
 step's self.gains holds floats where the vehicles agree and (n,) arrays where they differ.
@@ -58,6 +62,7 @@ from vehicle.physics import NumpyOps, ScalarOps
 from vehicle.physics import multicopter as mc
 from vehicle.physics import rover as rphys
 from vehicle.sensors import SensorSpec
+from vehicle.sim_faults import skid_mix
 
 MAX_LEAN = math.radians(80.0)   # an attitude target's roll and pitch are flown within this
 
@@ -82,8 +87,9 @@ def _attitude_values(sp: Setpoint, flags: dict) -> dict:
     return out
 
 
-def _copter_core(ph, c, est, sp, armed, landed, ground_z, g, af, dt, xp, air=None):
-    """Controller + physics for one step (backend-generic). Returns the 'running' mask."""
+def _copter_core(ph, c, est, sp, armed, landed, ground_z, g, af, dt, xp, air=None, mul=None):
+    """Controller + physics for one step (backend-generic). Returns the 'running' mask.
+    mul: None, or the four motors' output multipliers (SIM_ENGINE_FAIL / SIM_ENGINE_MUL)."""
     climb = xp.where(sp.use_pos_z, sp.pz < ground_z - 0.25, sp.vz < -0.05)
     idle = landed & xp.lnot(climb)
     stop = idle | xp.lnot(armed)
@@ -97,6 +103,8 @@ def _copter_core(ph, c, est, sp, armed, landed, ground_z, g, af, dt, xp, air=Non
     else:
         idle_w = xp.where(armed, om * g.spin_arm, 0.0)
         cmd = [xp.where(run, fi * om, idle_w) for fi in f]
+    if mul is not None:
+        cmd = [ci * m for ci, m in zip(cmd, mul)]
     mc.step(ph, cmd, af, dt, ground_z, xp, air)
     return run
 
@@ -255,8 +263,11 @@ class CopterFleet(FleetBase):
     def _step_vec(self, dt):
         g, xp = self.gains, NumpyOps
         est = self._est_view if self._est_view is not None else self._phys
+        mul = self._motor_mul
+        if mul is not None:      # (4,) arrays over the fleet
+            mul = [np.array([1.0 if m is None else m[k] for m in mul]) for k in range(4)]
         run = _copter_core(self._phys, self._ctrl, est, self.sp, self.armed, self._landed,
-                           self.ground_z, g, self.airframe, dt, xp, self._air_vec())
+                           self.ground_z, g, self.airframe, dt, xp, self._air_vec(), mul)
         self.sim_time += dt
         self._est_view = self._sense_and_estimate_vec(dt)
         e = self._est_view if self._est_view is not None else self._phys
@@ -268,9 +279,10 @@ class CopterFleet(FleetBase):
         gs, af, xp = self._gs, self.airframe, ScalarOps
         armed, landed, runs, timer = self._armed_l, self._landed, self._run, self._land_timer
         ps, cs, ss, ests = self._ps, self._cs, self._ss, self._ests
+        muls = self._motor_mul or (None,) * self.n
         for i in range(self.n):
             runs[i] = _copter_core(ps[i], cs[i], ests[i] or ps[i], ss[i], armed[i], landed[i],
-                                   self._gz[i], gs[i], af, dt, xp, self._air_of(i))
+                                   self._gz[i], gs[i], af, dt, xp, self._air_of(i), muls[i])
         self.sim_time += dt
         self._sense_and_estimate_scalar(dt)
         for i in range(self.n):
@@ -342,11 +354,14 @@ class RoverFleet(FleetBase):
         if self.scalar:
             xp, gs, m = ScalarOps, self._gs, self.model
             ps, ss, ests, armed = self._ps, self._ss, self._ests, self._armed_l
+            muls = self._motor_mul or (None,) * self.n
             for i in range(self.n):
                 v, r = rcore.step(ests[i] or ps[i], ss[i], gs[i], dt, xp)
                 if not armed[i]:
                     v = r = 0.0
                     ss[i].v_cmd = 0.0
+                if muls[i] is not None:      # SIM_ENGINE_FAIL: servo 1 left, servo 3 right
+                    v, r = skid_mix(v, r, muls[i][0], muls[i][2], gs[i].max_speed, gs[i].max_rate)
                 rphys.step(ps[i], v, r, m, gs[i], dt, xp, self._air_of(i))
             self.sim_time += dt
             self._sense_and_estimate_scalar(dt)
@@ -356,6 +371,9 @@ class RoverFleet(FleetBase):
         v_cmd = np.where(self.armed, v_cmd, 0.0)
         r_cmd = np.where(self.armed, r_cmd, 0.0)
         self.sp.v_cmd = np.where(self.armed, self.sp.v_cmd, 0.0)
+        if self._motor_mul is not None:
+            left, right = (np.array([1.0 if m is None else m[k] for m in self._motor_mul]) for k in (0, 2))
+            v_cmd, r_cmd = skid_mix(v_cmd, r_cmd, left, right, self.gains.max_speed, self.gains.max_rate)
         rphys.step(self._phys, v_cmd, r_cmd, self.model, self.gains, dt, air=self._air_vec())
         self.sim_time += dt
         self._est_view = self._sense_and_estimate_vec(dt)

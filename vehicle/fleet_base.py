@@ -15,7 +15,10 @@ from common.frames import euler_from_quaternion
 
 from vehicle import params_core
 from vehicle.estimation import Estimator, output_step_scalar
+from vehicle.innovations import POS_TIMEOUT_S
 from vehicle.sensors import Sensors, SensorSpec, vehicle_rngs
+from vehicle.sim_faults import NONE as NO_FAULTS
+from vehicle.sim_faults import SimFaults
 
 
 @dataclass
@@ -156,6 +159,20 @@ class FleetBase:
         self.setpoints: list[Setpoint] = [Setpoint() for _ in range(self.n)]
         self.air: np.ndarray | None = None    # (n,3) air velocity, world NED m/s (wind); None = still
         self._air_rows: list | None = None
+        self._faults: list[SimFaults] = [NO_FAULTS] * self.n    # injected faults (vehicle.sim_faults)
+        self._motor_mul: list | None = None    # per vehicle: motor multipliers or None; None: all 1
+
+    def set_faults(self, i: int, faults: SimFaults) -> None:
+        """Vehicle i's injected faults from now on (ArduPilot's SIM_*: vehicle.sim_faults)."""
+        self._faults[i] = faults
+        if self.use_estimator:
+            self.sensors.set_faults(self._faults)
+        muls = [None if f.motors_ok else f.motor_mul for f in self._faults]
+        self._motor_mul = None if all(m is None for m in muls) else muls
+
+    def faults_of(self, i: int) -> SimFaults:
+        """Vehicle i's injected faults (vehicle.sim_faults.NONE: none)."""
+        return self._faults[i]
 
     def set_air(self, air: np.ndarray | None) -> None:
         """The air velocity each vehicle flies in from now on ((n,3) world NED m/s, the wind
@@ -306,7 +323,13 @@ class FleetBase:
 
     def estimate_ok(self, i: int) -> bool:
         """Position estimate good (pre-arm): always True when flying on truth."""
-        return True if not self.use_estimator else bool(self.estimator.ok[i])
+        if not self.use_estimator:
+            return True
+        e = self.estimator
+        if not e.ok[i]:
+            return False
+        # EKF3 times GPS position out after POS_TIMEOUT_S without a fix
+        return (e.k - 1 - int(e.innovations.gps_step[i])) * e.dt <= POS_TIMEOUT_S
 
     def set_armed(self, i: int, armed: bool) -> None:
         self.armed[i] = bool(armed)
@@ -367,6 +390,8 @@ class FleetBase:
         if not self.use_estimator:
             return None
         e = self.estimator
+        if self.sensors.faults is not None:
+            self.sensors.fault_time = self.sim_time
         ge = self.sensors.gyro_noise()
         if e.advance(dt):
             e.epoch(self.sensors, self.pos, self.vel, self.acc, self.quat, self.rates, ge)
@@ -379,6 +404,8 @@ class FleetBase:
         if not self.use_estimator:
             return
         e = self.estimator
+        if self.sensors.faults is not None:
+            self.sensors.fault_time = self.sim_time
         ge = self.sensors.gyro_noise()
         if e.advance(dt):
             e.epoch(self.sensors, self.pos, self.vel, self.acc, self.quat, self.rates, ge)

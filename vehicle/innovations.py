@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+POS_TIMEOUT_S = 7.0     # EKF3 posRetryTimeNoVel_ms: without a GPS fix this long, no position
+
 
 class InnovationLog:
     """Normalised innovations of n vehicles (see the module doc); -1 = no GPS fused yet."""
@@ -47,3 +49,20 @@ class InnovationLog:
     def baro_all(self, y: np.ndarray, S: np.ndarray) -> None:
         """Every vehicle fused a baro height: y (n, 1), S (n, 1, 1)."""
         self.hgt[:] = (y[:, 0] * y[:, 0]) / S[:, 0, 0]
+
+    def keep(self, kf, missing: np.ndarray | None):
+        """Before a batched update (BatchedKF `kf`) where the vehicles of `missing` (an (n,) mask,
+        or None) have no measurement: their filter rows and log rows, for restore()."""
+        if missing is None or not missing.any():
+            return None
+        m = missing.copy()
+        return (m, kf.x[m].copy(), kf.P[m].copy(), self.vel[m].copy(), self.pos[m].copy(),
+                self.hgt[m].copy(), self.gps_step[m].copy())
+
+    def restore(self, kf, kept) -> None:
+        """After the update: the kept vehicles as if it had not happened (nothing was fused)."""
+        if kept is None:
+            return
+        m, x, P, vel, pos, hgt, step = kept
+        kf.x[m], kf.P[m] = x, P
+        self.vel[m], self.pos[m], self.hgt[m], self.gps_step[m] = vel, pos, hgt, step

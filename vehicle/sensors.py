@@ -12,6 +12,10 @@ Noise (1 sigma, white unless noted):
   Baro 50 Hz: altitude 0.1 m.
   AHRS: attitude error as a first-order Gauss-Markov rotation vector (0.3 deg, 5 s),
        see vehicle.estimation.
+
+Injected faults (ArduPilot SITL's SIM_*: vehicle.sim_faults, set_faults) change a vehicle's
+readings after they are drawn, from the same normals: no GPS or baro reading (None in its
+row), a GPS or baro step, a baro drift, wider noise. Without faults nothing is added.
 """
 from __future__ import annotations
 
@@ -21,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from common.frames.batch import rotate, rotate_one
+from vehicle import sim_faults
 
 BLOCK = 256
 # slots in one row of standard normals
@@ -106,10 +111,23 @@ class Sensors:
         self.gps_fresh = False
         self.baro_fresh = False
         self.z = None
+        # injected faults (vehicle.sim_faults), one SimFaults per vehicle; None: none anywhere
+        self.faults: list | None = None
+        self.fault_time = 0.0              # sim s since boot (a baro drift grows with it)
+        self.gps_missing = self.baro_missing = None     # sample()'s (n,) masks of no reading
+
+    def set_faults(self, faults: list) -> None:
+        """Every vehicle's SimFaults (vehicle.sim_faults); readings change only where a
+        vehicle's faults touch its sensors."""
+        self.faults = None if all(f.sensors_ok for f in faults) else list(faults)
 
     def gyro_noise(self) -> np.ndarray:
-        """(n,3) gyro error this step: bias + white noise."""
-        return self.gyro_src.next()
+        """(n,3) gyro error this step: bias + white noise (+ SIM_GYR1_RND's)."""
+        ge = self.gyro_src.next()
+        if self.faults is not None:
+            ge = np.array([sim_faults.gyro_error(f, self.spec, b, e) for f, b, e
+                           in zip(self.faults, self.gyro_bias.tolist(), ge.tolist())])
+        return ge
 
     def sample(self, gps: bool, baro: bool, pos, vel, acc_world, quat):
         """pos, vel, acc_world: (n,3) world NED truth; quat (n,4) xyzw body->world.
@@ -129,7 +147,36 @@ class Sensors:
         self.baro_fresh = baro
         if baro:
             self.baro_alt = -pos[:, 2] + sp.baro_sigma * z[:, _BARO]
+        if self.faults is not None:
+            self._fault_arrays(gps, baro)
+        else:
+            self.baro_missing = None
+            if gps:
+                self.gps_missing = None
 
+    def _fault_arrays(self, gps: bool, baro: bool) -> None:
+        """sample()'s readings with the faults; gps_missing / baro_missing mark the vehicles
+        without a reading this epoch (their array rows keep the unfaulted numbers)."""
+        z = self.z.tolist()
+        gp = self.gps_pos.tolist() if gps else None
+        if gps:
+            self.gps_missing = np.zeros(len(z), dtype=bool)
+        self.baro_missing = np.zeros(len(z), dtype=bool) if baro else None
+        for i, f in enumerate(self.faults):
+            a, p, _, b = sim_faults.faulty_readings(f, self.fault_time, z[i], (_ACC, _BARO), self.spec,
+                                                   self.accel[i].tolist(), gp[i] if gps else None, None,
+                                                   float(self.baro_alt[i]) if baro else None)
+            self.accel[i] = a
+            if gps:
+                if p is None:
+                    self.gps_missing[i] = True
+                else:
+                    self.gps_pos[i] = p
+            if baro:
+                if b is None:
+                    self.baro_missing[i] = True
+                else:
+                    self.baro_alt[i] = b
 
     def sample_rows(self, gps: bool, baro: bool, pos: list, vel: list, acc_world: list, quat: list):
         """sample() for a few vehicles on Python floats (numpy's per-call cost dominates
@@ -154,6 +201,25 @@ class Sensors:
             self._gps_rows = (gps_pos, gps_vel)
         if baro:
             baro_alt = [-p[2] + sb * zi[_BARO] for p, zi in zip(pos, z)]
+        if self.faults is not None:
+            return self._fault_rows(z, accel, gps_pos, gps_vel, baro_alt)
+        return z, accel, gps_pos, gps_vel, baro_alt
+
+    def _fault_rows(self, z, accel, gps_pos, gps_vel, baro_alt):
+        """sample_rows()'s readings with the faults: a vehicle without a reading has None in
+        its row of gps_pos / gps_vel / baro_alt."""
+        t, sp, out = self.fault_time, self.spec, []
+        for i, f in enumerate(self.faults):
+            out.append(sim_faults.faulty_readings(f, t, z[i], (_ACC, _BARO), sp, accel[i],
+                                                  gps_pos[i] if gps_pos is not None else None,
+                                                  gps_vel[i] if gps_vel is not None else None,
+                                                  baro_alt[i] if baro_alt is not None else None))
+        accel = [o[0] for o in out]
+        if gps_pos is not None:
+            gps_pos, gps_vel = [o[1] for o in out], [o[2] for o in out]
+            self._gps_rows = (gps_pos, gps_vel)
+        if baro_alt is not None:
+            baro_alt = [o[3] for o in out]
         return z, accel, gps_pos, gps_vel, baro_alt
 
     def gps_reading(self, i: int) -> list[float] | None:
@@ -161,7 +227,7 @@ class Sensors:
         sample() or sample_rows(); None before the first."""
         rows = self._gps_rows
         if rows is not None:
-            return [*rows[0][i], *rows[1][i]]
-        if self.gps_pos is None:
+            return None if rows[0][i] is None else [*rows[0][i], *rows[1][i]]
+        if self.gps_pos is None or (self.gps_missing is not None and self.gps_missing[i]):
             return None
         return [*self.gps_pos[i].tolist(), *self.gps_vel[i].tolist()]

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vehicle import sim_faults
 from vehicle.autopilot import CopterAutopilot, ParamStore, RoverAutopilot
 from vehicle.autopilot.mission_persist import PersistentMissionStore, missions_path
 from vehicle.autopilot.mission_store import MISSION, MissionStore
@@ -104,7 +105,9 @@ def build(cfg: WorldConfig, plan: NetworkPlan, clock: Callable[[], float], unix_
         out.fleet_ids[kind] = [first + j for j in js]     # world indices (wind streams)
         for k, j in enumerate(js):     # k: index in the fleet, j: the kind's index
             index = first + j
-            push = _pusher(fleet, core_names, k, stores[k], wind_set)
+            push = _pusher(fleet, core_names, k, stores[k], wind_set, cfg.home[0])
+            if any(stores[k][name] != sim_faults.DEFAULTS[name] for name in sim_faults.NAMES if name in stores[k]):
+                push({name: stores[k][name] for name in sim_faults.NAMES if name in stores[k]})
             # missions, fence and rally points persist beside the parameters
             missions = PersistentMissionStore(missions_path(saves[k])) if saves[k] else MissionStore()
             ap = ap_cls(fleet, k, stores[k], cfg.home, starts[k], push_params=push, missions=missions)
@@ -120,13 +123,18 @@ def build(cfg: WorldConfig, plan: NetworkPlan, clock: Callable[[], float], unix_
     return out
 
 
-def _pusher(fleet, core_names, j: int, store: ParamStore, wind_set: Callable[[ParamStore], None]):
+def _pusher(fleet, core_names, j: int, store: ParamStore, wind_set: Callable[[ParamStore], None],
+            lat: float):
     """Parameter changes of vehicle j (PARAM_SET, DO_CHANGE_SPEED) reach vehicle j only;
-    SIM_WIND_* change the world's air (there is one) and every vehicle's copy of them."""
+    SIM_WIND_* change the world's air (there is one) and every vehicle's copy of them; the
+    other SIM_* faults (vehicle.sim_faults) vehicle j's sensors and motors (lat: the world's
+    home latitude, for a longitude glitch in metres)."""
     def push(values: Mapping[str, float]) -> None:
         sel = {k: float(v) for k, v in values.items() if not core_names or k in core_names}
         if sel:
             fleet.set_params(sel, i=j)
         if any(k in WindParams.NAMES for k in values):
             wind_set(store)
+        if any(k in sim_faults.NAMES for k in values):
+            fleet.set_faults(j, sim_faults.SimFaults.from_params(store.values, lat))
     return push

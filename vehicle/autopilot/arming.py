@@ -1,7 +1,8 @@
 """Arming, disarming and the pre-arm checks of one autopilot (ArduPilot's AP_Arming, its
 vehicle subclasses' arm()/disarm()).
 
-Pre-arm (ARMING_CHECK 0 skips them): "Need Position Estimate", "Waiting for home" (never
+Pre-arm (ARMING_CHECK 0 skips them): "GPS 1: Bad fix" (no 3D fix: vehicle/sim_faults.py),
+"Need Position Estimate", "Waiting for home" (never
 long: home follows the first good estimate), "Mode not armable" (the mode's allows_arming),
 "Mode requires mission" (AUTO with no mission: a disarmed copter may select it) and the
 fence's (fence.py). Each failure is said as "PreArm: <why>" (CRITICAL) and the
@@ -33,6 +34,8 @@ class Arming:
         if ap.params.get("ARMING_CHECK", 1) == 0:
             return []
         out = []
+        if not ap.fleet.faults_of(ap.i).gps_fix:
+            out.append("GPS 1: Bad fix")            # AP_Arming::gps_checks (SIM_GPS1_ENABLE 0)
         if not ap.est_ok:
             out.append("Need Position Estimate")
         elif ap.home is None:

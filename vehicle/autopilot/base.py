@@ -25,6 +25,7 @@ from common.frames import euler_from_quaternion
 from vehicle.autopilot.arming import Arming
 from vehicle.autopilot.battery import Battery
 from vehicle.autopilot.commands import wire_int
+from vehicle.autopilot.ekf_failsafe import EkfCheck
 from vehicle.autopilot.ekf_origin import EkfOrigin
 from vehicle.autopilot.fence import Fence
 from vehicle.autopilot.follow_mode import Follow
@@ -56,6 +57,7 @@ class Autopilot:
     commands_class: type = object
     failsafe_class: type = object
     radio_failsafe_class: type = RadioFailsafe
+    ekf_check_class: type = EkfCheck
     speed_param: tuple[str, float, float, float] = ("", 1.0, 0.0, 100.0)   # name, per m/s, default, max m/s
 
     def __init__(self, fleet, index: int, params: ParamStore, origin: tuple[float, float, float],
@@ -96,6 +98,7 @@ class Autopilot:
         self.failsafe = self.failsafe_class(self)
         self.rc = RcInput(params)                    # the pilot's sticks (rc_input.py)
         self.radio = self.radio_failsafe_class(self)
+        self.ekf_check = self.ekf_check_class(self)      # EKF failsafe, GPS glitch (ekf_failsafe.py)
         self.flightmodes: dict[int, Mode] = {}
         for cls in self.mode_classes:                # in order: AUTO takes the RTL object
             self.flightmodes[cls.number] = cls(self)
@@ -267,6 +270,7 @@ class Autopilot:
             self.text(SEV_INFO, "Home set")       # ArduPilot: EKF origin/home from GPS
         self.radio.update(t, self.rc.read(t))
         self.failsafe.update(t, dt)
+        self.ekf_check.update(t, dt)
         self.fence.check(t)
         mode = self.flightmode
         mode.read_pilot_input()

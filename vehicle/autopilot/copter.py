@@ -18,6 +18,7 @@ from vehicle.autopilot.copter_commands import CopterCommands
 from vehicle.autopilot.copter_failsafe import CopterFailsafes
 from vehicle.autopilot.copter_modes.copter_mode import UserTakeoff
 from vehicle.autopilot.radio_failsafe import CopterRadioFailsafe
+from vehicle.autopilot.ekf_failsafe import CopterEkfCheck
 
 
 class CopterAutopilot(Autopilot):
@@ -30,6 +31,7 @@ class CopterAutopilot(Autopilot):
     commands_class = CopterCommands
     failsafe_class = CopterFailsafes
     radio_failsafe_class = CopterRadioFailsafe
+    ekf_check_class = CopterEkfCheck
     speed_param = ("WPNAV_SPEED", 100.0, 500.0, 20.0)      # cm/s; 20 m/s is WPNAV_SPEED's maximum
 
     def __init__(self, *a, **kw) -> None:

@@ -17,6 +17,7 @@ from __future__ import annotations
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from vehicle.autopilot.param_def import ParamDef
+from vehicle.sim_faults import PARAM_ROWS as SIM_FAULT_ROWS
 
 I8, I16, I32, F = (mav.MAV_PARAM_TYPE_INT8, mav.MAV_PARAM_TYPE_INT16, mav.MAV_PARAM_TYPE_INT32,
                    mav.MAV_PARAM_TYPE_REAL32)
@@ -77,8 +78,6 @@ _SHARED = [
     ("FENCE_RET_ALT", 0, 0, 32767, I16, "m", f"fence return altitude ({NS})"),
     ("FENCE_TOTAL", 0, 0, 127, I8, "", f"legacy polygon fence point count ({NS}: MAVLink fence items are used)"),
     ("FENCE_OPTIONS", 0, 0, 7, I16, "", f"fence options bitmask ({NS})"),
-    ("FS_EKF_ACTION", 1, 0, 3, I8, "", f"EKF failsafe action ({NS}: the estimate never fails)"),
-    ("FS_EKF_THRESH", 0.8, 0.6, 1.0, F, "", f"EKF failsafe variance threshold ({NS})"),
     ("FS_OPTIONS", 0, 0, 255, I32, "", f"failsafe options bitmask ({NS})"),
     ("ARMING_REQUIRE", 1, 0, 2, I8, "", f"arming required before motors spin ({NS}: always)"),
     ("ARMING_RUDDER", 2, 0, 2, I8, "", f"arm/disarm with rudder stick ({NS}: arming comes over MAVLink only)"),
@@ -117,7 +116,8 @@ _SHARED = [
     ("SIM_BATT_VOLTAGE", 12.6, 0, 100, F, "V", "simulated full battery voltage"),
     ("SIM_BATT_CAP_AH", 0, 0, 1000, F, "Ah", "simulated battery capacity, 0 = BATT_CAPACITY"),
     ("SIM_SPEEDUP", 1, 0, 100, F, "", "simulation speed-up (towerlink: set by `towerlink sitl --speedup`; stored only)"),
-    ("SIM_GPS_DISABLE", 0, 0, 1, I8, "", f"disable the simulated GPS ({NS})"),
+    *[(name, d, lo, hi, {"I8": I8, "I16": I16, "I32": I32, "F": F}[t], u, doc)
+      for name, d, lo, hi, t, u, doc in SIM_FAULT_ROWS],       # SITL's injected faults (vehicle/sim_faults.py)
     ("FOLL_ENABLE", 0, 0, 1, I8, "", "FOLLOW mode enabled"),
     ("FOLL_SYSID", 0, 0, 255, I16, "", "lead vehicle's system id, 0 = the first seen"),
     ("FOLL_DIST_MAX", 100, 1, 1000, F, "m", "lead further than this is ignored"),
@@ -137,6 +137,8 @@ _COPTER_RC = [row for n in range(1, 9) for row in _rc(n, {1: 20, 2: 20, 3: 30, 4
 _ROVER_RC = [row for n in range(1, 9) for row in _rc(n, {1: 30, 3: 30}.get(n, 0))]
 
 _COPTER_ONLY = [
+    ("FS_EKF_ACTION", 1, 1, 3, I8, "", "EKF failsafe action: 1 Land, 2 AltHold, 3 Land even in STABILIZE"),
+    ("FS_EKF_THRESH", 0.8, 0, 1.0, F, "", "EKF failsafe variance threshold (0 disables the EKF check)"),
     ("FRAME_CLASS", 1, 0, 17, I8, "", "frame class: 1 Quad (towerlink simulates a quad only; reboot required)"),
     ("FRAME_TYPE", 1, 0, 19, I8, "", "frame type: 1 X (towerlink simulates X only; reboot required)"),
     ("FORMAT_VERSION", 120, 0, 32767, I16, "", "parameter format version (ArduCopter's)"),
@@ -195,6 +197,8 @@ _COPTER_ONLY = [
 ]
 
 _ROVER_ONLY = [
+    ("FS_EKF_ACTION", 1, 0, 2, I8, "", "EKF failsafe action: 0 disabled, 1 Hold, 2 report only"),
+    ("FS_EKF_THRESH", 0.8, 0, 1.0, F, "", "EKF failsafe variance threshold (0 disables the EKF check)"),
     ("FRAME_CLASS", 1, 0, 3, I8, "", "frame class: 1 Rover (towerlink simulates a skid-steer rover)"),
     ("FRAME_TYPE", 0, 0, 6, I8, "", "frame type: 0 Undefined (not omni)"),
     ("FORMAT_VERSION", 16, 0, 32767, I16, "", "parameter format version (Rover's)"),

@@ -11,6 +11,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from vehicle.autopilot import modes, rover_modes
 from vehicle.autopilot.base import Autopilot
+from vehicle.autopilot.ekf_failsafe import RoverEkfCheck
 from vehicle.autopilot.rover_commands import RoverCommands
 from vehicle.autopilot.radio_failsafe import RoverRadioFailsafe
 from vehicle.autopilot.rover_failsafe import RoverFailsafes
@@ -29,6 +30,7 @@ class RoverAutopilot(Autopilot):
     commands_class = RoverCommands
     failsafe_class = RoverFailsafes
     radio_failsafe_class = RoverRadioFailsafe
+    ekf_check_class = RoverEkfCheck
     speed_param = ("WP_SPEED", 1.0, 0.0, 100.0)     # m/s; WP_SPEED 0 means CRUISE_SPEED to the rover core
 
     def electrical_load(self) -> float:

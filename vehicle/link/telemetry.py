@@ -176,13 +176,15 @@ class Telemetry:
         ap = self.ap
         lat, lon, alt = ap.lla()
         ok = ap.est_ok
+        fault = ap.fleet.faults_of(ap.i)            # SIM_GPS1_* (vehicle/sim_faults.py)
+        ok = ok and fault.gps_fix
         vx, vy, _ = ap.vel.tolist()
         gs = float(np.hypot(vx, vy))
         cog = math.degrees(math.atan2(vy, vx)) % 360.0 if gs > 0.2 else 0.0
         return (self.usec(), mav.GPS_FIX_TYPE_3D_FIX if ok else mav.GPS_FIX_TYPE_NO_FIX,
                 _i(lat * 1e7, -2**31, 2**31 - 1) if ok else 0, _i(lon * 1e7, -2**31, 2**31 - 1) if ok else 0,
                 _i(alt * 1000, -2**31, 2**31 - 1) if ok else 0, 121 if ok else 65535, 200 if ok else 65535,
-                _i(gs * 100, 0, 65534), _i(cog * 100, 0, 35999), 10 if ok else 0,
+                _i(gs * 100, 0, 65534), _i(cog * 100, 0, 35999), fault.gps_numsats if fault.gps_enabled else 0,
                 _i(alt * 1000, -2**31, 2**31 - 1), 300, 500, 100, 0, 0)
 
     def global_position_int_fields(self) -> tuple:

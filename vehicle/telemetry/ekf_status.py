@@ -18,7 +18,10 @@ Flags follow EKF3's filter status from how long GPS has not been fused (AP_NavEK
 - 15 s (tiltDriftTimeMax_ms): aiding stops, CONST_POS_MODE, and the velocity and position
   ratios are reset to 0 ("Reset the normalised innovation"), as EKF3 does;
 - the filter is unhealthy (attitude and every estimate flag clear) when all three ratios
-  exceed 1. Before the first filter epoch the flags are EKF_UNINITIALIZED only.
+  exceed 1;
+- GPS_GLITCHING while the horizontal position ratio exceeds 1 (the GPS position fails the
+  gate; towerlink's filter fuses it all the same, EKF3 would reject it).
+Before the first filter epoch the flags are EKF_UNINITIALIZED only.
 A vehicle flying on truth (no estimator) reports the healthy GPS flags and zero ratios.
 
 AHRS: no gyro drift is estimated (omegaI 0); error_rp / error_yaw are the AHRS model's
@@ -31,9 +34,9 @@ import math
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
+from vehicle.innovations import POS_TIMEOUT_S
 from vehicle.telemetry.wire import e7
 
-POS_TIMEOUT_S = 7.0           # EKF3 posRetryTimeNoVel_ms: GPS position (and velocity) timed out
 AIDING_LOSS_S = 15.0          # EKF3 tiltDriftTimeMax_ms: aiding stops, constant position mode
 GPS_PRESENT_S = 1.0           # GPS still arriving (EKF3's gpsNotAvailable clear)
 
@@ -41,6 +44,7 @@ ATTITUDE, VEL_HORIZ, VEL_VERT = mav.EKF_ATTITUDE, mav.EKF_VELOCITY_HORIZ, mav.EK
 POS_REL, POS_ABS, POS_VERT = mav.EKF_POS_HORIZ_REL, mav.EKF_POS_HORIZ_ABS, mav.EKF_POS_VERT_ABS
 CONST_POS, PRED_REL, PRED_ABS = mav.EKF_CONST_POS_MODE, mav.EKF_PRED_POS_HORIZ_REL, mav.EKF_PRED_POS_HORIZ_ABS
 UNINITIALIZED = mav.EKF_UNINITIALIZED
+GPS_GLITCHING = mav.EKF_GPS_GLITCHING
 HEALTHY_GPS = ATTITUDE | VEL_HORIZ | VEL_VERT | POS_REL | POS_ABS | POS_VERT | PRED_REL | PRED_ABS
 
 
@@ -96,6 +100,8 @@ class EkfTelemetry:
         flags = ekf_flags(aligned, gps_age, not (vel > 1 and pos > 1 and hgt > 1))
         if flags & CONST_POS and aligned:
             vel = pos = 0.0                     # EKF3 resets them when aiding stops
+        if flags & POS_ABS and pos > 1.0:
+            flags |= GPS_GLITCHING              # the GPS position fails its innovation gate
         return flags, vel, pos, hgt, mag
 
     def ekf_status_report_fields(self) -> tuple:

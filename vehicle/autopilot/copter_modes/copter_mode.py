@@ -192,11 +192,15 @@ class CopterMode(Mode):
         return float(p.get("LAND_SPEED", 50)) / 100.0
 
     def land_run(self, dt: float = 0.0) -> None:
-        """Descend at descent_speed() over ap.hold_pos's x, y (altitude free). With
+        """Descend at descent_speed() over ap.hold_pos's x, y (altitude free); without a
+        position estimate level, drifting (ArduCopter's ModeLand::nogps_run). With
         LAND_REPOSITION the roll and pitch sticks move that point at LOITER's pilot velocity
         (the copter flies it as feed-forward); the yaw stick turns the heading."""
         ap = self.ap
         speed = self.descent_speed()
+        if not ap.est_ok:
+            ap.setpoint(vel=np.array([0.0, 0.0, speed]), yaw=ap.hold_yaw, level=True)
+            return
         vn = ve = 0.0
         rate = None
         if ap.rc.sticks is not None and not ap.radio.active:

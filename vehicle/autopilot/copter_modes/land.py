@@ -17,9 +17,9 @@ class ModeLand(CopterMode):
     disarm_on_land = True
 
     def requires_position(self) -> bool:
-        """ArduCopter's LAND does not (it descends without GPS: ModeLand::nogps_run);
-        towerlink's LAND always holds its x, y, so it requires a position estimate."""
-        return True
+        """ArduCopter's LAND does not: without a position estimate it descends level
+        (ModeLand::nogps_run), as copter_mode.land_run does."""
+        return False
 
     def is_landing(self) -> bool:
         return True
