@@ -24,10 +24,13 @@ import functools
 import time
 
 from common.mavlink import lockstep as wire
+from vehicle.link.endpoints import UdpOut
 from vehicle.link.link_core import Intake, LinkCore
 from vehicle.lockstep import LockstepGate
 
 TICK_RESEND = 0.5       # wall s without every ACK: TICK again to whoever owes one (UDP may drop either)
+ANNOUNCE_PERIOD = 0.5   # wall s between the HEARTBEATs on the push links while the world waits at t = 0
+MSG_HEARTBEAT = 0
 
 
 class WorldLockstep:
@@ -156,13 +159,31 @@ class WorldLockstep:
         last = [time.monotonic()]
         log(f"lockstep: waiting at t=0 for {self.expect} participant(s) on every vehicle")
 
+        announced = [-ANNOUNCE_PERIOD]
+
         def remind() -> None:
+            if time.monotonic() - announced[0] >= ANNOUNCE_PERIOD:
+                announced[0] = time.monotonic()
+                self._announce()
             if time.monotonic() - last[0] > 10.0:
                 last[0] = time.monotonic()
                 log(f"lockstep: still waiting at t=0: {len(gate.participants)} of {self.expect} joined")
+        remind()
         await self._until(lambda: gate.started(time.monotonic()), stop, remind)
         log(f"lockstep: starting with {len(gate.participants)} participant(s), a TICK every "
             f"{self.frame_steps * self.world.dt * 1e3:g} ms sim, silent ones dropped after {gate.timeout:g} s wall")
+
+    def _announce(self) -> None:
+        """Each vehicle's HEARTBEAT on its push links (udpout) only, while the world waits at
+        t = 0: a participant listening where the world pushes (fly's monitor) hears where each
+        vehicle sends from, and JOINs there. Nothing goes to the udpin peers (the bridge), whose
+        reactions would then depend on the wall clock. The link's sequence number does not move."""
+        for v in self.world.vehicles:
+            pushes = [ep for ep in v.link.endpoints if isinstance(ep, UdpOut)]
+            if pushes:
+                buf = v.link.telemetry.frame(MSG_HEARTBEAT)
+                for ep in pushes:
+                    ep.send(buf)
 
     def stats_line(self) -> str:
         return (f"lockstep: {self.waits} waits for ACKs, {self.wait_wall:.2f} s wall waiting; "
