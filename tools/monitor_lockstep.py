@@ -11,12 +11,12 @@ is then never more than one lockstep frame ahead of the recording.
 
 :class:`PushLockstep` keeps the bookkeeping per vehicle address (wall times are passed in):
 where to JOIN (no TICK yet, at most every JOIN_PERIOD wall s), which TICK each address is
-owed an ACK for (gcs.client.lockstep.TickClock: a TICK that comes again after its ACK is
+owed an ACK for (common.mavlink.tick_clock.TickClock: a TICK that comes again after its ACK is
 ACKed again), and where to say LEAVE.
 """
 from __future__ import annotations
 
-from gcs.client.lockstep import TickClock
+from common.mavlink.tick_clock import TickClock
 
 JOIN_PERIOD = 0.5           # wall s between JOINs to a vehicle that has not TICKed yet
 
