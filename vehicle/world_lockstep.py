@@ -33,6 +33,11 @@ ANNOUNCE_PERIOD = 0.5   # wall s between the HEARTBEATs on the push links while 
 MSG_HEARTBEAT = 0
 
 
+def _wake(w: asyncio.Future) -> None:
+    if not w.done():
+        w.set_result(None)
+
+
 class WorldLockstep:
     def __init__(self, world, vehicles: int, expect: int, period: float, timeout: float) -> None:
         """world: its dt, ap_every, steps and (once built) vehicles; vehicles: how many this
@@ -45,7 +50,7 @@ class WorldLockstep:
         self.gate = LockstepGate(vehicles, expect, timeout)
         self.expect = expect
         self.ticked_steps = -1
-        self.event: asyncio.Event | None = None
+        self._waiter: asyncio.Future | None = None    # what wait()/start() sleep on; an ACK or JOIN wakes it
         self.held: list[tuple[LinkCore, bytes, object]] = []
         self.at_boundary = True
         self.waits = 0
@@ -82,8 +87,9 @@ class WorldLockstep:
             line = self.gate.on_message(m, index, channel, time.monotonic(), now)
             if line:
                 self.world.log(line)
-            if self.event is not None:
-                self.event.set()
+            w = self._waiter
+            if w is not None and not w.done():
+                w.set_result(None)
         return (link.on_data(rest, channel) if rest else False) or True
 
     def boundary(self) -> bool:
@@ -128,12 +134,18 @@ class WorldLockstep:
         self.tick_wall = time.monotonic()
 
     async def _until(self, done, stop: asyncio.Event, every=None) -> None:
+        """Until done(): sleep until a TOWERLINK_LOCKSTEP came in or 0.5 s wall passed, then
+        every(). A bare future and a timer, not wait_for on an Event: that made a task and two
+        futures per TICK, a good part of the round trip at --speedup max."""
+        loop = asyncio.get_running_loop()
         while not done() and not stop.is_set():
-            self.event.clear()
+            w = self._waiter = loop.create_future()
+            timer = loop.call_later(0.5, _wake, w)
             try:
-                await asyncio.wait_for(self.event.wait(), 0.5)
-            except asyncio.TimeoutError:
-                pass
+                await w
+            finally:
+                timer.cancel()
+                self._waiter = None
             if every is not None:
                 every()
 
@@ -154,7 +166,6 @@ class WorldLockstep:
 
     async def start(self, stop: asyncio.Event) -> None:
         """Hold at t = 0 until the expected participants joined (gate.started)."""
-        self.event = asyncio.Event()
         gate, log = self.gate, self.world.log
         last = [time.monotonic()]
         log(f"lockstep: waiting at t=0 for {self.expect} participant(s) on every vehicle")
