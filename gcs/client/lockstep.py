@@ -9,7 +9,10 @@ from __future__ import annotations
 
 from common.mavlink.tick_clock import TickClock
 
-__all__ = ["LOCKSTEP_TIMEOUT", "TickClock"]
+__all__ = ["JOIN_PERIOD", "LOCKSTEP_TIMEOUT", "TickClock"]
 
 #: wall s a lockstep client waits for the world's next TICK before it gives up (ClientTimeout)
 LOCKSTEP_TIMEOUT = 15.0
+#: wall s between a client's JOINs until the first TICK (one sent before the world listens is lost;
+#: the world waits at t = 0 for every participant)
+JOIN_PERIOD = 0.1
