@@ -32,7 +32,9 @@ from __future__ import annotations
 
 from common.mavlink.dialect import towerlink as tl
 
-JOIN_PERIOD = 0.5               # wall s between JOINs on a link that has had no TICK yet
+# wall s between JOINs on a link that has had no TICK yet: a JOIN sent before the world listens is
+# lost, and the world waits at t = 0 for every participant, so this is start-up time of each run
+JOIN_PERIOD = 0.1
 REJOIN_AFTER = 1.0              # wall s without a TICK on a link: JOIN again (the world dropped us or restarted)
 TICK_RESEND = 0.5               # wall s without the tower's ACK of its newest TICK: send that TICK again
 

@@ -184,13 +184,14 @@ def test_fly_family_command_lines_give_every_vehicle_its_port_and_the_bridge_eac
         assert f"{sysid}=udpout:127.0.0.1:{port}" in vehicles
     assert "--drone" not in bridge and "--rover" not in bridge
     assert "--lockstep" not in sitl and "--lockstep" not in bridge
-    # lockstep: the world waits for two participants, the bridge and the family's one tower link
+    # lockstep: the world waits for three participants, the bridge, the family's one tower link
+    # and fly's monitor on the push link
     locked = FlyPlan(tmp_path / "l", scenario="family", lockstep=True)
     sitl = locked.sitl_cmd()
-    assert sitl[sitl.index("--lockstep") + 1] == "2"
+    assert sitl[sitl.index("--lockstep") + 1] == "3"
     assert "--lockstep" in locked.bridge_cmd() and "--lockstep" in locked.tower_cmd()
     van = FlyPlan(tmp_path / "v", scenario="van", lockstep=True).sitl_cmd()
-    assert van[van.index("--lockstep") + 1] == "3"           # bridge, the tower link, the van's driver
+    assert van[van.index("--lockstep") + 1] == "4"           # bridge, the tower link, the monitor, the van's driver
 
 
 def test_fly_van_route_is_a_looped_mission_on_the_van(tmp_path):

@@ -53,3 +53,50 @@ def test_scoring_parameters_are_asked_of_the_drone_even_when_the_rover_sent_last
         mon.join(2)
         drone.close()
         rover.close()
+
+
+def test_a_lockstep_monitor_holds_the_world_until_it_has_read_everything_before_each_tick(tmp_path):
+    """At --speedup max on a busy machine the monitor's thread may not run for a while; a
+    monitor outside the lockstep then lost the datagrams its receive buffer could not hold
+    (SIM_STATE, the truth the summary scores), so one seed gave different figures. As a
+    participant it JOINs where each vehicle pushes from (the HEARTBEAT the world sends there
+    while it waits at t = 0) and ACKs a TICK only once it read what came before it: the world
+    waits for a stalled monitor, and the recording has every sample."""
+    import math
+    import threading
+
+    from tools.run_data import load_messages, read_tlog
+    from vehicle.world import World, WorldConfig
+
+    vport, bport = free_ports(2)
+    mon = Monitor(tmp_path, {"vehicles": vport, "bridge": bport}, lockstep=True)
+    stalled, release = threading.Event(), threading.Event()
+
+    def starve(m) -> None:           # the monitor's thread stops reading for a while at 1 s sim
+        if not stalled.is_set() and getattr(m, "time_boot_ms", 0) >= 1000:
+            stalled.set()
+            release.wait(10)
+    mon.listeners["vehicles"] = starve
+    mon.start()
+    world = World(WorldConfig(drones=1, rovers=1, state_dir=None, tcp_base=None, udp_base=None,
+                              speedup=math.inf, outs=[f"udpout:127.0.0.1:{vport}"], lockstep=1,
+                              lockstep_period=0.04, lockstep_timeout=10.0))
+    world.start_thread()
+    try:
+        wait_until(stalled.is_set, 20, "the monitor at 1 s sim")
+        t_stall = world.t
+        wait_until(lambda: world.lockstep.waits > 0 and world.lockstep.gate.waiting_for(world.lockstep.t_usec()),
+                   5, "the world waiting for the monitor")
+        threading.Event().wait(0.5)     # the stall: a free-running world would be seconds further on
+        assert world.t <= t_stall + 0.04 + 1e-9, "the world ran ahead of a monitor that was not reading"
+        release.set()
+        wait_until(lambda: mon.sim_time() >= 4.0, 20, "4 s of sim time recorded")
+    finally:
+        release.set()
+        world.stop()
+        mon.stop()
+    data = load_messages(read_tlog(tmp_path / "vehicles.tlog"))
+    for sysid in (DRONE, ROVER):
+        t = data.truth[sysid].t
+        assert t[-1] >= 3.9 and max(b - a for a, b in zip(t, t[1:])) <= 0.1 + 1e-6, \
+            f"SIM_STATE of sysid {sysid} has a gap"

@@ -18,6 +18,9 @@ view:   what the live Foxglove view and run.mcap cost per message, vs writing th
 mission: a 1 km, 10-waypoint AUTO mission's flight time vs the sum of its legs' minimum times.
 mission-transfer: 100-item mission upload and download, pymavlink vs MAVSDK.
 family: the tower's family of 100 drones end to end in lockstep (wall time, goals, separation).
+lockstep: the lab at --speedup max (wall start to summary, achieved speedup, on one core), the
+        TICK round trip, sitl's start to its first HEARTBEAT; the previous release beside
+        (--peer / TOWERLINK_PEER_TREE).
 logs:   onboard DataFlash logs: CPU per armed vehicle-second, logging off vs on.
 pytest: the example flight test on the towerlink_sitl fixture vs a hand-rolled subprocess fixture.
 """
@@ -37,6 +40,7 @@ BENCHES = {
     "view": "tools.bench_view",
     "mission-transfer": "tools.bench_mission_transfer",
     "family": "tools.bench_family",
+    "lockstep": "tools.bench_lockstep",
     "logs": "tools.bench_logs",
     "pytest": "tools.bench_pytest",
 }

@@ -63,7 +63,7 @@ max` flies 100 drones (common/family_plan.py: own lanes, two altitude layers, no
 then counts per layer).
 
 Lockstep is the default: the world waits for the bridge, the tower (a family's
-one shared link) and the van's driver (TOWERLINK_LOCKSTEP), so a seed gives the
+one shared link), the van's driver and this launcher's recorder (TOWERLINK_LOCKSTEP), so a seed gives the
 same summary figures at any --speedup (max: as fast as the machine allows) and under any CPU
 load. --no-lockstep runs the old free-running world (figures then depend on the machine):
 

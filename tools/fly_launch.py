@@ -79,7 +79,8 @@ class Launch:
         """Monitor, world, (van driver), bridge, (nodes), (link proxy), tower: in that order."""
         plan = self.plan
         self.monitor = Monitor(self.dir, {"vehicles": plan.ports["vehicles"], "bridge": plan.ports["bridge"]},
-                               plan.host, {"vehicles": plan.world_binds()[1]}, signing_key=plan.key())
+                               plan.host, {"vehicles": plan.world_binds()[1]}, signing_key=plan.key(),
+                               lockstep=plan.lockstep)
         if self.view_port is not None:
             from tools.live_view import LiveView
             self.view = LiveView(plan.host, self.view_port)

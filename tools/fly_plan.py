@@ -151,8 +151,9 @@ class FlyPlan:
         if self.family:
             return self.family_sitl_cmd()
         h, out = self.world_binds()
-        # the bridge and the tower are the lockstep participants: the world waits for both at t=0
-        lock = ("--lockstep", "2") if self.lockstep else ()
+        # the lockstep participants: the bridge, the tower and the monitor on the push link
+        # (tools.fly_monitor: it records the truth the summary scores); the world waits for all at t=0
+        lock = ("--lockstep", "3") if self.lockstep else ()
         return towerlink_cmd("sitl", "--speedup", speedup_text(self.speedup), "--seed", str(self.seed),
                              "--no-save", "--tcp-base", "0", "--udp-base", "0",
                              "--endpoint", f"0=udpin:{h}:{self.ports['drone']}",
@@ -170,8 +171,8 @@ class FlyPlan:
                             "--home=" + ",".join(f"{v:.10g}" for v in SITL_HOME),   # "=": it starts with "-"
                             "--out", f"udpout:{out}:{self.ports['vehicles']}", *self.scenario_wind())
         if self.lockstep:
-            # the bridge, the family's one tower link (gcs.tower_link) and the van's driver
-            cmd += ["--lockstep", str(2 + (sc.van is not None))]
+            # the bridge, the family's one tower link (gcs.tower_link), the monitor and the van's driver
+            cmd += ["--lockstep", str(3 + (sc.van is not None))]
         for _name, sysid, _kind in sc.vehicles:
             cmd += ["--endpoint", f"{sysid - 1}=udpin:{h}:{self.ports[f'vehicle{sysid}']}"]
         if sc.van is not None:

@@ -62,14 +62,14 @@ def write_summary(plan: FlyPlan, tower_rc: int | None, *, bridge_restarts: int =
         meta["proxy"] = proxy
     if achieved_speedup is not None:
         meta["achieved_speedup"] = achieved_speedup
+    from tools.run_data import load_run
+    data = load_run(plan.dir)           # read once: the summary and the plot share it
     if plan.family:
         from tools.family_summary import format_family_summary, summarize_family
-        from tools.run_data import load_run
-        data = load_run(plan.dir)
         s = summarize_family(plan.dir, tower=tower, scenario_path=plan.scenario, meta=meta, data=data)
         s["faults"] = _family_faults(plan, tower, data)
     else:
-        s = summarize(plan.dir, tower=tower, scenario_path=plan.scenario, meta=meta)
+        s = summarize(plan.dir, tower=tower, scenario_path=plan.scenario, meta=meta, data=data)
     s["ok"] = bool(s["ok"]) and tower_rc == 0
     (plan.dir / "summary.json").write_text(json.dumps(s, indent=2, default=_json_default))
     if plan.family:
@@ -77,7 +77,7 @@ def write_summary(plan: FlyPlan, tower_rc: int | None, *, bridge_restarts: int =
         text = "\n".join([format_family_summary(s), *format_faults(s["faults"])])
     else:
         text = format_summary(s)
-    _draw(plan)
+    _draw(plan, data)
     files = sorted(p.name for p in plan.dir.iterdir())
     text += f"\nrun folder {plan.dir}: {' '.join(files)}"
     (plan.dir / "summary.txt").write_text(text + "\n")
@@ -95,16 +95,20 @@ def _family_faults(plan: FlyPlan, tower: dict, data) -> dict:
     return fault_section(plan.sc.faults, read_applied(plan.dir), data, names, goals, end=max(ends) if ends else None)
 
 
-def _draw(plan: FlyPlan) -> None:
-    """tracks.png, the frame tree and run.mcap, each as far as it goes."""
+def _draw(plan: FlyPlan, data) -> None:
+    """tracks.png, the frame tree and run.mcap, each as far as it goes (bridge.tlog read once
+    for the last two)."""
     try:
         from tools.plot_tracks import plot_run
-        plot_run(plan.dir, scenario=plan.scenario)
+        plot_run(plan.dir, scenario=plan.scenario, data=data)
     except Exception:  # noqa: BLE001 - a plot failure must not hide the summary
         pass
+    bridge = None
     try:
-        from tools.view_frames import buffer_from_tlog, write_drawing
-        buf, now = buffer_from_tlog(plan.dir / "bridge.tlog")
+        from tools.run_data import read_tlog
+        bridge = list(read_tlog(plan.dir / "bridge.tlog"))
+        from tools.view_frames import buffer_from_messages, write_drawing
+        buf, now = buffer_from_messages(bridge)
         if buf.edge_stats():
             title = f"view_frames: {plan.dir.name}"
             write_drawing(buf, plan.dir / "frames.pdf", now=now, title=title)
@@ -113,7 +117,7 @@ def _draw(plan: FlyPlan) -> None:
         pass
     try:
         from tools.run_mcap import write_run_mcap
-        write_run_mcap(plan.dir)
+        write_run_mcap(plan.dir, bridge)
     except Exception:  # noqa: BLE001 - the recording must not hide the summary
         pass
 

@@ -184,11 +184,13 @@ def plot(data: RunData, out: str | Path, *, goals=(), tower=None, buf=None, titl
     return out
 
 
-def plot_run(path: str | Path, out: str | Path | None = None, scenario: str | None = None) -> Path:
-    """Plot a run folder or a single tlog; returns the PNG written."""
+def plot_run(path: str | Path, out: str | Path | None = None, scenario: str | None = None,
+             data: RunData | None = None) -> Path:
+    """Plot a run folder or a single tlog (`data`: the run folder's, already loaded); returns
+    the PNG written."""
     path = Path(path)
     if path.is_dir():
-        data = load_run(path)
+        data = data if data is not None else load_run(path)
         run_dir = path
         out = out or path / "tracks.png"
         title = f"tracks: {path.name}"

@@ -36,19 +36,83 @@ ARDUPILOT, MAV_TYPE_GCS, ARMED_FLAG = 3, 6, 128     # MAV_AUTOPILOT_ARDUPILOTMEG
 ROVER_TYPES = (10, 11)                              # MAV_TYPE_GROUND_ROVER, MAV_TYPE_SURFACE_BOAT
 
 
-def read_tlog(path: str | os.PathLike) -> Iterator[Any]:
-    """Every message of a tlog, decoded with the towerlink dialect (ardupilotmega if absent)."""
+def read_tlog(path: str | os.PathLike, types: Iterable[str] | None = None,
+              sysids: Iterable[int] | None = None) -> Iterator[Any]:
+    """Every message of a tlog (or those of `types`, by name, and from `sysids`), decoded with
+    the towerlink dialect.
+
+    A tlog is an 8-byte big-endian microsecond stamp before each MAVLink frame: the frames are
+    cut by their header's length and only the wanted ones decoded (pymavlink's byte-by-byte
+    reader cost seconds per run). Each message has ``_timestamp`` (s) and ``_link`` as
+    pymavlink's log reader gives them. A file that is not such a sequence throughout (garbage,
+    a cut frame) is read by pymavlink's robust reader instead."""
+    try:
+        from common.mavlink.dialect import towerlink as dialect
+    except ImportError:  # pragma: no cover
+        from pymavlink.dialects.v20 import ardupilotmega as dialect
+    raw = Path(path).read_bytes()
+    frames = tlog_frames(raw)
+    if frames is None:
+        yield from _read_tlog_pymavlink(path, types, sysids)
+        return
+    wanted = None if types is None else frozenset(i for i, c in dialect.mavlink_map.items() if c.msgname in set(types))
+    systems = None if sysids is None else frozenset(sysids)
+    mav = dialect.MAVLink(None)
+    for tusec, msgid, start, end in frames:
+        if wanted is not None and msgid not in wanted:
+            continue
+        if systems is not None and raw[start + (5 if raw[start] == 0xFD else 3)] not in systems:
+            continue
+        try:
+            m = mav.decode(bytearray(raw[start:end]))
+        except Exception:  # noqa: BLE001 - pymavlink's reader gives BAD_DATA, which is skipped
+            continue
+        m._timestamp = tusec * 1e-6
+        m._link = tusec & 0x3
+        yield m
+
+
+def tlog_frames(raw: bytes) -> list[tuple[int, int, int, int]] | None:
+    """(stamp us, msgid, start, end) of every frame of a tlog's bytes; None unless the whole
+    file is stamps and whole MAVLink 1 or 2 frames."""
+    out = []
+    i, n = 0, len(raw)
+    while i < n:
+        j = i + 8
+        if j + 8 > n:
+            return None
+        magic = raw[j]
+        if magic == 0xFD:
+            end = j + 12 + raw[j + 1] + (13 if raw[j + 2] & 1 else 0)
+            msgid = raw[j + 7] | raw[j + 8] << 8 | raw[j + 9] << 16
+        elif magic == 0xFE:
+            end = j + 8 + raw[j + 1]
+            msgid = raw[j + 5]
+        else:
+            return None
+        if end > n:
+            return None
+        out.append((int.from_bytes(raw[i:j], "big"), msgid, j, end))
+        i = end
+    return out
+
+
+def _read_tlog_pymavlink(path: str | os.PathLike, types: Iterable[str] | None,
+                         sysids: Iterable[int] | None) -> Iterator[Any]:
     try:
         from common.mavlink.dialect import mavlink_connection
     except ImportError:  # pragma: no cover
         from pymavlink.mavutil import mavlink_connection
+    wanted = None if types is None else set(types)
+    systems = None if sysids is None else set(sysids)
     conn = mavlink_connection(str(path))
     try:
         while True:
             m = conn.recv_msg()
             if m is None:
                 return
-            if m.get_type() != "BAD_DATA":
+            if m.get_type() != "BAD_DATA" and (wanted is None or m.get_type() in wanted) \
+                    and (systems is None or m.get_srcSystem() in systems):
                 yield m
     finally:
         conn.close()
@@ -103,6 +167,10 @@ class RunData:
     texts: dict[int, list[tuple[float, int, str]]] = field(default_factory=dict)    # STATUSTEXT: (t, severity, text)
     modes: dict[int, list[tuple[float, str, bool]]] = field(default_factory=dict)   # at each change: (t, mode, armed)
 
+
+#: the towerlink dialect's own messages: what load_run reads of bridge.tlog (the rest repeats vehicles.tlog)
+BRIDGE_OWN = ("TOWERLINK_TRANSFORM", "TOWERLINK_STATIC_TRANSFORM", "TOWERLINK_POSITION_TARGET",
+              "TOWERLINK_FOLLOW_STATUS", "TOWERLINK_BRIDGE_STATUS", "TOWERLINK_LOCKSTEP")
 
 FOLLOW_FIELDS = ("t", "ref_x", "ref_y", "full_x", "full_y", "yaw_x", "yaw_y", "goal_x", "goal_y",
                  "rover_x", "rover_y", "height", "tilt", "err_full", "err_yaw", "follow_frame", "state")
@@ -205,8 +273,6 @@ def load_run(run_dir: str | os.PathLike) -> RunData:
         load_messages(read_tlog(vehicles), data)
     bridge = run_dir / "bridge.tlog"
     if bridge.exists():
-        msgs = read_tlog(bridge)
-        if vehicles.exists():  # the bridge's out link repeats the vehicles' traffic: take its own
-            msgs = (m for m in msgs if m.get_type().startswith("TOWERLINK_"))
-        load_messages(msgs, data)
+        # the bridge's out link repeats the vehicles' traffic: take its own
+        load_messages(read_tlog(bridge, BRIDGE_OWN if vehicles.exists() else None), data)
     return data

@@ -24,21 +24,18 @@ from tools.scene_feed import TOPICS, Record, SceneFeed, records_of, schema_of
 RUN_MCAP = "run.mcap"
 
 
-def _tlog_messages(run_dir: Path) -> Iterator:
-    """bridge.tlog (frames, follow, vehicles) and the tower's own sends from tower.tlog,
-    merged in arrival order (the tlogs' wall stamps)."""
+def _tlog_messages(run_dir: Path, bridge: Iterable | None = None) -> Iterator:
+    """bridge.tlog (frames, follow, vehicles; `bridge`: its messages already read) and the
+    tower's own sends from tower.tlog, merged in arrival order (the tlogs' wall stamps)."""
     from tools.run_data import read_tlog
 
-    def tower_sends():
-        for m in read_tlog(run_dir / "tower.tlog"):
-            if m.get_srcSystem() == TOWER_SYSID:
-                yield m
-
     streams = []
-    if (run_dir / "bridge.tlog").exists():
+    if bridge is not None:
+        streams.append(iter(bridge))
+    elif (run_dir / "bridge.tlog").exists():
         streams.append(read_tlog(run_dir / "bridge.tlog"))
     if (run_dir / "tower.tlog").exists():
-        streams.append(tower_sends())
+        streams.append(read_tlog(run_dir / "tower.tlog", sysids=(TOWER_SYSID,)))
     return heapq.merge(*streams, key=lambda m: getattr(m, "_timestamp", 0.0))
 
 
@@ -86,11 +83,12 @@ def _has_zstd() -> bool:
         return False
 
 
-def write_run_mcap(run_dir: str | os.PathLike) -> Path:
-    """run_dir/run.mcap from the run's tlogs; returns its path."""
+def write_run_mcap(run_dir: str | os.PathLike, bridge: Iterable | None = None) -> Path:
+    """run_dir/run.mcap from the run's tlogs (`bridge`: bridge.tlog's messages, when the caller
+    has read them already); returns its path."""
     run_dir = Path(run_dir)
     out = run_dir / RUN_MCAP
-    write_mcap(records_of(_tlog_messages(run_dir), SceneFeed()), out)
+    write_mcap(records_of(_tlog_messages(run_dir, bridge), SceneFeed()), out)
     return out
 
 

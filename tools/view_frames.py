@@ -56,7 +56,7 @@ def buffer_from_tlog(path: str | os.PathLike, cache_time: float = 10.0):
         buf, _stamps, latest = buffer_from_mcap(path, cache_time)
         return buf, latest
     from tools.run_data import read_tlog
-    return buffer_from_messages(read_tlog(path), cache_time)
+    return buffer_from_messages(read_tlog(path, ("TOWERLINK_TRANSFORM",)), cache_time)
 
 
 def buffer_from_scenario(path: str | None):

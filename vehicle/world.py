@@ -34,6 +34,7 @@ import threading
 import time
 
 from vehicle.autopilot import ParamStore
+from vehicle.link.outbox import Outbox
 from vehicle.logs.world_logs import WorldLogs
 from vehicle.physics.wind import WindField, WindParams
 from vehicle.world_build import Vehicle, build, start_position
@@ -67,8 +68,10 @@ class World:
         self.lockstep = (WorldLockstep(self, hi - lo, cfg.lockstep, cfg.lockstep_period, cfg.lockstep_timeout)
                          if cfg.lockstep > 0 else None)
         self.logs = WorldLogs()          # the onboard logs' writer thread (vehicle/logs/)
+        self.outbox = Outbox()           # the endpoints' writes, held while a chunk is stepped
         built = build(cfg, self.plan, self.clock, self.unix_start_us, self._wind_set,
-                      self.lockstep.intake if self.lockstep is not None else lambda index: None, self.logs)
+                      self.lockstep.intake if self.lockstep is not None else lambda index: None, self.logs,
+                      self.outbox)
         self.fleets: list[tuple[str, object]] = built.fleets
         self.vehicles = built.vehicles
         self._fleet_ids = built.fleet_ids
@@ -220,6 +223,7 @@ class World:
             deadline = now + chunk
             n = 0
             blocked = False
+            self.outbox.cork()                  # written below, before any wait (vehicle/link/outbox.py)
             while self.t + 0.5 * dt <= target:
                 if lock is not None and lock.boundary():
                     blocked = True              # at a TICK not every participant ACKed yet
@@ -228,6 +232,7 @@ class World:
                 n += 1
                 if (n & 3) == 0 and time.monotonic() > deadline:
                     break
+            self.outbox.flush()                 # the chunk's telemetry, then its TICKs, in order
             if blocked:
                 await lock.wait(self._stop)
                 continue

@@ -23,6 +23,7 @@ from vehicle.autopilot.params import (COPTER_TABLE, ROVER_TABLE, _warn, core_tab
 from vehicle.fleet import CopterFleet, RoverFleet
 from vehicle.link import VehicleLink
 from vehicle.link.link_core import Intake
+from vehicle.link.outbox import DIRECT, Outbox
 from vehicle.logs.world_logs import WorldLogs
 from vehicle.network_plan import NetworkPlan
 from vehicle.physics.wind import WindParams
@@ -60,11 +61,12 @@ def start_position(kind: str, j: int) -> tuple[float, float, float]:
 
 def build(cfg: WorldConfig, plan: NetworkPlan, clock: Callable[[], float], unix_start_us: int,
           wind_set: Callable[[ParamStore], None], intake: Callable[[int], Intake | None],
-          logs: WorldLogs | None = None) -> Built:
+          logs: WorldLogs | None = None, outbox: Outbox = DIRECT) -> Built:
     """The vehicles of cfg's share. clock(): the world's sim time (s); wind_set(store): a
     vehicle's SIM_WIND_* changed (store holds the new values); intake(index): what sees
     vehicle index's UDP datagrams first (the lockstep), or None; logs: the world's onboard
-    logs (vehicle/logs/), None for none."""
+    logs (vehicle/logs/), None for none; outbox: what holds every endpoint's writes while the
+    world steps (vehicle/link/outbox.py)."""
     file_params = read_parm_file(cfg.params_file) if cfg.params_file else {}
     file_params.pop("SYSID_THISMAV", None)
     lo, hi = cfg.share_range()
@@ -114,7 +116,7 @@ def build(cfg: WorldConfig, plan: NetworkPlan, clock: Callable[[], float], unix_
             link = VehicleLink(ap, clock, unix_start_us, list(plan.vehicles[index].endpoints),
                                signing_key=cfg.signing_key, params_changed=push, intake=intake(index),
                                files_root=vehicle_root(cfg.state_dir, index) if cfg.state_dir else None,
-                               logs=logs)
+                               logs=logs, outbox=outbox)
             out.vehicles.append(Vehicle(index, kind, j, ap, link))
             if index in cfg.missions:        # --mission I=FILE: as if uploaded at start
                 ap.missions.replace_all(MISSION, cfg.missions[index])

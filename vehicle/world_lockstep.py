@@ -24,10 +24,18 @@ import functools
 import time
 
 from common.mavlink import lockstep as wire
+from vehicle.link.endpoints import UdpOut
 from vehicle.link.link_core import Intake, LinkCore
 from vehicle.lockstep import LockstepGate
 
 TICK_RESEND = 0.5       # wall s without every ACK: TICK again to whoever owes one (UDP may drop either)
+ANNOUNCE_PERIOD = 0.5   # wall s between the HEARTBEATs on the push links while the world waits at t = 0
+MSG_HEARTBEAT = 0
+
+
+def _wake(w: asyncio.Future) -> None:
+    if not w.done():
+        w.set_result(None)
 
 
 class WorldLockstep:
@@ -42,7 +50,7 @@ class WorldLockstep:
         self.gate = LockstepGate(vehicles, expect, timeout)
         self.expect = expect
         self.ticked_steps = -1
-        self.event: asyncio.Event | None = None
+        self._waiter: asyncio.Future | None = None    # what wait()/start() sleep on; an ACK or JOIN wakes it
         self.held: list[tuple[LinkCore, bytes, object]] = []
         self.at_boundary = True
         self.waits = 0
@@ -79,8 +87,9 @@ class WorldLockstep:
             line = self.gate.on_message(m, index, channel, time.monotonic(), now)
             if line:
                 self.world.log(line)
-            if self.event is not None:
-                self.event.set()
+            w = self._waiter
+            if w is not None and not w.done():
+                w.set_result(None)
         return (link.on_data(rest, channel) if rest else False) or True
 
     def boundary(self) -> bool:
@@ -125,12 +134,18 @@ class WorldLockstep:
         self.tick_wall = time.monotonic()
 
     async def _until(self, done, stop: asyncio.Event, every=None) -> None:
+        """Until done(): sleep until a TOWERLINK_LOCKSTEP came in or 0.5 s wall passed, then
+        every(). A bare future and a timer, not wait_for on an Event: that made a task and two
+        futures per TICK, a good part of the round trip at --speedup max."""
+        loop = asyncio.get_running_loop()
         while not done() and not stop.is_set():
-            self.event.clear()
+            w = self._waiter = loop.create_future()
+            timer = loop.call_later(0.5, _wake, w)
             try:
-                await asyncio.wait_for(self.event.wait(), 0.5)
-            except asyncio.TimeoutError:
-                pass
+                await w
+            finally:
+                timer.cancel()
+                self._waiter = None
             if every is not None:
                 every()
 
@@ -151,18 +166,35 @@ class WorldLockstep:
 
     async def start(self, stop: asyncio.Event) -> None:
         """Hold at t = 0 until the expected participants joined (gate.started)."""
-        self.event = asyncio.Event()
         gate, log = self.gate, self.world.log
         last = [time.monotonic()]
         log(f"lockstep: waiting at t=0 for {self.expect} participant(s) on every vehicle")
 
+        announced = [-ANNOUNCE_PERIOD]
+
         def remind() -> None:
+            if time.monotonic() - announced[0] >= ANNOUNCE_PERIOD:
+                announced[0] = time.monotonic()
+                self._announce()
             if time.monotonic() - last[0] > 10.0:
                 last[0] = time.monotonic()
                 log(f"lockstep: still waiting at t=0: {len(gate.participants)} of {self.expect} joined")
+        remind()
         await self._until(lambda: gate.started(time.monotonic()), stop, remind)
         log(f"lockstep: starting with {len(gate.participants)} participant(s), a TICK every "
             f"{self.frame_steps * self.world.dt * 1e3:g} ms sim, silent ones dropped after {gate.timeout:g} s wall")
+
+    def _announce(self) -> None:
+        """Each vehicle's HEARTBEAT on its push links (udpout) only, while the world waits at
+        t = 0: a participant listening where the world pushes (fly's monitor) hears where each
+        vehicle sends from, and JOINs there. Nothing goes to the udpin peers (the bridge), whose
+        reactions would then depend on the wall clock. The link's sequence number does not move."""
+        for v in self.world.vehicles:
+            pushes = [ep for ep in v.link.endpoints if isinstance(ep, UdpOut)]
+            if pushes:
+                buf = v.link.telemetry.frame(MSG_HEARTBEAT)
+                for ep in pushes:
+                    ep.send(buf)
 
     def stats_line(self) -> str:
         return (f"lockstep: {self.waits} waits for ACKs, {self.wait_wall:.2f} s wall waiting; "

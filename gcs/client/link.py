@@ -17,7 +17,7 @@ from common.mavlink.ids import TOWER_SYSID
 from gcs.client.connection import open_connection, open_dialect_connection
 from gcs.client.errors import ClientError, ClientTimeout
 from gcs.client.link_signing import LinkSigning
-from gcs.client.lockstep import LOCKSTEP_TIMEOUT, TickClock
+from gcs.client.lockstep import JOIN_PERIOD, LOCKSTEP_TIMEOUT, TickClock
 from gcs.client.mav import mavlink
 from gcs.client.state import SystemState, SystemTracker
 from gcs.client.tlog import Tlog
@@ -297,7 +297,7 @@ class Link:
             self._maybe_heartbeat()
             # JOIN until the first TICK, and again after a second without one (a restarted
             # bridge does not know us; the world may have dropped us)
-            if time.monotonic() - self._last_join >= (0.5 if self.ticks.tick_usec is None else 1.0) and \
+            if time.monotonic() - self._last_join >= (JOIN_PERIOD if self.ticks.tick_usec is None else 1.0) and \
                     time.monotonic() - self._last_tick_wall >= 1.0:
                 self._join()
             try:

@@ -1,41 +1,18 @@
 """A client's side of the world's lockstep (TOWERLINK_LOCKSTEP, common.mavlink.lockstep), pure.
 
 The world's newest TICK is the client's clock. A TICK is ACKed only once the program has acted
-on it (at the client's next poll), and a TICK that comes again after its ACK was sent (the ACK,
-or the TICK after it, was lost on the way) is ACKed again at once. :class:`TickClock` keeps that
-bookkeeping, in the TICKs' sim microseconds; sending is the link's business (gcs.client.link).
+on it (at the client's next poll), and a TICK that comes again after its ACK was sent is ACKed
+again at once: common.mavlink.tick_clock.TickClock keeps those books (its home; named here for
+the client); sending is the link's business (gcs.client.link).
 """
 from __future__ import annotations
 
+from common.mavlink.tick_clock import TickClock
+
+__all__ = ["JOIN_PERIOD", "LOCKSTEP_TIMEOUT", "TickClock"]
+
 #: wall s a lockstep client waits for the world's next TICK before it gives up (ClientTimeout)
 LOCKSTEP_TIMEOUT = 15.0
-
-
-class TickClock:
-    """Which TICK is the clock, which one is due an ACK, which one was ACKed last (sim us)."""
-
-    def __init__(self) -> None:
-        self.tick_usec: int | None = None   # newest TICK handled
-        self.ack_due: int | None = None     # handled, ACK not yet sent
-        self.acked = -1                     # newest TICK ACKed
-
-    def now(self) -> float:
-        """The newest TICK's sim time, s (0 before the first)."""
-        return (self.tick_usec or 0) / 1e6
-
-    def on_tick(self, time_usec: int) -> int | None:
-        """Note a TICK; returns the time to ACK again at once when it is one already ACKed."""
-        if self.tick_usec is None or time_usec > self.tick_usec:
-            self.tick_usec = time_usec
-            self.ack_due = time_usec
-            return None
-        if self.ack_due is None and time_usec <= self.acked:
-            return self.acked
-        return None
-
-    def take_ack(self) -> int | None:
-        """The TICK to ACK now (the program has acted on it), or None; it counts as ACKed."""
-        due, self.ack_due = self.ack_due, None
-        if due is not None:
-            self.acked = due
-        return due
+#: wall s between a client's JOINs until the first TICK (one sent before the world listens is lost;
+#: the world waits at t = 0 for every participant)
+JOIN_PERIOD = 0.1

@@ -11,6 +11,9 @@ reply goes (one UDP peer, one TCP client, or the udpout target). `send(buf)` goe
 `on_data` returns True when the chunk held a packet that passed the link's checks (CRC and,
 with signing on, the signature): only then does a UDP sender become a peer, so garbage,
 forged or unsigned packets never subscribe anyone to the telemetry stream.
+
+Every write goes through the endpoint's `outbox` (vehicle/link/outbox.py): the world holds
+them while it steps and writes them when it yields.
 """
 from __future__ import annotations
 
@@ -21,6 +24,7 @@ from collections.abc import Callable
 
 from common.mavlink.endpoints import parse_connection
 from common.mavlink.peers import MAX_PEERS, PEER_TIMEOUT, PeerTable
+from vehicle.link.outbox import DIRECT, Outbox
 
 VEHICLE_KINDS = ("udpin", "udpout", "tcpin")
 Handler = Callable[[bytes, "Channel"], "bool | None"]
@@ -87,9 +91,11 @@ class UdpIn(Endpoint):
     fact about the network, and a paused or slowed world must not keep dead peers alive."""
 
     def __init__(self, host: str, port: int, on_data: Handler, peer_timeout: float = PEER_TIMEOUT,
-                 max_peers: int = MAX_PEERS, clock: Callable[[], float] = time.monotonic) -> None:
+                 max_peers: int = MAX_PEERS, clock: Callable[[], float] = time.monotonic,
+                 outbox: Outbox = DIRECT) -> None:
         self.spec = f"udpin:{host}:{port}"
         self.host, self.port, self.on_data = host, port, on_data
+        self.outbox = outbox
         self.transport = None
         self.clock = clock
         self.peers = PeerTable(peer_timeout, max_peers)   # addr -> its reply Channel (common.mavlink.peers)
@@ -116,7 +122,7 @@ class UdpIn(Endpoint):
     def received(self, data: bytes, addr) -> None:
         ch = self.peers.get(addr)
         if ch is None:      # replies to this packet may go back; it is no peer until it checks out
-            ch = Channel(f"{self.spec}<-{addr[0]}:{addr[1]}", lambda b, a=addr: self.transport.sendto(b, a))
+            ch = Channel(f"{self.spec}<-{addr[0]}:{addr[1]}", lambda b, a=addr: self._sendto(b, a))
         if not self.on_data(data, ch):
             return
         self._closed(self.peers.heard(addr, self.clock(), ch))
@@ -137,13 +143,16 @@ class UdpIn(Endpoint):
     def listened(self) -> bool:
         return self.transport is not None and len(self.peers) > 0
 
+    def _sendto(self, buf: bytes, addr) -> None:
+        self.outbox.send(self.transport.sendto, buf, addr)
+
     def send(self, buf: bytes) -> None:
         if self.transport is None:
             return
         self.expire()
         for addr in self.peers:
             try:
-                self.transport.sendto(buf, addr)
+                self._sendto(buf, addr)
             except OSError:
                 pass
 
@@ -155,9 +164,10 @@ class UdpIn(Endpoint):
 class UdpOut(Endpoint):
     """Push to HOST:PORT from an ephemeral port; replies from the target are read."""
 
-    def __init__(self, host: str, port: int, on_data: Handler) -> None:
+    def __init__(self, host: str, port: int, on_data: Handler, outbox: Outbox = DIRECT) -> None:
         self.spec = f"udpout:{host}:{port}"
         self.host, self.port, self.on_data = host, port, on_data
+        self.outbox = outbox
         self.transport = None
         self.channel = Channel(self.spec, self._sendto)
 
@@ -173,7 +183,7 @@ class UdpOut(Endpoint):
 
     def _sendto(self, buf: bytes) -> None:
         if self.transport is not None:
-            self.transport.sendto(buf, self.addr)
+            self.outbox.send(self.transport.sendto, buf, self.addr)
 
     def received(self, data: bytes, addr) -> None:
         self.on_data(data, self.channel)
@@ -211,9 +221,10 @@ class TcpIn(Endpoint):
     """TCP server; every connected client gets everything; each has its own parser."""
     MAX_BUFFERED = 1 << 20    # a client that stops reading is dropped past this
 
-    def __init__(self, host: str, port: int, on_data: Handler) -> None:
+    def __init__(self, host: str, port: int, on_data: Handler, outbox: Outbox = DIRECT) -> None:
         self.spec = f"tcpin:{host}:{port}"
         self.host, self.port, self.on_data = host, port, on_data
+        self.outbox = outbox
         self.server = None
         self.clients: dict[Channel, asyncio.Transport] = {}
 
@@ -235,6 +246,9 @@ class TcpIn(Endpoint):
         self.clients.pop(ch, None)
 
     def _write(self, t: asyncio.Transport, buf: bytes) -> None:
+        self.outbox.send(self._write_now, t, buf)
+
+    def _write_now(self, t: asyncio.Transport, buf: bytes) -> None:
         if t.is_closing():
             return
         if t.get_write_buffer_size() > self.MAX_BUFFERED:
@@ -256,6 +270,6 @@ class TcpIn(Endpoint):
             t.close()               # each client's connection_lost runs on the loop's next pass
 
 
-def make_endpoint(spec: str, on_data: Handler) -> Endpoint:
+def make_endpoint(spec: str, on_data: Handler, outbox: Outbox = DIRECT) -> Endpoint:
     kind, host, port = parse_endpoint(spec)
-    return {"udpin": UdpIn, "udpout": UdpOut, "tcpin": TcpIn}[kind](host, port, on_data)
+    return {"udpin": UdpIn, "udpout": UdpOut, "tcpin": TcpIn}[kind](host, port, on_data, outbox=outbox)

@@ -46,6 +46,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from common.mavlink.signing import SIGNING_EPOCH, UNSIGNED, SignatureCheck
 from vehicle.link.endpoints import Channel, Endpoint, make_endpoint, parse_endpoint
 from vehicle.link.framing import Framer
+from vehicle.link.outbox import DIRECT, Outbox
 from vehicle.link.paced_queue import PacedQueue
 from vehicle.link.parsing import ChunkParser, NullFile, rejected
 
@@ -85,11 +86,13 @@ class LinkCore:
     TEXTS_PER_CHUNK = 30      # ArduPilot's STATUSTEXT queue: what does not fit is dropped
 
     def __init__(self, sysid: int, clock: Callable[[], float], endpoints: list[str],
-                 signing_key: bytes | None = None, intake: Intake | None = None) -> None:
+                 signing_key: bytes | None = None, intake: Intake | None = None,
+                 outbox: Outbox = DIRECT) -> None:
         self.sysid = sysid
         self.clock = clock                    # () -> sim seconds since world start
         self.specs = list(endpoints)
-        self.endpoints: list[Endpoint] = [make_endpoint(s, self._receiver(s, intake)) for s in endpoints]
+        # outbox: what holds the endpoints' writes while the world steps (vehicle/link/outbox.py)
+        self.endpoints: list[Endpoint] = [make_endpoint(s, self._receiver(s, intake), outbox) for s in endpoints]
         self.mav = mav.MAVLink(NullFile(), srcSystem=sysid, srcComponent=COMP_ID)
         self.framer = Framer(self.mav)         # streams: packed without message objects
         self.stats: Counter = Counter()

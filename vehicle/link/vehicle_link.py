@@ -24,6 +24,7 @@ from vehicle.link.ftp_link import FtpLink
 from vehicle.link.link_core import Intake, LinkCore
 from vehicle.link.log_link import LogLink
 from vehicle.link.mission_link import MissionLink
+from vehicle.link.outbox import DIRECT, Outbox
 from vehicle.link.param_link import ParamLink
 from vehicle.link.position_link import PositionLink
 from vehicle.link.rc_link import RcLink
@@ -39,14 +40,15 @@ class VehicleLink(LinkCore):
                  signing_key: bytes | None = None,
                  params_changed: Callable[[Mapping[str, float]], None] | None = None,
                  intake: Intake | None = None, files_root: str | os.PathLike | None = None,
-                 logs: WorldLogs | None = None) -> None:
+                 logs: WorldLogs | None = None, outbox: Outbox = DIRECT) -> None:
         """ap: the autopilot; clock() the world's sim time (s); unix_start_us: the unix time of
         sim t = 0; endpoints: pymavlink connection strings; params_changed({name: value})
         after an accepted PARAM_SET; intake: what sees the UDP datagrams first (lockstep);
         files_root: the directory MAVFTP serves (vehicle/vehicle_root.py), None for a
         temporary one removed at close(); logs: the world's onboard logs (this vehicle's in
-        its files root's logs/), None for none (LOG_* requests unanswered)."""
-        super().__init__(ap.sysid, clock, endpoints, signing_key, intake)
+        its files root's logs/), None for none (LOG_* requests unanswered); outbox: what holds the
+        endpoints' writes while the world steps (vehicle/link/outbox.py)."""
+        super().__init__(ap.sysid, clock, endpoints, signing_key, intake, outbox)
         self.ap = ap
         self.telemetry = Telemetry(ap, self.framer, clock, unix_start_us)
         self.commands = CommandLink(self, ap)
