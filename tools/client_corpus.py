@@ -16,6 +16,7 @@ import argparse
 import os
 import platform
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -93,7 +94,7 @@ class Child:
             return False
 
     def stop(self) -> None:
-        """SIGTERM to its session, SIGKILL after 5 s."""
+        """SIGINT, SIGTERM, then SIGKILL to its session, each after a grace; then whatever is left in it."""
         if self.proc.poll() is None:
             for sig, grace in ((signal.SIGINT, 3.0), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0)):
                 try:
@@ -105,6 +106,10 @@ class Child:
                     break
                 except subprocess.TimeoutExpired:
                     continue
+        try:        # what it left behind in its session (MAVSDK 3.x's mavsdk_server)
+            os.killpg(self.proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
         self._reader.join(2.0)
 
 
@@ -132,8 +137,8 @@ def run_one(p: Program, workdir: Path) -> Outcome:
     """One program against a fresh world; always stops what it started."""
     t0 = time.monotonic()
     udp, out = free_ports(2)
-    (tcp,) = free_ports(1, kind=__import__("socket").SOCK_STREAM)
-    ports = {"udp": udp, "tcp": tcp, "out": out}
+    tcp, grpc = free_ports(2, kind=socket.SOCK_STREAM)
+    ports = {"udp": udp, "tcp": tcp, "out": out, "grpc": grpc}
     workdir.mkdir(parents=True, exist_ok=True)
     world = watcher = child = None
     try:
@@ -219,6 +224,8 @@ def main(argv: list[str] | None = None) -> int:
         o = run_one(p, args.workdir / p.name)
         outcomes.append(o)
         print(f"{'behaves' if o.behaves else 'DIFFERS: ' + '; '.join(o.reasons)} ({o.seconds:.0f} s)", flush=True)
+        if not o.behaves:
+            print(f"        the vehicle: {o.summary}", flush=True)
     behaves = sum(o.behaves for o in outcomes)
     print()
     width = max((len(o.program.name) for o in outcomes), default=10)

@@ -111,4 +111,21 @@ def failures(checks: list[str], rec: Record, output: str, returncode: int | None
         why = check_failure(c, rec, output)
         if why:
             out.append(why)
+    if out:
+        raised = last_exception(output)
+        if raised:
+            out.append(f"it raised {raised}")
     return out
+
+
+_EXCEPTION = re.compile(r"^([A-Za-z_][\w.]*(?:Error|Exception|Exit)): ?(.*)$")
+
+
+def last_exception(output: str) -> str | None:
+    """The last 'SomeError: text' line a program printed (a traceback's last line), shortened."""
+    found = None
+    for line in output.splitlines():
+        m = _EXCEPTION.match(line.strip())
+        if m:
+            found = f"{m.group(1).rsplit('.', 1)[-1]}: {m.group(2)}"[:160]
+    return found

@@ -9,7 +9,7 @@ it does against ArduPilot SITL, and where that comes from); ``checks`` (tools.cl
 optional ``speedup`` (default 1: the program waits on wall-clock time), ``timeout`` (wall s,
 default 120), ``settle`` (wall s to wait for ``disarmed`` after the program ends, default 60),
 ``exit`` (the exit status wanted, default 0; -1: any), ``args`` (its arguments, with {tcp},
-{udp}, {out} and {file} replaced), ``sitl`` (extra `towerlink sitl` arguments).
+{udp}, {out}, {grpc} and {file} replaced), ``sitl`` (extra `towerlink sitl` arguments).
 """
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ DEFAULT_ARGS = {
     "pymavlink": ["tcp:127.0.0.1:{tcp}"],
     "autotest": ["tcp:127.0.0.1:{tcp}"],
     "mavsdk4": ["udpin://127.0.0.1:{out}"],
-    "mavsdk3": ["udpin://0.0.0.0:{out}"],
+    "mavsdk3": ["udpin://0.0.0.0:{out}", "{grpc}"],
     "mavproxy": ["{file}", "{tcp}"],
 }
 

@@ -17,7 +17,7 @@ from pymavlink import mavutil  # noqa: E402
 from tools.client_corpus_checks import Record  # noqa: E402
 
 WATCH_SYSID = 250
-_COPTER_MODES = {v: k for k, v in mavutil.mode_mapping_acm.items()}
+_COPTER_MODES = mavutil.mode_mapping_acm      # ArduCopter's custom_mode -> name
 
 
 class Watcher:
@@ -28,7 +28,6 @@ class Watcher:
         self._port = udp_port
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, daemon=True)
-        self._lock = threading.Lock()
 
     def start(self) -> None:
         self._thread.start()
