@@ -6,6 +6,9 @@ starts ``mavproxy.py --master=tcp:127.0.0.1:TCP_PORT`` in a scratch folder and f
 script's lines on stdin. A script line is one of:
 
     wait SECONDS REGEX   wait (wall s) until a MAVProxy output line matches REGEX
+    until SECONDS REGEX :: COMMAND
+                         type COMMAND, again every 3 s (as a user retries `arm throttle` until
+                         the vehicle is ready), until a line matches REGEX
     sleep SECONDS        pause, as a user reading the screen
     # ...                a comment
     anything else        typed into MAVProxy; {dir} is the script's folder
@@ -74,6 +77,15 @@ class Session:
                 self.proc.wait()
 
 
+def retry(s: Session, command: str, pattern: str, timeout: float) -> bool:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        s.type(command)
+        if s.wait(pattern, min(3.0, max(0.1, end - time.monotonic()))):
+            return True
+    return False
+
+
 def play(script: Path, tcp_port: int) -> int:
     with tempfile.TemporaryDirectory(prefix="mavproxy-") as workdir:
         s = Session(tcp_port, workdir)
@@ -87,6 +99,12 @@ def play(script: Path, tcp_port: int) -> int:
                     secs, _, pattern = rest.partition(" ")
                     if not s.wait(pattern, float(secs)):
                         print(f"MAVPROXY-SCRIPT FAILED: no line matching {pattern!r} within {secs} s", flush=True)
+                        return 1
+                elif word == "until":
+                    secs, _, rest2 = rest.partition(" ")
+                    pattern, _, command = rest2.partition(" :: ")
+                    if not retry(s, command.replace("{dir}", str(script.parent)), pattern, float(secs)):
+                        print(f"MAVPROXY-SCRIPT FAILED: {command!r} never gave {pattern!r} within {secs} s", flush=True)
                         return 1
                 elif word == "sleep":
                     time.sleep(float(rest))  # the script's own pause
