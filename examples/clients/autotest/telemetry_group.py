@@ -22,6 +22,8 @@ for _ in range(3):
 time.sleep(1)
 m.mav.request_data_stream_send(m.target_system, m.target_component, GROUPS[group], 4, 1)
 time.sleep(1)
+while m.recv_match(blocking=False) is not None:
+    pass                # what was sent before the new rates
 seen = {}
 end = time.time() + 4
 while time.time() < end:

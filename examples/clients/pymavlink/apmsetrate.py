@@ -22,6 +22,8 @@ for i in range(0, 3):
     master.mav.request_data_stream_send(master.target_system, master.target_component,
                                         mavutil.mavlink.MAV_DATA_STREAM_ALL, rate, 1)
 time.sleep(2)          # let the new rates settle
+while master.recv_match(blocking=False) is not None:
+    pass                # what came before the new rates
 counts = collections.Counter()
 start = time.time()
 while time.time() - start < 5:
