@@ -12,9 +12,9 @@ import time
 
 os.environ.setdefault("MAVLINK20", "1")
 
-from pymavlink import mavutil  # noqa: E402
+from pymavlink import mavutil
 
-from tools.client_corpus_checks import Record  # noqa: E402
+from tools.client_corpus_checks import Record
 
 WATCH_SYSID = 250
 _COPTER_MODES = mavutil.mode_mapping_acm      # ArduCopter's custom_mode -> name
