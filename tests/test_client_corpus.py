@@ -76,6 +76,7 @@ def test_failures_name_the_timeout_the_exit_and_what_was_raised():
     assert failures(["alt>=5"], Record(), out, 1, 0, False) == [
         "exit 1, wanted 0", "max alt 0.0 m, wanted >=5", "it raised ActionError: COMMAND_DENIED: 'Command Denied'"]
     assert failures([], Record(), "", None, 0, True) == ["timed out"]
+    assert failures([], Record(), "", None, None, True) == []              # any exit, or none
     assert failures(["alt<1"], Record(), "", 3, None, False) == []        # any exit status wanted
     assert last_exception("all fine\n") is None
 

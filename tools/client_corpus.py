@@ -165,6 +165,8 @@ def run_one(p: Program, workdir: Path) -> Outcome:
         if watcher is not None:
             watcher.stop()
     (workdir / "program.log").write_text(output)
+    if watcher is not None:
+        (workdir / "statustext.log").write_text("".join(t + "\n" for t in watcher.record.texts))
     if world is not None:
         (workdir / "sitl.log").write_text(world.output())
     return Outcome(p, not reasons, reasons, time.monotonic() - t0, summary)

@@ -8,7 +8,7 @@ MAVProxy); ``source`` (the public program or helper it is written after); ``ardu
 it does against ArduPilot SITL, and where that comes from); ``checks`` (tools.client_corpus_checks);
 optional ``speedup`` (default 1: the program waits on wall-clock time), ``timeout`` (wall s,
 default 120), ``settle`` (wall s to wait for ``disarmed`` after the program ends, default 60),
-``exit`` (the exit status wanted, default 0; -1: any), ``args`` (its arguments, with {tcp},
+``exit`` (the exit status wanted, default 0; -1: any, or none at the timeout), ``args`` (its arguments, with {tcp},
 {udp}, {out}, {grpc} and {file} replaced), ``sitl`` (extra `towerlink sitl` arguments).
 """
 from __future__ import annotations

@@ -1,8 +1,7 @@
 #!/usr/bin/env python3
-"""MAVSDK-Python's examples/mission.py flow: upload three waypoints with the Mission plugin
-(which has no takeoff item), arm, start the mission. ArduCopter refuses AUTO while armed on
-the ground when the mission does not start with a takeoff ("Auto: Missing Takeoff Cmd"), so
-start_mission fails and the copter stays on the ground.
+"""MAVSDK-Python's examples/mission.py flow: upload three waypoints with the Mission plugin,
+arm, start the mission. Against ArduPilot the upload already fails: the plugin's items carry
+NaN params that ArduPilot's mission checks refuse.
 
 Usage: mission.py [ADDRESS [GRPC_PORT]]
 """

@@ -1,7 +1,10 @@
 #!/usr/bin/env python3
 """Upload a mission with mission_raw (home, TAKEOFF 10 m, three waypoints, RTL) as ArduPilot
-users do, arm, start it, print progress until it is done and the copter is back on the ground
-(after MAVSDK-Python's examples/mission_raw.py and mission.py).
+users do, arm, take off, start it, print progress until it is done and the copter is back on
+the ground (after MAVSDK-Python's examples/mission_raw.py and mission.py). start_mission is a
+mode change to AUTO, and ArduCopter armed on the ground with the throttle at zero does not
+start an AUTO takeoff (see autotest/auto_takeoff_throttle_zero.py), so ArduPilot users take
+off first.
 
 Usage: mission_raw.py [ADDRESS [GRPC_PORT]]
 """
@@ -52,6 +55,10 @@ async def run():
 
     print("-- Arming")
     await drone.action.arm()
+    print("-- Taking off")
+    await drone.action.set_takeoff_altitude(10.0)
+    await drone.action.takeoff()
+    await asyncio.sleep(6)
 
     print("-- Starting mission")
     await drone.mission_raw.start_mission()
