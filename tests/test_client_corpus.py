@@ -97,3 +97,13 @@ def test_runner_tells_behaving_from_differing(tmp_path):
     wrong = dataclasses.replace(p, args=p.args + ("SCALED_IMU3",))     # a message this group does not carry
     bad = run_one(wrong, tmp_path / "bad")
     assert not bad.behaves and "output 'missing: none' not seen" in bad.reasons
+
+
+def test_the_table_counts_and_names_the_reasons():
+    from tools.client_corpus import Outcome, markdown
+    ps = load(MANIFEST).programs[:2]
+    text = markdown([Outcome(ps[0], True, [], 3.0, "modes GUIDED"),
+                     Outcome(ps[1], False, ["mode 'LAND' not seen"], 4.0, "modes GUIDED")], 60.0, 2)
+    assert "**1 of 2 behave as against ArduPilot SITL.** By kind: mavsdk3 1/2." in text
+    assert f"| {ps[1].name} | mavsdk3 |" in text and "| **differs** | mode 'LAND' not seen |" in text
+    assert "with 2 program(s) at once" in text

@@ -190,6 +190,14 @@ def run_all(programs: list[Program], workdir: Path, jobs: int) -> list[Outcome]:
     return sorted((f.result() for f in futures), key=lambda o: order[o.program.name])
 
 
+def by_kind(outcomes: list[Outcome]) -> str:
+    """'mavsdk3 12/16, pymavlink 7/10, ...' in the manifest's order of kinds."""
+    kinds: dict[str, list[bool]] = {}
+    for o in outcomes:
+        kinds.setdefault(o.program.kind, []).append(o.behaves)
+    return ", ".join(f"{k} {sum(v)}/{len(v)}" for k, v in kinds.items())
+
+
 def markdown(outcomes: list[Outcome], wall: float, jobs: int) -> str:
     """The result table with date, machine and load, for docs/CLIENTS.md."""
     behaves = sum(o.behaves for o in outcomes)
@@ -203,7 +211,12 @@ def markdown(outcomes: list[Outcome], wall: float, jobs: int) -> str:
          "ArduPilot SITL. The programs and their expectations: `examples/clients/` and "
          "`examples/clients/corpus.toml`; the runner: `make clients` (`python -m tools.client_corpus`)."),
         "",
-        f"**{behaves} of {len(outcomes)} behave as against ArduPilot SITL.**",
+        f"**{behaves} of {len(outcomes)} behave as against ArduPilot SITL.** By kind: " + by_kind(outcomes) + ".",
+        "",
+        ("A program behaves when it does what it does against ArduPilot SITL, failures included: "
+         "MAVSDK's own mission example fails its upload on ArduPilot, so it behaves when it fails "
+         "the same way here. Each program's output, the world's log and the STATUSTEXT it sent are "
+         "kept in `runs/clients/<program>/`."),
         "",
         (f"Run {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())} on {platform.node()} "
          f"({os.cpu_count()} cores, Python {platform.python_version()}), load average {load1:.2f} / {load5:.2f} "
@@ -246,7 +259,8 @@ def main(argv: list[str] | None = None) -> int:
     width = max((len(o.program.name) for o in outcomes), default=10)
     for o in outcomes:
         print(f"{o.program.name:{width}s}  {'behaves' if o.behaves else 'differs'}  {'; '.join(o.reasons)}")
-    print(f"\n{behaves} of {len(outcomes)} behave as against ArduPilot SITL ({(time.monotonic() - t0) / 60:.1f} min)")
+    print(f"\n{behaves} of {len(outcomes)} behave as against ArduPilot SITL ({by_kind(outcomes)}; "
+          f"{(time.monotonic() - t0) / 60:.1f} min)")
     if args.markdown:
         args.markdown.write_text(markdown(outcomes, time.monotonic() - t0, args.jobs))
         print(f"wrote {args.markdown}")

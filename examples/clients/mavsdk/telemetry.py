@@ -34,7 +34,7 @@ async def run():
         first("position", t.position()), first("battery", t.battery()), first("gps_info", t.gps_info()),
         first("in_air", t.in_air()), first("attitude_euler", t.attitude_euler()),
         first("flight_mode", t.flight_mode()), first("health", t.health()), first("home", t.home()),
-        first("velocity_ned", t.velocity_ned()), first("raw_imu", t.raw_imu()),
+        first("velocity_ned", t.velocity_ned()),
         first("rc_status", t.rc_status()), first("landed_state", t.landed_state()),
     ), 30)
     print("-- every stream answered")
