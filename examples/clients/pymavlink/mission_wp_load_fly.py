@@ -20,6 +20,7 @@ wp = mavwp.MAVWPLoader()
 wp.load(os.path.join(os.path.dirname(os.path.abspath(__file__)), "square.waypoints"))
 print(f"Loaded {wp.count()} waypoints")
 master.waypoint_clear_all_send()
+print("clear:", master.recv_match(type="MISSION_ACK", blocking=True, timeout=5))
 master.waypoint_count_send(wp.count())
 while True:
     msg = master.recv_match(type=["MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK"], blocking=True, timeout=10)
