@@ -69,10 +69,10 @@ class Session:
 
     def stop(self) -> None:
         if self.proc.poll() is None:
+            self.proc.terminate()           # MAVProxy fed on stdin has no `exit` command
             try:
-                self.type("exit")
                 self.proc.wait(5)
-            except (OSError, subprocess.TimeoutExpired):
+            except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
 
