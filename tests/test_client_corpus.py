@@ -72,9 +72,13 @@ def test_still_armed_and_never_armed():
 
 
 def test_failures_name_the_timeout_the_exit_and_what_was_raised():
-    out = "Traceback (most recent call last):\nmavsdk.action.ActionError: COMMAND_DENIED: 'Command Denied'\n"
+    out = ("Traceback (most recent call last):\n"
+           "mavsdk.action.ActionError: COMMAND_DENIED: 'Command Denied'; origin: arm(); params: ()\n")
     assert failures(["alt>=5"], Record(), out, 1, 0, False) == [
         "exit 1, wanted 0", "max alt 0.0 m, wanted >=5", "it raised ActionError: COMMAND_DENIED: 'Command Denied'"]
+    said = "AT-1.0: AP: Param set: unknown SIM_GPS1_ENABLE\nFAILED: ValueError: Param fetch returned incorrect value\n"
+    assert failures(["out:PASSED"], Record(), said, 1, 0, False)[-1] == \
+        "it said: ValueError: Param fetch returned incorrect value"
     assert failures([], Record(), "", None, 0, True) == ["timed out"]
     assert failures([], Record(), "", None, None, True) == []              # any exit, or none
     assert failures(["alt<1"], Record(), "", 3, None, False) == []        # any exit status wanted

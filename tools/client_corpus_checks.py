@@ -114,10 +114,23 @@ def failures(checks: list[str], rec: Record, output: str, returncode: int | None
         if why:
             out.append(why)
     if out:
-        raised = last_exception(output)
-        if raised:
-            out.append(f"it raised {raised}")
+        said = last_failure(output)
+        if said:
+            out.append(said)
     return out
+
+
+_SAID_FAILED = re.compile(r"^(?:MAVPROXY-SCRIPT )?FAILED: (.*)$")
+
+
+def last_failure(output: str) -> str | None:
+    """What the program said about its failure: its own last 'FAILED: ...' line (the autotest
+    and MAVProxy programs), else the last exception it raised."""
+    said = [m.group(1) for line in output.splitlines() if (m := _SAID_FAILED.match(line.strip()))]
+    if said:
+        return f"it said: {said[-1][:160]}"
+    raised = last_exception(output)
+    return f"it raised {raised}" if raised else None
 
 
 _EXCEPTION = re.compile(r"^([A-Za-z_][\w.]*(?:Error|Exception|Exit)): ?(.*)$")
@@ -129,5 +142,5 @@ def last_exception(output: str) -> str | None:
     for line in output.splitlines():
         m = _EXCEPTION.match(line.strip())
         if m:
-            found = f"{m.group(1).rsplit('.', 1)[-1]}: {m.group(2)}"[:160]
+            found = f"{m.group(1).rsplit('.', 1)[-1]}: {m.group(2).split('; origin:')[0]}"[:160]
     return found
