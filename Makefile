@@ -5,13 +5,14 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 
-.PHONY: demo test bench sweep venv mavsdk3 clean help
+.PHONY: demo test bench sweep clients venv mavsdk3 clean help
 
 help:
 	@echo "make demo   - fly the default tower -> bridge -> drone -> rover scenario"
 	@echo "make test   - run the test suite"
 	@echo "make bench  - run the benchmarks (peers side by side)"
 	@echo "make sweep  - install Ray (the sweep extra) and run the example sweep (examples/sweep)"
+	@echo "make clients - run the client corpus (examples/clients) against towerlink sitl; writes docs/CLIENTS.md"
 	@echo "make mavsdk3 - a MAVSDK-Python 3.x environment beside the venv ($(VENV)/mavsdk3), for its tests"
 
 # setuptools warns that folders named like the packages shadow them: for this checkout's
@@ -58,6 +59,12 @@ test: $(SWEEP_STAMP) $(MAVSDK3_STAMP)
 bench: $(STAMP)
 	$(QUIET_EDITABLE) $(BIN)/python -m pip install -q -e '.[test,plot,bench]'
 	$(BIN)/towerlink bench
+
+# programs written the way MAVSDK, pymavlink, MAVProxy and autotest users write them, each against a
+# fresh world, counted against what they do on ArduPilot SITL (tools/client_corpus.py)
+clients: export MAVSDK3_PYTHON := $(CURDIR)/$(MAVSDK3)/bin/python
+clients: $(STAMP) $(MAVSDK3_STAMP)
+	$(BIN)/python -m tools.client_corpus --markdown docs/CLIENTS.md
 
 sweep: $(SWEEP_STAMP)
 	$(BIN)/towerlink sweep --grid examples/sweep/frames_loss.toml --out sweeps/frames_loss
