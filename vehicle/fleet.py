@@ -56,6 +56,7 @@ from vehicle.fleet_base import FleetBase, Setpoint, SoA, finite_angle, vec3
 from vehicle.physics import NumpyOps, ScalarOps
 from vehicle.physics import multicopter as mc
 from vehicle.physics import rover as rphys
+from vehicle.physics.scalar_form import generic
 from vehicle.sensors import SensorSpec
 
 MAX_LEAN = math.radians(80.0)   # an attitude target's roll and pitch are flown within this
@@ -81,6 +82,7 @@ def _attitude_values(sp: Setpoint, flags: dict) -> dict:
     return out
 
 
+@generic
 def _copter_core(ph, c, est, sp, armed, landed, ground_z, g, af, dt, xp, air=None):
     """Controller + physics for one step (backend-generic). Returns the 'running' mask."""
     climb = xp.where(sp.use_pos_z, sp.pz < ground_z - 0.25, sp.vz < -0.05)
@@ -100,6 +102,7 @@ def _copter_core(ph, c, est, sp, armed, landed, ground_z, g, af, dt, xp, air=Non
     return run
 
 
+@generic
 def _land_detect(c, e, ph, run, armed, landed, timer, g, dt, xp):
     """ArduPilot-style land detector: armed, low thrust demand, not moving, for
     LAND_DETECT_TIME. Cleared by a take-off (thrust demand near hover and moving).
@@ -264,17 +267,19 @@ class CopterFleet(FleetBase):
         self._run = run
 
     def _step_scalar(self, dt):
+        # the cores' scalar forms called directly (vehicle.physics.scalar_form): no dispatch
+        core, land = _copter_core.scalar(), _land_detect.scalar()
         gs, af, xp = self._gs, self.airframe, ScalarOps
         armed, landed, runs, timer = self._armed_l, self._landed, self._run, self._land_timer
-        ps, cs, ss, ests = self._ps, self._cs, self._ss, self._ests
+        ps, cs, ss, ests, gz, air = self._ps, self._cs, self._ss, self._ests, self._gz, self._air_rows
         for i in range(self.n):
-            runs[i] = _copter_core(ps[i], cs[i], ests[i] or ps[i], ss[i], armed[i], landed[i],
-                                   self._gz[i], gs[i], af, dt, xp, self._air_of(i))
+            runs[i] = core(ps[i], cs[i], ests[i] or ps[i], ss[i], armed[i], landed[i],
+                           gz[i], gs[i], af, dt, xp, None if air is None else air[i])
         self.sim_time += dt
         self._sense_and_estimate_scalar(dt)
         for i in range(self.n):
-            landed[i], timer[i] = _land_detect(cs[i], ests[i] or ps[i], ps[i], runs[i], armed[i], landed[i],
-                                               timer[i], gs[i], dt, xp)
+            landed[i], timer[i] = land(cs[i], ests[i] or ps[i], ps[i], runs[i], armed[i], landed[i],
+                                       timer[i], gs[i], dt, xp)
 
 
 class RoverFleet(FleetBase):
@@ -335,13 +340,14 @@ class RoverFleet(FleetBase):
         """Controller (on the estimate) -> kinematics -> sensors -> estimator."""
         if self.scalar:
             xp, gs, m = ScalarOps, self._gs, self.model
-            ps, ss, ests, armed = self._ps, self._ss, self._ests, self._armed_l
+            ps, ss, ests, armed, air = self._ps, self._ss, self._ests, self._armed_l, self._air_rows
+            control, physics = rcore.step.scalar(), rphys.step.scalar()     # no dispatch
             for i in range(self.n):
-                v, r = rcore.step(ests[i] or ps[i], ss[i], gs[i], dt, xp)
+                v, r = control(ests[i] or ps[i], ss[i], gs[i], dt, xp)
                 if not armed[i]:
                     v = r = 0.0
                     ss[i].v_cmd = 0.0
-                rphys.step(ps[i], v, r, m, gs[i], dt, xp, self._air_of(i))
+                physics(ps[i], v, r, m, gs[i], dt, xp, None if air is None else air[i])
             self.sim_time += dt
             self._sense_and_estimate_scalar(dt)
             return

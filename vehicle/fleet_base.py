@@ -167,9 +167,6 @@ class FleetBase:
         a = self.air
         return None if a is None else (a[:, 0], a[:, 1], a[:, 2])
 
-    def _air_of(self, i: int):
-        return None if self.air is None else self._air_rows[i]
-
     # ---- true state --------------------------------------------------------------
     @property
     def phys(self):
@@ -375,25 +372,27 @@ class FleetBase:
         return _Est(e.pos, e.vel, e.quat, e.rates)
 
     def _sense_and_estimate_scalar(self, dt) -> None:
-        """Estimator for the scalar store: epochs vectorised, output steps on floats."""
+        """Estimator for the scalar store, on Python floats throughout: truth, gyro error and
+        the estimate pass as per-vehicle rows (vehicle.estimation.Estimator.epoch_rows),
+        the output steps between epochs per vehicle."""
         if not self.use_estimator:
             return
         e = self.estimator
-        ge = self.sensors.gyro_noise()
+        ge = self.sensors.gyro_noise_rows()
+        ps, ests = self._ps, self._ests
         if e.advance(dt):
-            e.epoch(self.sensors, self.pos, self.vel, self.acc, self.quat, self.rates, ge)
-            P, V, A = e.pos.tolist(), e.vel.tolist(), e.acc.tolist()
-            Q, W = e.quat.tolist(), e.rates.tolist()
-            for i in range(self.n):
-                o = self._ests[i] or _ScalarEst()
-                o.px, o.py, o.pz = P[i]
-                o.vx, o.vy, o.vz = V[i]
-                o.ax, o.ay, o.az = A[i]
-                o.qx, o.qy, o.qz, o.qw = Q[i]
-                o.wx, o.wy, o.wz = W[i]
-                self._ests[i] = o
-            self._dqs = e.dq.tolist()
+            rows = e.epoch_rows(self.sensors, [[s.px, s.py, s.pz] for s in ps], [[s.vx, s.vy, s.vz] for s in ps],
+                                [[s.ax, s.ay, s.az] for s in ps], [[s.qx, s.qy, s.qz, s.qw] for s in ps],
+                                [[s.wx, s.wy, s.wz] for s in ps], ge)
+            dqs = self._dqs = []
+            for i, r in enumerate(rows):          # r: pos, vel, bias, acc, quat, dq, rates, ahrs_err
+                o = ests[i] or _ScalarEst()
+                o.px, o.py, o.pz, o.vx, o.vy, o.vz = r[0:6]
+                o.ax, o.ay, o.az, o.qx, o.qy, o.qz, o.qw = r[9:16]
+                o.wx, o.wy, o.wz = r[20:23]
+                ests[i] = o
+                dqs.append(r[16:20])
         else:
-            ge = ge.tolist()
+            dqs = self._dqs
             for i in range(self.n):
-                output_step_scalar(self._ests[i], self._ps[i], self._dqs[i], ge[i], dt)
+                output_step_scalar(ests[i], ps[i], dqs[i], ge[i], dt)

@@ -69,20 +69,38 @@ class NoiseSource:
         self.block = np.empty((self.n, BLOCK, width))
         self.scale = scale
         self.offset = None if offset is None else np.asarray(offset, float)[:, None, :]
+        self._rows: list | None = None       # the block as Python lists, for next_rows
 
     def next(self) -> np.ndarray:
         """(n, width) = offset + scale * standard normals (each vehicle from its own stream)."""
         if self.k >= BLOCK:
-            for i, r in enumerate(self.rngs):
-                self.block[i] = r.standard_normal((BLOCK, self.width))
-            if self.scale != 1.0:
-                self.block *= self.scale
-            if self.offset is not None:
-                self.block += self.offset
-            self.k = 0
+            self._refill()
         z = self.block[:, self.k, :]
         self.k += 1
         return z
+
+    def next_rows(self) -> list[list[float]]:
+        """next() as a list of per-vehicle rows of Python floats (the same numbers): the
+        block is listed once per BLOCK steps, not sliced and listed every step."""
+        if self.k >= BLOCK:
+            self._refill()
+        rows = self._rows
+        if rows is None:
+            rows = self._rows = self.block.tolist()
+        k = self.k
+        self.k = k + 1
+        return [r[k] for r in rows]
+
+    def _refill(self) -> None:
+        """The next BLOCK draws of every vehicle."""
+        for i, r in enumerate(self.rngs):
+            self.block[i] = r.standard_normal((BLOCK, self.width))
+        if self.scale != 1.0:
+            self.block *= self.scale
+        if self.offset is not None:
+            self.block += self.offset
+        self.k = 0
+        self._rows = None
 
 
 class Sensors:
@@ -110,6 +128,10 @@ class Sensors:
     def gyro_noise(self) -> np.ndarray:
         """(n,3) gyro error this step: bias + white noise."""
         return self.gyro_src.next()
+
+    def gyro_noise_rows(self) -> list[list[float]]:
+        """gyro_noise() as per-vehicle rows of floats (rad/s, body FRD): a few vehicles."""
+        return self.gyro_src.next_rows()
 
     def sample(self, gps: bool, baro: bool, pos, vel, acc_world, quat):
         """pos, vel, acc_world: (n,3) world NED truth; quat (n,4) xyzw body->world.
@@ -139,7 +161,7 @@ class Sensors:
         normals and the readings as lists of rows (gps_pos/gps_vel/baro_alt None when not
         sampled); the array attributes of sample() are not set."""
         sp = self.spec
-        z = self.noise.next().tolist()
+        z = self.noise.next_rows()
         sa, sp_h, sp_v, sg_v, sb = sp.accel_sigma, sp.gps_pos_sigma, sp.gps_alt_sigma, sp.gps_vel_sigma, sp.baro_sigma
         accel = []
         for zi, a, q, b in zip(z, acc_world, quat, self._accel_bias_rows):
