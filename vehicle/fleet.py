@@ -103,6 +103,16 @@ def _copter_core(ph, c, est, sp, armed, landed, ground_z, g, af, dt, xp, air=Non
 
 
 @generic
+def _rover_core(ph, est, sp, armed, g, m, dt, xp, air=None):
+    """Rover controller + kinematics for one step (backend-generic); disarmed: no drive."""
+    v, r = rcore.step(est, sp, g, dt, xp)
+    v = xp.where(armed, v, 0.0)
+    r = xp.where(armed, r, 0.0)
+    sp.v_cmd = xp.where(armed, sp.v_cmd, 0.0)
+    rphys.step(ph, v, r, m, g, dt, xp, air)
+
+
+@generic
 def _land_detect(c, e, ph, run, armed, landed, timer, g, dt, xp):
     """ArduPilot-style land detector: armed, low thrust demand, not moving, for
     LAND_DETECT_TIME. Cleared by a take-off (thrust demand near hover and moving).
@@ -341,21 +351,13 @@ class RoverFleet(FleetBase):
         if self.scalar:
             xp, gs, m = ScalarOps, self._gs, self.model
             ps, ss, ests, armed, air = self._ps, self._ss, self._ests, self._armed_l, self._air_rows
-            control, physics = rcore.step.scalar(), rphys.step.scalar()     # no dispatch
+            core = _rover_core.scalar()         # the scalar form called directly: no dispatch
             for i in range(self.n):
-                v, r = control(ests[i] or ps[i], ss[i], gs[i], dt, xp)
-                if not armed[i]:
-                    v = r = 0.0
-                    ss[i].v_cmd = 0.0
-                physics(ps[i], v, r, m, gs[i], dt, xp, None if air is None else air[i])
+                core(ps[i], ests[i] or ps[i], ss[i], armed[i], gs[i], m, dt, xp, None if air is None else air[i])
             self.sim_time += dt
             self._sense_and_estimate_scalar(dt)
             return
         est = self._est_view if self._est_view is not None else self._phys
-        v_cmd, r_cmd = rcore.step(est, self.sp, self.gains, dt)
-        v_cmd = np.where(self.armed, v_cmd, 0.0)
-        r_cmd = np.where(self.armed, r_cmd, 0.0)
-        self.sp.v_cmd = np.where(self.armed, self.sp.v_cmd, 0.0)
-        rphys.step(self._phys, v_cmd, r_cmd, self.model, self.gains, dt, air=self._air_vec())
+        _rover_core(self._phys, est, self.sp, self.armed, self.gains, self.model, dt, NumpyOps, self._air_vec())
         self.sim_time += dt
         self._est_view = self._sense_and_estimate_vec(dt)
