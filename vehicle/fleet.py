@@ -93,11 +93,13 @@ def _copter_core(ph, c, est, sp, armed, landed, ground_z, g, af, dt, xp, air=Non
     f = ccore.step(c, est, sp, g, dt, xp)
     om = af.omega_max
     run = armed & xp.lnot(idle)
+    f0, f1, f2, f3 = f                  # (unrolled: a comprehension is a call of its own)
     if xp.all(run):
-        cmd = [fi * om for fi in f]
+        cmd = (f0 * om, f1 * om, f2 * om, f3 * om)
     else:
         idle_w = xp.where(armed, om * g.spin_arm, 0.0)
-        cmd = [xp.where(run, fi * om, idle_w) for fi in f]
+        cmd = (xp.where(run, f0 * om, idle_w), xp.where(run, f1 * om, idle_w),
+               xp.where(run, f2 * om, idle_w), xp.where(run, f3 * om, idle_w))
     mc.step(ph, cmd, af, dt, ground_z, xp, air)
     return run
 

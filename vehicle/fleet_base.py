@@ -279,8 +279,14 @@ class FleetBase:
         once per step and hands out rows of that copy (read-only views) instead of building
         a VehicleState per vehicle."""
         if self.scalar:
-            e = self.estimate(i)
-            return e.pos, e.vel, e.quat, e.rates
+            live = self._scalar_est_live()
+            if not live and self.use_estimator:        # before the first filter epoch
+                e = self.estimate(i)
+                return e.pos, e.vel, e.quat, e.rates
+            o = self._ests[i] if live else self._ps[i]
+            # one fresh array, the four its views (each reader gets its own, as estimate() gives)
+            b = np.array([o.px, o.py, o.pz, o.vx, o.vy, o.vz, o.qx, o.qy, o.qz, o.qw, o.wx, o.wy, o.wz])
+            return b[0:3], b[3:6], b[6:10], b[10:13]
         snap = self._est_snap
         if snap is None or snap[0] != self.sim_time:          # stepped since: a new snapshot
             if self.use_estimator:
