@@ -215,8 +215,7 @@ class Estimator:
             self.bkf = BatchedKF(mk(np.zeros(3)), self.home)
         else:
             self.kfs = [mk(self.home[i]) for i in range(self.n)]
-            self._z_gps = np.zeros(6)            # measurement buffers (filterpy copies z)
-            self._z_baro = np.zeros(1)
+            self._z_gps = np.zeros(6)            # measurement buffer (filterpy copies z)
             self._u = np.zeros(3)
 
     def advance(self, dt: float) -> bool:
@@ -289,7 +288,7 @@ class Estimator:
         input a list of per-vehicle rows)."""
         z, accel, gps_pos, gps_vel, baro_alt = sensors.sample_rows(gps, baro, pos, vel, acc, Q)
         a, drive, g = self._ahrs_a, self._ahrs_drive, float(G[2])     # a float: rows stay Python floats
-        zg, zb, u = self._z_gps, self._z_baro, self._u
+        zg, u = self._z_gps, self._u
         log, step = self.innovations, self.k - 1
         rows = []
         for i, (kf, zi, qt, w, ge, err, f) in enumerate(zip(self.kfs, z, Q, rates, gyro_err,
@@ -310,8 +309,8 @@ class Estimator:
                 kf.update(zg)
                 log.gps(i, kf.y, kf.S, step)
             if baro:
-                zb[0] = -baro_alt[i]
-                kf.update(zb, R=self.R_baro, H=self.H_baro)
+                # a scalar z (filterpy takes one for dim_z 1): the same y, and its copy of z is cheap
+                kf.update(-baro_alt[i], R=self.R_baro, H=self.H_baro)
                 log.baro(i, kf.y, kf.S)
             x = kf.x.tolist()
             acc_i = (awx + 0.0 - x[6], awy + 0.0 - x[7], awz + g - x[8])
