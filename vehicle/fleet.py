@@ -159,6 +159,8 @@ class CopterFleet(FleetBase):
             self._cs = [ccore.CopterCtrlState(None) for _ in range(self.n)]
             self._ss = [ccore.SetpointArrays(None) for _ in range(self.n)]
             self._gz = [float(z) for z in self.ground_z]
+            # the cores' scalar forms, called directly (vehicle.physics.scalar_form): no dispatch
+            self._forms = (_copter_core.scalar(), _land_detect.scalar())
             for i in range(self.n):
                 ccore.relax(self._cs[i], self._ps[i], True, ScalarOps)
         else:
@@ -279,8 +281,7 @@ class CopterFleet(FleetBase):
         self._run = run
 
     def _step_scalar(self, dt):
-        # the cores' scalar forms called directly (vehicle.physics.scalar_form): no dispatch
-        core, land = _copter_core.scalar(), _land_detect.scalar()
+        core, land = self._forms
         gs, af, xp = self._gs, self.airframe, ScalarOps
         armed, landed, runs, timer = self._armed_l, self._landed, self._run, self._land_timer
         ps, cs, ss, ests, gz, air = self._ps, self._cs, self._ss, self._ests, self._gz, self._air_rows

@@ -69,7 +69,7 @@ class NoiseSource:
         self.block = np.empty((self.n, BLOCK, width))
         self.scale = scale
         self.offset = None if offset is None else np.asarray(offset, float)[:, None, :]
-        self._rows: list | None = None       # the block as Python lists, for next_rows
+        self._by_step: list | None = None    # the block as Python floats, step by step, for next_rows
 
     def next(self) -> np.ndarray:
         """(n, width) = offset + scale * standard normals (each vehicle from its own stream)."""
@@ -79,17 +79,17 @@ class NoiseSource:
         self.k += 1
         return z
 
-    def next_rows(self) -> list[list[float]]:
-        """next() as a list of per-vehicle rows of Python floats (the same numbers): the
-        block is listed once per BLOCK steps, not sliced and listed every step."""
+    def next_rows(self) -> Sequence[list[float]]:
+        """next() as per-vehicle rows of Python floats (the same numbers): the block is
+        listed (and regrouped by step) once per BLOCK steps, not sliced and listed every step."""
         if self.k >= BLOCK:
             self._refill()
-        rows = self._rows
-        if rows is None:
-            rows = self._rows = self.block.tolist()
+        by_step = self._by_step
+        if by_step is None:
+            by_step = self._by_step = list(zip(*self.block.tolist()))
         k = self.k
         self.k = k + 1
-        return [r[k] for r in rows]
+        return by_step[k]
 
     def _refill(self) -> None:
         """The next BLOCK draws of every vehicle."""
@@ -100,7 +100,7 @@ class NoiseSource:
         if self.offset is not None:
             self.block += self.offset
         self.k = 0
-        self._rows = None
+        self._by_step = None
 
 
 class Sensors:
@@ -129,7 +129,7 @@ class Sensors:
         """(n,3) gyro error this step: bias + white noise."""
         return self.gyro_src.next()
 
-    def gyro_noise_rows(self) -> list[list[float]]:
+    def gyro_noise_rows(self) -> Sequence[list[float]]:
         """gyro_noise() as per-vehicle rows of floats (rad/s, body FRD): a few vehicles."""
         return self.gyro_src.next_rows()
 
