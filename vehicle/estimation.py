@@ -20,11 +20,13 @@ epochs, scheduled by step counts.
 ``ok_var`` on every axis.
 
 Speed (a filter epoch of one vehicle): the filters are filterpy's own predict/update on
-fixed-size matrices, fed from reused measurement buffers; the baro update's 1x1 innovation
-covariance is inverted by one division through filterpy's ``inv`` hook (bit-identical to
-numpy's LU inverse, a seventh of its cost); the GPS update's 6x6 keeps numpy's inverse at
-10 Hz. Around the filters, per-vehicle epochs run on Python floats (sensors, AHRS error,
-rotations), the same operations in the same order as the vectorised form.
+fixed-size matrices, fed from reused buffers (GPS z, the predict's u); the baro height goes
+in as a scalar z (filterpy's form for dim_z 1: its copy of z is free) and its 1x1
+innovation covariance is inverted by one division through filterpy's ``inv`` hook
+(bit-identical to numpy's LU inverse, a seventh of its cost); the GPS update's 6x6 keeps
+numpy's inverse at 10 Hz. Around the filters, per-vehicle epochs run on Python floats
+(sensors, AHRS error, rotations), the same operations in the same order as the vectorised
+form, taking truth and handing out the estimate as per-vehicle rows (epoch_rows).
 """
 from __future__ import annotations
 

@@ -38,10 +38,12 @@ Parameters are per vehicle (ArduPilot names): set_params(params, i) tunes vehicl
 set_params(params) all of them; params_of(i) / gains_of(i) read one vehicle's. The batched
 step's self.gains holds floats where the vehicles agree and (n,) arrays where they differ.
 
-Speed: fleets of n <= SCALAR_MAX step vehicle by vehicle on Python floats (the same core
-source on the ScalarOps backend) -- ~30 us per copter step on truth, ~65 us with sensors
-and filterpy; bigger fleets step as numpy arrays (~0.8 us per drone-step at 1000). With
-estimator=True fleets above BATCHED_KF_MIN use BatchedKF, filterpy's equations batched.
+Speed: fleets of n <= SCALAR_MAX step vehicle by vehicle on Python floats (the cores'
+scalar forms, vehicle.physics.scalar_form, called directly; truth, gyro error and estimate
+pass as Python rows, no numpy in the step but filterpy's) -- ~10 us per copter step on
+truth, ~19 us with sensors and filterpy (tools/bench_flight.py); bigger fleets step as
+numpy arrays (~0.5 us per drone-step at 1000). With estimator=True fleets above
+BATCHED_KF_MIN use BatchedKF, filterpy's equations batched.
 """
 from __future__ import annotations
 
