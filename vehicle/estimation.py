@@ -151,7 +151,7 @@ class Estimator:
     arithmetic runs on Python floats, vehicle by vehicle (the same operations in the same
     order as the vectorised form, so the same numbers).
 
-    After such an epoch ``rows`` holds each vehicle's output as one tuple of ROW floats
+    After such an epoch ``rows`` holds each vehicle's output as one list of ROW floats
     (pos, vel, bias, acc, quat, dq, rates, ahrs_err, in that order); the array attributes
     (pos, vel, ...) are built from it on first read."""
 
@@ -171,7 +171,7 @@ class Estimator:
         self.H_baro = np.zeros((1, 9))
         self.H_baro[0, 2] = 1.0
         self.R_baro = np.array([[spec.baro_sigma ** 2]])
-        self.rows: list[tuple] | None = None
+        self.rows: list[list[float]] | None = None
         self._arrays: dict[str, np.ndarray] | None = {}
         self.pos = self.home.copy()
         self.vel = np.zeros((n, 3))
@@ -252,7 +252,7 @@ class Estimator:
     def epoch_rows(self, sensors, pos: list, vel: list, acc: list, quat: list, rates: list, gyro_err: list) -> list:
         """epoch() for per-vehicle filters from truth and gyro error as lists of per-vehicle
         rows of floats (a small fleet's own form: no arrays built either way); returns
-        `rows`, each vehicle's output."""
+        `rows`, each vehicle's output (a list of ROW floats)."""
         if self.batched:            # (a small fleet made to use BatchedKF: its arrays, as rows)
             self.epoch(sensors, *(np.array(a, dtype=float) for a in (pos, vel, acc, quat, rates, gyro_err)))
             return np.hstack([self._arrays[k] for k in _ROW_SLICES]).tolist()
@@ -300,9 +300,9 @@ class Estimator:
             ez = a * err[2] + drive * zi[15]
             hx, hy, hz = 0.5 * ex, 0.5 * ey, 0.5 * ez
             norm = math.sqrt(hx * hx + hy * hy + hz * hz + 1.0)
-            dq = (hx / norm, hy / norm, hz / norm, 1.0 / norm)
-            q = quat_mul_one(*qt, *dq)
-            awx, awy, awz = rotate_one(*q, *f)
+            dx, dy, dz, dw = hx / norm, hy / norm, hz / norm, 1.0 / norm
+            qx, qy, qz, qw = quat_mul_one(qt[0], qt[1], qt[2], qt[3], dx, dy, dz, dw)
+            awx, awy, awz = rotate_one(qx, qy, qz, qw, f[0], f[1], f[2])
             u[0], u[1], u[2] = awx + 0.0, awy + 0.0, awz + g
             kf.predict(u=u)
             if gps:
@@ -314,9 +314,10 @@ class Estimator:
                 # a scalar z (filterpy takes one for dim_z 1): the same y, and its copy of z is cheap
                 kf.update(-baro_alt[i], R=self.R_baro, H=self.H_baro)
                 log.baro(i, kf.y, kf.S)
-            x = kf.x.tolist()
-            acc_i = (awx + 0.0 - x[6], awy + 0.0 - x[7], awz + g - x[8])
-            rows.append((*x, *acc_i, *q, *dq, w[0] + ge[0], w[1] + ge[1], w[2] + ge[2], ex, ey, ez))
+            x = kf.x.tolist()            # the row: x, then acc, quat, dq, rates, AHRS error
+            x += (awx + 0.0 - x[6], awy + 0.0 - x[7], awz + g - x[8], qx, qy, qz, qw, dx, dy, dz, dw,
+                  w[0] + ge[0], w[1] + ge[1], w[2] + ge[2], ex, ey, ez)
+            rows.append(x)
             if gps:
                 self.gps_count[i] += 1
                 P = kf.P
