@@ -169,11 +169,11 @@ def test_filter_gain_of_a_scalar_measurement_is_a_division():
 
 
 def test_noise_rows_are_the_noise_arrays_across_blocks():
-    """gyro_noise_rows (a few vehicles, on floats) hands out exactly gyro_noise()'s numbers,
-    step by step, also where a new block of draws begins."""
+    """gyro_noise(rows=True) (a few vehicles, on floats) hands out exactly gyro_noise()'s
+    numbers, step by step, also where a new block of draws begins."""
     a, b = Sensors(vehicle_rngs(5, 3)), Sensors(vehicle_rngs(5, 3))
     for _ in range(600):                     # more than two blocks of 256 steps
-        assert np.array_equal(a.gyro_noise(), np.array(b.gyro_noise_rows()))
+        assert np.array_equal(a.gyro_noise(), np.array(b.gyro_noise(rows=True)))
 
 
 def test_estimator_arrays_are_built_from_its_rows():

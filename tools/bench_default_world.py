@@ -54,7 +54,7 @@ def fleet_spots(kind: str, f) -> list[tuple[object, str, str]]:
     for name in ("_sense_and_estimate_scalar", "_sense_and_estimate_vec"):
         spots.append((f, name, f"{kind} estimator"))
     if f.use_estimator:
-        for name in ("sample", "sample_rows", "gyro_noise", "gyro_noise_rows"):
+        for name in ("sample", "sample_rows", "gyro_noise"):
             spots.append((f.sensors, name, f"{kind} sensors"))
         e = f.estimator
         spots += [(e, "epoch", f"{kind} estimator/epoch"), (e, "epoch_rows", f"{kind} estimator/epoch"),

@@ -384,7 +384,7 @@ class FleetBase:
         if not self.use_estimator:
             return
         e = self.estimator
-        ge = self.sensors.gyro_noise_rows()
+        ge = self.sensors.gyro_noise(rows=True)
         ps, ests = self._ps, self._ests
         if e.advance(dt):
             rows = e.epoch_rows(self.sensors, [[s.px, s.py, s.pz] for s in ps], [[s.vx, s.vy, s.vz] for s in ps],

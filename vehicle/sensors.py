@@ -125,13 +125,10 @@ class Sensors:
         self.baro_fresh = False
         self.z = None
 
-    def gyro_noise(self) -> np.ndarray:
-        """(n,3) gyro error this step: bias + white noise."""
-        return self.gyro_src.next()
-
-    def gyro_noise_rows(self) -> Sequence[list[float]]:
-        """gyro_noise() as per-vehicle rows of floats (rad/s, body FRD): a few vehicles."""
-        return self.gyro_src.next_rows()
+    def gyro_noise(self, rows: bool = False) -> np.ndarray | Sequence[list[float]]:
+        """(n,3) gyro error this step: bias + white noise (rad/s, body FRD); rows=True: the
+        same numbers as per-vehicle rows of Python floats (a few vehicles, no numpy)."""
+        return self.gyro_src.next_rows() if rows else self.gyro_src.next()
 
     def sample(self, gps: bool, baro: bool, pos, vel, acc_world, quat):
         """pos, vel, acc_world: (n,3) world NED truth; quat (n,4) xyzw body->world.
