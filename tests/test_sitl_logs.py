@@ -1,8 +1,9 @@
 """Onboard logs with the clients people use, over sockets to `towerlink sitl`, as they use them:
 MAVProxy's typed `log list` / `log download`, MAVSDK's log_files (get_entries,
-download_log_file) in a program of its own, then the downloaded DataFlash log read by
-pymavlink's DFReader (ATT and GPS against the run's truth, streamed as SIM_STATE) and by
-mavlogdump.
+download_log_file) in a program of its own, QGroundControl's log download (its
+LogDownloadController's requests, bins and retries, over UDP with packets lost), then the
+downloaded DataFlash log read by pymavlink's DFReader (ATT and GPS against the run's truth,
+streamed as SIM_STATE) and by mavlogdump.
 
 One world for the module: a drone that flies (GUIDED takeoff to 10 m, a 25 m leg, LAND) and a
 rover that never arms (no logs: ArduPilot still answers, with one empty LOG_ENTRY). The tests
@@ -233,6 +234,150 @@ def test_mavsdk_log_files(flight, processes):
     data = _on_disk(sitl)
     assert f"ENTRIES [(1, {len(data)})]" in out
     assert out_path.read_bytes() == data
+
+
+class QgcLogDownload:
+    """QGroundControl's LogDownloadController (src/AnalyzeView) on a pymavlink connection:
+    refresh() asks LOG_REQUEST_LIST 0..0xffff and re-asks the first run of missing entries
+    after each 5 s silence (at most 3 times); download(entry) fetches the log in chunks of
+    512 bins of 90 bytes: LOG_REQUEST_DATA for the whole chunk, the bins ticked off as LOG_DATA
+    arrives (data for another chunk or at an offset not on a bin ignored), the next chunk asked
+    for when one is complete, and after each 500 ms without data -- or on reaching the end of a
+    gap -- the first gap of the chunk asked for again. ArduPilot's ids start at 1 (QGC's
+    _apmOffset). `lose` drops the first arrival of the LOG_DATA at those offsets, as a radio
+    would, so the retries have something to do."""
+
+    BINS, DATA_LEN = 512, 90
+    CHUNK = BINS * DATA_LEN
+    TIMEOUT, LIST_TIMEOUT = 0.5, 5.0
+
+    def __init__(self, m, lose: set[int] = frozenset()) -> None:
+        self.m = m
+        self.lose = set(lose)
+        self.requests: list[tuple[int, int, int]] = []     # LOG_REQUEST_DATA (id, ofs, count)
+        self._hb = 0.0
+
+    def _next(self, types: tuple[str, ...], timeout: float):
+        """The next message of `types` within `timeout` s (None), with QGC's 1 Hz heartbeat."""
+        deadline = time.monotonic() + timeout
+        while (left := deadline - time.monotonic()) > 0:
+            if time.monotonic() - self._hb > 1.0:
+                self.m.mav.heartbeat_send(mav.MAV_TYPE_GCS, mav.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+                self._hb = time.monotonic()
+            msg = self.m.recv_match(type=list(types), blocking=True, timeout=min(left, 0.2))
+            if msg is not None:
+                return msg
+        return None
+
+    def refresh(self) -> list[tuple[int, int]]:
+        """The log list: [(size, time_utc)] in QGC's order (index = id - 1)."""
+        self.m.mav.log_request_list_send(1, 1, 0, 0xFFFF)
+        entries: list[tuple[int, int] | None] = []
+        retries = 0
+        while True:
+            e = self._next(("LOG_ENTRY",), self.LIST_TIMEOUT)
+            if e is None:
+                missing = [i for i, x in enumerate(entries) if x is None]
+                assert missing and retries < 3, "log list: no answer"
+                retries += 1
+                run = [missing[0]]
+                while run[-1] + 1 in missing:
+                    run.append(run[-1] + 1)
+                self.m.mav.log_request_list_send(1, 1, run[0] + 1, run[-1] + 1)
+                continue
+            if e.num_logs == 0:
+                return []
+            if not entries:
+                entries = [None] * e.num_logs
+            if e.size > 0 and 0 <= e.id - 1 < len(entries):
+                entries[e.id - 1] = (e.size, e.time_utc)
+            retries = 0
+            if all(x is not None for x in entries):
+                return entries
+
+    def _request(self, log_id: int, ofs: int, count: int) -> None:
+        self.requests.append((log_id, ofs, count))
+        self.m.mav.log_request_data_send(1, 1, log_id, ofs, count)
+
+    def download(self, index: int, size: int, give_up_after: float) -> bytes:
+        """Log `index` (0-based, QGC's) of `size` bytes, as QGC writes it to its .bin (QGC
+        retries for ever; a test gives up after `give_up_after` s)."""
+        log_id, out = index + 1, bytearray(size)
+        deadline = time.monotonic() + give_up_after
+        chunks = -(-size // self.CHUNK)
+        chunk = 0
+
+        def bins_of(c: int) -> int:
+            return min(-(-(size - c * self.CHUNK) // self.DATA_LEN), self.BINS)
+        table = [False] * bins_of(0)
+
+        def find_missing() -> bool:
+            """QGC's _findMissingData; True when the log is complete."""
+            nonlocal chunk, table
+            if all(table) and chunk + 1 == chunks:
+                return True
+            if all(table):
+                chunk += 1
+                table = [False] * bins_of(chunk)
+            start = table.index(False)
+            end = table.index(True, start) if True in table[start:] else len(table)
+            self._request(log_id, chunk * self.CHUNK + start * self.DATA_LEN, (end - start) * self.DATA_LEN)
+            return False
+
+        self._request(log_id, 0, len(table) * self.DATA_LEN)
+        while True:
+            assert time.monotonic() < deadline, ("download stalled", chunk, table.count(False), self.requests[-5:])
+            d = self._next(("LOG_DATA",), self.TIMEOUT)
+            if d is None:
+                if find_missing():
+                    return bytes(out)
+                continue
+            if d.ofs in self.lose:
+                self.lose.discard(d.ofs)
+                continue
+            if d.id != log_id or d.ofs % self.DATA_LEN or d.ofs > size or d.ofs // self.CHUNK != chunk:
+                continue                                     # QGC ignores these
+            b = (d.ofs - chunk * self.CHUNK) // self.DATA_LEN
+            if b < len(table):
+                table[b] = True
+            out[d.ofs:d.ofs + d.count] = bytes(d.data[:d.count])
+            if all(table) and chunk + 1 == chunks:
+                return bytes(out)
+            if all(table):
+                chunk += 1
+                table = [False] * bins_of(chunk)
+                self._request(log_id, chunk * self.CHUNK, len(table) * self.DATA_LEN)
+            elif b < len(table) - 1 and table[b + 1] and find_missing():
+                return bytes(out)
+
+
+def test_qgroundcontrol_log_download(flight):
+    """QGC's list, download with lost packets (gap retries in two chunks), LOG_REQUEST_END;
+    the .bin equals the vehicle's file and DFReader reads it."""
+    from pymavlink import DFReader
+    sitl, _, _, tmp, _ = flight
+    data = _on_disk(sitl)
+    assert len(data) > 2 * QgcLogDownload.CHUNK, len(data)     # several chunks
+    m = connect(sitl.udp[0])
+    lose = {k * 90 for k in (3, 4, 5, 100, 511, 512, 513, 1100)} | {(len(data) - 1) // 90 * 90}
+    qgc = QgcLogDownload(m, lose)
+    entries = qgc.refresh()
+    assert [size for size, _ in entries] == [len(data)]
+    got = qgc.download(0, len(data), give_up_after=60.0)
+    m.mav.log_request_end_send(1, 1)
+    assert got == data
+    assert not qgc.lose                                            # every loss happened, and was refilled
+    retried = [r for r in qgc.requests if r[1] % QgcLogDownload.CHUNK]
+    assert (1, 3 * 90, 3 * 90) in retried and len(retried) >= 5, qgc.requests
+    assert qgc._next(("LOG_DATA",), 1.0) is None                   # LOG_REQUEST_END: nothing more
+    path = tmp / "log_1_qgc.bin"
+    path.write_bytes(got)
+    r = DFReader.DFReader_binary(str(path))
+    kinds = set()
+    while (msg := r.recv_match()) is not None:
+        kinds.add(msg.get_type())
+    assert {"FMT", "PARM", "MODE", "GPS", "ATT"} <= kinds and r.params["SYSID_THISMAV"] == 1
+    m.close()
 
 
 def test_erase(flight):

@@ -17,13 +17,15 @@ C = mav
 # the messages ArduPilot sends that towerlink did not (SET_MESSAGE_INTERVAL was DENIED)
 NEW = ["RAW_IMU", "SCALED_IMU2", "SCALED_PRESSURE", "SERVO_OUTPUT_RAW", "RC_CHANNELS", "NAV_CONTROLLER_OUTPUT",
        "POSITION_TARGET_GLOBAL_INT", "EKF_STATUS_REPORT", "VIBRATION", "FENCE_STATUS", "POWER_STATUS", "MEMINFO",
-       "AHRS", "AHRS2"]
-# what REQUEST_DATA_STREAM ALL brings from ArduCopter / ArduRover (SITL, fence on, flying); SITL
-# sends its truth as SIM_STATE and as the older SIMSTATE, towerlink as SIM_STATE only
-ARDUPILOT_SET = {"HEARTBEAT", "RAW_IMU", "SCALED_IMU2", "SCALED_PRESSURE", "SYS_STATUS", "POWER_STATUS", "MEMINFO",
-                 "MISSION_CURRENT", "GPS_RAW_INT", "NAV_CONTROLLER_OUTPUT", "FENCE_STATUS", "SERVO_OUTPUT_RAW",
-                 "RC_CHANNELS", "GLOBAL_POSITION_INT", "LOCAL_POSITION_NED", "ATTITUDE", "SIM_STATE", "AHRS2",
-                 "VFR_HUD", "AHRS", "SYSTEM_TIME", "BATTERY_STATUS", "EKF_STATUS_REPORT", "VIBRATION"}
+       "AHRS", "AHRS2", "SCALED_IMU3", "SCALED_PRESSURE2", "SIMSTATE", "WIND", "PID_TUNING", "ATTITUDE_TARGET",
+       "ESC_TELEMETRY_1_TO_4"]
+# what REQUEST_DATA_STREAM ALL brings from ArduCopter / ArduRover (SITL, fence on, flying,
+# GCS_PID_MASK set); SITL's truth as SIMSTATE (towerlink adds SIM_STATE)
+ARDUPILOT_SET = {"HEARTBEAT", "RAW_IMU", "SCALED_IMU2", "SCALED_IMU3", "SCALED_PRESSURE", "SCALED_PRESSURE2",
+                 "SYS_STATUS", "POWER_STATUS", "MEMINFO", "MISSION_CURRENT", "GPS_RAW_INT", "NAV_CONTROLLER_OUTPUT",
+                 "FENCE_STATUS", "SERVO_OUTPUT_RAW", "RC_CHANNELS", "GLOBAL_POSITION_INT", "LOCAL_POSITION_NED",
+                 "ATTITUDE", "SIMSTATE", "SIM_STATE", "AHRS2", "PID_TUNING", "ESC_TELEMETRY_1_TO_4", "VFR_HUD", "AHRS",
+                 "WIND", "SYSTEM_TIME", "BATTERY_STATUS", "EKF_STATUS_REPORT", "VIBRATION"}
 
 
 def msgid(name: str) -> int:
@@ -59,6 +61,7 @@ def sitl(tmp_path_factory):
         wait_armable(m)
         set_param(m, "FENCE_ENABLE", 1)
         set_param(m, "FENCE_ACTION", 0)
+        set_param(m, "GCS_PID_MASK", 1)                 # PID_TUNING: the roll rate controller
         assert set_mode(m, "GUIDED") == C.MAV_RESULT_ACCEPTED
         assert command(m, C.MAV_CMD_COMPONENT_ARM_DISARM, 1) == C.MAV_RESULT_ACCEPTED
         assert command(m, C.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 5) == C.MAV_RESULT_ACCEPTED
@@ -106,6 +109,13 @@ def test_request_message_answers_with_each(flying):
     assert got["FENCE_STATUS"].breach_status == 0 and got["RC_CHANNELS"].chan3_raw == 1500
     assert got["POSITION_TARGET_GLOBAL_INT"].coordinate_frame == C.MAV_FRAME_GLOBAL
     assert command(m, C.MAV_CMD_REQUEST_MESSAGE, 12345) == C.MAV_RESULT_FAILED        # no such message
+    # the truth against itself, the controllers against their telemetry
+    s, att = got["SIMSTATE"], recv(m, "ATTITUDE", 5)
+    assert abs(s.roll - att.roll) < 0.05 and abs(s.pitch - att.pitch) < 0.05 and -11 < s.zacc < -8
+    assert got["PID_TUNING"].axis == C.PID_TUNING_ROLL and abs(got["PID_TUNING"].achieved - att.rollspeed) < 0.3
+    assert got["WIND"].speed == 0.0 and all(2000 < r < 12000 for r in got["ESC_TELEMETRY_1_TO_4"].rpm)
+    assert abs(got["ATTITUDE_TARGET"].thrust - 0.5) < 0.4 and got["SCALED_IMU3"].zacc == 0
+    assert command(m, C.MAV_CMD_REQUEST_MESSAGE, msgid("SCALED_PRESSURE3")) == C.MAV_RESULT_ACCEPTED  # no 3rd baro
 
 
 def test_banner_and_version_hash(sitl, flying):
@@ -133,6 +143,7 @@ def test_request_data_stream_all_brings_ardupilots_set(sitl, flying):
     rover = connect(sitl[0].tcp[1], tcp=True)
     rover.mav.request_data_stream_send(rover.target_system, rover.target_component, C.MAV_DATA_STREAM_ALL, 4, 1)
     counts, _ = counts_over(rover, 3)
-    rover_set = (ARDUPILOT_SET - {"FENCE_STATUS", "NAV_CONTROLLER_OUTPUT"}) | {"RC_CHANNELS_SCALED"}
+    rover_set = (ARDUPILOT_SET - {"FENCE_STATUS", "NAV_CONTROLLER_OUTPUT", "WIND", "PID_TUNING",
+                                  "ESC_TELEMETRY_1_TO_4"}) | {"RC_CHANNELS_SCALED"}
     assert rover_set <= set(counts), rover_set - set(counts)
     rover.close()

@@ -351,6 +351,11 @@ class RoverFleet(FleetBase):
             return (float(sp.v_cmd), float(s.speed), float(s.rate))
         return (float(self.sp.v_cmd[i]), float(self._phys.speed[i]), float(self._phys.rate[i]))
 
+    def turn_command(self, i: int) -> float:
+        """The turn rate (rad/s, positive right) vehicle i's steering asked for at its last
+        step (PID_TUNING's steering target)."""
+        return float(self._ss[i].r_cmd if self.scalar else self.sp.r_cmd[i])
+
     def step(self, dt: float) -> None:
         """Controller (on the estimate) -> kinematics -> sensors -> estimator."""
         if self.scalar:

@@ -30,18 +30,21 @@ def _d(name, default, lo, hi, integer=False, doc=""):
 
 _STREAMS = [
     # ArduPilot stream groups (Hz); defaults chosen like a SITL with MAVProxy attached.
-    _d("SR0_RAW_SENS", 0, 0, 50, True, "RAW_IMU, SCALED_IMU2, SCALED_PRESSURE (Hz)"),
+    _d("SR0_RAW_SENS", 0, 0, 50, True, "RAW_IMU, SCALED_IMU2, SCALED_IMU3, SCALED_PRESSURE, SCALED_PRESSURE2 (Hz)"),
     _d("SR0_EXT_STAT", 2, 0, 50, True, "SYS_STATUS, POWER_STATUS, MEMINFO, MISSION_CURRENT, GPS_RAW_INT, "
        "NAV_CONTROLLER_OUTPUT, FENCE_STATUS, POSITION_TARGET_GLOBAL_INT, POSITION_TARGET_LOCAL_NED, "
        "EXTENDED_SYS_STATE (Hz)"),
     _d("SR0_RC_CHAN", 0, 0, 50, True, "SERVO_OUTPUT_RAW, RC_CHANNELS (Hz)"),
     _d("SR0_RAW_CTRL", 0, 0, 50, True, "RC_CHANNELS_SCALED (Rover) (Hz)"),
     _d("SR0_POSITION", 10, 0, 50, True, "GLOBAL_POSITION_INT, LOCAL_POSITION_NED (Hz)"),
-    _d("SR0_EXTRA1", 10, 0, 50, True, "ATTITUDE, SIM_STATE, AHRS2, ATTITUDE_QUATERNION (Hz)"),
+    _d("SR0_EXTRA1", 10, 0, 50, True, "ATTITUDE, SIMSTATE, SIM_STATE, AHRS2, PID_TUNING, ATTITUDE_QUATERNION (Hz)"),
     _d("SR0_EXTRA2", 4, 0, 50, True, "VFR_HUD (Hz)"),
-    _d("SR0_EXTRA3", 1, 0, 50, True, "AHRS, SYSTEM_TIME, BATTERY_STATUS, EKF_STATUS_REPORT, VIBRATION, HOME_POSITION (Hz)"),
+    _d("SR0_EXTRA3", 1, 0, 50, True, "AHRS, WIND, SYSTEM_TIME, BATTERY_STATUS, EKF_STATUS_REPORT, VIBRATION, "
+       "HOME_POSITION (Hz)"),
     _d("SR0_PARAMS", 0, 0, 50, True, "parameter stream rate (unused)"),
     _d("SR0_ADSB", 0, 0, 50, True, "ADSB stream rate (unused)"),
+    _d("GCS_PID_MASK", 0, 0, 127, True, "PID_TUNING axes sent in SR0_EXTRA1: Copter 1 roll, 2 pitch, 4 yaw, "
+       "8 accel z; Rover 1 steering rate, 2 speed"),
 ]
 
 _COMMON = [

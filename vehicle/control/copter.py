@@ -92,11 +92,14 @@ class SetpointArrays:
 
 
 class CopterCtrlState:
-    """Controller memory: shaped reference, yaw reference, integrators, D filters."""
+    """Controller memory: shaped reference, yaw reference, integrators, D filters; and what
+    the last step asked for, for telemetry: the attitude target (tan_roll_t, tan_pitch_t),
+    the body-rate target (rtx, rty, rtz, rad/s FRD) and the vertical acceleration target
+    (atz, m/s^2 NED, down positive)."""
     FIELDS = ("px", "py", "pz", "vx", "vy", "vz", "ax", "ay", "az", "yaw",
               "ivx", "ivy", "ivz", "evx", "evy", "dvx", "dvy",
               "irx", "iry", "irz", "erx", "ery", "erz", "drx", "dry", "drz", "coll",
-              "tan_roll_t", "tan_pitch_t")
+              "tan_roll_t", "tan_pitch_t", "rtx", "rty", "rtz", "atz")
     __slots__ = FIELDS + ("yaw_seen", "yaw_half")
 
     def __init__(self, n: int | None):
@@ -267,6 +270,7 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
         coll = _attitude_collective(c, est, sp, g, g_eff, r33, coll, xp)
     c.coll = coll
     c.tan_roll_t, c.tan_pitch_t = tr, tp      # the attitude target (NAV_CONTROLLER_OUTPUT)
+    c.rtx, c.rty, c.rtz, c.atz = rtx, rty, rtz, atz    # rate and climb targets (PID_TUNING)
     return mix(coll, u_r, u_p, u_y, g.spin_min, xp)
 
 

@@ -39,10 +39,11 @@ class RoverGains:
 
 
 class RoverSetpointArrays:
-    """Per-vehicle targets and guidance memory: (n,) arrays, or floats/bools (n=None)."""
+    """Per-vehicle targets and guidance memory: (n,) arrays, or floats/bools (n=None);
+    v_cmd and r_cmd are the last step's speed (m/s) and turn-rate (rad/s) commands."""
 
     def __init__(self, n: int | None):
-        for f in ("px", "py", "vx", "vy", "yaw", "yaw_rate", "v_cmd"):
+        for f in ("px", "py", "vx", "vy", "yaw", "yaw_rate", "v_cmd", "r_cmd"):
             setattr(self, f, 0.0 if n is None else np.zeros(n))
         for f in ("use_pos", "use_yaw", "use_yaw_rate", "reached"):
             setattr(self, f, False if n is None else np.zeros(n, dtype=bool))
@@ -81,6 +82,7 @@ def step(est, sp: RoverSetpointArrays, g: RoverGains, dt: float, xp=NumpyOps):
     v = xp.where(xp.abs(herr) > g.pivot, 0.0, spd * xp.maximum(xp.cos(herr), 0.0))
     v = xp.clip(v, sp.v_cmd - g.decel * dt, sp.v_cmd + g.accel * dt)
     sp.v_cmd = v
+    sp.r_cmd = rate
     # A followed target moves on between updates: advance it by its velocity, as
     # AC_PosControl advances a position+velocity target, so a 10 Hz stream of goals
     # reads as a moving point rather than a staircase the rover lags behind.

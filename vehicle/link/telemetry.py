@@ -13,8 +13,6 @@ import numpy as np
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from common import geo
-from common.frames import euler_from_quaternion
 from vehicle.autopilot.mission_store import MISSION
 from vehicle.link.framing import Framer, layout
 from vehicle.link.link_core import time_boot_ms
@@ -77,7 +75,6 @@ class Telemetry:
             mav.MAVLINK_MSG_ID_SYSTEM_TIME: self.system_time_fields,
             mav.MAVLINK_MSG_ID_BATTERY_STATUS: self.battery_status_fields,
             mav.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED: self.position_target_local_ned_fields,
-            mav.MAVLINK_MSG_ID_SIM_STATE: self.sim_state_fields,
             mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION: self.autopilot_version_fields,
             mav.MAVLINK_MSG_ID_MISSION_CURRENT: self.mission_current_fields,
             mav.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN: self.gps_global_origin_fields,
@@ -282,14 +279,6 @@ class Telemetry:
         return (self.boot_ms(), mav.MAV_FRAME_LOCAL_NED, t.type_mask, float(p[0]), float(p[1]), float(p[2]),
                 float(v[0]), float(v[1]), float(v[2]), float(a[0]), float(a[1]), float(a[2]),
                 float(t.yaw or 0.0), float(t.yaw_rate or 0.0))
-
-    def sim_state_fields(self) -> tuple:
-        ap = self.ap
-        px, py, pz, vx, vy, vz, qx, qy, qz, qw, wx, wy, wz, ax, ay, az = ap.fleet.truth_row(ap.i)
-        r, p, y = euler_from_quaternion((qx, qy, qz, qw))
-        lat, lon, alt = geo.ned_to_lla(ap.origin, (px, py, pz))
-        return (qw, qx, qy, qz, r, p, y, ax, ay, az, wx, wy, wz, lat, lon, alt, 0.0, 0.0, vx, vy, vz,
-                _i(lat * 1e7, -2**31, 2**31 - 1), _i(lon * 1e7, -2**31, 2**31 - 1))
 
     def autopilot_version_fields(self) -> tuple:
         ap = self.ap

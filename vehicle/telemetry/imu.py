@@ -1,5 +1,13 @@
 """Raw sensors as ArduPilot reports them: RAW_IMU (IMU 0), SCALED_IMU2 (IMU 1),
-SCALED_PRESSURE (barometer 0) and VIBRATION.
+SCALED_IMU3 (compass 2 only), SCALED_PRESSURE / SCALED_PRESSURE2 (barometers 0 and 1) and
+VIBRATION.
+
+The instances are ArduPilot SITL's defaults: SIM_IMU_COUNT 2 (two IMUs), three compasses
+(SIM_MAG1..3_DEVID set) and SIM_BARO_COUNT 2 (two barometers). ArduPilot's send_scaled_imu
+sends an instance when the IMU or the compass exists, zeros for what does not: SITL's
+SCALED_IMU3 carries compass 2's field with accelerometer, gyro and temperature 0. Its
+send_scaled_pressure_instance sends nothing for a barometer that does not exist (and no
+airspeed sensor): no SCALED_PRESSURE3.
 
 Readings are sampled when the message is built, from the true state (the fleet's
 `truth_row`) through the sensor models of vehicle/sensors.py: IMU 0 is the estimator's
@@ -14,7 +22,7 @@ telemetry never disturbs the estimator's noise streams.
   world origin's latitude, rotated into the body, in milligauss (ArduPilot's compass units).
 - Temperatures: 25 degC for the IMUs and the barometer's air at ISA, cdegC.
 - Pressure: the ISA pressure at the barometer's altitude (true altitude AMSL + the spec's
-  baro noise), hPa; no airspeed sensor, so press_diff is 0.
+  baro noise, drawn for each barometer), hPa; no airspeed sensor, so press_diff is 0.
 - Vibration: ArduPilot's vibration level (the 2 Hz mean square of the accelerometer minus
   its 5 Hz low-pass) of the accelerometer's white noise: its standard deviation, m/s^2, on
   each axis; the simulated motors do not shake the airframe. No clipping (the IMU range
@@ -40,6 +48,13 @@ def dipole_field_ned(lat_deg: float) -> tuple[float, float, float]:
     """An axial dipole's field at latitude lat_deg, NED, milligauss."""
     lat = math.radians(lat_deg)
     return (DIPOLE_MG * math.cos(lat), 0.0, 2.0 * DIPOLE_MG * math.sin(lat))
+
+
+def specific_force_body(row) -> tuple[float, float, float]:
+    """What an accelerometer feels (m/s^2, body FRD; at rest z = -g) from a truth row
+    (fleet.truth_row: quaternion in 6:10, acceleration world NED in 13:16)."""
+    qx, qy, qz, qw = row[6:10]
+    return rotate_one(qx, qy, qz, qw, row[13], row[14], row[15] - GRAVITY, -1.0)
 
 
 def isa_pressure_pa(alt_m: float) -> float:
@@ -86,7 +101,7 @@ class ImuTelemetry:
         qx, qy, qz, qw = row[6:10]
         if self._field is None:
             self._field = dipole_field_ned(self.ap.origin[0])
-        f_body = rotate_one(qx, qy, qz, qw, row[13], row[14], row[15] - GRAVITY, -1.0)
+        f_body = specific_force_body(row)
         field = rotate_one(qx, qy, qz, qw, *self._field, -1.0)
         if unit == 0:
             s = getattr(fleet, "sensors", None)
@@ -117,12 +132,27 @@ class ImuTelemetry:
         t = self.clock()
         return (boot_ms(t), *self._scaled(1, t), IMU_TEMP_CDEG)
 
-    def scaled_pressure_fields(self) -> tuple:
-        """SCALED_PRESSURE: barometer 0, hPa and cdegC; no differential pressure sensor."""
+    def scaled_imu3_fields(self) -> tuple:
+        """SCALED_IMU3: SITL has no third IMU, only a third compass (same field)."""
         t = self.clock()
-        alt = self._sample("baro", t, self._baro_alt)
+        field = self._sample("imu1", t, lambda: self._imu(1))[2]
+        return (boot_ms(t), 0, 0, 0, 0, 0, 0, *[wire_clamp(m, *I16) for m in field], 0)
+
+    def _pressure(self, unit: int) -> tuple:
+        """SCALED_PRESSURE(2): barometer `unit`, hPa and cdegC; no differential pressure sensor."""
+        t = self.clock()
+        alt = self._sample(f"baro{unit}", t, self._baro_alt)
         temp = wire_clamp(isa_temperature_c(alt) * 100.0, *I16)
         return (boot_ms(t), isa_pressure_pa(alt) / 100.0, 0.0, temp, 0)
+
+    def scaled_pressure_fields(self) -> tuple:
+        return self._pressure(0)
+
+    def scaled_pressure2_fields(self) -> tuple:
+        return self._pressure(1)
+
+    def scaled_pressure3_fields(self) -> None:
+        """SITL's SIM_BARO_COUNT is 2: no third barometer, nothing to send (None)."""
 
     def _baro_alt(self) -> float:
         """The barometer's altitude (m AMSL): the truth plus the spec's noise."""

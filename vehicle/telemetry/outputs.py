@@ -1,5 +1,5 @@
 """What goes out to the motors and what comes in from the radio: SERVO_OUTPUT_RAW,
-RC_CHANNELS and (Rover) RC_CHANNELS_SCALED.
+RC_CHANNELS, (Rover) RC_CHANNELS_SCALED and (Copter) ESC_TELEMETRY_1_TO_4.
 
 Servo outputs are the simulated drive's, as ArduPilot's output stage would write them:
 - Copter (quad X, ArduPilot's motor order FR, BL, FL, BR on servos 1-4): each rotor's speed
@@ -11,6 +11,15 @@ Servo outputs are the simulated drive's, as ArduPilot's output stage would write
   1100 / 1500 / 1900 us (SERVOn_MIN / TRIM / MAX defaults).
 Outputs with no function are 0.
 
+ESC_TELEMETRY_1_TO_4 (AP_ESC_Telem::send_esc_telemetry_mavlink; ArduPilot SITL's ESC
+telemetry, SIM_ESC_TELEM 1, reports each motor's simulated rpm and fixed electrical values,
+and nothing in its first 6 s): rpm = each rotor's speed (rev/min), in ArduPilot's motor
+order; voltage (cV) the battery's pack voltage, current (cA) and totalcurrent (mAh) a
+quarter of the pack's current and consumption (SITL sends a constant 16.8 V, 0.8 A, 1 mAh;
+towerlink has no per-motor electrics, so the pack is shared evenly); temperature 0 degC
+(SITL's 32 cdegC in whole degrees); count the ESC telemetry updates at the 50 Hz autopilot
+tick since boot, wrapping at 65535. A rover sends none (SITL's rover has no ESC telemetry).
+
 No radio is simulated (vehicle/autopilot/mode.py: every stick centred), so RC_CHANNELS
 reports the sticks where the simulation holds them: each channel at its RCn_TRIM (1500 for
 channels 9-16, which have no parameters here), 16 channels as SITL's RC input has, RSSI
@@ -18,12 +27,17 @@ unknown (255).
 """
 from __future__ import annotations
 
+import math
+
 from vehicle.telemetry.wire import boot_ms, wire_clamp
 
 RSSI_UNKNOWN = 255
 RC_CHANNELS_SIM = 16
 SERVO_MIN, SERVO_TRIM, SERVO_MAX = 1100, 1500, 1900
 U16 = (0, 65535)
+ESC_SILENT_S = 6.0          # AP_ESC_Telem_SITL sends no data in the first 6 s after boot
+ESC_UPDATE_HZ = 50.0
+RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
 
 
 def servo_pwm(x: float) -> int:
@@ -84,3 +98,18 @@ class OutputsTelemetry:
         s16 = (-32768, 32767)
         return (boot_ms(self.clock()), 0, wire_clamp(10000 * left, *s16), 0, wire_clamp(10000 * right, *s16),
                 0, 0, 0, 0, 0, RSSI_UNKNOWN)
+
+    def esc_telemetry_1_to_4_fields(self) -> tuple | None:
+        """ESC_TELEMETRY_1_TO_4 of a copter's four motors (module doc); None for a rover."""
+        ap = self.ap
+        t = self.clock()
+        if ap.kind != "copter" or t < ESC_SILENT_S:
+            return None
+        w_max = ap.fleet.airframe.omega_max
+        rpm = [wire_clamp(f * w_max * RPM_PER_RAD_S, *U16) for f in ap.fleet.motor_outputs(ap.i)]
+        b = ap.battery.reading(ap.params.values)
+        volt = 0 if b.voltage is None else wire_clamp(b.voltage * 100.0, *U16)
+        amps = 0 if b.current is None else wire_clamp(b.current * 25.0, *U16)         # cA, a quarter
+        mah = 0 if b.consumed_mah is None else wire_clamp(b.consumed_mah / 4.0, *U16)
+        count = int(t * ESC_UPDATE_HZ) & 0xFFFF
+        return ([0] * 4, [volt] * 4, [amps] * 4, [mah] * 4, rpm, [count] * 4)
