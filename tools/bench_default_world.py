@@ -147,6 +147,9 @@ def _run_world(seconds: float, repeat: int, then=None):
         extra = then(w, timed, steps) if then is not None else None
         for v in w.vehicles:
             v.link.close()
+        logs = getattr(w, "logs", None)       # the onboard logs' writer thread (a release may have none)
+        if logs is not None:
+            logs.close()                      # before its folder goes, as World.run does
         return per, extra
     try:
         return asyncio.run(go())
