@@ -166,3 +166,25 @@ def test_filter_gain_of_a_scalar_measurement_is_a_division():
     S = np.cov(rng.normal(size=(6, 20)))
     assert np.array_equal(_inv(S), np.linalg.inv(S))
     assert make_kf(0.01, np.zeros(3), 0.08, 0.3, 0.45, 0.1).inv is _inv
+
+
+def test_noise_rows_are_the_noise_arrays_across_blocks():
+    """gyro_noise(rows=True) (a few vehicles, on floats) hands out exactly gyro_noise()'s
+    numbers, step by step, also where a new block of draws begins."""
+    a, b = Sensors(vehicle_rngs(5, 3)), Sensors(vehicle_rngs(5, 3))
+    for _ in range(600):                     # more than two blocks of 256 steps
+        assert np.array_equal(a.gyro_noise(), np.array(b.gyro_noise(rows=True)))
+
+
+def test_estimator_arrays_are_built_from_its_rows():
+    """After a per-vehicle epoch the arrays (pos, vel, ...) are the rows' columns; setting
+    one afterwards keeps the others."""
+    f = CopterFleet(2, seed=[4, 5])
+    for _ in range(8):
+        f.step(0.0025)
+    e = f.estimator
+    rows = np.array(e.rows)
+    assert np.array_equal(e.pos, rows[:, 0:3]) and np.array_equal(e.quat, rows[:, 12:16])
+    assert np.array_equal(e.ahrs_err, rows[:, 23:26])
+    e.vel = np.ones((2, 3))
+    assert np.array_equal(e.vel, np.ones((2, 3))) and np.array_equal(e.pos, rows[:, 0:3])

@@ -83,7 +83,7 @@ def test_acc_and_gyr_rnd_widen_the_imu_spread():
         s.set_faults([sim_faults.SimFaults.from_params({"SIM_ACC1_RND": rnd, "SIM_GYR1_RND": 10 * rnd}, 0.0)])
         acc = [s.sample_rows(False, False, [[0.0] * 3], [[0.0] * 3], [[0.0] * 3], [[0, 0, 0, 1.0]])[1][0][0]
                for _ in range(2000)]
-        gyr = [s.gyro_noise()[0][0] for _ in range(2000)]
+        gyr = [s.gyro_noise(rows=k % 2 == 1)[0][0] for k in range(2000)]   # both forms (the scalar store's rows)
         out[rnd] = (np.std(acc), np.std(gyr))
     assert out[0.0][0] == pytest.approx(spec.accel_sigma, rel=0.1)
     assert out[1.0][0] == pytest.approx(math.hypot(spec.accel_sigma, 1.0), rel=0.1)

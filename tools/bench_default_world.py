@@ -5,39 +5,51 @@ built and sent on their links (a UDP sink), stepped as fast as the CPU allows (w
   python -m tools.bench_default_world     (also part (c) of `towerlink bench world`)
 
 The drone takes off in GUIDED and flies to a point 20 m away, the rover drives to it; the
-timed window starts once both move. Figures: CPU per world step (best of 3, process time),
+timed window starts once both move. Figures: CPU per world step (least of REPEAT windows of
+2 sim s, process time),
 real-time factor, and the cost per vehicle-step split into physics, control, sensors,
 estimator, fleet bookkeeping, autopilot, telemetry and I/O (tools.bench_stages).
 """
 from __future__ import annotations
 
+import argparse
 import asyncio
+import inspect
 import math
+import os
 import socket
+import subprocess
 import sys
 import time
 
-from tools.bench_stages import StageTimer
-from tools.benchtable import machine, table
+from tools.bench_stages import StageTimer, scalar_form_spots
+from tools.benchtable import load_line, machine, table
 
 TARGET = 100.0        # x real time, the default world (issue target)
 WORLD = "world (wind, position sharing, clock)"
 STAGES = ("physics", "control", "sensors", "estimator", "fleet bookkeeping", "autopilot", "telemetry", "I/O")
 ESTIMATOR_PARTS = (("  estimator: filterpy predict + update", "filterpy"),
-                   ("  estimator: epoch arithmetic (AHRS, rotations, outputs)", "epoch"))
+                   ("  estimator: epoch arithmetic and dead reckoning (AHRS, rotations, outputs)", "epoch"))
 
 
 def fleet_spots(kind: str, f) -> list[tuple[object, str, str]]:
     """(owner, name, "<kind> <stage>") of what one fleet's step calls: its physics and
     control core, sensors, estimator (the fleet's side, the epoch, filterpy) and the rest
-    (the fleet's own bookkeeping)."""
+    (the fleet's own bookkeeping). Small fleets call the cores' scalar forms, which call
+    each other directly (tools.bench_stages.scalar_form_spots); big ones the modules'."""
+    from vehicle import fleet as fl
+    from vehicle import fleet_base as fb
     from vehicle.control import copter as cc
     from vehicle.control import rover as rc
     from vehicle.physics import multicopter as mc
     from vehicle.physics import rover as rp
-    cores = {"copter": [(mc, "step", "physics"), (cc, "step", "control"), (cc, "relax", "control")],
-             "rover": [(rp, "step", "physics"), (rc, "step", "control")]}[kind]
-    spots = [(owner, name, f"{kind} {stage}") for owner, name, stage in cores]
+    cores = {"copter": (fl._copter_core, [(mc.step, "physics"), (cc.step, "control"), (cc.relax, "control")]),
+             "rover": (fl._rover_core, [(rp.step, "physics"), (rc.step, "control")])}[kind]
+    caller, callees = cores
+    spots = []
+    for fn, stage in callees:
+        spots.append((sys.modules[fn.__module__], fn.__name__, f"{kind} {stage}"))
+        spots += scalar_form_spots(caller, fn, f"{kind} {stage}")
     spots.append((f, "step", f"{kind} fleet bookkeeping"))
     for name in ("_sense_and_estimate_scalar", "_sense_and_estimate_vec"):
         spots.append((f, name, f"{kind} estimator"))
@@ -45,7 +57,9 @@ def fleet_spots(kind: str, f) -> list[tuple[object, str, str]]:
         for name in ("sample", "sample_rows", "gyro_noise"):
             spots.append((f.sensors, name, f"{kind} sensors"))
         e = f.estimator
-        spots += [(e, "epoch", f"{kind} estimator/epoch"), (e, "output_step", f"{kind} estimator/epoch")]
+        spots += [(e, "epoch", f"{kind} estimator/epoch"), (e, "epoch_rows", f"{kind} estimator/epoch"),
+                  (e, "output_step", f"{kind} estimator/epoch"),
+                  (fb, "output_step_scalar", f"{kind} estimator/epoch")]
         for kf in e.kfs or ():
             spots += [(kf, "predict", f"{kind} estimator/filterpy"), (kf, "update", f"{kind} estimator/filterpy")]
     return spots
@@ -108,9 +122,10 @@ def _fly(w) -> None:
     w.run_for(0.5)
 
 
-def measure(seconds: float = 1.0) -> dict:
-    """{'per_step': CPU s per world step, 'stages': {stage: (drone s, rover s) per step},
-    'instrumented': CPU s per step with the stage timers in, 'vehicles': 2}."""
+def _run_world(seconds: float, repeat: int, then=None):
+    """The default world flying (_fly), telemetry sent to a UDP sink; returns (least CPU s
+    per world step over `repeat` windows of `seconds` sim s, then(w, timed) or None).
+    Uses only the World API the previous release has too: PEER_SCRIPT runs this source there."""
     from vehicle.world import World, WorldConfig
     sink = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     sink.bind(("127.0.0.1", 0))
@@ -125,21 +140,57 @@ def measure(seconds: float = 1.0) -> dict:
             w.step()
         return (time.process_time() - t0) / steps
 
-    async def go() -> dict:
+    async def go():
         await w.start_endpoints()
         _fly(w)
-        per = min(timed() for _ in range(3))
-        best, inst = least_split(timed, _spots(w), steps)
+        per = min(timed() for _ in range(repeat))
+        extra = then(w, timed, steps) if then is not None else None
         for v in w.vehicles:
             v.link.close()
-        split, detail = by_stage(best, ("copter", "rover"))
-        split[WORLD] = (best.get(WORLD, 0.0) / 2,) * 2     # shared: half each
-        return {"per_step": per, "instrumented": inst, "stages": split, "estimator": detail, "vehicles": 2,
-                "dt": w.dt}
+        logs = getattr(w, "logs", None)       # the onboard logs' writer thread (a release may have none)
+        if logs is not None:
+            logs.close()                      # before its folder goes, as World.run does
+        return per, extra
     try:
         return asyncio.run(go())
     finally:
         sink.close()
+
+
+REPEAT = 7            # timed windows: on a shared machine the least-disturbed one is the cost
+
+
+def measure(seconds: float = 2.0, peer: str | None = None) -> dict:
+    """{'per_step': CPU s per world step, 'stages': {stage: (drone s, rover s) per step},
+    'instrumented': CPU s per step with the stage timers in, 'vehicles': 2, 'peer': (CPU s
+    per step or None, note) of checkout `peer` (default: $TOWERLINK_PEER_TREE)}."""
+    def split_stages(w, timed, steps):
+        best, inst = least_split(timed, _spots(w), steps)
+        split, detail = by_stage(best, ("copter", "rover"))
+        split[WORLD] = (best.get(WORLD, 0.0) / 2,) * 2     # shared: half each
+        return {"instrumented": inst, "stages": split, "estimator": detail, "dt": w.dt}
+    per, m = _run_world(seconds, REPEAT, split_stages)
+    return {"per_step": per, "vehicles": 2, **m,
+            "peer": peer_per_step(peer or os.environ.get("TOWERLINK_PEER_TREE"), seconds, REPEAT)}
+
+
+# the peer: the same measurement in another checkout (the previous release), in its own process
+PEER_SCRIPT = "\n".join(["import asyncio, socket, sys, time", inspect.getsource(_fly), inspect.getsource(_run_world),
+                          "print(_run_world(float(sys.argv[1]), int(sys.argv[2]))[0])"])
+
+
+def peer_per_step(tree: str | None, seconds: float = 2.0, repeat: int = REPEAT) -> tuple[float | None, str]:
+    """(CPU s per world step of the default world in checkout `tree`, note); None when there
+    is no such checkout (TOWERLINK_PEER_TREE or --peer: a worktree of the previous release)."""
+    if not tree or not os.path.isdir(os.path.join(tree, "vehicle")):
+        return None, "no peer checkout (--peer DIR or TOWERLINK_PEER_TREE)"
+    env = dict(os.environ, PYTHONPATH=tree)
+    r = subprocess.run([sys.executable, "-c", PEER_SCRIPT, str(seconds), str(repeat)], cwd=tree, env=env,
+                       capture_output=True, text=True, timeout=300)
+    if r.returncode != 0:
+        return None, f"peer failed: {r.stderr.strip().splitlines()[-1:]}"
+    rev = subprocess.run(["git", "-C", tree, "rev-parse", "--short", "HEAD"], capture_output=True, text=True)
+    return float(r.stdout.split()[-1]), f"{tree} at {rev.stdout.strip() or '?'}"
 
 
 def stage_rows(split: dict, detail: dict) -> list[list[str]]:
@@ -157,10 +208,19 @@ def stage_rows(split: dict, detail: dict) -> list[list[str]]:
         if stage == "estimator":
             rows += [row(name, part) for name, part in detail.items()]
             rest = tuple(v - sum(p[j] for p in detail.values()) for j, v in enumerate(vals))
-            rows.append(row("  estimator: the fleet's side (truth stacked, estimate copied, dead reckoning)", rest))
+            rows.append(row("  estimator: the fleet's side (truth rows in, estimate rows out)", rest))
     rows.append(row("total (instrumented: each timer adds ~0.5 us a call)",
                     tuple(sum(v[j] for v in split.values()) for j in range(cols)), share=False))
     return rows
+
+
+def _peer_rows(peer: tuple[float | None, str], per: float, dt: float) -> list[list[str]]:
+    ps, note = peer
+    if ps is None:
+        return [["peer: the previous release of towerlink", note, "", "not run"]]
+    return [[f"peer: the previous release ({note}), CPU per world step (us)", f"{ps * 1e6:.1f}", "", "-"],
+            ["peer: real-time factor", f"{dt / ps:.1f}x", "", "-"],
+            ["this tree / the previous release (speed)", f"{ps / per:.2f}x", "", "-"]]
 
 
 def report(m: dict) -> tuple[str, bool]:
@@ -169,10 +229,11 @@ def report(m: dict) -> tuple[str, bool]:
     head = table("(c) the default world in-process (1 drone + 1 rover, autopilots, telemetry sent to a UDP sink), "
                  "unpaced, no lockstep, one core",
                  ["measure", "value", "target", "status"],
-                 [["CPU per world step (us, best of 3)", f"{per * 1e6:.1f}", f"<= {dt / TARGET * 1e6:.0f}", "-"],
+                 [[f"CPU per world step (us, least of {REPEAT})", f"{per * 1e6:.1f}",
+                   f"<= {dt / TARGET * 1e6:.0f}", "-"],
                   ["CPU per vehicle-step (us)", f"{per * 1e6 / m['vehicles']:.1f}", "", "-"],
                   ["real-time factor", f"{rtf:.1f}x", f">= {TARGET:.0f}x", "met" if rtf >= TARGET else "MISSED"],
-                  ["peer: the previous release of towerlink", "no release tag in this checkout", "", "not run"]])
+                  *_peer_rows(m["peer"], per, dt)])
     rows = stage_rows(m["stages"], m["estimator"])
     split = table("(c) cost per vehicle-step by stage (us per 400 Hz step; autopilot and telemetry run at 50 Hz, "
                   "averaged over the steps)", ["stage", "drone", "rover", "per vehicle-step", "share"], rows)
@@ -180,9 +241,15 @@ def report(m: dict) -> tuple[str, bool]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description="the default world in-process, by stage, beside a peer checkout")
+    ap.add_argument("--peer", help="a checkout of the previous release to measure side by side "
+                                   "(default: $TOWERLINK_PEER_TREE)")
+    a = ap.parse_args(argv)
     print(f"machine: {machine()}", flush=True)
-    text, ok = report(measure())
+    print(f"{load_line()} at start; process CPU time, so time other processes take is not counted", flush=True)
+    text, ok = report(measure(peer=a.peer))
     print(text)
+    print(f"{load_line()} at the end")
     return 0 if ok else 1
 
 

@@ -21,7 +21,7 @@ import time
 import numpy as np
 
 from tools.bench_default_world import by_stage, fleet_spots, least_split, stage_rows
-from tools.benchtable import machine, table
+from tools.benchtable import load_line, machine, table
 from vehicle.fleet import CopterFleet, Setpoint
 
 DT = 1.0 / 400.0
@@ -139,6 +139,7 @@ def quality(seed: int = 1, d: float = 20.0) -> tuple[float, float, float, float]
 def main(argv: list[str] | None = None) -> int:
     t_start = time.perf_counter()
     print(f"machine: {machine()}", flush=True)
+    print(f"{load_line()} at start; process CPU time", flush=True)
 
     ours = one_drone(estimator=False)
     ours_est = one_drone(estimator=True)
@@ -179,7 +180,7 @@ def main(argv: list[str] | None = None) -> int:
                 [["time to within 0.3 m / t_min", f"{ratio:.3f}", "<= 1.15", _met(ratio <= 1.15)],
                  ["overshoot (m)", f"{over:.3f}", "<= 0.3", _met(over <= 0.3)],
                  ["hover error RMS (m)", f"{rms:.3f}", "<= 0.2", _met(rms <= 0.2)]]), flush=True)
-    print(f"\n(bench_flight: {time.perf_counter() - t_start:.0f} s)")
+    print(f"\n(bench_flight: {time.perf_counter() - t_start:.0f} s; {load_line()} at the end)")
     return 0
 
 

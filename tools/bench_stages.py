@@ -85,3 +85,19 @@ class StageTimer:
             else:
                 delattr(owner, name)
         self._saved.clear()
+
+
+class _Names:
+    """A namespace dict seen as an object (its __dict__), so StageTimer can wrap its names."""
+
+    def __init__(self, names: dict) -> None:
+        self.__dict__ = names
+
+
+def scalar_form_spots(caller, callee, label: str) -> list[tuple[object, str, str]]:
+    """Spots for the calls `caller`'s scalar form makes to `callee`'s (both @generic cores,
+    vehicle.physics.scalar_form): the scalar form binds its callees' forms in its own
+    namespace at compile time, so wrapping the module attribute would not see those calls."""
+    names = caller.scalar().__globals__
+    target = callee.scalar()
+    return [(_Names(names), k, label) for k, v in list(names.items()) if v is target]

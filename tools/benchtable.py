@@ -27,6 +27,15 @@ def machine() -> str:
             f"Python {platform.python_version()} | {platform.system()} {platform.release()}")
 
 
+def load_line() -> str:
+    """The load average now (1, 5, 15 min): how shared the machine was while measuring."""
+    try:
+        one, five, fifteen = os.getloadavg()
+    except OSError:
+        return "load average: unknown"
+    return f"load average: {one:.2f}, {five:.2f}, {fifteen:.2f} ({os.cpu_count()} cores)"
+
+
 def median_time(fn: Callable[[], object], repeat: int, inner: int = 1) -> float:
     """Median wall seconds of one call of `fn`, over `repeat` samples of `inner` calls."""
     samples = []

@@ -20,11 +20,13 @@ epochs, scheduled by step counts.
 ``ok_var`` on every axis.
 
 Speed (a filter epoch of one vehicle): the filters are filterpy's own predict/update on
-fixed-size matrices, fed from reused measurement buffers; the baro update's 1x1 innovation
-covariance is inverted by one division through filterpy's ``inv`` hook (bit-identical to
-numpy's LU inverse, a seventh of its cost); the GPS update's 6x6 keeps numpy's inverse at
-10 Hz. Around the filters, per-vehicle epochs run on Python floats (sensors, AHRS error,
-rotations), the same operations in the same order as the vectorised form.
+fixed-size matrices, fed from reused buffers (GPS z, the predict's u); the baro height goes
+in as a scalar z (filterpy's form for dim_z 1: its copy of z is free) and its 1x1
+innovation covariance is inverted by one division through filterpy's ``inv`` hook
+(bit-identical to numpy's LU inverse, a seventh of its cost); the GPS update's 6x6 keeps
+numpy's inverse at 10 Hz. Around the filters, per-vehicle epochs run on Python floats
+(sensors, AHRS error, rotations), the same operations in the same order as the vectorised
+form, taking truth and handing out the estimate as per-vehicle rows (epoch_rows).
 """
 from __future__ import annotations
 
@@ -110,6 +112,34 @@ class BatchedKF:
         self.P = I_KH @ self.P @ I_KH.transpose(0, 2, 1) + K @ R @ K.transpose(0, 2, 1)
 
 
+ROW = 26          # one vehicle's epoch output row (see Estimator.rows)
+_ROW_SLICES = {"pos": (0, 3), "vel": (3, 6), "bias": (6, 9), "acc": (9, 12), "quat": (12, 16),
+               "dq": (16, 20), "rates": (20, 23), "ahrs_err": (23, 26)}
+
+
+class _RowBacked:
+    """An (n, k) array attribute of Estimator that a per-vehicle epoch leaves as Python rows
+    (Estimator.rows): built from them only when someone reads it (a small fleet's step reads
+    the rows, never the arrays, so it pays no numpy calls for them)."""
+
+    def __set_name__(self, owner, name: str) -> None:
+        self.name = name
+
+    def __get__(self, obj, owner=None):
+        if obj is None:
+            return self
+        arrays = obj._arrays
+        if arrays is None:
+            arrays = obj._materialise()
+        return arrays[self.name]
+
+    def __set__(self, obj, value) -> None:
+        arrays = obj._arrays
+        if arrays is None:
+            arrays = obj._materialise()
+        arrays[self.name] = value
+
+
 class Estimator:
     """Batched front end over per-vehicle filterpy filters (or BatchedKF).
 
@@ -119,7 +149,14 @@ class Estimator:
     steps): sample accelerometer/GPS/baro, predict + correct each filter, reset the
     output to the filter state. With per-vehicle filters the epoch's sensor and attitude
     arithmetic runs on Python floats, vehicle by vehicle (the same operations in the same
-    order as the vectorised form, so the same numbers)."""
+    order as the vectorised form, so the same numbers).
+
+    After such an epoch ``rows`` holds each vehicle's output as one list of ROW floats
+    (pos, vel, bias, acc, quat, dq, rates, ahrs_err, in that order); the array attributes
+    (pos, vel, ...) are built from it on first read."""
+
+    pos, vel, bias, acc = _RowBacked(), _RowBacked(), _RowBacked(), _RowBacked()      # (n,3) world NED
+    quat, dq, rates, ahrs_err = _RowBacked(), _RowBacked(), _RowBacked(), _RowBacked()
 
     def __init__(self, n: int, home: np.ndarray, spec, kf_rate: float = 100.0,
                  min_gps: int = 10, ok_var: float = 0.5, batched: bool = False):
@@ -134,6 +171,8 @@ class Estimator:
         self.H_baro = np.zeros((1, 9))
         self.H_baro[0, 2] = 1.0
         self.R_baro = np.array([[spec.baro_sigma ** 2]])
+        self.rows: list[list[float]] | None = None
+        self._arrays: dict[str, np.ndarray] | None = {}
         self.pos = self.home.copy()
         self.vel = np.zeros((n, 3))
         self.bias = np.zeros((n, 3))
@@ -146,6 +185,20 @@ class Estimator:
         self.ok = np.zeros(n, dtype=bool)
         self.k = 0
         self.innovations = InnovationLog(n)     # read by EKF_STATUS_REPORT
+
+    def _materialise(self) -> dict[str, np.ndarray]:
+        """The array attributes from `rows` (one array, the attributes views of it: numpy's
+        per-array cost paid once)."""
+        buf = np.array(self.rows, dtype=float).reshape(self.n, ROW)
+        self._arrays = {k: buf[:, lo:hi] for k, (lo, hi) in _ROW_SLICES.items()}
+        return self._arrays
+
+    def _row_part(self, name: str) -> list:
+        """Attribute `name` as a list of per-vehicle rows, from `rows` while they are current."""
+        if self._arrays is None:
+            lo, hi = _ROW_SLICES[name]
+            return [r[lo:hi] for r in self.rows]
+        return self._arrays[name].tolist()
 
     def _setup(self, dt: float) -> None:
         sp = self.spec
@@ -164,8 +217,7 @@ class Estimator:
             self.bkf = BatchedKF(mk(np.zeros(3)), self.home)
         else:
             self.kfs = [mk(self.home[i]) for i in range(self.n)]
-            self._z_gps = np.zeros(6)            # measurement buffers (filterpy copies z)
-            self._z_baro = np.zeros(1)
+            self._z_gps = np.zeros(6)            # measurement buffer (filterpy copies z)
             self._u = np.zeros(3)
 
     def advance(self, dt: float) -> bool:
@@ -194,7 +246,19 @@ class Estimator:
         if self.batched:
             self._epoch_batched(sensors, gps, baro, pos, vel, acc, quat, rates, gyro_err)
         else:
-            self._epoch_filters(sensors, gps, baro, pos, vel, acc, quat, rates, gyro_err)
+            self.epoch_rows(sensors, pos.tolist(), vel.tolist(), acc.tolist(), quat.tolist(), rates.tolist(),
+                            gyro_err.tolist())
+
+    def epoch_rows(self, sensors, pos: list, vel: list, acc: list, quat: list, rates: list, gyro_err: list) -> list:
+        """epoch() for per-vehicle filters from truth and gyro error as lists of per-vehicle
+        rows of floats (a small fleet's own form: no arrays built either way); returns
+        `rows`, each vehicle's output (a list of ROW floats)."""
+        if self.batched:            # (a small fleet made to use BatchedKF: its arrays, as rows)
+            self.epoch(sensors, *(np.array(a, dtype=float) for a in (pos, vel, acc, quat, rates, gyro_err)))
+            return np.hstack([self._arrays[k] for k in _ROW_SLICES]).tolist()
+        k = self.k - 1
+        return self._epoch_filters(sensors, k % self.n_gps == 0, k % self.n_baro == 0, pos, vel, acc, quat,
+                                   rates, gyro_err)
 
     def _epoch_batched(self, sensors, gps, baro, pos, vel, acc, quat, rates, gyro_err) -> None:
         sensors.sample(gps, baro, pos, vel, acc, quat)
@@ -225,25 +289,24 @@ class Estimator:
             self.ok = (self.gps_count >= self.min_gps) & np.all(pv < self.ok_var, axis=1)
         self.acc = acc_w - self.bias
 
-    def _epoch_filters(self, sensors, gps, baro, pos, vel, acc, quat, rates, gyro_err) -> None:
-        """Per-vehicle filterpy filters; sensors, AHRS error and rotations on floats."""
-        Q = quat.tolist()
-        z, accel, gps_pos, gps_vel, baro_alt = sensors.sample_rows(gps, baro, pos.tolist(), vel.tolist(),
-                                                                   acc.tolist(), Q)
-        a, drive, g = self._ahrs_a, self._ahrs_drive, G[2]
-        zg, zb, u = self._z_gps, self._z_baro, self._u
+    def _epoch_filters(self, sensors, gps, baro, pos, vel, acc, Q, rates, gyro_err) -> list:
+        """Per-vehicle filterpy filters; sensors, AHRS error and rotations on floats (every
+        input a list of per-vehicle rows)."""
+        z, accel, gps_pos, gps_vel, baro_alt = sensors.sample_rows(gps, baro, pos, vel, acc, Q)
+        a, drive, g = self._ahrs_a, self._ahrs_drive, float(G[2])     # a float: rows stay Python floats
+        zg, u = self._z_gps, self._u
         log, step = self.innovations, self.k - 1
         rows = []
-        for i, (kf, zi, qt, w, ge, err, f) in enumerate(zip(self.kfs, z, Q, rates.tolist(), gyro_err.tolist(),
-                                                            self.ahrs_err.tolist(), accel)):
+        for i, (kf, zi, qt, w, ge, err, f) in enumerate(zip(self.kfs, z, Q, rates, gyro_err,
+                                                            self._row_part("ahrs_err"), accel)):
             ex = a * err[0] + drive * zi[13]
             ey = a * err[1] + drive * zi[14]
             ez = a * err[2] + drive * zi[15]
             hx, hy, hz = 0.5 * ex, 0.5 * ey, 0.5 * ez
             norm = math.sqrt(hx * hx + hy * hy + hz * hz + 1.0)
-            dq = (hx / norm, hy / norm, hz / norm, 1.0 / norm)
-            q = quat_mul_one(*qt, *dq)
-            awx, awy, awz = rotate_one(*q, *f)
+            dx, dy, dz, dw = hx / norm, hy / norm, hz / norm, 1.0 / norm
+            qx, qy, qz, qw = quat_mul_one(qt[0], qt[1], qt[2], qt[3], dx, dy, dz, dw)
+            awx, awy, awz = rotate_one(qx, qy, qz, qw, f[0], f[1], f[2])
             u[0], u[1], u[2] = awx + 0.0, awy + 0.0, awz + g
             kf.predict(u=u)
             fix = gps and gps_pos[i] is not None        # None: no fix (vehicle.sim_faults)
@@ -253,21 +316,22 @@ class Estimator:
                 kf.update(zg)
                 log.gps(i, kf.y, kf.S, step)
             if baro and baro_alt[i] is not None:
-                zb[0] = -baro_alt[i]
-                kf.update(zb, R=self.R_baro, H=self.H_baro)
+                # a scalar z (filterpy takes one for dim_z 1): the same y, and its copy of z is cheap
+                kf.update(-baro_alt[i], R=self.R_baro, H=self.H_baro)
                 log.baro(i, kf.y, kf.S)
-            x = kf.x.tolist()
-            acc_i = (awx + 0.0 - x[6], awy + 0.0 - x[7], awz + g - x[8])
-            rows.append((*x, *acc_i, *q, *dq, w[0] + ge[0], w[1] + ge[1], w[2] + ge[2], ex, ey, ez))
+            x = kf.x.tolist()            # the row: x, then acc, quat, dq, rates, AHRS error
+            x += (awx + 0.0 - x[6], awy + 0.0 - x[7], awz + g - x[8], qx, qy, qz, qw, dx, dy, dz, dw,
+                  w[0] + ge[0], w[1] + ge[1], w[2] + ge[2], ex, ey, ez)
+            rows.append(x)
             if fix:
                 self.gps_count[i] += 1
                 P = kf.P
                 self.ok[i] = (self.gps_count[i] >= self.min_gps and P[0, 0] < self.ok_var
                               and P[1, 1] < self.ok_var and P[2, 2] < self.ok_var)
-        # one array, the attributes views of it (numpy's per-array cost, paid once)
-        buf = np.array(rows, dtype=float).reshape(self.n, 26)
-        self.pos, self.vel, self.bias, self.acc = buf[:, 0:3], buf[:, 3:6], buf[:, 6:9], buf[:, 9:12]
-        self.quat, self.dq, self.rates, self.ahrs_err = buf[:, 12:16], buf[:, 16:20], buf[:, 20:23], buf[:, 23:26]
+        self.rows = rows
+        self._arrays = None          # the array attributes: from the rows when read
+        return rows
+
 
 
 def output_step_scalar(o, ph, dq, ge, dt):

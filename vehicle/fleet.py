@@ -43,10 +43,12 @@ Parameters are per vehicle (ArduPilot names): set_params(params, i) tunes vehicl
 set_params(params) all of them; params_of(i) / gains_of(i) read one vehicle's. The batched
 step's self.gains holds floats where the vehicles agree and (n,) arrays where they differ.
 
-Speed: fleets of n <= SCALAR_MAX step vehicle by vehicle on Python floats (the same core
-source on the ScalarOps backend) -- ~30 us per copter step on truth, ~65 us with sensors
-and filterpy; bigger fleets step as numpy arrays (~0.8 us per drone-step at 1000). With
-estimator=True fleets above BATCHED_KF_MIN use BatchedKF, filterpy's equations batched.
+Speed: fleets of n <= SCALAR_MAX step vehicle by vehicle on Python floats (the cores'
+scalar forms, vehicle.physics.scalar_form, called directly; truth, gyro error and estimate
+pass as Python rows, no numpy in the step but filterpy's) -- ~10 us per copter step on
+truth, ~19 us with sensors and filterpy (tools/bench_flight.py); bigger fleets step as
+numpy arrays (~0.5 us per drone-step at 1000). With estimator=True fleets above
+BATCHED_KF_MIN use BatchedKF, filterpy's equations batched.
 """
 from __future__ import annotations
 
@@ -61,6 +63,7 @@ from vehicle.fleet_base import FleetBase, Setpoint, SoA, finite_angle, vec3
 from vehicle.physics import NumpyOps, ScalarOps
 from vehicle.physics import multicopter as mc
 from vehicle.physics import rover as rphys
+from vehicle.physics.scalar_form import generic
 from vehicle.sensors import SensorSpec
 from vehicle.sim_faults import skid_mix
 
@@ -87,6 +90,7 @@ def _attitude_values(sp: Setpoint, flags: dict) -> dict:
     return out
 
 
+@generic
 def _copter_core(ph, c, est, sp, armed, landed, ground_z, g, af, dt, xp, air=None, mul=None):
     """Controller + physics for one step (backend-generic). Returns the 'running' mask.
     mul: None, or the four motors' output multipliers (SIM_ENGINE_FAIL / SIM_ENGINE_MUL)."""
@@ -98,17 +102,33 @@ def _copter_core(ph, c, est, sp, armed, landed, ground_z, g, af, dt, xp, air=Non
     f = ccore.step(c, est, sp, g, dt, xp)
     om = af.omega_max
     run = armed & xp.lnot(idle)
+    f0, f1, f2, f3 = f                  # (unrolled: a comprehension is a call of its own)
     if xp.all(run):
-        cmd = [fi * om for fi in f]
+        cmd = (f0 * om, f1 * om, f2 * om, f3 * om)
     else:
         idle_w = xp.where(armed, om * g.spin_arm, 0.0)
-        cmd = [xp.where(run, fi * om, idle_w) for fi in f]
+        cmd = (xp.where(run, f0 * om, idle_w), xp.where(run, f1 * om, idle_w),
+               xp.where(run, f2 * om, idle_w), xp.where(run, f3 * om, idle_w))
     if mul is not None:
-        cmd = [ci * m for ci, m in zip(cmd, mul)]
+        cmd = (cmd[0] * mul[0], cmd[1] * mul[1], cmd[2] * mul[2], cmd[3] * mul[3])
     mc.step(ph, cmd, af, dt, ground_z, xp, air)
     return run
 
 
+@generic
+def _rover_core(ph, est, sp, armed, g, m, dt, xp, air=None, mul=None):
+    """Rover controller + kinematics for one step (backend-generic); disarmed: no drive.
+    mul: None, or the (left, right) drive multipliers of a skid-steer rover (SIM_ENGINE_FAIL)."""
+    v, r = rcore.step(est, sp, g, dt, xp)
+    v = xp.where(armed, v, 0.0)
+    r = xp.where(armed, r, 0.0)
+    sp.v_cmd = xp.where(armed, sp.v_cmd, 0.0)
+    if mul is not None:
+        v, r = skid_mix(v, r, mul[0], mul[1], g.max_speed, g.max_rate)
+    rphys.step(ph, v, r, m, g, dt, xp, air)
+
+
+@generic
 def _land_detect(c, e, ph, run, armed, landed, timer, g, dt, xp):
     """ArduPilot-style land detector: armed, low thrust demand, not moving, for
     LAND_DETECT_TIME. Cleared by a take-off (thrust demand near hover and moving).
@@ -153,6 +173,8 @@ class CopterFleet(FleetBase):
             self._cs = [ccore.CopterCtrlState(None) for _ in range(self.n)]
             self._ss = [ccore.SetpointArrays(None) for _ in range(self.n)]
             self._gz = [float(z) for z in self.ground_z]
+            # the cores' scalar forms, called directly (vehicle.physics.scalar_form): no dispatch
+            self._forms = (_copter_core.scalar(), _land_detect.scalar())
             for i in range(self.n):
                 ccore.relax(self._cs[i], self._ps[i], True, ScalarOps)
         else:
@@ -276,18 +298,19 @@ class CopterFleet(FleetBase):
         self._run = run
 
     def _step_scalar(self, dt):
+        core, land = self._forms
         gs, af, xp = self._gs, self.airframe, ScalarOps
         armed, landed, runs, timer = self._armed_l, self._landed, self._run, self._land_timer
-        ps, cs, ss, ests = self._ps, self._cs, self._ss, self._ests
+        ps, cs, ss, ests, gz, air = self._ps, self._cs, self._ss, self._ests, self._gz, self._air_rows
         muls = self._motor_mul or (None,) * self.n
         for i in range(self.n):
-            runs[i] = _copter_core(ps[i], cs[i], ests[i] or ps[i], ss[i], armed[i], landed[i],
-                                   self._gz[i], gs[i], af, dt, xp, self._air_of(i), muls[i])
+            runs[i] = core(ps[i], cs[i], ests[i] or ps[i], ss[i], armed[i], landed[i],
+                           gz[i], gs[i], af, dt, xp, None if air is None else air[i], muls[i])
         self.sim_time += dt
         self._sense_and_estimate_scalar(dt)
         for i in range(self.n):
-            landed[i], timer[i] = _land_detect(cs[i], ests[i] or ps[i], ps[i], runs[i], armed[i], landed[i],
-                                               timer[i], gs[i], dt, xp)
+            landed[i], timer[i] = land(cs[i], ests[i] or ps[i], ps[i], runs[i], armed[i], landed[i],
+                                       timer[i], gs[i], dt, xp)
 
 
 class RoverFleet(FleetBase):
@@ -353,27 +376,19 @@ class RoverFleet(FleetBase):
         """Controller (on the estimate) -> kinematics -> sensors -> estimator."""
         if self.scalar:
             xp, gs, m = ScalarOps, self._gs, self.model
-            ps, ss, ests, armed = self._ps, self._ss, self._ests, self._armed_l
+            ps, ss, ests, armed, air = self._ps, self._ss, self._ests, self._armed_l, self._air_rows
             muls = self._motor_mul or (None,) * self.n
+            core = _rover_core.scalar()         # the scalar form called directly: no dispatch
             for i in range(self.n):
-                v, r = rcore.step(ests[i] or ps[i], ss[i], gs[i], dt, xp)
-                if not armed[i]:
-                    v = r = 0.0
-                    ss[i].v_cmd = 0.0
-                if muls[i] is not None:      # SIM_ENGINE_FAIL: servo 1 left, servo 3 right
-                    v, r = skid_mix(v, r, muls[i][0], muls[i][2], gs[i].max_speed, gs[i].max_rate)
-                rphys.step(ps[i], v, r, m, gs[i], dt, xp, self._air_of(i))
+                core(ps[i], ests[i] or ps[i], ss[i], armed[i], gs[i], m, dt, xp, None if air is None else air[i],
+                     None if muls[i] is None else (muls[i][0], muls[i][2]))
             self.sim_time += dt
             self._sense_and_estimate_scalar(dt)
             return
         est = self._est_view if self._est_view is not None else self._phys
-        v_cmd, r_cmd = rcore.step(est, self.sp, self.gains, dt)
-        v_cmd = np.where(self.armed, v_cmd, 0.0)
-        r_cmd = np.where(self.armed, r_cmd, 0.0)
-        self.sp.v_cmd = np.where(self.armed, self.sp.v_cmd, 0.0)
-        if self._motor_mul is not None:
-            left, right = (np.array([1.0 if m is None else m[k] for m in self._motor_mul]) for k in (0, 2))
-            v_cmd, r_cmd = skid_mix(v_cmd, r_cmd, left, right, self.gains.max_speed, self.gains.max_rate)
-        rphys.step(self._phys, v_cmd, r_cmd, self.model, self.gains, dt, air=self._air_vec())
+        mul = None
+        if self._motor_mul is not None:      # SIM_ENGINE_FAIL: servo 1 left, servo 3 right
+            mul = tuple(np.array([1.0 if m is None else m[k] for m in self._motor_mul]) for k in (0, 2))
+        _rover_core(self._phys, est, self.sp, self.armed, self.gains, self.model, dt, NumpyOps, self._air_vec(), mul)
         self.sim_time += dt
         self._est_view = self._sense_and_estimate_vec(dt)

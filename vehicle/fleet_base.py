@@ -18,7 +18,7 @@ from vehicle.estimation import Estimator, output_step_scalar
 from vehicle.innovations import POS_TIMEOUT_S
 from vehicle.sensors import Sensors, SensorSpec, vehicle_rngs
 from vehicle.sim_faults import NONE as NO_FAULTS
-from vehicle.sim_faults import SimFaults
+from vehicle.sim_faults import SimFaults, motor_multipliers
 
 
 @dataclass
@@ -158,7 +158,7 @@ class FleetBase:
         self._est_view = None
         self.setpoints: list[Setpoint] = [Setpoint() for _ in range(self.n)]
         self.air: np.ndarray | None = None    # (n,3) air velocity, world NED m/s (wind); None = still
-        self._air_rows: list | None = None
+        self._air_rows: list | None = None    # the same as rows of floats (the scalar store)
         self._faults: list[SimFaults] = [NO_FAULTS] * self.n    # injected faults (vehicle.sim_faults)
         self._motor_mul: list | None = None    # per vehicle: motor multipliers or None; None: all 1
 
@@ -167,25 +167,20 @@ class FleetBase:
         self._faults[i] = faults
         if self.use_estimator:
             self.sensors.set_faults(self._faults)
-        muls = [None if f.motors_ok else f.motor_mul for f in self._faults]
-        self._motor_mul = None if all(m is None for m in muls) else muls
+        self._motor_mul = motor_multipliers(self._faults)
 
     def faults_of(self, i: int) -> SimFaults:
         """Vehicle i's injected faults (vehicle.sim_faults.NONE: none)."""
         return self._faults[i]
 
     def set_air(self, air: np.ndarray | None) -> None:
-        """The air velocity each vehicle flies in from now on ((n,3) world NED m/s, the wind
-        of vehicle.physics.wind), or None for still air."""
+        """Each vehicle's air velocity from now on ((n,3) world NED m/s), None: still air."""
         self.air = None if air is None else np.asarray(air, float).reshape(self.n, 3)
         self._air_rows = None if air is None else self.air.tolist()
 
     def _air_vec(self):
         a = self.air
         return None if a is None else (a[:, 0], a[:, 1], a[:, 2])
-
-    def _air_of(self, i: int):
-        return None if self.air is None else self._air_rows[i]
 
     # ---- true state --------------------------------------------------------------
     @property
@@ -299,8 +294,14 @@ class FleetBase:
         once per step and hands out rows of that copy (read-only views) instead of building
         a VehicleState per vehicle."""
         if self.scalar:
-            e = self.estimate(i)
-            return e.pos, e.vel, e.quat, e.rates
+            live = self._scalar_est_live()
+            if not live and self.use_estimator:        # before the first filter epoch
+                e = self.estimate(i)
+                return e.pos, e.vel, e.quat, e.rates
+            o = self._ests[i] if live else self._ps[i]
+            # one fresh array, the four its views (each reader gets its own, as estimate() gives)
+            b = np.array([o.px, o.py, o.pz, o.vx, o.vy, o.vz, o.qx, o.qy, o.qz, o.qw, o.wx, o.wy, o.wz])
+            return b[0:3], b[3:6], b[6:10], b[10:13]
         snap = self._est_snap
         if snap is None or snap[0] != self.sim_time:          # stepped since: a new snapshot
             if self.use_estimator:
@@ -390,8 +391,7 @@ class FleetBase:
         if not self.use_estimator:
             return None
         e = self.estimator
-        if self.sensors.faults is not None:
-            self.sensors.fault_time = self.sim_time
+        self.sensors.fault_time = self.sim_time      # a baro drift grows with sim time
         ge = self.sensors.gyro_noise()
         if e.advance(dt):
             e.epoch(self.sensors, self.pos, self.vel, self.acc, self.quat, self.rates, ge)
@@ -400,27 +400,28 @@ class FleetBase:
         return _Est(e.pos, e.vel, e.quat, e.rates)
 
     def _sense_and_estimate_scalar(self, dt) -> None:
-        """Estimator for the scalar store: epochs vectorised, output steps on floats."""
+        """Estimator for the scalar store, on Python floats throughout: truth, gyro error and
+        the estimate pass as per-vehicle rows (vehicle.estimation.Estimator.epoch_rows),
+        the output steps between epochs per vehicle."""
         if not self.use_estimator:
             return
         e = self.estimator
-        if self.sensors.faults is not None:
-            self.sensors.fault_time = self.sim_time
-        ge = self.sensors.gyro_noise()
+        self.sensors.fault_time = self.sim_time      # a baro drift grows with sim time
+        ge = self.sensors.gyro_noise(rows=True)
+        ps, ests = self._ps, self._ests
         if e.advance(dt):
-            e.epoch(self.sensors, self.pos, self.vel, self.acc, self.quat, self.rates, ge)
-            P, V, A = e.pos.tolist(), e.vel.tolist(), e.acc.tolist()
-            Q, W = e.quat.tolist(), e.rates.tolist()
-            for i in range(self.n):
-                o = self._ests[i] or _ScalarEst()
-                o.px, o.py, o.pz = P[i]
-                o.vx, o.vy, o.vz = V[i]
-                o.ax, o.ay, o.az = A[i]
-                o.qx, o.qy, o.qz, o.qw = Q[i]
-                o.wx, o.wy, o.wz = W[i]
-                self._ests[i] = o
-            self._dqs = e.dq.tolist()
+            rows = e.epoch_rows(self.sensors, [[s.px, s.py, s.pz] for s in ps], [[s.vx, s.vy, s.vz] for s in ps],
+                                [[s.ax, s.ay, s.az] for s in ps], [[s.qx, s.qy, s.qz, s.qw] for s in ps],
+                                [[s.wx, s.wy, s.wz] for s in ps], ge)
+            dqs = self._dqs = []
+            for i, r in enumerate(rows):          # r: pos, vel, bias, acc, quat, dq, rates, ahrs_err
+                o = ests[i] or _ScalarEst()
+                o.px, o.py, o.pz, o.vx, o.vy, o.vz = r[0:6]
+                o.ax, o.ay, o.az, o.qx, o.qy, o.qz, o.qw = r[9:16]
+                o.wx, o.wy, o.wz = r[20:23]
+                ests[i] = o
+                dqs.append(r[16:20])
         else:
-            ge = ge.tolist()
+            dqs = self._dqs
             for i in range(self.n):
-                output_step_scalar(self._ests[i], self._ps[i], self._dqs[i], ge[i], dt)
+                output_step_scalar(ests[i], ps[i], dqs[i], ge[i], dt)

@@ -43,8 +43,8 @@ class InnovationLog:
 
     def baro(self, i: int, y: np.ndarray, S: np.ndarray) -> None:
         """Vehicle i fused a baro height."""
-        e = float(y.ravel()[0])
-        self.hgt[i] = e * e / float(S.ravel()[0])
+        e = y.item(0)
+        self.hgt[i] = e * e / S.item(0)
 
     def baro_all(self, y: np.ndarray, S: np.ndarray) -> None:
         """Every vehicle fused a baro height: y (n, 1), S (n, 1, 1)."""

@@ -74,20 +74,38 @@ class NoiseSource:
         self.block = np.empty((self.n, BLOCK, width))
         self.scale = scale
         self.offset = None if offset is None else np.asarray(offset, float)[:, None, :]
+        self._by_step: list | None = None    # the block as Python floats, step by step, for next_rows
 
     def next(self) -> np.ndarray:
         """(n, width) = offset + scale * standard normals (each vehicle from its own stream)."""
         if self.k >= BLOCK:
-            for i, r in enumerate(self.rngs):
-                self.block[i] = r.standard_normal((BLOCK, self.width))
-            if self.scale != 1.0:
-                self.block *= self.scale
-            if self.offset is not None:
-                self.block += self.offset
-            self.k = 0
+            self._refill()
         z = self.block[:, self.k, :]
         self.k += 1
         return z
+
+    def next_rows(self) -> Sequence[list[float]]:
+        """next() as per-vehicle rows of Python floats (the same numbers): the block is
+        listed (and regrouped by step) once per BLOCK steps, not sliced and listed every step."""
+        if self.k >= BLOCK:
+            self._refill()
+        by_step = self._by_step
+        if by_step is None:
+            by_step = self._by_step = list(zip(*self.block.tolist()))
+        k = self.k
+        self.k = k + 1
+        return by_step[k]
+
+    def _refill(self) -> None:
+        """The next BLOCK draws of every vehicle."""
+        for i, r in enumerate(self.rngs):
+            self.block[i] = r.standard_normal((BLOCK, self.width))
+        if self.scale != 1.0:
+            self.block *= self.scale
+        if self.offset is not None:
+            self.block += self.offset
+        self.k = 0
+        self._by_step = None
 
 
 class Sensors:
@@ -121,13 +139,15 @@ class Sensors:
         vehicle's faults touch its sensors."""
         self.faults = None if all(f.sensors_ok for f in faults) else list(faults)
 
-    def gyro_noise(self) -> np.ndarray:
-        """(n,3) gyro error this step: bias + white noise (+ SIM_GYR1_RND's)."""
-        ge = self.gyro_src.next()
+    def gyro_noise(self, rows: bool = False) -> np.ndarray | Sequence[list[float]]:
+        """(n,3) gyro error this step: bias + white noise (+ SIM_GYR1_RND's) (rad/s, body FRD);
+        rows=True: the same numbers as per-vehicle rows of Python floats (a few vehicles)."""
         if self.faults is not None:
+            ge = self.gyro_src.next()
             ge = np.array([sim_faults.gyro_error(f, self.spec, b, e) for f, b, e
                            in zip(self.faults, self.gyro_bias.tolist(), ge.tolist())])
-        return ge
+            return ge.tolist() if rows else ge
+        return self.gyro_src.next_rows() if rows else self.gyro_src.next()
 
     def sample(self, gps: bool, baro: bool, pos, vel, acc_world, quat):
         """pos, vel, acc_world: (n,3) world NED truth; quat (n,4) xyzw body->world.
@@ -186,7 +206,7 @@ class Sensors:
         normals and the readings as lists of rows (gps_pos/gps_vel/baro_alt None when not
         sampled); the array attributes of sample() are not set."""
         sp = self.spec
-        z = self.noise.next().tolist()
+        z = self.noise.next_rows()
         sa, sp_h, sp_v, sg_v, sb = sp.accel_sigma, sp.gps_pos_sigma, sp.gps_alt_sigma, sp.gps_vel_sigma, sp.baro_sigma
         accel = []
         for zi, a, q, b in zip(z, acc_world, quat, self._accel_bias_rows):

@@ -151,6 +151,12 @@ def gyro_error(f: SimFaults, spec, bias, err):
     return [e + k * (e - b) for e, b in zip(err, bias)]
 
 
+def motor_multipliers(faults: list[SimFaults]) -> list | None:
+    """Per vehicle its motors' output multipliers (None where all run at 1); None: all at 1."""
+    muls = [None if f.motors_ok else f.motor_mul for f in faults]
+    return None if all(m is None for m in muls) else muls
+
+
 def skid_mix(speed, rate, mul_left: float, mul_right: float, max_speed, max_rate):
     """A skid-steer rover's (speed m/s, turn rate rad/s, positive right) command with its left
     (servo 1) and right (servo 3) throttles multiplied: ArduRover mixes left = throttle +

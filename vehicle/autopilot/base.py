@@ -43,6 +43,14 @@ from vehicle.fleet import Setpoint
 SEV_INFO, SEV_WARNING = mav.MAV_SEVERITY_INFO, mav.MAV_SEVERITY_WARNING
 
 
+def _key(v) -> tuple | None:
+    """A vector's values as a tuple to compare (an array's as Python floats: tuple() of an
+    array makes numpy scalars, several times dearer to make and to compare)."""
+    if v is None:
+        return None
+    return tuple(v.tolist()) if isinstance(v, np.ndarray) else tuple(v)
+
+
 class Autopilot:
     """One vehicle's autopilot. Subclasses name the vehicle (kind, mav_type), its modes
     (mode_classes, the GUIDED/AUTO/RTL/SMART_RTL numbers) and its collaborators' classes, and
@@ -332,8 +340,7 @@ class Autopilot:
                  roll=None, pitch=None, rates=None, thrust=None) -> None:
         """Give the fleet a Setpoint (vehicle/fleet.py; skipped when identical to the last one:
         cheap at 100 vehicles)."""
-        key = (None if pos is None else tuple(pos), None if vel is None else tuple(vel),
-               None if acc is None else tuple(acc), yaw, yaw_rate, level, roll, pitch, rates, thrust)
+        key = (_key(pos), _key(vel), _key(acc), yaw, yaw_rate, level, roll, pitch, rates, thrust)
         if key == self._sp_key:
             return
         self._sp_key = key

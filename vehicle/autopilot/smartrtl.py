@@ -12,6 +12,7 @@ start and failsafes fall back to RTL).
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -135,7 +136,8 @@ class SmartRTLPath:
             self.deactivate("buffer full")
 
     def _add(self, p: np.ndarray) -> bool:
-        if self.points and np.linalg.norm(self.points[-1] - p) < self.accuracy:
+        # every tick: the distance as norm() computes it, sqrt(d.d), without its checks
+        if self.points and math.sqrt((d := self.points[-1] - p).dot(d)) < self.accuracy:
             return True
         if len(self.points) >= self.points_max:
             self.cleanup()

@@ -1,16 +1,17 @@
 """Putting simulated values into MAVLink's integer fields and time stamps."""
 from __future__ import annotations
 
-import math
 
 INT32 = (-2**31, 2**31 - 1)
 
 
 def wire_clamp(v: float, lo: int, hi: int) -> int:
     """v rounded and clamped into [lo, hi]; 0 when not finite (a field cannot carry NaN)."""
-    if not math.isfinite(v):
+    try:
+        r = round(v)
+    except (ValueError, OverflowError):     # NaN, +-inf (one try costs less than isfinite)
         return 0
-    return int(max(lo, min(hi, round(v))))
+    return lo if r < lo else hi if r > hi else int(r)
 
 
 def e7(deg: float) -> int:
