@@ -109,7 +109,8 @@ def test_sys_status_gps_raw_home_and_capabilities(drone):
     v = recv(drone, "AUTOPILOT_VERSION", 5)
     for cap in (mav.MAV_PROTOCOL_CAPABILITY_MAVLINK2, mav.MAV_PROTOCOL_CAPABILITY_COMMAND_INT,
                 mav.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED, mav.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT,
-                mav.MAV_PROTOCOL_CAPABILITY_MISSION_INT, mav.MAV_PROTOCOL_CAPABILITY_SET_ATTITUDE_TARGET):
+                mav.MAV_PROTOCOL_CAPABILITY_MISSION_INT, mav.MAV_PROTOCOL_CAPABILITY_SET_ATTITUDE_TARGET,
+                mav.MAV_PROTOCOL_CAPABILITY_FTP):                  # MAVSDK and QGC read it before FTP
         assert v.capabilities & cap
     assert command(drone, mav.MAV_CMD_REQUEST_MESSAGE, 99999) == mav.MAV_RESULT_FAILED
     e = recv(drone, "EXTENDED_SYS_STATE", 5)

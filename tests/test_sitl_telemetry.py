@@ -88,6 +88,10 @@ def test_set_message_interval_sends_each_message_at_its_interval(flying):
         assert 3.0 <= rate <= 5.0, (name, counts.get(name, 0), span)
     assert command(m, C.MAV_CMD_GET_MESSAGE_INTERVAL, msgid("EKF_STATUS_REPORT")) == C.MAV_RESULT_ACCEPTED
     assert recv(m, "MESSAGE_INTERVAL", 5, cond=lambda i: i.message_id == msgid("EKF_STATUS_REPORT")).interval_us == 250000
+    for asked, kept in ((50000, 50000), (33333, 33000), (400, 1000)):     # ArduPilot keeps whole ms, at least 1
+        assert command(m, C.MAV_CMD_SET_MESSAGE_INTERVAL, msgid("VIBRATION"), asked) == C.MAV_RESULT_ACCEPTED
+        assert command(m, C.MAV_CMD_GET_MESSAGE_INTERVAL, msgid("VIBRATION")) == C.MAV_RESULT_ACCEPTED
+        assert recv(m, "MESSAGE_INTERVAL", 5, cond=lambda i: i.message_id == msgid("VIBRATION")).interval_us == kept
     for name in NEW:                          # -1 stops them all
         assert command(m, C.MAV_CMD_SET_MESSAGE_INTERVAL, msgid(name), -1) == C.MAV_RESULT_ACCEPTED
     counts, _ = counts_over(m, 2)

@@ -106,7 +106,8 @@ class StreamLink:
             if msgid not in builders:
                 return mav.MAV_RESULT_DENIED
             iv = self.core.schedule.get(msgid)
-            c.after_ack.append(mav.MAVLink_message_interval_message(msgid, -1 if iv is None else int(iv * 1e6)))
+            # ArduPilot keeps whole milliseconds and answers interval_ms * 1000
+            c.after_ack.append(mav.MAVLink_message_interval_message(msgid, -1 if iv is None else round(iv * 1e3) * 1000))
             return mav.MAV_RESULT_ACCEPTED
         return self._set_interval(msgid, p[1])
 
@@ -122,6 +123,6 @@ class StreamLink:
         elif us < 0:
             self.intervals[msgid] = -1.0
         else:
-            self.intervals[msgid] = max(us * 1e-6, 0.001)
+            self.intervals[msgid] = max(int(us) // 1000, 1) * 1e-3     # whole ms, at least 1, as ArduPilot
         self.rebuild()
         return mav.MAV_RESULT_ACCEPTED
