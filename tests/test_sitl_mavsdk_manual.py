@@ -50,7 +50,7 @@ def client(port: int) -> int:
         sticks[2] = 0.5                                     # released: hold
         wait(lambda: abs(tel.position_velocity_ned().velocity.down_m_s) < 0.1, 30, "stopped climbing")
         d0 = tel.position_velocity_ned().position.down_m
-        time.sleep(2.0)
+        time.sleep(2.0)                # the hold window itself: drift measured over 2 s (MAVSDK has no sim clock)
         d1 = tel.position_velocity_ned().position.down_m
         print(f"HOLD_ALT {abs(d1 - d0):.3f}", flush=True)
         man.start_position_control()
@@ -65,7 +65,7 @@ def client(port: int) -> int:
         sticks[0] = 0.0
         wait(lambda: math.hypot(tel.velocity_ned().north_m_s, tel.velocity_ned().east_m_s) < 0.1, 30, "stopped")
         p0 = tel.position_velocity_ned().position
-        time.sleep(2.0)
+        time.sleep(2.0)                # the hold window itself, as above
         p1 = tel.position_velocity_ned().position
         print(f"HOLD_POS {math.hypot(p1.north_m - p0.north_m, p1.east_m - p0.east_m):.3f}", flush=True)
         return land_and_finish(act, tel)       # the joystick stays connected until landed

@@ -302,10 +302,10 @@ class CopterFleet(FleetBase):
         gs, af, xp = self._gs, self.airframe, ScalarOps
         armed, landed, runs, timer = self._armed_l, self._landed, self._run, self._land_timer
         ps, cs, ss, ests, gz, air = self._ps, self._cs, self._ss, self._ests, self._gz, self._air_rows
-        muls = self._motor_mul or (None,) * self.n
+        muls = self._motor_mul                  # None (no motor fault anywhere): nothing built per step
         for i in range(self.n):
-            runs[i] = core(ps[i], cs[i], ests[i] or ps[i], ss[i], armed[i], landed[i],
-                           gz[i], gs[i], af, dt, xp, None if air is None else air[i], muls[i])
+            runs[i] = core(ps[i], cs[i], ests[i] or ps[i], ss[i], armed[i], landed[i], gz[i], gs[i], af, dt, xp,
+                           None if air is None else air[i], None if muls is None else muls[i])
         self.sim_time += dt
         self._sense_and_estimate_scalar(dt)
         for i in range(self.n):
@@ -377,11 +377,11 @@ class RoverFleet(FleetBase):
         if self.scalar:
             xp, gs, m = ScalarOps, self._gs, self.model
             ps, ss, ests, armed, air = self._ps, self._ss, self._ests, self._armed_l, self._air_rows
-            muls = self._motor_mul or (None,) * self.n
+            muls = self._motor_mul              # None (no motor fault anywhere): nothing built per step
             core = _rover_core.scalar()         # the scalar form called directly: no dispatch
             for i in range(self.n):
-                core(ps[i], ests[i] or ps[i], ss[i], armed[i], gs[i], m, dt, xp, None if air is None else air[i],
-                     None if muls[i] is None else (muls[i][0], muls[i][2]))
+                mul = None if muls is None or muls[i] is None else (muls[i][0], muls[i][2])   # left, right
+                core(ps[i], ests[i] or ps[i], ss[i], armed[i], gs[i], m, dt, xp, None if air is None else air[i], mul)
             self.sim_time += dt
             self._sense_and_estimate_scalar(dt)
             return
