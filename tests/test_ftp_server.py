@@ -446,7 +446,7 @@ def test_a_root_that_cannot_be_made_leaves_the_virtual_files(tmp_path, clock):
 @given(requests=st.lists(st.tuples(st.integers(0, 20) | st.integers(0, 255), st.integers(0, 6), st.integers(0, 255),
                                    st.integers(0, 2**32 - 1) | st.integers(0, 2000),
                                    st.binary(max_size=239) | st.lists(st.sampled_from(
-                                       [b"logs", b"..", b"/", b"@MAV_LOG", b"@PARAM", b"param.pck", b"x", b"\0"]),
+                                       [b"logs", b"..", b"/", b"@MAV_LOG", b"@PARAM", b"@SYS", b"uarts.txt", b"param.pck", b"x", b"\0"]),
                                        max_size=6).map(b"/".join)),
                          min_size=1, max_size=12))
 def test_any_request_sequence_is_answered_without_raising(requests):
