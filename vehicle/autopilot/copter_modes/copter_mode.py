@@ -77,6 +77,11 @@ class CopterMode(Mode):
     def is_taking_off(self) -> bool:
         return self.ap.takeoff.running
 
+    def crash_check_enabled(self) -> bool:
+        """The crash check runs in this mode (crash_check.py; ArduCopter's ACRO and FLIP say
+        no, and towerlink has neither)."""
+        return True
+
     def allows_arming_with_throttle_high(self) -> bool:
         """allows_GCS_or_SCR_arming_with_throttle_high: a GCS may arm with the throttle up
         (the "Throttle too high" arm check is skipped)."""
