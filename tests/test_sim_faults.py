@@ -134,7 +134,8 @@ def _loitering():
 def test_gps_off_in_loiter_takes_the_ekf_failsafe_to_land():
     """ArduCopter: without GPS the EKF loses its position (EKF_STATUS_REPORT's position flags
     clear), the EKF check fails for 1 s, says "EKF variance" and LOITER (needs position)
-    changes to LAND: "EKF Failsafe: changed to LAND Mode"; LAND descends without GPS."""
+    changes to LAND: "EKF Failsafe: changed to LAND Mode"; LAND (set_mode_land_with_pause)
+    holds its altitude LAND_WITH_DELAY_MS, then descends without GPS."""
     w, ap, texts, health = _loitering()
     _set(ap, SIM_GPS1_ENABLE=0)
     t0 = w.t
@@ -145,7 +146,9 @@ def test_gps_off_in_loiter_takes_the_ekf_failsafe_to_land():
     assert fs is not None and 0.9 <= fs - (t0 + lost) <= 1.3  # 10 failing checks at 10 Hz
     assert _said(texts, "EKF Failsafe: changed to LAND Mode") == fs
     z0 = w.fleets[0][1].pos[0][2]
-    w.run_for(3.0)
+    w.run_for(3.5)
+    assert abs(w.fleets[0][1].pos[0][2] - z0) < 0.5          # the failsafe's pause (4 s)
+    w.run_for(3.5)
     assert w.fleets[0][1].pos[0][2] > z0 + 1.0               # descending without a position
 
 
