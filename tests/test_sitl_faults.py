@@ -1,7 +1,8 @@
 """A SITL fault over MAVLink on the real `towerlink sitl`: a GCS turns the GPS off with a PARAM_SET
 of SIM_GPS1_ENABLE (ArduPilot 4.5's name) while the drone loiters. On the wire, as ArduCopter
 would say it: GPS_RAW_INT has no fix, EKF_STATUS_REPORT loses the horizontal position flags,
-then STATUSTEXT "EKF variance" and "EKF Failsafe: changed to LAND Mode", HEARTBEAT in LAND."""
+then STATUSTEXT "EKF variance" and "EKF Failsafe: changed to LAND Mode", HEARTBEAT in LAND; the
+failsafe's LAND holds its altitude 4 s (LAND_WITH_DELAY_MS), then descends."""
 from __future__ import annotations
 
 import pytest
@@ -39,4 +40,9 @@ def test_gps_off_over_mavlink_takes_the_ekf_failsafe(processes, tmp_path):
     assert seen.index("position lost") < seen.index("EKF variance") < seen.index("EKF Failsafe: changed to LAND Mode")
     land = m.mode_mapping()["LAND"]
     recv(m, "HEARTBEAT", 10, cond=lambda h: h.get_srcSystem() == 1 and h.custom_mode == land)
+    start = recv(m, "GLOBAL_POSITION_INT", 10)              # (time_boot_ms is sim time)
+    held = recv(m, "GLOBAL_POSITION_INT", 30, cond=lambda p: p.time_boot_ms - start.time_boot_ms >= 3000)
+    assert abs(held.relative_alt - start.relative_alt) < 500
+    down = recv(m, "GLOBAL_POSITION_INT", 30, cond=lambda p: p.time_boot_ms - start.time_boot_ms >= 7000)
+    assert down.relative_alt < start.relative_alt - 1000
     sitl.stop()
