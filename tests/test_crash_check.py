@@ -8,11 +8,13 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, strategies as st
-
+from hypothesis import given
+from hypothesis import strategies as st
 from test_autopilot_behaviour import A, _fly, _until, _world
+
 from vehicle.autopilot import crash_check, modes
 from vehicle.autopilot.copter_modes.land import LAND_WITH_DELAY_S
+from vehicle.autopilot.guided import ACC_BITS, VEL_BITS, YAW_IGNORE, YAW_RATE_IGNORE
 from vehicle.logs import messages
 from vehicle.physics import ScalarOps
 from vehicle.physics import multicopter as mc
@@ -136,7 +138,6 @@ def test_aggressive_flying_never_trips_it():
     worst = []
     for x in (40.0, -40.0, 40.0, 0.0):
         local = ap.local_origin.to_local((x, 0.0, -15.0))
-        from vehicle.autopilot.guided import ACC_BITS, VEL_BITS, YAW_IGNORE, YAW_RATE_IGNORE
         mask = VEL_BITS | ACC_BITS | YAW_IGNORE | YAW_RATE_IGNORE
         assert ap.position_target_local(A.MAV_FRAME_LOCAL_NED, mask, tuple(local), (0, 0, 0), (0, 0, 0), 0, 0)
         for _ in range(150):

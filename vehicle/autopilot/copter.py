@@ -19,8 +19,8 @@ from vehicle.autopilot.copter_commands import CopterCommands
 from vehicle.autopilot.copter_failsafe import CopterFailsafes
 from vehicle.autopilot.copter_modes.copter_mode import UserTakeoff
 from vehicle.autopilot.crash_check import CopterCrashCheck
-from vehicle.autopilot.radio_failsafe import CopterRadioFailsafe
 from vehicle.autopilot.ekf_failsafe import CopterEkfCheck
+from vehicle.autopilot.radio_failsafe import CopterRadioFailsafe
 
 
 class CopterAutopilot(Autopilot):

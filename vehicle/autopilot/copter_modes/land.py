@@ -15,7 +15,6 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from vehicle.autopilot import modes
 from vehicle.autopilot.copter_modes.copter_mode import CopterMode
 
-
 LAND_WITH_DELAY_S = 4.0      # LAND_WITH_DELAY_MS / 1000: a failsafe landing's pause
 
 
