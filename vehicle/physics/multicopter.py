@@ -19,8 +19,8 @@ Model
   presses the vehicle into the ground it sits on it: z clamped, no downward speed,
   horizontal speed decays with friction, roll/pitch levelled, rates damped. One that comes
   down leaning more than TIP_OVER_DEG has crashed: it lies as it fell, not levelled
-  (ArduPilot's SITL levels every vehicle on the ground, so its crash check, which wants a
-  lean, fires there only while the wreck is still moving; here it fires on the wreck).
+  (ArduPilot's SITL levels every vehicle on the ground; here a wreck keeps the lean that
+  ArduCopter's crash check looks for).
 - Integration: semi-implicit (symplectic) Euler at a fixed step; the quaternion is
   advanced by the body-rate increment and renormalised every step.
 """

@@ -27,10 +27,13 @@ class ModeLand(CopterMode):
         super().__init__(ap)
         self.land_pause = False
         self.start_t = 0.0             # sim s LAND was entered (land_start_time)
+        self.pause_z = 0.0             # world z (m, down) held while paused
 
     def set_land_pause(self, pause: bool) -> None:
-        """ModeLand::set_land_pause: hold the altitude before descending (a failsafe's)."""
+        """ModeLand::set_land_pause: hold the altitude it is at before descending (a
+        failsafe's)."""
         self.land_pause = pause
+        self.pause_z = float(self.ap.pos[2])
 
     def requires_position(self) -> bool:
         """ArduCopter's LAND does not: without a position estimate it descends level
@@ -49,4 +52,4 @@ class ModeLand(CopterMode):
     def fly(self, dt: float) -> None:
         if self.land_pause and self.ap.t - self.start_t >= LAND_WITH_DELAY_S - 1e-9:
             self.land_pause = False
-        self.land_run(dt, pause=self.land_pause)
+        self.land_run(dt, pause_z=self.pause_z if self.land_pause else None)
