@@ -191,11 +191,12 @@ def step(s: QuadState, cmd, af: QuadAirframe, dt: float, ground_z, xp=NumpyOps, 
         # level roll/pitch on the ground, keep yaw; tipped over past TIP_OVER_DEG it lies
         # as it fell (a crash: the attitude it had stays, whatever the motors do)
         tip = g & (nx * nx + ny * ny > _TIP_OVER_XY2)
-        if xp.any(tip):
+        lv = g
+        if xp.any(tip):                  # (rare: most steps on the ground are level)
             nx, ny = xp.where(tip, s.qx, nx), xp.where(tip, s.qy, ny)
             nz, nw = xp.where(tip, s.qz, nz), xp.where(tip, s.qw, nw)
+            lv = g & xp.lnot(tip)
         yaw = yaw_of(nx, ny, nz, nw, xp.atan2)
-        lv = g & xp.lnot(tip)
         nx = xp.where(lv, 0.0, nx)
         ny = xp.where(lv, 0.0, ny)
         nz = xp.where(lv, xp.sin(0.5 * yaw), nz)
