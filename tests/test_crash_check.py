@@ -153,6 +153,27 @@ def test_fs_crash_check_0_leaves_the_wreck_armed(enabled):
     assert ap.mode == modes.GUIDED
 
 
+@pytest.mark.parametrize("mul, lost", [(0.5, True), (0.9, False)])
+def test_a_weak_motor_is_a_potential_thrust_loss_not_a_crash(mul, lost):
+    """SIM_ENGINE_MUL 0.5 on motor 1: the quad keeps its attitude but sinks at full throttle:
+    after 1 s of that EMERGENCY "Potential Thrust Loss (1)" (the motor commanded hardest), once;
+    it comes down level and is no crash. At 0.9 it flies and nothing is said."""
+    w = _world()
+    ap = w.vehicles[0].ap
+    texts = _texts(w, ap)
+    _fly(w, 10.0)
+    _set(ap, SIM_ENGINE_FAIL=1, SIM_ENGINE_MUL=mul)
+    t0 = w.t
+    w.run_for(8.0)
+    said = [(t, sev, s) for t, sev, s in texts if s.startswith("Potential Thrust Loss")]
+    if not lost:
+        assert said == [] and ap.pos[2] < -8.0
+        return
+    assert [(sev, s) for _, sev, s in said] == [(A.MAV_SEVERITY_EMERGENCY, "Potential Thrust Loss (1)")]
+    assert crash_check.THRUST_LOSS_TRIGGER_SEC < said[0][0] - t0 < 3.0
+    assert ap.armed and not any(s.startswith("Crash") for _, _, s in texts)
+
+
 def test_aggressive_flying_never_trips_it():
     """Fast GUIDED dashes with sharp reversals (20 m/s, 5 m/s/s) and an attitude target
     flip from 45 deg left to 45 deg right: the counter never starts."""
@@ -176,7 +197,7 @@ def test_aggressive_flying_never_trips_it():
             w.run_for(0.04)
             worst.append(ap.crash_check.crashing_s)
     assert ap.armed and max(worst) == 0.0
-    assert not any(s.startswith("Crash") for _, _, s in texts)
+    assert not any(s.startswith(("Crash", "Potential Thrust Loss")) for _, _, s in texts)
 
 
 def test_a_failsafe_land_holds_its_altitude_for_the_pause_then_descends():

@@ -17,6 +17,15 @@ Copter (CopterCrashCheck), each tick, all of these or the count starts again:
 CRASH_CHECK_TRIGGER_SEC (2 s) of that: EMERGENCY "Crash: Disarming: AngErr=<e>>30,
 Accel=<a><3.0" (ArduCopter's words and format), the ARM record's Method CRASH (12), disarm.
 ArduCopter also logs ERR (CRASH_CHECK, CRASH_CHECK_CRASH); towerlink's log has no ERR yet.
+
+The thrust loss check (Copter::thrust_loss_check), each tick, all of these or the count starts
+again: armed, not landed, thrust boost not already on; the attitude target within
+THRUST_LOSS_ANGLE_DEG (15 deg) of level (roll and pitch together); the collective at least
+THRUST_LOSS_MIN_THROTTLE (0.9) or a motor at full output, and at least 0.25; descending; the
+attitude error under 30 deg. THRUST_LOSS_TRIGGER_SEC (1 s) of that: EMERGENCY "Potential
+Thrust Loss (<n>)", n the motor commanded hardest (0.5 s filtered, AP_MotorsMatrix's lost
+motor), and thrust boost on; it goes off once no motor is commanded above 0.9 of full thrust.
+What the boost changes in ArduPilot's mixer (the lost motor's share given up) is not modelled.
 Rover: no crash check here (ArduRover's FS_CRASH_CHECK, default off, is not modelled).
 """
 from __future__ import annotations
@@ -31,6 +40,10 @@ ANGLE_MIN_DEG = 15.0             # CRASH_CHECK_ANGLE_MIN_DEG: lean from level
 SPEED_MAX = 10.0                 # CRASH_CHECK_SPEED_MAX, m/s
 ACCEL_MAX = 3.0                  # CRASH_CHECK_ACCEL_MAX, m/s/s
 ACCEL_FILTER_HZ = 1.0            # land_accel_ef_filter's cut-off
+THRUST_LOSS_TRIGGER_SEC = 1.0    # THRUST_LOSS_CHECK_TRIGGER_SEC
+THRUST_LOSS_ANGLE_DEG = 15.0     # THRUST_LOSS_CHECK_ANGLE_DEVIATION_CD / 100
+THRUST_LOSS_MIN_THROTTLE = 0.9   # THRUST_LOSS_CHECK_MINIMUM_THROTTLE
+MOTOR_FILTER_S = 0.5             # check_for_failed_motor's filter time constant
 _COS_LEAN_MIN = math.cos(math.radians(ANGLE_MIN_DEG))
 
 
@@ -76,13 +89,18 @@ class CopterCrashCheck(CrashCheck):
         self.crashing_s = 0.0                   # s the conditions have held (crash_counter)
         self.accel = (0.0, 0.0, 0.0)            # 1 Hz filtered acceleration, m/s/s NED
         self._last_vel: tuple[float, float, float] | None = None
+        self.losing_s = 0.0                     # s the thrust loss conditions have held
+        self.thrust_boost = False               # AP_Motors' thrust boost (latched by the check)
+        self._thrust: list[float] | None = None  # the motors' filtered thrust commands (0..1)
 
     def update(self, dt: float) -> None:
         ap = self.ap
         if not ap.armed:
             self.crashing_s, self.accel, self._last_vel = 0.0, (0.0, 0.0, 0.0), None
+            self.losing_s, self.thrust_boost, self._thrust = 0.0, False, None
             return
         acc = self._filter_accel(dt)
+        self._thrust_loss(dt)
         if (ap.on_ground or not int(ap.params.get("FS_CRASH_CHECK", 1))
                 or not ap.flightmode.crash_check_enabled()):
             self.crashing_s = 0.0
@@ -116,3 +134,40 @@ class CopterCrashCheck(CrashCheck):
         az += ((vel[2] - last[2]) / dt - az) * alpha
         self.accel = (ax, ay, az)
         return math.sqrt(ax * ax + ay * ay + az * az)
+
+    def _thrust_loss(self, dt: float) -> None:
+        """Copter::thrust_loss_check, with the motors' filter of check_for_failed_motor."""
+        ap = self.ap
+        if ap.on_ground:
+            self.losing_s, self._thrust = 0.0, None
+            return
+        if float(ap.vel[2]) <= 0.0 and not self.thrust_boost:
+            self.losing_s, self._thrust = 0.0, None     # not descending: the common case, cheap
+            return
+        c = ap.fleet.controller_of(ap.i)
+        cmds = (c.f0 * c.f0, c.f1 * c.f1, c.f2 * c.f2, c.f3 * c.f3)    # thrust = speed squared
+        last = self._thrust
+        if last is None or dt <= 0:
+            self._thrust = list(cmds)
+        else:
+            a = dt / (dt + MOTOR_FILTER_S)
+            self._thrust = [t + (m - t) * a for t, m in zip(last, cmds)]
+        high = max(self._thrust)
+        if self.thrust_boost:
+            if high < 0.9:                      # the lost motor's work is no longer needed
+                self.thrust_boost = False
+            return
+        roll, pitch = math.degrees(math.atan(c.tan_roll_t)), math.degrees(math.atan(c.tan_pitch_t))
+        thr = float(c.coll)
+        saturated = max(cmds) >= 1.0 - 1e-9
+        if (roll * roll + pitch * pitch > THRUST_LOSS_ANGLE_DEG ** 2
+                or (thr < THRUST_LOSS_MIN_THROTTLE and not saturated) or thr < 0.25
+                or thrust_error_angle_deg(ap.quat, c.tan_roll_t, c.tan_pitch_t, c.yaw) >= ANGLE_DEVIATION_DEG):
+            self.losing_s = 0.0
+            return
+        self.losing_s += dt
+        if self.losing_s >= THRUST_LOSS_TRIGGER_SEC - 1e-9:
+            self.losing_s = 0.0
+            self.thrust_boost = True
+            lost = self._thrust.index(high) + 1
+            ap.text(mav.MAV_SEVERITY_EMERGENCY, f"Potential Thrust Loss ({lost})")

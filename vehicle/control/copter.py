@@ -94,12 +94,13 @@ class SetpointArrays:
 class CopterCtrlState:
     """Controller memory: shaped reference, yaw reference, integrators, D filters; and what
     the last step asked for, for telemetry: the attitude target (tan_roll_t, tan_pitch_t),
-    the body-rate target (rtx, rty, rtz, rad/s FRD) and the vertical acceleration target
-    (atz, m/s^2 NED, down positive)."""
+    the body-rate target (rtx, rty, rtz, rad/s FRD), the vertical acceleration target
+    (atz, m/s^2 NED, down positive) and the mixer's four rotor-speed commands (f0..f3,
+    0..1, ArduPilot's motor order; the thrust loss check's)."""
     FIELDS = ("px", "py", "pz", "vx", "vy", "vz", "ax", "ay", "az", "yaw",
               "ivx", "ivy", "ivz", "evx", "evy", "dvx", "dvy",
               "irx", "iry", "irz", "erx", "ery", "erz", "drx", "dry", "drz", "coll",
-              "tan_roll_t", "tan_pitch_t", "rtx", "rty", "rtz", "atz")
+              "tan_roll_t", "tan_pitch_t", "rtx", "rty", "rtz", "atz", "f0", "f1", "f2", "f3")
     __slots__ = FIELDS + ("yaw_seen", "yaw_half")
 
     def __init__(self, n: int | None):
@@ -271,7 +272,9 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     c.coll = coll
     c.tan_roll_t, c.tan_pitch_t = tr, tp      # the attitude target (NAV_CONTROLLER_OUTPUT)
     c.rtx, c.rty, c.rtz, c.atz = rtx, rty, rtz, atz    # rate and climb targets (PID_TUNING)
-    return mix(coll, u_r, u_p, u_y, g.spin_min, xp)
+    out = mix(coll, u_r, u_p, u_y, g.spin_min, xp)
+    c.f0, c.f1, c.f2, c.f3 = out
+    return out
 
 
 @generic
