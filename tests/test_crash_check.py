@@ -15,6 +15,7 @@ from test_autopilot_behaviour import A, _fly, _until, _world
 from vehicle.autopilot import crash_check, modes
 from vehicle.autopilot.copter_modes.land import LAND_WITH_DELAY_S
 from vehicle.autopilot.guided import ACC_BITS, VEL_BITS, YAW_IGNORE, YAW_RATE_IGNORE
+from vehicle.fleet import CopterFleet, Setpoint
 from vehicle.logs import messages
 from vehicle.physics import ScalarOps
 from vehicle.physics import multicopter as mc
@@ -94,6 +95,21 @@ def test_tipping_over_is_the_same_in_the_batched_physics():
     for k, s in enumerate(scalars):
         assert (v.qx[k], v.qy[k], v.qz[k], v.qw[k]) == pytest.approx((s.qx, s.qy, s.qz, s.qw), abs=1e-9)
     assert v.qx[0] == 0.0 and abs(v.qx[1]) > 0.4
+
+
+@pytest.mark.parametrize("scalar", [True, False])
+def test_controller_row_reads_what_controller_of_copies(scalar):
+    f = CopterFleet(3, estimator=False, scalar=scalar)
+    for i in range(3):
+        f.set_armed(i, True)
+        f.set_setpoint(i, Setpoint(pos=[1.0 * i, 0.0, -5.0]))
+    for _ in range(200):
+        f.step(1 / 400)
+    for i in range(3):
+        row, full = crash_check.controller_row(f, i), f.controller_of(i)
+        for name in ("coll", "tan_roll_t", "tan_pitch_t", "yaw", "f0", "f1", "f2", "f3"):
+            assert getattr(row, name) == getattr(full, name)
+        assert 0.0 < row.f0 <= 1.0
 
 
 # ---------------------------------------------------------------- the World, in sim time

@@ -71,6 +71,25 @@ def thrust_error_angle_deg(quat, tan_roll: float, tan_pitch: float, yaw: float) 
     return math.degrees(math.acos(dot))
 
 
+class _Row:
+    """One vehicle's values of a batched fleet's controller arrays, read as floats on demand
+    (controller_of copies every field: dear at every tick of a thousand vehicles)."""
+
+    __slots__ = ("_arrays", "_i")
+
+    def __init__(self, arrays, i: int) -> None:
+        self._arrays, self._i = arrays, i
+
+    def __getattr__(self, name: str) -> float:
+        return float(getattr(self._arrays, name)[self._i])
+
+
+def controller_row(fleet, i: int):
+    """Vehicle i's controller memory (vehicle/control/copter.py CopterCtrlState fields):
+    a small fleet's own object, a batched fleet's row."""
+    return fleet.controller_of(i) if fleet.scalar else _Row(fleet.ctrl, i)
+
+
 class CrashCheck:
     """A vehicle without a crash check (the rover): update does nothing."""
 
@@ -108,7 +127,7 @@ class CopterCrashCheck(CrashCheck):
         if acc >= ACCEL_MAX or lean_cos(ap.quat) >= _COS_LEAN_MIN:
             self.crashing_s = 0.0
             return
-        c = ap.fleet.controller_of(ap.i)        # only now: most ticks end above
+        c = controller_row(ap.fleet, ap.i)      # only now: most ticks end above
         err = thrust_error_angle_deg(ap.quat, c.tan_roll_t, c.tan_pitch_t, c.yaw)
         vx, vy, vz = ap.vel.tolist()
         if err <= ANGLE_DEVIATION_DEG or vx * vx + vy * vy + vz * vz >= SPEED_MAX * SPEED_MAX:
@@ -144,7 +163,7 @@ class CopterCrashCheck(CrashCheck):
         if float(ap.vel[2]) <= 0.0 and not self.thrust_boost:
             self.losing_s, self._thrust = 0.0, None     # not descending: the common case, cheap
             return
-        c = ap.fleet.controller_of(ap.i)
+        c = controller_row(ap.fleet, ap.i)
         cmds = (c.f0 * c.f0, c.f1 * c.f1, c.f2 * c.f2, c.f3 * c.f3)    # thrust = speed squared
         last = self._thrust
         if last is None or dt <= 0:
@@ -157,12 +176,14 @@ class CopterCrashCheck(CrashCheck):
             if high < 0.9:                      # the lost motor's work is no longer needed
                 self.thrust_boost = False
             return
-        roll, pitch = math.degrees(math.atan(c.tan_roll_t)), math.degrees(math.atan(c.tan_pitch_t))
-        thr = float(c.coll)
-        saturated = max(cmds) >= 1.0 - 1e-9
+        thr = c.coll
+        if thr < 0.25 or (thr < THRUST_LOSS_MIN_THROTTLE and max(cmds) < 1.0 - 1e-9):
+            self.losing_s = 0.0                 # (a hovering copter's noise ends here)
+            return
+        tr, tp = c.tan_roll_t, c.tan_pitch_t
+        roll, pitch = math.degrees(math.atan(tr)), math.degrees(math.atan(tp))
         if (roll * roll + pitch * pitch > THRUST_LOSS_ANGLE_DEG ** 2
-                or (thr < THRUST_LOSS_MIN_THROTTLE and not saturated) or thr < 0.25
-                or thrust_error_angle_deg(ap.quat, c.tan_roll_t, c.tan_pitch_t, c.yaw) >= ANGLE_DEVIATION_DEG):
+                or thrust_error_angle_deg(ap.quat, tr, tp, c.yaw) >= ANGLE_DEVIATION_DEG):
             self.losing_s = 0.0
             return
         self.losing_s += dt
