@@ -8,9 +8,10 @@ Where the pulses come from:
   for reverse); ch5 1800; ch6, 7 1000; ch8 1800; channels 9-16 read 0. SIM_RC_FAIL 1: no
   pulses (the radio failsafe's RC_FS_TIMEOUT then runs out); 2: every channel 1500 but ch3
   (the throttle, "assumed to be on channel 3") at 950. SITL's receiver keeps those pulses until
-  its next RC packet; towerlink's transmitter keeps sending (as autotest's RC thread streams
-  its sticks to SITL's RC port), so its resting positions are back as soon as SIM_RC_FAIL is
-  0 again.
+  its next RC packet; towerlink's transmitter keeps sending its sticks (as autotest's RC
+  thread streams them to SITL's RC port), so they are back as soon as SIM_RC_FAIL is 0 again.
+  `transmit` moves the sticks: an RC packet as autotest's set_rc sends it (8 or 16 pulses, 0
+  leaves a channel, its length the receiver's channel count).
 - RC_CHANNELS_OVERRIDE (GCS_MAVLINK::handle_rc_channels_override), accepted by the link only
   from SYSID_MYGCS: chan1..8 = 65535 leaves that channel as it is, any other value (0
   included) is set as its override; chan9..18 = 0 or 65535 leave it, 65534 releases it
@@ -133,7 +134,8 @@ class RcInput:
     def __init__(self, params: Mapping[str, float], receiver: Sequence[int] = COPTER_RECEIVER) -> None:
         """receiver: the transmitter's resting pulses of channels 1.. (us)."""
         self.params = params
-        self.resting = tuple(int(v) for v in receiver) + (0,) * (NUM_CHANNELS - len(receiver))
+        self.sent = [int(v) for v in receiver] + [0] * (NUM_CHANNELS - len(receiver))   # the transmitter's
+        self.sent_count = len(receiver)
         self.override = [0] * NUM_CHANNELS          # us; 0 = none
         self.override_t = [0.0] * NUM_CHANNELS      # sim s it was set
         self.radio_in = [0] * NUM_CHANNELS          # us; 0 = never had a value
@@ -170,6 +172,17 @@ class RcInput:
         lo, hi = _p(p, channel, "MIN", 1100), _p(p, channel, "MAX", 1900)
         self.set_override(channel - 1, manual_pwm(value, offset, scaler, lo, hi, reversed_), t)
 
+    def transmit(self, pulses: Sequence[int]) -> None:
+        """The transmitter's sticks moved: SITL's RC input packet (read_all_socket_input), 8 or
+        16 pulses (us) of channels 1..; 0 leaves a channel as it was. The receiver sends them
+        from its next frame, and the packet's length is its channel count (chancount)."""
+        if len(pulses) not in (RECEIVER_CHANNELS, NUM_CHANNELS):
+            raise ValueError(f"an RC packet has 8 or 16 channels, not {len(pulses)}")
+        for i, v in enumerate(pulses):
+            if int(v):
+                self.sent[i] = int(v)
+        self.sent_count = len(pulses)
+
     def clear_overrides(self) -> None:
         """RC_Channels::clear_overrides (the GCS failsafe drops them)."""
         self.override = [0] * NUM_CHANNELS
@@ -187,16 +200,19 @@ class RcInput:
             return False
         return t - self.override_t[ch] < timeout
 
-    def receiver_frame(self) -> tuple[int, ...] | None:
+    def receiver_frame(self) -> list[int] | None:
         """The simulated receiver's pulses of channels 1..16 (SIM_RC_FAIL as the module doc
-        says), None for no pulses."""
+        says; channels past its count read 0), None for no pulses."""
         fail = int(self.params.get("SIM_RC_FAIL", 0))
         if fail == NO_PULSES:
             return None
+        n = self.sent_count
         if fail == THROTTLE_950:
-            return (SITL_NEUTRAL, SITL_NEUTRAL, SITL_FAIL_THROTTLE) + (SITL_NEUTRAL,) * (RECEIVER_CHANNELS - 3) \
-                + (0,) * (NUM_CHANNELS - RECEIVER_CHANNELS)
-        return self.resting
+            out = [SITL_NEUTRAL] * n
+            out[2] = SITL_FAIL_THROTTLE
+        else:
+            out = self.sent[:n]
+        return out + [0] * (NUM_CHANNELS - n)
 
     def read(self, t: float) -> bool:
         """RC_Channels::read_input at sim time t: True when a new frame was read (the
@@ -255,9 +271,9 @@ class RcInput:
                       throttle_mid=control_mid(lo, hi, dz), throttle_pwm=thr_pwm)
 
     def channel_count(self) -> int:
-        """RC_CHANNELS chancount (get_valid_channel_count): the receiver's 8 channels once it
-        has sent a frame, SITL's SIM_RC_CHANCOUNT (16) before."""
-        return RECEIVER_CHANNELS if self.receiver_seen else SITL_CHANCOUNT
+        """RC_CHANNELS chancount (get_valid_channel_count): the receiver's channels (8 unless
+        a 16-channel packet came) once it has sent a frame, SITL's SIM_RC_CHANCOUNT (16) before."""
+        return self.sent_count if self.receiver_seen else SITL_CHANCOUNT
 
     def channels(self, n: int = NUM_CHANNELS) -> list[int]:
         """radio_in of channels 1..n for RC_CHANNELS. Once the receiver has sent a frame that
