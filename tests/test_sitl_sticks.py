@@ -2,8 +2,9 @@
 RC_CHANNELS_OVERRIDE (MAVProxy's `rc`) and MANUAL_CONTROL (QGroundControl's virtual joystick):
 overrides only from SYSID_MYGCS, RC_CHANNELS and SERVO_OUTPUT_RAW showing them, arming refused
 with the throttle up, ALT_HOLD's pilot takeoff, climb and hold on release, POSHOLD moved by the
-pitch stick and braking to a hold, LOITER flown by MANUAL_CONTROL, the radio failsafe on lost
-overrides and its clearing, a rover driven in MANUAL. Times are the vehicle's (time_boot_ms)."""
+pitch stick and braking to a hold, LOITER flown by MANUAL_CONTROL, lost overrides going back to
+the simulated receiver's sticks (no failsafe), the radio failsafe on lost receiver pulses and its
+clearing, a rover driven in MANUAL. Times are the vehicle's (time_boot_ms)."""
 from __future__ import annotations
 
 import math
@@ -130,10 +131,10 @@ def test_overrides_only_from_sysid_mygcs_and_rc_channels_shows_them(sitl):
         for _ in range(10):
             other.mav.rc_channels_override_send(1, 1, 1500, 1500, 1900, 1500, *[KEEP] * 4, *[0] * 10)
         rc = recv(drone, "RC_CHANNELS", 5)
-        assert rc.chan3_raw == 1500 and rc.chancount == 16               # still the trim
+        assert rc.chan3_raw == 1000 and rc.chancount == 8                # still the receiver's
         rc = Pilot(drone).hold((1500, 1500, 1234, 1500, KEEP, 1700), "RC_CHANNELS",
                                lambda r: r.chan3_raw == 1234, 10)
-        assert rc.chan6_raw == 1700 and rc.chan7_raw == 1500 and rc.chan16_raw == 1500
+        assert rc.chan6_raw == 1700 and rc.chan7_raw == 1000 and rc.chan16_raw == 0   # the receiver's
     finally:
         other.close()
 
@@ -194,16 +195,36 @@ def test_loiter_flown_by_manual_control(sitl):
 
 
 @pytest.mark.timeout(120)
-def test_radio_failsafe_on_lost_overrides_and_cleared(sitl):
+def test_lost_overrides_go_back_to_the_receiver_and_lost_pulses_are_the_radio_failsafe(sitl):
     _, drone, _ = sitl
     pilot = Pilot(drone)
     assert set_mode(drone, "ALT_HOLD") == mav.MAV_RESULT_ACCEPTED
+    pilot.hold((1500, 1500, 1900, 1500), "LOCAL_POSITION_NED", lambda p: p.z < -10.0, 60)
     pilot.hold_for(CENTRE, 0.5)
     _param(drone, "FS_THR_ENABLE", 1)
-    # the overrides stop (heartbeats go on): RC_FS_TIMEOUT (1 s) later the radio failsafe, RTL
+    # the overrides stop (heartbeats go on): RC_OVERRIDE_TIME (3 s) later the receiver's sticks
+    # again, throttle 1000: ALT_HOLD descends, no radio failsafe (the receiver's frames go on)
+    texts, seen = [], {}
+    while not ("rc" in seen and "down" in seen):
+        msg = recv(drone, ["STATUSTEXT", "RC_CHANNELS", "LOCAL_POSITION_NED", "HEARTBEAT"], 20)
+        kind = msg.get_type()
+        if kind == "STATUSTEXT":
+            texts.append(msg.text)
+        elif kind == "RC_CHANNELS" and msg.chan3_raw == 1000:
+            seen["rc"] = msg
+        elif kind == "LOCAL_POSITION_NED" and "rc" in seen and msg.vz > 1.0:
+            seen["down"] = msg
+        elif kind == "HEARTBEAT" and msg.get_srcSystem() == drone.target_system:
+            assert msg.custom_mode == 2, msg                             # still ALT_HOLD
+    assert not any(t.startswith("Radio Failsafe") for t in texts), texts
+    assert seen["rc"].chancount == 8 and seen["rc"].chan1_raw == 1500
+    pilot.hold(CENTRE, "LOCAL_POSITION_NED", lambda p: abs(p.vz) < 0.3, 30)
+    # the receiver goes silent (SIM_RC_FAIL 1): RC_FS_TIMEOUT (1 s) later the radio failsafe, RTL
+    _param(drone, "SIM_RC_FAIL", 1)
     _text(drone, "Radio Failsafe", 20)
     recv(drone, "HEARTBEAT", 5, cond=lambda h: h.custom_mode == 6 and h.system_status == mav.MAV_STATE_CRITICAL)
-    _text(drone, "Radio Failsafe Cleared", 10, pilot, CENTRE)
+    _param(drone, "SIM_RC_FAIL", 0)
+    _text(drone, "Radio Failsafe Cleared", 10)
     recv(drone, "HEARTBEAT", 5, cond=lambda h: h.custom_mode == 6 and h.system_status == mav.MAV_STATE_ACTIVE)
 
 
