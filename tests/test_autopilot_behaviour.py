@@ -41,12 +41,6 @@ def _fly(w: World, alt=5.0):
     return ap
 
 
-def _hover_stick(ap):
-    """The transmitter's throttle to mid stick (RC3 1500), as autotest's hover() does before
-    ALT_HOLD, LOITER or POSHOLD: at the receiver's resting 1000 those modes descend."""
-    ap.rc.transmit([0, 0, 1500, 0, 0, 0, 0, 0])
-
-
 def _goto(ap, x, y, z):
     """GUIDED to world NED (x, y, z), the frame ap.pos is in; on the wire LOCAL_NED is from
     the vehicle's own EKF origin (where it booted), so the point is sent in that frame."""

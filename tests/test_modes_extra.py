@@ -12,7 +12,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from test_autopilot_behaviour import A, _fly, _goto, _hover_stick, _until, _world
+from auto_world import hover_stick
+from test_autopilot_behaviour import A, _fly, _goto, _until, _world
 from vehicle.autopilot import modes
 from vehicle.autopilot.guided import ACC_BITS, POS_BITS, YAW_IGNORE, YAW_RATE_IGNORE
 from vehicle.autopilot.smartrtl import SmartRTLPath, _point_line_dist, prune_loops, simplify
@@ -80,7 +81,7 @@ def test_alt_hold_holds_altitude_and_stays_level():
     ap = _fly(w, alt=8.0)
     _cruise(w, ap, 3.0)
     z0 = ap.pos[2]
-    _hover_stick(ap)
+    hover_stick(ap)
     assert ap.set_mode(modes.ALT_HOLD)
     zs, tilts = [], []
     for _ in range(100):
@@ -98,7 +99,7 @@ def test_poshold_brakes_then_holds_where_it_stopped():
     ap = _fly(w, alt=8.0)
     _cruise(w, ap, 5.0)
     z0 = ap.pos[2]
-    _hover_stick(ap)
+    hover_stick(ap)
     assert ap.set_mode(modes.POSHOLD)
     took = _until(w, lambda: np.linalg.norm(ap.vel[:2]) < 0.1, 15, step=0.01)
     # PHLD_BRAKE_ANGLE 30 deg reached at PHLD_BRAKE_RATE 8 deg/s: a gentler stop than BRAKE

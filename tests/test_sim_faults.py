@@ -10,7 +10,8 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from common.geo import LATLON_TO_M
-from test_autopilot_behaviour import A, _fly, _hover_stick, _until, _world
+from auto_world import hover_stick
+from test_autopilot_behaviour import A, _fly, _until, _world
 from vehicle import sim_faults
 from vehicle.autopilot import modes
 from vehicle.autopilot.ekf_failsafe import copter_over_threshold, rover_over_threshold
@@ -126,7 +127,7 @@ def _loitering():
     ap = w.vehicles[0].ap
     texts = _texts(w, ap)
     _fly(w, 10.0)
-    _hover_stick(ap)
+    hover_stick(ap)
     assert ap.set_mode(modes.LOITER)
     w.run_for(2.0)
     return w, ap, texts, EkfTelemetry(ap)
