@@ -143,6 +143,35 @@ def test_rover_receiver_centres_the_throttle():
     assert rc.sticks.throttle_norm == 0.0
 
 
+def test_receiver_frames_at_50_hz_and_rc_options_ignore_it():
+    params = {}
+    rc = RcInput(params)
+    frames = sum(rc.read(k * 0.0025) for k in range(400))              # 1 s of 400 Hz ticks
+    assert frames == 50 and rc.last_frame == pytest.approx(0.98)
+    params["RC_OPTIONS"] = 32 | 1                                      # ignore the receiver
+    assert not rc.read(2.0) and rc.last_frame == pytest.approx(0.98)
+
+
+def test_transmit_is_an_rc_packet():
+    """read_all_socket_input: 0 leaves a channel, the packet's length is the channel count;
+    SIM_RC_FAIL 2 sends its own pulses and the transmitter's come back with SIM_RC_FAIL 0."""
+    params = {}
+    rc = RcInput(params)
+    rc.transmit([0, 0, 1500, 0, 0, 0, 0, 0])
+    assert rc.read(0.0) and rc.channels(8) == [1500, 1500, 1500, 1500, 1800, 1000, 1000, 1800]
+    assert rc.sticks.throttle == rc.sticks.throttle_mid
+    rc.transmit([1600] + [0] * 14 + [1200])
+    assert rc.read(0.02) and rc.channel_count() == 16 and rc.channels(16)[::15] == [1600, 1200]
+    params["SIM_RC_FAIL"] = 2
+    assert rc.read(0.04) and rc.channels(16) == [1500, 1500, 950] + [1500] * 13
+    params["SIM_RC_FAIL"] = 1
+    assert not rc.read(0.06) and rc.channels(3) == [1500, 1500, 950]
+    params["SIM_RC_FAIL"] = 0
+    assert rc.read(0.08) and rc.channels(3) == [1600, 1500, 1500]
+    with pytest.raises(ValueError):
+        rc.transmit([1500] * 4)
+
+
 def test_without_pulses_a_released_channel_keeps_its_last_pulse():
     params = {"SIM_RC_FAIL": 1}
     rc = RcInput(params)
@@ -241,6 +270,15 @@ def test_sim_rc_fail_2_is_a_throttle_failsafe(copter):
     ap.params.set("SIM_RC_FAIL", 0)                 # the transmitter's sticks again: 1000 is good
     w.run_for(1.0)
     assert not ap.radio.active and texts[-1] == "Radio Failsafe Cleared"
+
+
+def test_the_sticks_follow_a_changed_scaling(copter):
+    w, ap, _ = copter
+    w.run_for(0.1)
+    assert ap.rc.sticks.throttle == 0                       # 1000 is below RC3_MIN (1100)
+    ap.params.set("RC3_MIN", 950)
+    w.run_for(0.1)
+    assert ap.rc.sticks.throttle > 0                         # the same pulse, scaled again
 
 
 def test_receiver_alone_never_triggers_the_radio_failsafe(copter):

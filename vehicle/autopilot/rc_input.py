@@ -56,6 +56,7 @@ SITL_NEUTRAL = 1500
 IGNORE_RECEIVER, IGNORE_OVERRIDES = 1, 2    # RC_OPTIONS bits
 NO_PULSES, THROTTLE_950 = 1, 2              # SIM_RC_FAIL values
 RECEIVER_PERIOD = 0.02         # s between the simulated receiver's frames (50 Hz)
+TICK_SLACK = 1e-6              # s: a tick that float rounding puts just short of a frame still gets it
 RECEIVER_CHANNELS = 8          # what SITL's receiver reports (RC_CHANNELS chancount)
 SITL_CHANCOUNT = 16            # SIM_RC_CHANCOUNT: the count before any receiver frame
 # the transmitter's resting positions, ch1..8 (us)
@@ -145,6 +146,7 @@ class RcInput:
         self.receiver_seen = False                  # ArduPilot's has_had_rc_receiver
         self.override_seen = False                  # has_had_rc_override
         self.sticks: Sticks | None = None           # None until the first frame
+        self._scaled: tuple | None = None           # (radio_in, params.changes) `sticks` came from
 
     # ----- what comes in --------------------------------------------------------------
     def set_override(self, ch: int, value: int, t: float) -> None:
@@ -223,7 +225,7 @@ class RcInput:
             return False               # the common tick: no receiver frame due, no new override
         rx = None
         if t >= self.next_pulse:
-            self.next_pulse = t + RECEIVER_PERIOD
+            self.next_pulse = t + RECEIVER_PERIOD - TICK_SLACK
             rx = self.receiver_frame()
         options = int(self.params.get("RC_OPTIONS", 32))
         if options & IGNORE_RECEIVER:
@@ -236,18 +238,32 @@ class RcInput:
             return False
         self.new_overrides = False
         got = False
-        for ch in range(NUM_CHANNELS):
-            if self.override[ch] and not options & IGNORE_OVERRIDES and self.has_override(ch, t):
-                self.radio_in[ch] = self.override[ch]
-            elif rx is not None:
-                self.radio_in[ch] = rx[ch]
-            else:
-                continue
+        if rx is not None and (options & IGNORE_OVERRIDES or not any(self.override)):
+            self.radio_in[:] = rx      # the receiver alone (the common frame)
             got = True
+        else:
+            for ch in range(NUM_CHANNELS):
+                if self.override[ch] and not options & IGNORE_OVERRIDES and self.has_override(ch, t):
+                    self.radio_in[ch] = self.override[ch]
+                elif rx is not None:
+                    self.radio_in[ch] = rx[ch]
+                else:
+                    continue
+                got = True
         if got:
             self.last_frame = t
-            self.sticks = self.scale()
+            self._rescale()
         return got
+
+    def _rescale(self) -> None:
+        """`sticks` from radio_in, unless neither it nor the parameters (a ParamStore counts
+        its changes; a plain mapping is read again every time) changed since."""
+        changes = getattr(self.params, "changes", None)
+        if changes is not None and self._scaled is not None and self._scaled[1] == changes \
+                and self._scaled[0] == self.radio_in:
+            return
+        self.sticks = self.scale()
+        self._scaled = (self.radio_in.copy(), changes)
 
     def pwm(self, channel: int) -> int:
         """radio_in of channel number `channel` (1-based; 0 = none yet)."""
