@@ -217,13 +217,18 @@ def test_throttle_below_failsafe_is_a_prearm_failure(copter):
     assert ap.arm() == A.MAV_RESULT_FAILED and "PreArm: Throttle below failsafe" in texts
 
 
-def test_released_overrides_go_back_to_the_receiver_no_failsafe(copter):
-    w, ap, texts = copter
+def _pilot_takeoff(w, ap):
+    """ALT_HOLD, armed at mid stick, climbed on the throttle stick to over 4 m."""
     assert ap.set_mode(modes.ALT_HOLD)
     _hold(w, ap, [1500, 1500, 1500, 1500], 0.3)
     assert ap.arm() == A.MAV_RESULT_ACCEPTED
-    _hold(w, ap, [1500, 1500, 1900, 1500], 5)                        # the pilot takeoff
+    _hold(w, ap, [1500, 1500, 1900, 1500], 5)
     assert ap.pos[2] < -4.0 and not ap.radio.active
+
+
+def test_released_overrides_go_back_to_the_receiver_no_failsafe(copter):
+    w, ap, texts = copter
+    _pilot_takeoff(w, ap)
     z = float(ap.pos[2])
     ap.rc.channels_override([0] * 8 + [KEEP] * 10, ap.t)             # every override released
     w.run_for(5.0)
@@ -235,11 +240,7 @@ def test_released_overrides_go_back_to_the_receiver_no_failsafe(copter):
 
 def test_radio_failsafe_on_lost_pulses_rtl_and_cleared(copter):
     w, ap, texts = copter
-    assert ap.set_mode(modes.ALT_HOLD)
-    _hold(w, ap, [1500, 1500, 1500, 1500], 0.3)
-    assert ap.arm() == A.MAV_RESULT_ACCEPTED
-    _hold(w, ap, [1500, 1500, 1900, 1500], 5)                        # the pilot takeoff
-    assert ap.pos[2] < -4.0 and not ap.radio.active
+    _pilot_takeoff(w, ap)
     ap.params.set("SIM_RC_FAIL", 1)                                  # the receiver goes silent
     last = ap.rc.last_frame                                          # the last override's frame
     _until(w, lambda: ap.radio.active, 5)                            # no more overrides either
