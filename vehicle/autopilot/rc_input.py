@@ -137,6 +137,7 @@ class RcInput:
         self.params = params
         self.sent = [int(v) for v in receiver] + [0] * (NUM_CHANNELS - len(receiver))   # the transmitter's
         self.sent_count = len(receiver)
+        self.frame = self._frame_of(self.sent)     # what the receiver sends of them
         self.override = [0] * NUM_CHANNELS          # us; 0 = none
         self.override_t = [0.0] * NUM_CHANNELS      # sim s it was set
         self.radio_in = [0] * NUM_CHANNELS          # us; 0 = never had a value
@@ -184,6 +185,7 @@ class RcInput:
             if int(v):
                 self.sent[i] = int(v)
         self.sent_count = len(pulses)
+        self.frame = self._frame_of(self.sent)
 
     def clear_overrides(self) -> None:
         """RC_Channels::clear_overrides (the GCS failsafe drops them)."""
@@ -205,16 +207,17 @@ class RcInput:
     def receiver_frame(self) -> list[int] | None:
         """The simulated receiver's pulses of channels 1..16 (SIM_RC_FAIL as the module doc
         says; channels past its count read 0), None for no pulses."""
-        fail = int(self.params.get("SIM_RC_FAIL", 0))
+        fail = self.params.get("SIM_RC_FAIL", 0)
+        if not fail:
+            return self.frame
         if fail == NO_PULSES:
             return None
+        return self._frame_of([SITL_NEUTRAL, SITL_NEUTRAL, SITL_FAIL_THROTTLE] + [SITL_NEUTRAL] * (NUM_CHANNELS - 3))
+
+    def _frame_of(self, pulses: list[int]) -> list[int]:
+        """Channels 1..16 of the receiver's frame: `pulses` up to its channel count, 0 past it."""
         n = self.sent_count
-        if fail == THROTTLE_950:
-            out = [SITL_NEUTRAL] * n
-            out[2] = SITL_FAIL_THROTTLE
-        else:
-            out = self.sent[:n]
-        return out + [0] * (NUM_CHANNELS - n)
+        return pulses[:n] + [0] * (NUM_CHANNELS - n)
 
     def read(self, t: float) -> bool:
         """RC_Channels::read_input at sim time t: True when a new frame was read (the
