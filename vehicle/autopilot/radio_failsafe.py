@@ -75,7 +75,7 @@ class CopterRadioFailsafe(RadioFailsafe):
     def update(self, t: float, new_frame: bool) -> None:
         ap = self.ap
         if ap.rc.last_frame is None:
-            return                     # never any RC input: nothing to lose (the common case)
+            return                     # never any RC frame (SIM_RC_FAIL 1 from boot): nothing to lose
         if new_frame:
             self._throttle_zero(t)
             if not self.enabled():
@@ -159,7 +159,7 @@ class RoverRadioFailsafe(RadioFailsafe):
     def update(self, t: float, new_frame: bool) -> None:
         ap = self.ap
         if ap.rc.last_frame is None and not self.triggered:
-            return                     # never any RC input: nothing to lose (the common case)
+            return                     # never any RC frame (SIM_RC_FAIL 1 from boot): nothing to lose
         if not self.enabled() or ap.rc.last_frame is None:
             failed = False
         else:
