@@ -132,8 +132,8 @@ def test_a_released_channel_goes_back_to_the_receiver():
     rc.channels_override([1600, 1700] + [KEEP] * 16, 1.0)
     assert rc.read(1.0) and rc.channels(3) == [1600, 1700, 1000]
     rc.channels_override([0] + [KEEP] * 17, 1.01)                     # chan1 released
-    assert rc.read(1.01) and rc.channels(2) == [1600, 1700]           # no receiver frame yet
-    assert rc.read(1.02) and rc.channels(2) == [1500, 1700]           # the receiver's pulse
+    assert rc.read(1.01) and rc.channels(2) == [1500, 1700]           # the receiver's last pulse at once
+    assert rc.read(1.02) and rc.channels(2) == [1500, 1700]           # and its next frame
     assert rc.read(5.0) and rc.channels(2) == [1500, 1500]            # chan2's override timed out
 
 
@@ -170,6 +170,17 @@ def test_transmit_is_an_rc_packet():
     assert rc.read(0.08) and rc.channels(3) == [1600, 1500, 1500]
     with pytest.raises(ValueError):
         rc.transmit([1500] * 4)
+
+
+def test_after_the_pulses_stop_a_released_channel_reads_the_receivers_last():
+    params = {}
+    rc = RcInput(params)
+    assert rc.read(0.0)
+    params["SIM_RC_FAIL"] = 1
+    rc.channels_override([1600, KEEP, 1700] + [KEEP] * 15, 0.5)
+    assert rc.read(0.5) and rc.channels(3) == [1600, 1500, 1700]
+    rc.channels_override([0] + [KEEP] * 17, 0.6)                     # chan1 released
+    assert rc.read(0.6) and rc.channels(3) == [1500, 1500, 1700]      # the receiver's last pulse
 
 
 def test_without_pulses_a_released_channel_keeps_its_last_pulse():

@@ -24,8 +24,9 @@ An override counts while it is non-zero and younger than RC_OVERRIDE_TIME (s; 0 
 overrides, negative never times out) (RC_Channel::has_override). Each tick `read(t)` is
 RC_Channels::read_input: a new frame when a receiver pulse or a new override arrived since
 the last read; then every channel with an override takes it as radio_in, the others the
-receiver's pulse (so a released or timed-out override goes back to the receiver's value);
-without a receiver frame they keep the last one. `last_frame` is the sim time of the last
+receiver's last pulse (so a released or timed-out override goes back to the receiver's value,
+also once its pulses have stopped); before the receiver's first frame they keep their last
+value. `last_frame` is the sim time of the last
 frame (the radio failsafe's RC_FS_TIMEOUT counts from it).
 
 Sticks (RC_Channel's conversions, RCn_MIN/MAX/TRIM/DZ/REVERSED, channels by RCMAP_*):
@@ -145,6 +146,7 @@ class RcInput:
         self.next_pulse = 0.0                       # sim s the receiver's next frame is due
         self.last_frame: float | None = None        # sim s of the last RC frame
         self.receiver_seen = False                  # ArduPilot's has_had_rc_receiver
+        self.last_pulses: list[int] | None = None   # the receiver's last frame
         self.override_seen = False                  # has_had_rc_override
         self.sticks: Sticks | None = None           # None until the first frame
         self._scaled: tuple | None = None           # (radio_in, params.changes) `sticks` came from
@@ -237,9 +239,13 @@ class RcInput:
             self.new_overrides = False
         if rx is not None:
             self.receiver_seen = True
+            self.last_pulses = rx
         elif not self.new_overrides:
             return False
         self.new_overrides = False
+        # a channel without an override reads the receiver's last pulse once it has sent one
+        # (hal.rcin->read keeps it when the pulses stop), else keeps its radio_in
+        src = self.last_pulses if self.receiver_seen and not options & IGNORE_RECEIVER else None
         got = False
         if rx is not None and (options & IGNORE_OVERRIDES or not any(self.override)):
             self.radio_in[:] = rx      # the receiver alone (the common frame)
@@ -248,8 +254,8 @@ class RcInput:
             for ch in range(NUM_CHANNELS):
                 if self.override[ch] and not options & IGNORE_OVERRIDES and self.has_override(ch, t):
                     self.radio_in[ch] = self.override[ch]
-                elif rx is not None:
-                    self.radio_in[ch] = rx[ch]
+                elif src is not None:
+                    self.radio_in[ch] = src[ch]
                 else:
                     continue
                 got = True
