@@ -220,8 +220,7 @@ def test_a_failsafe_land_holds_its_altitude_for_the_pause_then_descends():
     """FS_GCS_ENABLE 5 (LAND): ArduCopter's set_mode_land_with_pause holds the altitude
     LAND_WITH_DELAY_MS (4 s) after LAND starts, then descends."""
     w = _world()
-    ap = _fly(w, alt=10.0)
-    assert ap.set_mode(modes.LOITER)
+    ap = _fly(w, alt=10.0)               # hovering in GUIDED (LOITER would sink: the receiver's throttle is low)
     w.run_for(2.0)
     for name, v in (("FS_GCS_ENABLE", 5), ("FS_GCS_TIMEOUT", 2)):
         assert ap.params.set(name, v, save=False) is None
