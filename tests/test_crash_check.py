@@ -254,12 +254,13 @@ def test_a_failsafe_finding_land_pauses_what_is_left_of_the_delay():
     ap = _fly(w, alt=10.0)
     assert ap.set_mode(modes.LAND)
     w.run_for(3.0)
-    z = float(ap.pos[2])
     ap.failsafe.land_with_pause("EKF failsafe")
     land = ap.flightmode
     assert land.land_pause
-    w.run_for(0.9)
-    assert land.land_pause and abs(ap.pos[2] - z) < 0.15      # held where it was, not where LAND began
+    w.run_for(0.5)                                   # braking from LAND_SPEED
+    z = float(ap.pos[2])
+    w.run_for(0.4)
+    assert land.land_pause and abs(ap.pos[2] - z) < 0.1      # held where it stopped
     w.run_for(0.3)
     assert not land.land_pause
     assert np.isnan(land.ap.fleet.setpoints[0].pos[2])

@@ -196,20 +196,17 @@ class CopterMode(Mode):
             return hi / 100.0
         return float(p.get("LAND_SPEED", 50)) / 100.0
 
-    def land_run(self, dt: float = 0.0, pause_z: float | None = None) -> None:
+    def land_run(self, dt: float = 0.0, pause: bool = False) -> None:
         """Descend at descent_speed() over ap.hold_pos's x, y (altitude free); without a
         position estimate level, drifting (ArduCopter's ModeLand::nogps_run). With
         LAND_REPOSITION the roll and pitch sticks move that point at LOITER's pilot velocity
-        (the copter flies it as feed-forward); the yaw stick turns the heading. pause_z: no
-        descent yet, that world z (m, down) held instead (land_run_vertical_control's
-        pause_descent: a climb rate of 0)."""
+        (the copter flies it as feed-forward); the yaw stick turns the heading. pause: a climb
+        rate of 0 instead (land_run_vertical_control's pause_descent): the copter stops where
+        its braking takes it and holds that altitude."""
         ap = self.ap
-        pause = pause_z is not None
         speed = 0.0 if pause else self.descent_speed()
-        z = pause_z if pause else np.nan
         if not ap.est_ok:
-            ap.setpoint(pos=None if not pause else np.array([np.nan, np.nan, z]),
-                        vel=np.array([0.0, 0.0, speed]), yaw=ap.hold_yaw, level=True)
+            ap.setpoint(vel=np.array([0.0, 0.0, speed]), yaw=ap.hold_yaw, level=True)
             return
         vn = ve = 0.0
         rate = None
@@ -222,5 +219,5 @@ class CopterMode(Mode):
         x, y = ap.hold_pos[0], ap.hold_pos[1]
         ap.echo = GuidedTarget("posvel", np.array([x, y, ap.pos[2]]), np.array([vn, ve, speed]),
                                None, ap.hold_yaw, None)
-        ap.setpoint(pos=np.array([x, y, z]), vel=np.array([vn, ve, speed]), yaw=ap.hold_yaw,
+        ap.setpoint(pos=np.array([x, y, np.nan]), vel=np.array([vn, ve, speed]), yaw=ap.hold_yaw,
                     yaw_rate=rate)
