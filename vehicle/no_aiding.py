@@ -62,8 +62,9 @@ class NoAiding:
         self._vel_var = spec.gps_vel_sigma ** 2
 
     def due(self, i: int, aligned: bool, gps_age: float) -> bool:
-        """True when vehicle i should stop aiding now: it was aiding on GPS (aligned) and has
-        fused none for more than AIDING_LOSS_S (gps_age s)."""
+        """True when vehicle i should stop aiding now: it has been aiding on GPS (aligned: as
+        many fixes fused as the estimator wants before its position counts) and has fused
+        none for more than AIDING_LOSS_S (gps_age s)."""
         return aligned and not self.active[i] and gps_age > AIDING_LOSS_S
 
     def stop(self, i: int, x: np.ndarray, P: np.ndarray, log) -> None:
