@@ -19,6 +19,10 @@ epochs, scheduled by step counts.
 ``ok`` (estimate_ok): at least ``min_gps`` GPS fixes fused and position variance below
 ``ok_var`` on every axis.
 
+Without GPS for 15 s a filter stops aiding (vehicle.no_aiding, EKF3's AID_NONE): it fuses
+its last known horizontal position with each baro height, so its velocity stays bounded;
+the next fix resets it onto GPS.
+
 Speed (a filter epoch of one vehicle): the filters are filterpy's own predict/update on
 fixed-size matrices, fed from reused buffers (GPS z, the predict's u); the baro height goes
 in as a scalar z (filterpy's form for dim_z 1: its copy of z is free) and its 1x1
