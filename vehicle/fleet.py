@@ -132,16 +132,8 @@ LAND_CHECK_ANGLE_ERROR = math.sin(math.radians(30.0) / 2) ** 2   # LAND_CHECK_AN
 LAND_DETECTOR_ACCEL_MAX = 1.0       # m/s^2, of the 1 Hz filtered acceleration (ArduCopter config.h)
 LAND_DETECTOR_VEL_Z_MAX = 1.0       # m/s, the descent rate (ArduCopter config.h)
 LAND_DETECTOR_ACCEL_LPF_CUTOFF = 1.0    # Hz
-_ACCEL_ALPHA: dict[float, float] = {}
-
-
-def _accel_alpha(dt: float) -> float:
-    """The land detector's low-pass coefficient for steps of dt s (ArduPilot's LowPassFilter:
-    dt / (dt + 1 / (2 pi f)))."""
-    a = _ACCEL_ALPHA.get(dt)
-    if a is None:
-        a = _ACCEL_ALPHA[dt] = dt / (dt + 1.0 / (2.0 * math.pi * LAND_DETECTOR_ACCEL_LPF_CUTOFF))
-    return a
+_ACCEL_RC = 1.0 / (2.0 * math.pi * LAND_DETECTOR_ACCEL_LPF_CUTOFF)   # s: ArduPilot's LowPassFilter RC
+_ACCEL_MAX_SQ = LAND_DETECTOR_ACCEL_MAX * LAND_DETECTOR_ACCEL_MAX
 
 
 @generic
@@ -155,13 +147,13 @@ def _land_detect(c, e, ph, run, armed, landed, timer, g, dt, xp):
     plays no part (ArduCopter's does not look at it either). Cleared by a take-off (thrust
     demand near hover and those conditions gone). Disarmed: landed = resting on the ground.
     Keeps the filtered acceleration in c.lax, c.lay, c.laz every step."""
-    k = _accel_alpha(dt)
-    c.lax = c.lax + (e.ax - c.lax) * k
-    c.lay = c.lay + (e.ay - c.lay) * k
-    c.laz = c.laz + (e.az - c.laz) * k
+    k = dt / (dt + _ACCEL_RC)           # the low-pass coefficient (ArduPilot's LowPassFilter)
+    ax = c.lax = c.lax + (e.ax - c.lax) * k
+    ay = c.lay = c.lay + (e.ay - c.lay) * k
+    az = c.laz = c.laz + (e.az - c.laz) * k
     coll = xp.where(run, c.coll, 0.0)
     low = (coll < 0.8 * g.hover) & (c.att_err <= LAND_CHECK_ANGLE_ERROR)
-    still = c.lax * c.lax + c.lay * c.lay + c.laz * c.laz <= LAND_DETECTOR_ACCEL_MAX * LAND_DETECTOR_ACCEL_MAX
+    still = ax * ax + ay * ay + az * az <= _ACCEL_MAX_SQ
     quiet = low & still & (xp.abs(e.vz) < LAND_DETECTOR_VEL_Z_MAX)
     timer = xp.where(armed & quiet, timer + dt, 0.0)
     took_off = run & (c.coll > 0.9 * g.hover) & xp.lnot(quiet)
