@@ -310,8 +310,13 @@ class Estimator:
                 na.resume(i, b.x[i], b.P[i], np.hstack([sensors.gps_pos[i], sensors.gps_vel[i]]))
         if missing is not None:
             for i in np.flatnonzero(missing):
-                if na.due(i, self.gps_count[i] >= self.min_gps, (step - int(log.gps_step[i])) * self.dt):
+                if self._aiding_lost(i, step):
                     na.stop(i, b.x[i], b.P[i], log)
+
+    def _aiding_lost(self, i: int, step: int) -> bool:
+        """Vehicle i, with no GPS fix at estimator step `step`, should stop aiding now."""
+        age = (step - int(self.innovations.gps_step[i])) * self.dt
+        return self.no_aiding.due(i, self.gps_count[i] >= self.min_gps, age)
 
     def _epoch_filters(self, sensors, gps, baro, pos, vel, acc, Q, rates, gyro_err) -> list:
         """Per-vehicle filterpy filters; sensors, AHRS error and rotations on floats (every
@@ -342,7 +347,7 @@ class Estimator:
                     self.no_aiding.resume(i, kf.x, kf.P, zg)
                 kf.update(zg)
                 log.gps(i, kf.y, kf.S, step)
-            elif gps and self.no_aiding.due(i, self.gps_count[i] >= self.min_gps, (step - int(log.gps_step[i])) * self.dt):
+            elif gps and self._aiding_lost(i, step):
                 self.no_aiding.stop(i, kf.x, kf.P, log)
             if baro and baro_alt[i] is not None:
                 # a scalar z (filterpy takes one for dim_z 1): the same y, and its copy of z is cheap
