@@ -14,6 +14,7 @@ from ftp_support import Clock, body, crc32_bitwise, hdr, nak_of, req
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from vehicle.files import sys_dir
 from vehicle.link import ftp
 
 PARAMS = bytes(range(256)) * 3            # 768 bytes standing for @PARAM/param.pck
@@ -76,9 +77,11 @@ def listing(srv, path, **kw):
 
 # ----- listing --------------------------------------------------------------------------------
 def test_root_listing_is_ardupilots_sitl_listing(srv):
+    # the root directory's entries, then the "@" directories AP_Filesystem::readdir appends
+    # in its backend table's order (those it can opendir: not @PARAM, not @MISSION)
     entries, pages = listing(srv, b"/")
-    assert entries == [b"D.", b"D..", b"Dlogs", b"Fnotes.txt\t5", b"Dscripts", b"D@MAV_LOG"]
-    assert pages == [b"D.\0D..\0Dlogs\0Fnotes.txt\t5\0Dscripts\0D@MAV_LOG\0"]
+    assert entries == [b"D.", b"D..", b"Dlogs", b"Fnotes.txt\t5", b"Dscripts", b"D@SYS", b"D@MAV_LOG"]
+    assert pages == [b"D.\0D..\0Dlogs\0Fnotes.txt\t5\0Dscripts\0D@SYS\0D@MAV_LOG\0"]
     for alias in (b"logs", b"/logs/", b"./logs", b"@MAV_LOG", b"/@MAV_LOG"):
         assert listing(srv, alias)[0] == [b"D.", b"D..", b"F00000001.BIN\t1000", b"FLASTLOG.TXT\t3"], alias
 
@@ -108,7 +111,10 @@ def test_listing_errors(srv):
     assert nak_of(one(srv, ftp.LIST_DIRECTORY, data=b"/APM/LOGS")) == (ftp.ERR_FILE_NOT_FOUND,)
     assert nak_of(one(srv, ftp.LIST_DIRECTORY, data=b"notes.txt")) == (ftp.ERR_FAIL_ERRNO, errno.ENOTDIR)
     assert nak_of(one(srv, ftp.LIST_DIRECTORY, data=b"@PARAM")) == (ftp.ERR_FILE_NOT_FOUND,)  # no opendir
-    assert nak_of(one(srv, ftp.LIST_DIRECTORY, data=b"@SYS")) == (ftp.ERR_FILE_NOT_FOUND,)
+    assert nak_of(one(srv, ftp.LIST_DIRECTORY, data=b"@SYS/threads.txt")) == (ftp.ERR_FILE_NOT_FOUND,)
+    assert nak_of(one(srv, ftp.LIST_DIRECTORY, data=b"@SYS/.")) == (ftp.ERR_FILE_NOT_FOUND,)
+    assert nak_of(one(srv, ftp.LIST_DIRECTORY, data=b"@ROMFS")) == (ftp.ERR_FILE_NOT_FOUND,)
+    assert nak_of(one(srv, ftp.LIST_DIRECTORY, data=b"@MISSION")) == (ftp.ERR_FILE_NOT_FOUND,)
     r = one(srv, ftp.LIST_DIRECTORY, data=b"logs", size=9, offset=3)
     assert nak_of(r) == (ftp.ERR_INVALID_DATA_SIZE,) and hdr(r)[7] == 3
 
@@ -117,8 +123,70 @@ def test_logs_alias_listed_only_when_the_log_directory_exists(srv, root):
     (root / "logs" / "00000001.BIN").unlink()
     (root / "logs" / "LASTLOG.TXT").unlink()
     (root / "logs").rmdir()
-    assert b"D@MAV_LOG" not in listing(srv, b"/")[0]
+    assert listing(srv, b"/")[0][-2:] == [b"Dscripts", b"D@SYS"]
     assert nak_of(one(srv, ftp.LIST_DIRECTORY, data=b"@MAV_LOG")) == (ftp.ERR_FILE_NOT_FOUND,)
+
+
+# ----- @SYS -----------------------------------------------------------------------------------
+SYS_LISTING = [b"Fthreads.txt\t100000", b"Ftasks.txt\t100000", b"Fdma.txt\t100000", b"Fmemory.txt\t100000",
+               b"Fuarts.txt\t100000", b"Ftimers.txt\t100000", b"Fcan0_stats.txt\t100000",
+               b"Fcan1_stats.txt\t100000", b"Fstorage.bin\t16384"]
+
+
+def test_sys_lists_sitls_files_in_ardupilots_order(srv):
+    for path in (b"@SYS", b"/@SYS", b"@SYS/", b"/@SYS/"):
+        assert listing(srv, path)[0] == SYS_LISTING, path
+
+
+def _read_all(srv, path, session):
+    r = ok(one(srv, ftp.OPEN_FILE_RO, session=session, data=path))
+    size, data = struct.unpack("<I", body(r))[0], b""
+    while True:
+        r = one(srv, ftp.READ_FILE, session=session, size=239, offset=len(data))
+        if r[3] == ftp.NAK:
+            assert nak_of(r) == (ftp.ERR_EOF,)
+            ok(one(srv, ftp.TERMINATE_SESSION, session=session))
+            return size, data
+        data += body(r)
+
+
+def test_sys_files_read_as_sitl_gives_them(root, clock):
+    ports = [sys_dir.Port("tcpin:0.0.0.0:5760", True, 1000, 200), sys_dir.Port("udpin:0.0.0.0:14550", False, 0, 0)]
+    ms = [5000]
+    srv = ftp.FtpServer({}, root=root, clock=clock, sys_dir=sys_dir.SysDir(lambda: ports, lambda: ms[0]))
+    # OpenFileRO's ACK gives stat's size, the reads end where the content does
+    size, text = _read_all(srv, b"@SYS/uarts.txt", 1)
+    assert size == 100000
+    assert text.decode() == ("UARTV1\n"
+                             "SERIAL0 TX=    1000 RX=     200 TXBD=   200 RXBD=    40 connected     (tcpin:0.0.0.0:5760)\n"
+                             "SERIAL1 TX=       0 RX=       0 TXBD=     0 RXBD=     0 not connected (udpin:0.0.0.0:14550)\n")
+    # the next read reports what moved since this one
+    ports[0] = sys_dir.Port("tcpin:0.0.0.0:5760", True, 1500, 300)
+    ms[0] = 7000
+    text = _read_all(srv, b"/@SYS/uarts.txt", 1)[1].decode()
+    assert "SERIAL0 TX=     500 RX=     100 TXBD=   250 RXBD=    50 connected " in text, text
+    assert _read_all(srv, b"@SYS/tasks.txt", 2) == (100000, b"TasksV2\n")
+    assert _read_all(srv, b"@SYS/storage.bin", 2) == (16384, bytes(16384))
+    crc = struct.unpack("<I", body(ok(one(srv, ftp.CALC_FILE_CRC32, session=3, data=b"@SYS/tasks.txt"))))[0]
+    assert crc == crc32_bitwise(b"TasksV2\n")
+    # SITL's HAL reports no threads, DMA, memory or timers and has no CAN interface: empty
+    for name in (b"threads.txt", b"dma.txt", b"memory.txt", b"timers.txt", b"can0_stats.txt", b"nothing.txt"):
+        assert nak_of(one(srv, ftp.OPEN_FILE_RO, session=4, data=b"@SYS/" + name)) == (ftp.ERR_FILE_NOT_FOUND,)
+
+
+def test_sys_is_read_only(srv, root):
+    (root / "@SYS").mkdir()                      # a real directory of that name stays shadowed
+    for op, path in ((ftp.CREATE_FILE, b"@SYS/uarts.txt"), (ftp.OPEN_FILE_WO, b"@SYS/tasks.txt"),
+                     (ftp.CREATE_FILE, b"@SYS/new.txt"), (ftp.REMOVE_FILE, b"@SYS/uarts.txt"),
+                     (ftp.REMOVE_DIRECTORY, b"@SYS"), (ftp.CREATE_DIRECTORY, b"@SYS/dir"),
+                     (ftp.TRUNCATE_FILE, b"@SYS/storage.bin")):
+        assert nak_of(one(srv, op, session=5, data=path)) == (ftp.ERR_FAIL_ERRNO, errno.EROFS), (op, path)
+    assert nak_of(one(srv, ftp.RENAME, session=5, data=b"@SYS/uarts.txt\0notes2.txt")) == (ftp.ERR_FAIL_ERRNO,
+                                                                                          errno.EROFS)
+    assert nak_of(one(srv, ftp.RENAME, session=5, data=b"notes.txt\0@SYS/notes.txt")) == (ftp.ERR_FAIL_ERRNO,
+                                                                                         errno.EROFS)
+    assert (root / "notes.txt").read_bytes() == b"hello" and os.listdir(root / "@SYS") == []
+    assert listing(srv, b"@SYS")[0] == SYS_LISTING
 
 
 # ----- reading --------------------------------------------------------------------------------
@@ -378,7 +446,7 @@ def test_a_root_that_cannot_be_made_leaves_the_virtual_files(tmp_path, clock):
 @given(requests=st.lists(st.tuples(st.integers(0, 20) | st.integers(0, 255), st.integers(0, 6), st.integers(0, 255),
                                    st.integers(0, 2**32 - 1) | st.integers(0, 2000),
                                    st.binary(max_size=239) | st.lists(st.sampled_from(
-                                       [b"logs", b"..", b"/", b"@MAV_LOG", b"@PARAM", b"param.pck", b"x", b"\0"]),
+                                       [b"logs", b"..", b"/", b"@MAV_LOG", b"@PARAM", b"@SYS", b"uarts.txt", b"param.pck", b"x", b"\0"]),
                                        max_size=6).map(b"/".join)),
                          min_size=1, max_size=12))
 def test_any_request_sequence_is_answered_without_raising(requests):

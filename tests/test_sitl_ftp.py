@@ -1,5 +1,6 @@
 """MAVFTP as ArduPilot's GCS_FTP serves it (vehicle/link/ftp.py), with the clients people use,
-the way they use them, against one running `towerlink sitl` shared by the module:
+the way they use them, against one running `towerlink sitl` shared by the module (the root,
+its "@" directories, @SYS's files):
 
 - pymavlink's mavftp module (MAVFTP(master, ...).cmd_ftp([...]), process_ftp_reply for get and
   put, as its own command line does);
@@ -150,7 +151,17 @@ def test_pymavlinks_mavftp_lists_gets_puts_and_manages_files(sitl, tmp_path):
         ret = f.cmd_ftp(["list", "/"])
         assert ret.error_code == mavftp.FtpError.Success
         listed = {(e.name, e.is_dir, e.size_b) for e in f.list_result}
-        assert {("logs", True, 0), ("terrain", True, 0), ("@MAV_LOG", True, 0)} <= listed
+        assert {("logs", True, 0), ("terrain", True, 0), ("@SYS", True, 0), ("@MAV_LOG", True, 0)} <= listed
+        f.cmd_ftp(["list", "@SYS"])
+        assert {("threads.txt", 100000), ("tasks.txt", 100000), ("uarts.txt", 100000), ("storage.bin", 16384)} <= {
+            (e.name, e.size_b) for e in f.list_result}
+        uarts = tmp_path / "uarts.txt"
+        f.cmd_ftp(["get", "@SYS/uarts.txt", str(uarts)])
+        assert f.process_ftp_reply("get", timeout=30).error_code == mavftp.FtpError.Success
+        text = uarts.read_text()
+        assert text.startswith("UARTV1\nSERIAL0 TX=") and " connected     (" in text, text
+        assert f.cmd_ftp(["rm", "@SYS/uarts.txt"]).error_code != mavftp.FtpError.Success
+        assert f.cmd_ftp(["mkdir", "@SYS/x"]).error_code != mavftp.FtpError.Success
         f.cmd_ftp(["list", "@MAV_LOG"])
         assert ("00000001.BIN", False, 20_000) in {(e.name, e.is_dir, e.size_b) for e in f.list_result}
         assert f.cmd_ftp(["list", "/APM/LOGS"]).error_code == mavftp.FtpError.FileNotFound
@@ -248,8 +259,10 @@ def test_mavproxy_ftp_list_get_put_crc(mavproxy, sitl):
     _s, root, _procs = sitl
     wait_until(lambda: mp.saw("Saved") and mp.saw("defaults to"), 60, "MAVProxy ready")
     out = "".join(_typed(mp, "ftp list /", "Total size"))
-    for entry in (" D logs", " D terrain", " D @MAV_LOG"):
+    for entry in (" D logs", " D terrain", " D @SYS", " D @MAV_LOG"):
         assert entry + "\n" in out, out
+    out = "".join(_typed(mp, "ftp list @SYS", "Total size"))
+    assert "   threads.txt\t100000\n" in out and "   uarts.txt\t100000\n" in out, out
     out = "".join(_typed(mp, "ftp list logs", "Total size"))
     assert "   00000001.BIN\t20000" in out and "   LASTLOG.TXT\t3" in out, out
 

@@ -1,6 +1,6 @@
 """MAVSDK 4.x's ftp plugin against the SITL drone's MAVFTP (vehicle/link/ftp.py), as a
 MAVSDK-Python user writes it (the asyncio API): list the root and the logs, download a log with
-and without burst reads, upload a file and compare it by CRC32, make, rename and remove a
+and without burst reads, list @SYS, upload a file and compare it by CRC32, make, rename and remove a
 directory, remove a file; what does not exist (/APM/LOGS, a path out of the root) is
 FILE_DOES_NOT_EXIST.
 
@@ -54,8 +54,11 @@ async def _client(port: int) -> int:
 
         root = await ftp.list_directory("/")
         dirs = names(root, FilesystemEntry.EntryType.DIRECTORY)
-        if not {"logs", "terrain", "@MAV_LOG"} <= set(dirs):
+        if not {"logs", "terrain", "@SYS", "@MAV_LOG"} <= set(dirs):
             raise SystemExit(f"root listing: {[str(e) for e in root.entries]}")
+        sys_files = names(await ftp.list_directory("@SYS"), FilesystemEntry.EntryType.FILE)
+        if sys_files.get("uarts.txt") != 100000 or sys_files.get("storage.bin") != 16384:
+            raise SystemExit(f"@SYS listing: {sys_files}")
         logs = names(await ftp.list_directory("/logs"), FilesystemEntry.EntryType.FILE)
         if logs.get("00000001.BIN") != len(LOG):
             raise SystemExit(f"logs listing: {logs}")

@@ -151,3 +151,29 @@ def test_request_data_stream_all_brings_ardupilots_set(sitl, flying):
                                   "ESC_TELEMETRY_1_TO_4"}) | {"RC_CHANNELS_SCALED"}
     assert rover_set <= set(counts), rover_set - set(counts)
     rover.close()
+
+
+def test_pid_tuning_sends_every_enabled_axis_at_the_stream_rate(flying):
+    """GCS_MAVLINK_Copter::send_pid_tuning sends each axis GCS_PID_MASK enables every time
+    PID_TUNING is due: with four axes at 4 Hz, each axis arrives at 4 Hz (not 1 Hz)."""
+    m = flying
+    set_param(m, "GCS_PID_MASK", 15)                    # roll, pitch, yaw, accel z
+    try:
+        assert command(m, C.MAV_CMD_SET_MESSAGE_INTERVAL, msgid("PID_TUNING"), 250000) == C.MAV_RESULT_ACCEPTED
+        recv(m, "SYSTEM_TIME", 10)
+        t0 = recv(m, "SYSTEM_TIME", 10).time_boot_ms
+        axes: dict[int, int] = {}
+        while True:
+            msg = recv(m, None, 10)
+            if msg.get_type() == "SYSTEM_TIME" and msg.time_boot_ms - t0 >= 4000 - 50:
+                span = (msg.time_boot_ms - t0) / 1000.0
+                break
+            if msg.get_type() == "PID_TUNING":
+                axes[msg.axis] = axes.get(msg.axis, 0) + 1
+        assert sorted(axes) == [C.PID_TUNING_ROLL, C.PID_TUNING_PITCH, C.PID_TUNING_YAW, C.PID_TUNING_ACCZ], axes
+        for axis, n in axes.items():
+            assert 3.0 <= n / span <= 5.0, (axis, n, span)
+        assert command(m, C.MAV_CMD_REQUEST_MESSAGE, msgid("PID_TUNING")) == C.MAV_RESULT_ACCEPTED
+    finally:
+        command(m, C.MAV_CMD_SET_MESSAGE_INTERVAL, msgid("PID_TUNING"), 0)
+        set_param(m, "GCS_PID_MASK", 1)

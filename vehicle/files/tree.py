@@ -6,8 +6,17 @@ directory (PathJail: nothing outside it is reachable) plus the "@" virtual direc
   "@PARAM" is not listed and cannot be listed.
 - "@MAV_LOG": ArduPilot's alias for the log directory (logs/ in SITL's working directory),
   listed in the root when that directory exists.
-- "@SYS", "@ROMFS", "@MISSION": ArduPilot's other virtual trees, not served here: they stay
-  virtual (FileNotFound to read, read-only to write) rather than becoming real directories.
+- "@SYS": ArduPilot's system-information directory (vehicle/files/sys_dir.py): listed, its
+  files read (OpenFileRO's ACK gives the size stat gives, as GCS_FTP does), read-only.
+- "@ROMFS", "@MISSION": ArduPilot's other virtual trees, not served here: they stay virtual
+  (FileNotFound to read, read-only to write) rather than becoming real directories.
+
+The root's listing is the root directory's entries followed by the "@" directories
+AP_Filesystem::readdir appends after the local backend's last entry: each backend whose
+opendir("") succeeds, in its table's order (@ROMFS, @PARAM, @SYS, @MISSION, @MAV_LOG), typed
+as directories. Here that is "@SYS", then "@MAV_LOG" when the log directory exists (@PARAM
+and @MISSION have no opendir; SITL's embedded @ROMFS holds ArduPilot's model and location
+files, which a towerlink vehicle does not have, so it is not listed).
 
 Every method raises OSError with the errno the failing call gave (or the jail's ENOENT);
 writes to a virtual path are EROFS. Listing entries are ArduPilot's gen_dir_entry strings
@@ -24,19 +33,21 @@ from collections.abc import Callable, Mapping
 
 from vehicle.files.jail import PathJail, ensure_dir
 from vehicle.files.staged import StagedFile, clear_staging, staging_dir_for
+from vehicle.files.sys_dir import SYS, SysDir
 from vehicle.vehicle_root import LOGS_DIR
 
 MAV_LOG = b"@MAV_LOG"
-VIRTUAL_DIRS = (b"@PARAM", b"@SYS", b"@ROMFS", b"@MISSION")
+VIRTUAL_DIRS = (b"@PARAM", SYS, b"@ROMFS", b"@MISSION")
 
 
 class BytesFile:
-    """A virtual file opened for reading: its bytes as they were at open."""
+    """A virtual file opened for reading: its bytes as they were at open; `size` is what
+    stat said (@SYS's files say more than they hold)."""
     writable = False
 
-    def __init__(self, content: bytes) -> None:
+    def __init__(self, content: bytes, size: int | None = None) -> None:
         self.content = content
-        self.size = len(content)
+        self.size = len(content) if size is None else size
 
     def read(self, offset: int, n: int) -> bytes:
         return self.content[offset:offset + n]
@@ -76,11 +87,14 @@ def _err(code: int, path: bytes = b"") -> OSError:
 
 class VehicleFiles:
     def __init__(self, root: str | os.PathLike | None,
-                 virtual: Mapping[str, Callable[[bool], bytes]] | None = None) -> None:
+                 virtual: Mapping[str, Callable[[bool], bytes]] | None = None,
+                 sys_dir: SysDir | None = None) -> None:
         """root: the vehicle's directory (created if missing), None for no file system (only
         the virtual files, as when the directory cannot be made); virtual: path
-        ("@PARAM/param.pck") -> content(with_defaults)."""
+        ("@PARAM/param.pck") -> content(with_defaults); sys_dir: @SYS (one without ports
+        when not given)."""
         self.virtual = {os.fsencode(k): v for k, v in (virtual or {}).items()}
+        self.sys = sys_dir if sys_dir is not None else SysDir()
         self.jail = self.staging = None
         if root is None:
             return
@@ -112,6 +126,9 @@ class VehicleFiles:
 
     def _virtual(self, path: bytes) -> BytesFile | None:
         p = path.lstrip(b"/")
+        first, _, rest = p.partition(b"/")
+        if first == SYS:
+            return BytesFile(self.sys.content(rest), self.sys.size(rest))
         base, _, query = p.partition(b"?")
         make = self.virtual.get(base)
         if make is None:
@@ -137,6 +154,11 @@ class VehicleFiles:
             f.close()
 
     def listing(self, path: bytes) -> list[bytes]:
+        first, _, rest = path.lstrip(b"/").partition(b"/")
+        if first == SYS:
+            if rest.strip(b"/"):
+                raise _err(errno.ENOENT, path)      # @SYS has no subdirectories
+            return self.sys.listing()
         real = self._local(path)
         out = [b"D.", b"D.."]
         with os.scandir(real) as it:
@@ -154,8 +176,10 @@ class VehicleFiles:
                     out.append(b"F%s\t%d" % (name, e.stat(follow_symlinks=False).st_size & 0xFFFFFFFF))
             except OSError:
                 continue                    # gone or unreadable: ArduPilot drops it too
-        if self.jail.is_root(real) and os.path.isdir(os.path.join(real, os.fsencode(LOGS_DIR))):
-            out.append(b"D" + MAV_LOG)
+        if self.jail.is_root(real):
+            out.append(b"D" + SYS)
+            if os.path.isdir(os.path.join(real, os.fsencode(LOGS_DIR))):
+                out.append(b"D" + MAV_LOG)
         return out
 
     # ----- writing ----------------------------------------------------------------------------

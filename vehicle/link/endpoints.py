@@ -61,7 +61,11 @@ class Channel:
 
 
 class Endpoint:
+    """`tx_bytes` / `rx_bytes`: what it has written and read since it started (every peer's
+    copy of a broadcast counts), for the port report of @SYS/uarts.txt."""
     spec = ""
+    tx_bytes = 0
+    rx_bytes = 0
 
     async def start(self) -> None: ...
     def send(self, buf: bytes) -> None: ...
@@ -120,6 +124,7 @@ class UdpIn(Endpoint):
             lambda: _UdpProto(self), local_addr=(self.host, self.port))
 
     def received(self, data: bytes, addr) -> None:
+        self.rx_bytes += len(data)
         ch = self.peers.get(addr)
         if ch is None:      # replies to this packet may go back; it is no peer until it checks out
             ch = Channel(f"{self.spec}<-{addr[0]}:{addr[1]}", lambda b, a=addr: self._sendto(b, a))
@@ -144,6 +149,7 @@ class UdpIn(Endpoint):
         return self.transport is not None and len(self.peers) > 0
 
     def _sendto(self, buf: bytes, addr) -> None:
+        self.tx_bytes += len(buf)
         self.outbox.send(self.transport.sendto, buf, addr)
 
     def send(self, buf: bytes) -> None:
@@ -183,9 +189,11 @@ class UdpOut(Endpoint):
 
     def _sendto(self, buf: bytes) -> None:
         if self.transport is not None:
+            self.tx_bytes += len(buf)
             self.outbox.send(self.transport.sendto, buf, self.addr)
 
     def received(self, data: bytes, addr) -> None:
+        self.rx_bytes += len(data)
         self.on_data(data, self.channel)
 
     def send(self, buf: bytes) -> None:
@@ -211,6 +219,7 @@ class _TcpClient(asyncio.Protocol):
         self.channel = self.owner.connected(transport)
 
     def data_received(self, data: bytes) -> None:
+        self.owner.rx_bytes += len(data)
         self.owner.on_data(data, self.channel)
 
     def connection_lost(self, exc) -> None:
@@ -246,6 +255,7 @@ class TcpIn(Endpoint):
         self.clients.pop(ch, None)
 
     def _write(self, t: asyncio.Transport, buf: bytes) -> None:
+        self.tx_bytes += len(buf)
         self.outbox.send(self._write_now, t, buf)
 
     def _write_now(self, t: asyncio.Transport, buf: bytes) -> None:

@@ -32,7 +32,9 @@ are BURST_PACKETS long (ArduPilot: 2000 packets paced by its link's free buffer;
 at once); opening @PARAM/param.pck sends no banner.
 
 The file tree (vehicle/files/tree.py): the vehicle's root directory plus virtual files
-(`files`: "@PARAM/param.pck" -> content(with_defaults)); without a root only those.
+(`files`: "@PARAM/param.pck" -> content(with_defaults)) and @SYS (vehicle/files/sys_dir.py);
+without a root only those. The root's listing ends with the "@" directories ArduPilot
+appends to it ("@SYS", "@MAV_LOG").
 """
 from __future__ import annotations
 
@@ -82,6 +84,7 @@ from vehicle.files.ftp_wire import (  # noqa: F401
     reply,
 )
 from vehicle.files.param_pck import PCK_MAGIC, PCK_MAGIC_DEFAULTS, param_pck  # noqa: F401
+from vehicle.files.sys_dir import SysDir
 from vehicle.files.tree import VehicleFiles
 
 
@@ -93,12 +96,13 @@ class FtpServer:
     BURST_PACKETS = 64          # data packets per BurstReadFile before burst_complete
 
     def __init__(self, files: Mapping[str, Callable[[bool], bytes]], root: str | os.PathLike | None = None,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] = time.monotonic, sys_dir: SysDir | None = None) -> None:
         """files: virtual read-only files, path -> content(with_defaults), read at open (as
         ArduPilot snapshots @PARAM/param.pck); root: the vehicle's directory (created if
-        missing), None for none; clock(): seconds, for the session timeouts."""
+        missing), None for none; clock(): seconds, for the session timeouts; sys_dir: @SYS
+        (one without ports when not given)."""
         self.files = dict(files)
-        self.tree = VehicleFiles(root, self.files)
+        self.tree = VehicleFiles(root, self.files, sys_dir)
         self.sessions = SessionTable()
         self.clock = clock
         self._last: tuple[tuple, bytes] | None = None    # (key, reply) of the last answer

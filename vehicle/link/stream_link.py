@@ -98,9 +98,7 @@ class StreamLink:
             # before home / the origin are set: ACCEPTED, nothing sent)
             if msgid not in builders:
                 return mav.MAV_RESULT_FAILED
-            msg = self.telemetry.build(msgid)
-            if msg is not None:
-                c.after_ack.append(msg)
+            c.after_ack.extend(self.telemetry.build_all(msgid))
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_GET_MESSAGE_INTERVAL:
             if msgid not in builders:

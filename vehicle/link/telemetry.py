@@ -50,9 +50,11 @@ class Telemetry:
     link, `clock` is the world's sim time (s), `unix_start_us` the unix time of sim t = 0.
 
     Each message has one builder, `<name>_fields()`: the field values in the order of
-    pymavlink's constructor (None when not available now). `frame(msgid)` packs them straight
-    onto the wire (vehicle/link/framing.py: no message object); `build(msgid)` and the
-    `<name>()` methods give pymavlink message objects for replies and tests."""
+    pymavlink's constructor (None when not available now), or a list of such tuples for a
+    message ArduPilot sends several of each time it is due (PID_TUNING: one per enabled
+    axis). `frame(msgid)` packs them straight onto the wire (vehicle/link/framing.py: no
+    message object); `build_all(msgid)`, `build(msgid)` and the `<name>()` methods give
+    pymavlink message objects for replies and tests."""
 
     def __init__(self, ap, framer: Framer | None, clock: Callable[[], float] | None,
                  unix_start_us: int = 0) -> None:
@@ -83,19 +85,39 @@ class Telemetry:
         self.builders.update(message_builders(ap, lambda: self.clock()))
         self.groups = stream_groups(ap.kind if ap is not None else "copter")   # SR0_* -> message ids
 
-    def build(self, msgid: int):
-        """The message object with this id, or None if not available now (unknown id, home unset)."""
+    def build_all(self, msgid: int) -> list:
+        """Every message object this id gives now, in the order they are sent ([] if none:
+        unknown id, home unset)."""
         b = self.builders.get(msgid)
-        if b is None:
-            return None
-        v = b()
-        return None if v is None else layout(msgid).cls(*v)
+        v = None if b is None else b()
+        if not v:
+            return []
+        cls = layout(msgid).cls
+        return [cls(*f) for f in v] if type(v) is list else [cls(*v)]
+
+    def build(self, msgid: int):
+        """The (first) message object with this id, or None if not available now."""
+        msgs = self.build_all(msgid)
+        return msgs[0] if msgs else None
 
     def frame(self, msgid: int) -> bytes | None:
-        """The message with this id framed for the link (advances nothing: the caller counts
-        the sequence number), or None if not available now."""
+        """The message with this id framed for the link, or None if not available now. The
+        caller advances the sequence number after it; several messages of one id (a list
+        from the builder) come back as consecutive frames, the sequence number advanced
+        between them here."""
         v = self.builders[msgid]()
-        return None if v is None else self.framer.frame(msgid, v)
+        if not v:
+            return None
+        framer = self.framer
+        if type(v) is not list:
+            return framer.frame(msgid, v)
+        m = framer.mav
+        out = []
+        for i, f in enumerate(v):
+            if i:
+                m.seq = (m.seq + 1) % 256
+            out.append(framer.frame(msgid, f))
+        return b"".join(out)
 
     def set_unix_start(self, unix_start_us: int) -> None:
         """Sim t = 0 is this unix time (us) from now on (SYSTEM_TIME.time_unix_usec)."""

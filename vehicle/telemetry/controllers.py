@@ -16,9 +16,10 @@ PID_TUNING (GCS_MAVLINK_Copter::send_pid_tuning; SR0_EXTRA1, axes chosen by GCS_
   m/s): desired = the commanded speed, achieved = the speed. Approximated: the simulated
   drive follows its commands through its own lag, with no PID, so FF = desired and
   P = I = D = 0.
-ArduPilot sends every enabled axis each time the message is due. One scheduled slot
-carries one message here, so the enabled axes take turns: with n axes enabled each arrives
-at 1/n of SR0_EXTRA1's rate (or of PID_TUNING's SET_MESSAGE_INTERVAL).
+Every enabled axis is sent each time the message is due, in that order, one PID_TUNING
+per axis (send_pid_tuning loops over the axes; each is guarded by HAVE_PAYLOAD_SPACE, which a
+network link always has): with n axes enabled each arrives at SR0_EXTRA1's rate (or at
+PID_TUNING's SET_MESSAGE_INTERVAL), n messages a slot.
 
 ATTITUDE_TARGET (GCS_MAVLINK_Copter::send_attitude_target; in no stream group, asked for by
 SET_MESSAGE_INTERVAL or REQUEST_MESSAGE, in every mode): the attitude controller's target
@@ -45,21 +46,18 @@ class ControllerTelemetry:
     def __init__(self, ap, clock) -> None:
         self.ap = ap
         self.clock = clock
-        self._turn = -1             # the enabled axis sent last (they take turns)
-        self._turn_t: float | None = None
 
-    def pid_tuning_fields(self) -> tuple | None:
+    def pid_tuning_fields(self) -> list[tuple] | None:
+        """One PID_TUNING's fields per enabled axis (GCS_PID_MASK), in ArduPilot's axis
+        order; None with none enabled."""
         ap = self.ap
         mask = int(ap.params.get("GCS_PID_MASK", 0) or 0)
-        axes = [a for bit, a in (_COPTER_AXES if ap.kind == "copter" else _ROVER_AXES) if mask & bit]
-        if not axes:
+        if not mask:
             return None
-        t = self.clock()
-        if t != self._turn_t:           # the next axis at each new instant: one built twice
-            self._turn_t = t            # at one time (a request and a stream) is the same
-            self._turn += 1
-        axis = axes[self._turn % len(axes)]
-        return self._copter_axis(axis) if ap.kind == "copter" else self._rover_axis(axis)
+        copter = ap.kind == "copter"
+        one = self._copter_axis if copter else self._rover_axis
+        out = [one(a) for bit, a in (_COPTER_AXES if copter else _ROVER_AXES) if mask & bit]
+        return out or None
 
     def _copter_axis(self, axis: int) -> tuple:
         ap = self.ap

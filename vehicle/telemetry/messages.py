@@ -1,7 +1,8 @@
 """The message families of vehicle/telemetry/ for one vehicle, by MAVLink message id.
 
 `message_builders(ap, clock)` gives msgid -> builder: each builder returns the message's
-field values in pymavlink's constructor order, or None when the vehicle has nothing to say
+field values in pymavlink's constructor order (a list of them for PID_TUNING, one message per
+enabled axis, as ArduPilot sends them together), or None when the vehicle has nothing to say
 now (FENCE_STATUS with the fence off, a rover's NAV_CONTROLLER_OUTPUT outside autopilot
 modes, POSITION_TARGET_GLOBAL_INT without a destination, PID_TUNING with GCS_PID_MASK 0,
 SCALED_PRESSURE3 of SITL's two barometers, a rover's WIND and ATTITUDE_TARGET). Nothing is
