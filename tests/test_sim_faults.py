@@ -10,6 +10,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from common.geo import LATLON_TO_M
+from auto_world import hover_stick
 from test_autopilot_behaviour import A, _fly, _until, _world
 from vehicle import sim_faults
 from vehicle.autopilot import modes
@@ -127,6 +128,7 @@ def _loitering():
     ap = w.vehicles[0].ap
     texts = _texts(w, ap)
     _fly(w, 10.0)
+    hover_stick(ap)
     assert ap.set_mode(modes.LOITER)
     w.run_for(2.0)
     return w, ap, texts, EkfTelemetry(ap)

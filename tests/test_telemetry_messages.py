@@ -89,8 +89,20 @@ def test_rover_skid_steering_outputs_and_servo_out():
     assert s.servo1_raw > 1500 > s.servo3_raw, (s.servo1_raw, s.servo3_raw)
 
 
-def test_rc_channels_are_the_trims_of_the_centred_sticks():
-    f = Flight("copter", params={"RC2_TRIM": 1520, "RC7_TRIM": 1100})
+@pytest.mark.parametrize("kind, throttle", [("copter", 1000), ("rover", 1500)])
+def test_rc_channels_are_the_simulated_receivers(kind, throttle):
+    """ArduPilot SITL's receiver (AP_RCProtocol_UDP::set_default_pwm_input_values): 8
+    channels, channels 9-16 without a pulse read 0."""
+    f = Flight(kind, params={"RC2_TRIM": 1520, "RC7_TRIM": 1100})
+    f.settle()
+    rc = build(f, "RC_CHANNELS")
+    assert rc.chancount == 8 and rc.rssi == 255
+    assert [getattr(rc, f"chan{n}_raw") for n in range(1, 9)] == [1500, 1500, throttle, 1500, 1800, 1000, 1000, 1800]
+    assert [getattr(rc, f"chan{n}_raw") for n in range(9, 19)] == [0] * 10
+
+
+def test_rc_channels_without_pulses_are_the_trims():
+    f = Flight("copter", params={"SIM_RC_FAIL": 1, "RC2_TRIM": 1520, "RC7_TRIM": 1100})
     f.settle()
     rc = build(f, "RC_CHANNELS")
     assert rc.chancount == 16 and rc.rssi == 255
