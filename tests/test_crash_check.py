@@ -32,20 +32,13 @@ def _quat(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, f
 
 # ---------------------------------------------------------------- pure parts
 
-@given(roll=st.floats(-1.2, 1.2), pitch=st.floats(-1.2, 1.2), yaw=st.floats(-3.1, 3.1), turn=st.floats(-3.1, 3.1))
-def test_thrust_error_is_zero_on_target_whatever_the_heading(roll, pitch, yaw, turn):
-    """On its target the error is 0; a level target against a level copter of another heading
-    too (yaw does not count: the angle between thrust axes)."""
-    q = _quat(roll, pitch, yaw)
-    assert crash_check.thrust_error_angle_deg(q, math.tan(roll), math.tan(pitch), yaw) == pytest.approx(0, abs=1e-3)
-    assert crash_check.thrust_error_angle_deg(_quat(0, 0, yaw), 0.0, 0.0, turn) == pytest.approx(0, abs=1e-3)
-
-
 @given(lean=st.floats(0.0, math.pi), yaw=st.floats(-3.1, 3.1))
-def test_thrust_error_of_a_level_target_is_the_lean(lean, yaw):
+def test_lean_and_error_angles(lean, yaw):
+    """lean_cos is cos of the lean from level, whatever the heading; error_angle_deg turns
+    the controller's att_err (sin^2 of half the angle) back into degrees."""
     q = _quat(lean, 0.0, yaw) if lean <= math.pi / 2 else _quat(math.pi, math.pi - lean, yaw)
-    assert crash_check.thrust_error_angle_deg(q, 0.0, 0.0, yaw) == pytest.approx(math.degrees(lean), abs=1e-3)
     assert math.degrees(math.acos(crash_check.lean_cos(q))) == pytest.approx(math.degrees(lean), abs=1e-3)
+    assert crash_check.error_angle_deg(math.sin(lean / 2) ** 2) == pytest.approx(math.degrees(lean), abs=1e-3)
 
 
 def test_thresholds_are_crash_check_cpp():
@@ -107,7 +100,7 @@ def test_controller_row_reads_what_controller_of_copies(scalar):
         f.step(1 / 400)
     for i in range(3):
         row, full = crash_check.controller_row(f, i), f.controller_of(i)
-        for name in ("coll", "tan_roll_t", "tan_pitch_t", "yaw", "f0", "f1", "f2", "f3"):
+        for name in ("coll", "tan_roll_t", "tan_pitch_t", "att_err", "lax", "lay", "laz", "f0", "f1", "f2", "f3"):
             assert getattr(row, name) == getattr(full, name)
         assert 0.0 < row.f0 <= 1.0
 

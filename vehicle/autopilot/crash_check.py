@@ -5,14 +5,13 @@ still disarms itself instead of spinning its motors into the ground.
 Copter (CopterCrashCheck), each tick, all of these or the count starts again:
 - armed, not landed (the land detector), FS_CRASH_CHECK != 0 (default 1), in a mode whose
   crash_check_enabled() (ArduCopter: not ACRO, not FLIP; towerlink has neither);
-- the 1 Hz low-passed earth-frame acceleration, gravity taken out, below
-  CRASH_CHECK_ACCEL_MAX (3 m/s/s): ArduCopter filters the accelerometers' specific force
-  rotated to the earth frame plus g; here the estimate's velocity change per tick, the same
-  kinematic acceleration (a falling copter reads ~g and is not yet crashed);
+- the 1 Hz low-passed earth-frame acceleration, gravity taken out (land_accel_ef_filter: the
+  land detector's, vehicle.fleet._land_detect keeps it in the controller's lax, lay, laz),
+  below CRASH_CHECK_ACCEL_MAX (3 m/s/s) (a falling copter reads ~g and is not yet crashed);
 - leaning more than CRASH_CHECK_ANGLE_MIN_DEG (15 deg) from level (estimated attitude);
 - the attitude controller's error more than CRASH_CHECK_ANGLE_DEVIATION_DEG (30 deg):
   AC_AttitudeControl's get_att_error_angle_deg, the angle between the target's and the
-  estimate's thrust axes (yaw does not count);
+  estimate's thrust axes (yaw does not count; the controller's att_err);
 - slower than CRASH_CHECK_SPEED_MAX (10 m/s) (estimated velocity).
 CRASH_CHECK_TRIGGER_SEC (2 s) of that: EMERGENCY "Crash: Disarming: AngErr=<e>>30,
 Accel=<a><3.0" (ArduCopter's words and format), the ARM record's Method CRASH (12), disarm.
@@ -39,7 +38,6 @@ ANGLE_DEVIATION_DEG = 30.0       # CRASH_CHECK_ANGLE_DEVIATION_DEG: attitude err
 ANGLE_MIN_DEG = 15.0             # CRASH_CHECK_ANGLE_MIN_DEG: lean from level
 SPEED_MAX = 10.0                 # CRASH_CHECK_SPEED_MAX, m/s
 ACCEL_MAX = 3.0                  # CRASH_CHECK_ACCEL_MAX, m/s/s
-ACCEL_FILTER_HZ = 1.0            # land_accel_ef_filter's cut-off
 THRUST_LOSS_TRIGGER_SEC = 1.0    # THRUST_LOSS_CHECK_TRIGGER_SEC
 THRUST_LOSS_ANGLE_DEG = 15.0     # THRUST_LOSS_CHECK_ANGLE_DEVIATION_CD / 100
 THRUST_LOSS_MIN_THROTTLE = 0.9   # THRUST_LOSS_CHECK_MINIMUM_THROTTLE
@@ -54,21 +52,10 @@ def lean_cos(quat) -> float:
     return 1.0 - 2.0 * (qx * qx + qy * qy)
 
 
-def thrust_error_angle_deg(quat, tan_roll: float, tan_pitch: float, yaw: float) -> float:
-    """Degrees between the thrust axis (body z) of the attitude target -- ZYX Euler roll and
-    pitch given by their tangents, heading `yaw` rad -- and that of the (x, y, z, w)
-    quaternion `quat` (body FRD -> world NED): AC_AttitudeControl's thrust error angle."""
-    qx, qy, qz, qw = (float(v) for v in quat)
-    cp = 1.0 / math.sqrt(1.0 + tan_pitch * tan_pitch)
-    sp = tan_pitch * cp
-    cr = 1.0 / math.sqrt(1.0 + tan_roll * tan_roll)
-    sr = tan_roll * cr
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    # third column of Rz(yaw) Ry(pitch) Rx(roll), and of the quaternion's rotation
-    tx, ty, tz = cy * sp * cr + sy * sr, sy * sp * cr - cy * sr, cp * cr
-    bx, by, bz = 2.0 * (qx * qz + qw * qy), 2.0 * (qy * qz - qw * qx), 1.0 - 2.0 * (qx * qx + qy * qy)
-    dot = max(-1.0, min(1.0, tx * bx + ty * by + tz * bz))
-    return math.degrees(math.acos(dot))
+def error_angle_deg(att_err: float) -> float:
+    """Degrees between the target's and the estimate's thrust axes from the controller's
+    att_err (sin^2 of half that angle: the error rotation's R33 is 1 - 2 att_err)."""
+    return math.degrees(math.acos(max(-1.0, min(1.0, 1.0 - 2.0 * att_err))))
 
 
 class _Row:
@@ -106,8 +93,6 @@ class CopterCrashCheck(CrashCheck):
     def __init__(self, ap) -> None:
         super().__init__(ap)
         self.crashing_s = 0.0                   # s the conditions have held (crash_counter)
-        self.accel = (0.0, 0.0, 0.0)            # 1 Hz filtered acceleration, m/s/s NED
-        self._last_vel: tuple[float, float, float] | None = None
         self.losing_s = 0.0                     # s the thrust loss conditions have held
         self.thrust_boost = False               # AP_Motors' thrust boost (latched by the check)
         self._thrust: list[float] | None = None  # the motors' filtered thrust commands (0..1)
@@ -115,22 +100,19 @@ class CopterCrashCheck(CrashCheck):
     def update(self, dt: float) -> None:
         ap = self.ap
         if not ap.armed:
-            self.crashing_s, self.accel, self._last_vel = 0.0, (0.0, 0.0, 0.0), None
-            self.losing_s, self.thrust_boost, self._thrust = 0.0, False, None
+            self.crashing_s, self.losing_s, self.thrust_boost, self._thrust = 0.0, 0.0, False, None
             return
-        acc = self._filter_accel(dt)
         self._thrust_loss(dt)
         if (ap.on_ground or not int(ap.params.get("FS_CRASH_CHECK", 1))
-                or not ap.flightmode.crash_check_enabled()):
-            self.crashing_s = 0.0
+                or not ap.flightmode.crash_check_enabled() or lean_cos(ap.quat) >= _COS_LEAN_MIN):
+            self.crashing_s = 0.0               # (the lean first: most ticks end here, cheaply)
             return
-        if acc >= ACCEL_MAX or lean_cos(ap.quat) >= _COS_LEAN_MIN:
-            self.crashing_s = 0.0
-            return
-        c = controller_row(ap.fleet, ap.i)      # only now: most ticks end above
-        err = thrust_error_angle_deg(ap.quat, c.tan_roll_t, c.tan_pitch_t, c.yaw)
+        c = controller_row(ap.fleet, ap.i)
+        acc = math.sqrt(c.lax * c.lax + c.lay * c.lay + c.laz * c.laz)
+        err = error_angle_deg(c.att_err)
         vx, vy, vz = ap.vel.tolist()
-        if err <= ANGLE_DEVIATION_DEG or vx * vx + vy * vy + vz * vz >= SPEED_MAX * SPEED_MAX:
+        if (acc >= ACCEL_MAX or err <= ANGLE_DEVIATION_DEG
+                or vx * vx + vy * vy + vz * vz >= SPEED_MAX * SPEED_MAX):
             self.crashing_s = 0.0
             return
         self.crashing_s += dt
@@ -138,21 +120,6 @@ class CopterCrashCheck(CrashCheck):
             ap.text(mav.MAV_SEVERITY_EMERGENCY,
                     f"Crash: Disarming: AngErr={err:.0f}>{ANGLE_DEVIATION_DEG:.0f}, Accel={acc:.1f}<{ACCEL_MAX:.1f}")
             ap.disarm(force=True, reason="crash")
-
-    def _filter_accel(self, dt: float) -> float:
-        """Step land_accel_ef_filter (a first-order low-pass at ACCEL_FILTER_HZ, ArduPilot's
-        LowPassFilter) on the estimated velocity's change; its magnitude, m/s/s."""
-        vel = tuple(self.ap.vel.tolist())
-        last, self._last_vel = self._last_vel, vel
-        if last is None or dt <= 0:
-            return math.sqrt(sum(a * a for a in self.accel))
-        alpha = dt / (dt + 1.0 / (2.0 * math.pi * ACCEL_FILTER_HZ))
-        ax, ay, az = self.accel
-        ax += ((vel[0] - last[0]) / dt - ax) * alpha
-        ay += ((vel[1] - last[1]) / dt - ay) * alpha
-        az += ((vel[2] - last[2]) / dt - az) * alpha
-        self.accel = (ax, ay, az)
-        return math.sqrt(ax * ax + ay * ay + az * az)
 
     def _thrust_loss(self, dt: float) -> None:
         """Copter::thrust_loss_check, with the motors' filter of check_for_failed_motor."""
@@ -183,7 +150,7 @@ class CopterCrashCheck(CrashCheck):
         tr, tp = c.tan_roll_t, c.tan_pitch_t
         roll, pitch = math.degrees(math.atan(tr)), math.degrees(math.atan(tp))
         if (roll * roll + pitch * pitch > THRUST_LOSS_ANGLE_DEG ** 2
-                or thrust_error_angle_deg(ap.quat, tr, tp, c.yaw) >= ANGLE_DEVIATION_DEG):
+                or error_angle_deg(c.att_err) >= ANGLE_DEVIATION_DEG):
             self.losing_s = 0.0
             return
         self.losing_s += dt

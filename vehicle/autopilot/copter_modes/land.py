@@ -4,9 +4,10 @@ Descent at WPNAV_SPEED_DN (or LAND_SPEED_HIGH) above LAND_ALT_LOW, LAND_SPEED be
 (copter_mode.CopterMode.land_run); disarms once landed. Says "Landing" on entry.
 
 A failsafe lands with a pause (events.cpp set_mode_land_with_pause, copter_failsafe.py):
-set_land_pause(True) after the change holds the altitude until LAND_WITH_DELAY_S after LAND
-was entered, then the descent starts (ArduCopter says nothing of it). A failsafe that finds
-the copter already in LAND pauses only what is left of that time since it entered.
+set_land_pause(True) after the change asks a climb rate of 0 (the copter stops and holds its
+altitude) until LAND_WITH_DELAY_S after LAND was entered, then the descent starts (ArduCopter
+says nothing of it). A failsafe that finds the copter already in LAND pauses only what is left
+of that time since it entered.
 """
 from __future__ import annotations
 
@@ -27,13 +28,10 @@ class ModeLand(CopterMode):
         super().__init__(ap)
         self.land_pause = False
         self.start_t = 0.0             # sim s LAND was entered (land_start_time)
-        self.pause_z = 0.0             # world z (m, down) held while paused
 
     def set_land_pause(self, pause: bool) -> None:
-        """ModeLand::set_land_pause: hold the altitude it is at before descending (a
-        failsafe's)."""
+        """ModeLand::set_land_pause: no descent yet, a climb rate of 0 (a failsafe's)."""
         self.land_pause = pause
-        self.pause_z = float(self.ap.pos[2])
 
     def requires_position(self) -> bool:
         """ArduCopter's LAND does not: without a position estimate it descends level
@@ -52,4 +50,4 @@ class ModeLand(CopterMode):
     def fly(self, dt: float) -> None:
         if self.land_pause and self.ap.t - self.start_t >= LAND_WITH_DELAY_S - 1e-9:
             self.land_pause = False
-        self.land_run(dt, pause_z=self.pause_z if self.land_pause else None)
+        self.land_run(dt, pause=self.land_pause)
