@@ -14,6 +14,7 @@ from auto_world import hover_stick
 from test_autopilot_behaviour import A, _fly, _until, _world
 from vehicle import sim_faults
 from vehicle.autopilot import modes
+from vehicle.autopilot.copter_modes.land import LAND_WITH_DELAY_S
 from vehicle.autopilot.ekf_failsafe import copter_over_threshold, rover_over_threshold
 from vehicle.autopilot.params_ardupilot import COPTER_EXTRA
 from vehicle.sensors import Sensors, SensorSpec, vehicle_rngs
@@ -160,8 +161,9 @@ def test_gps_off_in_loiter_lands_and_disarms_within_the_descent_time():
     its filter stops aiding after 15 s and fuses the last known position (EKF3's AID_NONE:
     EKF_STATUS_REPORT attitude, vertical velocity and position, CONST_POS_MODE, velocity ratio
     0, a small position ratio) so its velocity estimate stays bounded; the land detector needs
-    no horizontal stillness. Bounds: the descent at LAND_SPEED from the height LAND started
-    at (below LAND_ALT_LOW, so all at LAND_SPEED), plus LAND_DETECT_TIME, plus 2 s for the
+    no horizontal stillness. Bounds: the failsafe LAND's pause (LAND_WITH_DELAY_MS), the
+    descent at LAND_SPEED from the height LAND started at (below LAND_ALT_LOW, so all at
+    LAND_SPEED), plus LAND_DETECT_TIME, plus 2 s for the
     vertical loop to reach the descent rate and settle at touch-down. The horizontal drift
     (LAND flies level on the attitude estimate, with no position) at most what the speed at
     LAND's start and the AHRS model's RMS tilt error (SensorSpec.ahrs_sigma on each of two
@@ -173,7 +175,8 @@ def test_gps_off_in_loiter_lands_and_disarms_within_the_descent_time():
     start, v0 = fleet.pos[0].copy(), math.hypot(*fleet.vel[0][:2])
     height = fleet.ground_z[0] - start[2]
     assert height < ap.params.get("LAND_ALT_LOW", 1000) / 100
-    bound = height / (ap.params.get("LAND_SPEED", 50) / 100) + fleet.gains_of(0).land_time + 2.0
+    bound = (LAND_WITH_DELAY_S + height / (ap.params.get("LAND_SPEED", 50) / 100)
+             + fleet.gains_of(0).land_time + 2.0)
     top_speed = 0.0
 
     def disarmed():
