@@ -71,7 +71,6 @@ import sys
 from common.collector import tune_for_long_run
 from common.mavlink.lockstep import speedup_type
 from common.mavlink.signing import add_signing_argument, key_from_text as signing_key
-from vehicle.world import World
 from vehicle.world_config import DEFAULT_HOME, DEFAULT_STATE_DIR, PLAN_FILE, WorldConfig
 
 
@@ -242,14 +241,26 @@ def run(args: argparse.Namespace) -> int:
     from vehicle.network_plan import PlanError
     if args.workers > 1:
         return _run_workers(args)
+    cfg = config_from_args(args)
     try:
-        world = World(config_from_args(args))
+        plan = cfg.network_plan()
     except PlanError as e:                      # sysids / ports that cannot work: nothing started
+        print(f"towerlink sitl: refused: {e}", file=sys.stderr)
+        return 2
+    # HEARTBEATs while the world (the autopilots, their estimator's filterpy and scipy) loads
+    from vehicle.boot_beacon import BootBeacon, boot_targets
+    beacon = BootBeacon([] if cfg.lockstep else boot_targets(cfg, plan), cfg.signing_key).start()
+    try:
+        from vehicle.world import World
+        world = World(cfg)
+    except PlanError as e:                      # a saved SYSID_THISMAV that clashes: nothing started
         print(f"towerlink sitl: refused: {e}", file=sys.stderr)
         return 2
     except (OSError, ParamFileError) as e:      # an unreadable --params FILE
         print(f"towerlink sitl: {e}", file=sys.stderr)
         return 1
+    finally:
+        beacon.stop()
     try:
         for path in ([os.path.join(args.state_dir, PLAN_FILE)] if not args.no_save else []) + \
                 ([args.plan_out] if args.plan_out else []):

@@ -8,7 +8,6 @@ it, and starts at `start_position(kind, j)`; a process running a share of the wo
 """
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
@@ -85,8 +84,7 @@ def build(cfg: WorldConfig, plan: NetworkPlan, clock: Callable[[], float], unix_
         for j in js:
             defaults = dict(file_params)
             defaults["SYSID_THISMAV"] = plan.vehicles[first + j].sysid
-            save = (os.path.join(cfg.state_dir, f"{'drone' if kind == 'copter' else 'rover'}{j}.parm")
-                    if cfg.state_dir else None)
+            save = cfg.saved_params_path(kind, j)
             stores.append(ParamStore(core + table, defaults, save, deferred=True))   # the link flushes
             saves.append(save)
         if cfg.params_file:          # once per kind: unknown names / bad values, not fatal
