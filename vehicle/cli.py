@@ -85,7 +85,7 @@ def _home(s: str) -> tuple[float, float, float]:
 
 
 def _endpoint(s: str) -> tuple[int, str]:
-    from vehicle.link import parse_endpoint
+    from vehicle.link.endpoints import parse_endpoint
     try:
         i, spec = s.split("=", 1)
         parse_endpoint(spec)
@@ -95,7 +95,7 @@ def _endpoint(s: str) -> tuple[int, str]:
 
 
 def _out(s: str) -> str:
-    from vehicle.link import parse_endpoint
+    from vehicle.link.endpoints import parse_endpoint
     try:
         parse_endpoint(s)
     except ValueError as e:

@@ -14,13 +14,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from vehicle import sim_faults
-from vehicle.autopilot import CopterAutopilot, ParamStore, RoverAutopilot
+from vehicle.autopilot.copter import CopterAutopilot
 from vehicle.autopilot.mission_persist import PersistentMissionStore, missions_path
 from vehicle.autopilot.mission_store import MISSION, MissionStore
-from vehicle.autopilot.params import (COPTER_TABLE, ROVER_TABLE, _warn, core_table, file_warnings,
+from vehicle.autopilot.params import (COPTER_TABLE, ROVER_TABLE, ParamStore, _warn, core_table, file_warnings,
                                       read_parm_file)
+from vehicle.autopilot.rover import RoverAutopilot
 from vehicle.fleet import CopterFleet, RoverFleet
-from vehicle.link import VehicleLink
+from vehicle.link.vehicle_link import VehicleLink
 from vehicle.link.link_core import Intake
 from vehicle.link.outbox import DIRECT, Outbox
 from vehicle.logs.world_logs import WorldLogs
