@@ -11,6 +11,9 @@ Endpoints (pymavlink connection strings), for vehicle i (drones first, then rove
                                  a correctly signed packet makes a peer
   --out udpout:HOST:PORT          push every vehicle's stream (e.g. 14550 GCS, 14540 MAVSDK)
 so: mavproxy.py --master tcp:127.0.0.1:5760, or mavutil.mavlink_connection('udpout:127.0.0.1:14560').
+While the world loads (about a second) every vehicle already sends a HEARTBEAT once a second
+on its udpout pushes (--out), with system_status MAV_STATE_BOOT, as ArduPilot does during its
+initialisation; not with --lockstep (vehicle/boot_beacon.py).
 
 Networks and the port rule (any number of vehicles, every one reachable):
   A MAVLink network holds 254 vehicles (255 is the GCS's), so vehicle i is in network
