@@ -35,7 +35,7 @@ from vehicle.autopilot.mode import Mode
 from vehicle.autopilot.outbox import Outbox
 from vehicle.autopilot.params import ParamStore
 from vehicle.autopilot.radio_failsafe import RadioFailsafe
-from vehicle.autopilot.rc_input import RcInput
+from vehicle.autopilot.rc_input import COPTER_RECEIVER, RcInput
 from vehicle.autopilot.smartrtl import SmartRTLPath
 from vehicle.autopilot.speed import SpeedOverride
 from vehicle.fleet import Setpoint
@@ -61,6 +61,7 @@ class Autopilot:
     mav_type = 0
     mode_classes: tuple[type[Mode], ...] = ()
     initial_mode = GUIDED = AUTO = RTL = SMART_RTL = -1
+    receiver = COPTER_RECEIVER          # the simulated transmitter's resting pulses (rc_input.py)
     arming_class: type = Arming
     commands_class: type = object
     failsafe_class: type = object
@@ -104,7 +105,7 @@ class Autopilot:
         self.arming = self.arming_class(self)
         self.commands = self.commands_class(self)
         self.failsafe = self.failsafe_class(self)
-        self.rc = RcInput(params)                    # the pilot's sticks (rc_input.py)
+        self.rc = RcInput(params, self.receiver)     # the pilot's sticks (rc_input.py)
         self.radio = self.radio_failsafe_class(self)
         self.ekf_check = self.ekf_check_class(self)      # EKF failsafe, GPS glitch (ekf_failsafe.py)
         self.flightmodes: dict[int, Mode] = {}

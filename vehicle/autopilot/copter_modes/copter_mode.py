@@ -2,10 +2,10 @@
 helpers): the hooks ArduCopter adds for a multicopter, the ground handling every mode runs
 first, the user takeoff and the landing descent.
 
-The pilot's sticks come from the RC input (vehicle/autopilot/rc_input.py: a GCS's
-RC_CHANNELS_OVERRIDE or MANUAL_CONTROL); each mode reads them through its PilotControl
-(pilot_control.py). Without RC input every stick reads centred and each mode runs as
-ArduCopter does with the sticks centred. With it, read_pilot_input() keeps ArduCopter's
+The pilot's sticks come from the RC input (vehicle/autopilot/rc_input.py: the simulated
+receiver, a GCS's RC_CHANNELS_OVERRIDE or MANUAL_CONTROL); each mode reads them through its
+PilotControl (pilot_control.py). Before any RC frame every stick reads centred and each mode
+runs as ArduCopter does with the sticks centred. With it, read_pilot_input() keeps ArduCopter's
 auto_armed (update_auto_armed): set once armed with the throttle above zero, cleared in a
 manual-throttle mode when the throttle is back at zero (not in the radio failsafe).
 LAND_REPOSITION lets the sticks move a landing (LAND, RTL's and AUTO's final descent) and
