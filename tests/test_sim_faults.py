@@ -14,6 +14,7 @@ from auto_world import hover_stick
 from test_autopilot_behaviour import A, _fly, _until, _world
 from vehicle import sim_faults
 from vehicle.autopilot import modes
+from vehicle.autopilot.copter_modes.land import LAND_WITH_DELAY_S
 from vehicle.autopilot.ekf_failsafe import copter_over_threshold, rover_over_threshold
 from vehicle.autopilot.params_ardupilot import COPTER_EXTRA
 from vehicle.sensors import Sensors, SensorSpec, vehicle_rngs
@@ -137,7 +138,8 @@ def _loitering():
 def test_gps_off_in_loiter_takes_the_ekf_failsafe_to_land():
     """ArduCopter: without GPS the EKF loses its position (EKF_STATUS_REPORT's position flags
     clear), the EKF check fails for 1 s, says "EKF variance" and LOITER (needs position)
-    changes to LAND: "EKF Failsafe: changed to LAND Mode"; LAND descends without GPS."""
+    changes to LAND: "EKF Failsafe: changed to LAND Mode"; LAND (set_mode_land_with_pause)
+    holds its altitude LAND_WITH_DELAY_MS, then descends without GPS."""
     w, ap, texts, health = _loitering()
     _set(ap, SIM_GPS1_ENABLE=0)
     t0 = w.t
@@ -148,7 +150,9 @@ def test_gps_off_in_loiter_takes_the_ekf_failsafe_to_land():
     assert fs is not None and 0.9 <= fs - (t0 + lost) <= 1.3  # 10 failing checks at 10 Hz
     assert _said(texts, "EKF Failsafe: changed to LAND Mode") == fs
     z0 = w.fleets[0][1].pos[0][2]
-    w.run_for(3.0)
+    w.run_for(3.5)
+    assert abs(w.fleets[0][1].pos[0][2] - z0) < 0.5          # the failsafe's pause (4 s)
+    w.run_for(3.5)
     assert w.fleets[0][1].pos[0][2] > z0 + 1.0               # descending without a position
 
 
@@ -157,8 +161,9 @@ def test_gps_off_in_loiter_lands_and_disarms_within_the_descent_time():
     its filter stops aiding after 15 s and fuses the last known position (EKF3's AID_NONE:
     EKF_STATUS_REPORT attitude, vertical velocity and position, CONST_POS_MODE, velocity ratio
     0, a small position ratio) so its velocity estimate stays bounded; the land detector needs
-    no horizontal stillness. Bounds: the descent at LAND_SPEED from the height LAND started
-    at (below LAND_ALT_LOW, so all at LAND_SPEED), plus LAND_DETECT_TIME, plus 2 s for the
+    no horizontal stillness. Bounds: the failsafe LAND's pause (LAND_WITH_DELAY_MS), the
+    descent at LAND_SPEED from the height LAND started at (below LAND_ALT_LOW, so all at
+    LAND_SPEED), plus LAND_DETECT_TIME, plus 2 s for the
     vertical loop to reach the descent rate and settle at touch-down. The horizontal drift
     (LAND flies level on the attitude estimate, with no position) at most what the speed at
     LAND's start and the AHRS model's RMS tilt error (SensorSpec.ahrs_sigma on each of two
@@ -170,7 +175,8 @@ def test_gps_off_in_loiter_lands_and_disarms_within_the_descent_time():
     start, v0 = fleet.pos[0].copy(), math.hypot(*fleet.vel[0][:2])
     height = fleet.ground_z[0] - start[2]
     assert height < ap.params.get("LAND_ALT_LOW", 1000) / 100
-    bound = height / (ap.params.get("LAND_SPEED", 50) / 100) + fleet.gains_of(0).land_time + 2.0
+    bound = (LAND_WITH_DELAY_S + height / (ap.params.get("LAND_SPEED", 50) / 100)
+             + fleet.gains_of(0).land_time + 2.0)
     top_speed = 0.0
 
     def disarmed():

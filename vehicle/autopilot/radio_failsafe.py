@@ -147,7 +147,7 @@ class CopterRadioFailsafe(RadioFailsafe):
             ap.text(SEV_WARNING, "SmartRTL Unavailable, Trying RTL Mode" if modes.RTL in chain
                     else "SmartRTL Unavailable, Using Land Mode")
             chain = chain[1:]
-        ap.failsafe.first_mode(chain, why)
+        ap.failsafe.failsafe_modes(chain, why)      # LAND with its pause (copter_failsafe.py)
 
 
 class RoverRadioFailsafe(RadioFailsafe):

@@ -77,6 +77,11 @@ class CopterMode(Mode):
     def is_taking_off(self) -> bool:
         return self.ap.takeoff.running
 
+    def crash_check_enabled(self) -> bool:
+        """The crash check runs in this mode (crash_check.py; ArduCopter's ACRO and FLIP say
+        no, and towerlink has neither)."""
+        return True
+
     def allows_arming_with_throttle_high(self) -> bool:
         """allows_GCS_or_SCR_arming_with_throttle_high: a GCS may arm with the throttle up
         (the "Throttle too high" arm check is skipped)."""
@@ -191,13 +196,15 @@ class CopterMode(Mode):
             return hi / 100.0
         return float(p.get("LAND_SPEED", 50)) / 100.0
 
-    def land_run(self, dt: float = 0.0) -> None:
+    def land_run(self, dt: float = 0.0, pause: bool = False) -> None:
         """Descend at descent_speed() over ap.hold_pos's x, y (altitude free); without a
         position estimate level, drifting (ArduCopter's ModeLand::nogps_run). With
         LAND_REPOSITION the roll and pitch sticks move that point at LOITER's pilot velocity
-        (the copter flies it as feed-forward); the yaw stick turns the heading."""
+        (the copter flies it as feed-forward); the yaw stick turns the heading. pause: a climb
+        rate of 0 instead (land_run_vertical_control's pause_descent): the copter stops where
+        its braking takes it and holds that altitude."""
         ap = self.ap
-        speed = self.descent_speed()
+        speed = 0.0 if pause else self.descent_speed()
         if not ap.est_ok:
             ap.setpoint(vel=np.array([0.0, 0.0, speed]), yaw=ap.hold_yaw, level=True)
             return
