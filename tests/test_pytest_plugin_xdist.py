@@ -16,7 +16,7 @@ import pytest
 
 from plugin_support import processes_mentioning, run_pytest
 
-pytestmark = pytest.mark.slow       # a pytest -n 2 of its own: one at a time, as the slow pass runs
+pytestmark = pytest.mark.slow       # a pytest -n 2 of its own, with worlds in both workers
 
 USER_TESTS = '''
 import json, os, re, time
