@@ -16,6 +16,12 @@ REL = mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
 POS_ONLY = 0b110111111000          # SET_POSITION_TARGET type_mask: position only
 
 
+def hover_stick(ap) -> None:
+    """The transmitter's throttle to mid stick (RC3 1500), as autotest's hover() does before
+    ALT_HOLD, LOITER or POSHOLD: at the simulated receiver's resting 1000 they descend."""
+    ap.rc.transmit([0, 0, 1500, 0, 0, 0, 0, 0])
+
+
 class Flight:
     """One vehicle of an in-process world, with everything it says and does recorded."""
 

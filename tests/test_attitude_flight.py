@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from auto_world import Flight
+from auto_world import Flight, hover_stick
 from test_attitude_target import q_wxyz
 from vehicle.autopilot import modes
 from vehicle.autopilot.attitude_target import ATTITUDE_IGNORE, RATES_IGNORE, THROTTLE_IGNORE
@@ -194,6 +194,7 @@ def test_a_position_target_takes_over_from_attitude_control():
 
 def test_ignored_outside_the_guided_modes():
     f = airborne(6.0)
+    hover_stick(f.ap)
     assert f.ap.set_mode(modes.LOITER)
     x0 = f.ap.pos.copy()
     assert f.ap.attitude_target(RATES_IGNORE, q_wxyz(math.radians(20), 0, 0), (0, 0, 0), 1.0) is False

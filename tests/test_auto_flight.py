@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from auto_world import Flight
+from auto_world import Flight, hover_stick
 from vehicle.autopilot import modes
 
 C = mav
@@ -197,6 +197,7 @@ def test_leaving_auto_and_coming_back_follows_mis_restart(restart, resumes_at):
     f.ap.command(C.MAV_CMD_MISSION_START, [0] * 7)
     f.until(lambda: f.ap.mission_current()[0] == 3, 60, "on the leg to item 3")
     f.step(2.0)
+    hover_stick(f.ap)
     assert f.ap.set_mode(modes.LOITER)
     assert f.ap.mission_current() == (3, NOT_STARTED)      # ArduPilot: STOPPED reads NOT_STARTED
     f.step(2.0)

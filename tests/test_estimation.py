@@ -188,3 +188,55 @@ def test_estimator_arrays_are_built_from_its_rows():
     assert np.array_equal(e.ahrs_err, rows[:, 23:26])
     e.vel = np.ones((2, 3))
     assert np.array_equal(e.vel, np.ones((2, 3))) and np.array_equal(e.pos, rows[:, 0:3])
+
+
+def test_constant_position_fusion_is_the_kalman_update_without_bias_learning():
+    """vehicle.no_aiding fuses the last known position axis by axis (EKF3's sequential fusion)
+    with the accelerometer-bias gains zero: with no bias cross-covariance that is filterpy's
+    joint update of H = [I2 0], R = r I2; the bias never moves."""
+    from filterpy.kalman import KalmanFilter
+
+    from vehicle.no_aiding import fuse_position_ne
+    rng = np.random.default_rng(4)
+    A = rng.normal(size=(6, 6))
+    P = np.zeros((9, 9))
+    P[:6, :6] = A @ A.T + np.eye(6)
+    P[6:, 6:] = np.eye(3) * 0.01
+    x = rng.normal(size=9)
+    kf = KalmanFilter(dim_x=9, dim_z=2)
+    kf.x, kf.P = x.copy(), P.copy()
+    kf.H = np.hstack([np.eye(2), np.zeros((2, 7))])
+    kf.R = np.eye(2) * 100.0
+    kf.update(np.array([3.0, -2.0]))
+    x2, P2 = x.copy(), P.copy()
+    yn, ye, sn, se = fuse_position_ne(x2, P2, (3.0, -2.0), 100.0)
+    np.testing.assert_allclose(x2, kf.x, atol=1e-9)
+    np.testing.assert_allclose(P2, kf.P, atol=1e-9)
+    assert (yn, ye, sn, se) == pytest.approx((x[0] - 3.0, x[1] + 2.0, P[0, 0] + 100.0, P[1, 1] + 100.0))
+    P[0:6, 6:] = 0.005                         # now correlated with the bias: still not learned from it
+    P[6:, 0:6] = 0.005
+    x3 = x.copy()
+    fuse_position_ne(x3, P, (3.0, -2.0), 100.0)
+    assert x3[6:].tolist() == x[6:].tolist()
+
+
+def test_no_aiding_stops_after_15_s_and_resumes_on_a_fix():
+    """EKF3's AID_NONE: aligned and 15 s without GPS, the filter stops aiding with the
+    horizontal velocity zeroed and its ratios reset; a fix resets position and velocity to it."""
+    from vehicle.innovations import InnovationLog
+    from vehicle.no_aiding import AIDING_LOSS_S, NoAiding
+    spec = SensorSpec()
+    na, log = NoAiding(1, spec), InnovationLog(1)
+    log.pos[0] = log.vel[0] = 0.7
+    assert not na.due(0, False, 100.0) and not na.due(0, True, AIDING_LOSS_S)
+    assert na.due(0, True, AIDING_LOSS_S + 0.1)
+    x, P = np.arange(9.0), np.eye(9) * 4.0 + 0.5
+    na.stop(0, x, P, log)
+    assert na.active == [True] and na.last_known == [(0.0, 1.0)]
+    assert x[3] == x[4] == 0.0 and P[3, 3] == spec.gps_vel_sigma ** 2 and P[0, 0] == spec.gps_pos_sigma ** 2
+    assert P[0, 3] == P[3, 8] == 0.0 and log.pos[0] == log.vel[0] == 0.0
+    x[0] += 5.0
+    na.fuse(0, x, P, log)
+    assert 0.0 < x[0] < 5.0 and log.pos[0] > 0.0                  # pulled back toward (0, 1)
+    na.resume(0, x, P, [10.0, 20.0, -3.0, 1.0, 2.0, 0.0])
+    assert na.active == [False] and x[[0, 1, 3, 4]].tolist() == [10.0, 20.0, 1.0, 2.0]

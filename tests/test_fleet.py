@@ -268,3 +268,45 @@ def test_rover_params_per_vehicle(scalar, name):
     assert f.gains_of(0).cruise == f.gains_of(1).cruise == f.gains.cruise == 3.0
     top = _max_speeds(f, home + [40.0, 0.0, 0.0], 6.0)
     assert np.all((2.9 <= top) & (top <= 3.0 + 1e-6)), top
+
+
+def _gps_off_landing(scalar: bool, estimator) -> tuple[CopterFleet, list[float | None]]:
+    """Two copters hovering 5 m up; vehicle 0 loses GPS (SIM_GPS1_ENABLE 0), and 17 s later,
+    its filter no longer aiding (vehicle.no_aiding, after 15 s), both descend level at 0.5 m/s
+    as LAND does without a position. Returns the fleet and when each was detected landed."""
+    from vehicle.sim_faults import SimFaults
+    f = CopterFleet(2, seed=[3, 4], home=np.array([[0.0, 0.0, 0.0], [6.0, 0.0, 0.0]]), estimator=estimator,
+                    scalar=scalar)
+    for i in range(2):
+        f.set_armed(i, True)
+        f.set_setpoint(i, Setpoint(pos=f.home[i] + [0.0, 0.0, -5.0]))
+    for _ in range(int(8 / DT)):
+        f.step(DT)
+    f.set_faults(0, SimFaults(gps_enabled=False))
+    for _ in range(int(17 / DT)):
+        f.step(DT)
+    assert f.estimator.no_aiding.active == [True, False]
+    for i in range(2):
+        f.set_setpoint(i, Setpoint(vel=[0.0, 0.0, 0.5], level=True))
+    landed: list[float | None] = [None, None]
+    for k in range(int(16 / DT)):
+        f.step(DT)
+        for i in range(2):
+            if landed[i] is None and f.landed(i):
+                landed[i] = k * DT
+    return f, landed
+
+
+def test_land_detector_without_gps_alike_in_both_forms():
+    """ArduCopter's land detector has no horizontal-speed test: a copter whose filter stopped
+    aiding touches down and is detected landed like its GPS neighbour (within a second), and
+    the scalar and numpy forms give the same numbers (landing step, filtered acceleration,
+    estimate)."""
+    (a, la), (b, lb) = _gps_off_landing(True, True), _gps_off_landing(False, True)
+    assert la == lb and None not in la and abs(la[0] - la[1]) < 1.0
+    np.testing.assert_allclose(a.est_pos, b.est_pos, atol=1e-9)
+    for k in ("lax", "lay", "laz", "att_err"):
+        np.testing.assert_allclose(getattr(a.ctrl, k), getattr(b.ctrl, k), atol=1e-12)
+    c, lc = _gps_off_landing(False, "batched")      # BatchedKF's no-aiding path: the same filter
+    assert lc == la
+    np.testing.assert_allclose(c.est_pos, a.est_pos, atol=1e-6)

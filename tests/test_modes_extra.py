@@ -12,6 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from auto_world import hover_stick
 from test_autopilot_behaviour import A, _fly, _goto, _until, _world
 from vehicle.autopilot import modes
 from vehicle.autopilot.guided import ACC_BITS, POS_BITS, YAW_IGNORE, YAW_RATE_IGNORE
@@ -80,6 +81,7 @@ def test_alt_hold_holds_altitude_and_stays_level():
     ap = _fly(w, alt=8.0)
     _cruise(w, ap, 3.0)
     z0 = ap.pos[2]
+    hover_stick(ap)
     assert ap.set_mode(modes.ALT_HOLD)
     zs, tilts = [], []
     for _ in range(100):
@@ -97,6 +99,7 @@ def test_poshold_brakes_then_holds_where_it_stopped():
     ap = _fly(w, alt=8.0)
     _cruise(w, ap, 5.0)
     z0 = ap.pos[2]
+    hover_stick(ap)
     assert ap.set_mode(modes.POSHOLD)
     took = _until(w, lambda: np.linalg.norm(ap.vel[:2]) < 0.1, 15, step=0.01)
     # PHLD_BRAKE_ANGLE 30 deg reached at PHLD_BRAKE_RATE 8 deg/s: a gentler stop than BRAKE

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from test_autopilot_behaviour import _until, _with_texts, _world
 from test_sitl_support import mav
 from vehicle.autopilot import copter_pilot, modes
-from vehicle.autopilot.rc_input import (INT16_MAX, NUM_CHANNELS, RcInput, Sticks, control_mid, manual_pwm,
+from vehicle.autopilot.rc_input import (INT16_MAX, NUM_CHANNELS, ROVER_RECEIVER, RcInput, Sticks, control_mid, manual_pwm,
                                         norm_input_dz, pwm_to_range)
 
 A = mav
@@ -124,12 +124,73 @@ def test_override_time_out_zero_and_never():
     assert not rc.has_override(0, 10.0)
 
 
-def test_a_released_channel_keeps_its_last_pulse():
+def test_a_released_channel_goes_back_to_the_receiver():
     rc = RcInput({})
+    assert rc.read(0.0) and rc.channels(9) == [1500, 1500, 1000, 1500, 1800, 1000, 1000, 1800, 0]
+    assert rc.channel_count() == 8 and rc.sticks.throttle == 0
+    assert not rc.read(0.01)                                           # the next frame: 20 ms on
+    rc.channels_override([1600, 1700] + [KEEP] * 16, 1.0)
+    assert rc.read(1.0) and rc.channels(3) == [1600, 1700, 1000]
+    rc.channels_override([0] + [KEEP] * 17, 1.01)                     # chan1 released
+    assert rc.read(1.01) and rc.channels(2) == [1500, 1700]           # the receiver's last pulse at once
+    assert rc.read(1.02) and rc.channels(2) == [1500, 1700]           # and its next frame
+    assert rc.read(5.0) and rc.channels(2) == [1500, 1500]            # chan2's override timed out
+
+
+def test_rover_receiver_centres_the_throttle():
+    rc = RcInput({}, ROVER_RECEIVER)
+    assert rc.read(0.0) and rc.channels(8) == [1500, 1500, 1500, 1500, 1800, 1000, 1000, 1800]
+    assert rc.sticks.throttle_norm == 0.0
+
+
+def test_receiver_frames_at_50_hz_and_rc_options_ignore_it():
+    params = {}
+    rc = RcInput(params)
+    frames = sum(rc.read(k * 0.0025) for k in range(400))              # 1 s of 400 Hz ticks
+    assert frames == 50 and rc.last_frame == pytest.approx(0.98)
+    params["RC_OPTIONS"] = 32 | 1                                      # ignore the receiver
+    assert not rc.read(2.0) and rc.last_frame == pytest.approx(0.98)
+
+
+def test_transmit_is_an_rc_packet():
+    """read_all_socket_input: 0 leaves a channel, the packet's length is the channel count;
+    SIM_RC_FAIL 2 sends its own pulses and the transmitter's come back with SIM_RC_FAIL 0."""
+    params = {}
+    rc = RcInput(params)
+    rc.transmit([0, 0, 1500, 0, 0, 0, 0, 0])
+    assert rc.read(0.0) and rc.channels(8) == [1500, 1500, 1500, 1500, 1800, 1000, 1000, 1800]
+    assert rc.sticks.throttle == rc.sticks.throttle_mid
+    rc.transmit([1600] + [0] * 14 + [1200])
+    assert rc.read(0.02) and rc.channel_count() == 16 and rc.channels(16)[::15] == [1600, 1200]
+    params["SIM_RC_FAIL"] = 2
+    assert rc.read(0.04) and rc.channels(16) == [1500, 1500, 950] + [1500] * 13
+    params["SIM_RC_FAIL"] = 1
+    assert not rc.read(0.06) and rc.channels(3) == [1500, 1500, 950]
+    params["SIM_RC_FAIL"] = 0
+    assert rc.read(0.08) and rc.channels(3) == [1600, 1500, 1500]
+    with pytest.raises(ValueError):
+        rc.transmit([1500] * 4)
+
+
+def test_after_the_pulses_stop_a_released_channel_reads_the_receivers_last():
+    params = {}
+    rc = RcInput(params)
+    assert rc.read(0.0)
+    params["SIM_RC_FAIL"] = 1
+    rc.channels_override([1600, KEEP, 1700] + [KEEP] * 15, 0.5)
+    assert rc.read(0.5) and rc.channels(3) == [1600, 1500, 1700]
+    rc.channels_override([0] + [KEEP] * 17, 0.6)                     # chan1 released
+    assert rc.read(0.6) and rc.channels(3) == [1500, 1500, 1700]      # the receiver's last pulse
+
+
+def test_without_pulses_a_released_channel_keeps_its_last_pulse():
+    params = {"SIM_RC_FAIL": 1}
+    rc = RcInput(params)
+    assert not rc.read(0.0) and rc.channel_count() == 16 and rc.channels(3) == [1500, 1500, 1500]
     rc.channels_override([1600, 1700] + [KEEP] * 16, 1.0)
     assert rc.read(1.0) and rc.channels(3) == [1600, 1700, 1500]
     rc.channels_override([0] + [KEEP] * 17, 1.1)                     # chan1 released
-    assert rc.read(1.1) and rc.channels(2) == [1600, 1700]            # radio_in stays (no receiver)
+    assert rc.read(1.1) and rc.channels(2) == [1600, 1700]            # radio_in stays (no pulses)
     assert not rc.read(1.2)                                            # nothing new: no frame
 
 
@@ -167,27 +228,47 @@ def test_throttle_below_failsafe_is_a_prearm_failure(copter):
     assert ap.arm() == A.MAV_RESULT_FAILED and "PreArm: Throttle below failsafe" in texts
 
 
-def test_radio_failsafe_on_lost_overrides_rtl_and_cleared(copter):
-    w, ap, texts = copter
+def _pilot_takeoff(w, ap):
+    """ALT_HOLD, armed at mid stick, climbed on the throttle stick to over 4 m."""
     assert ap.set_mode(modes.ALT_HOLD)
     _hold(w, ap, [1500, 1500, 1500, 1500], 0.3)
     assert ap.arm() == A.MAV_RESULT_ACCEPTED
-    _hold(w, ap, [1500, 1500, 1900, 1500], 5)                        # the pilot takeoff
+    _hold(w, ap, [1500, 1500, 1900, 1500], 5)
     assert ap.pos[2] < -4.0 and not ap.radio.active
-    last = ap.rc.last_frame
-    _until(w, lambda: ap.radio.active, 5)                            # no more overrides
+
+
+def test_released_overrides_go_back_to_the_receiver_no_failsafe(copter):
+    w, ap, texts = copter
+    _pilot_takeoff(w, ap)
+    z = float(ap.pos[2])
+    ap.rc.channels_override([0] * 8 + [KEEP] * 10, ap.t)             # every override released
+    w.run_for(5.0)
+    assert ap.rc.channels(4) == [1500, 1500, 1000, 1500]             # the receiver's sticks
+    assert not ap.radio.active and "Radio Failsafe" not in texts
+    assert ap.flightmode is ap.flightmodes[modes.ALT_HOLD]
+    assert ap.pos[2] - z > 3.0 and ap.vel[2] > 2.0                   # throttle at 1000: descends
+
+
+def test_radio_failsafe_on_lost_pulses_rtl_and_cleared(copter):
+    w, ap, texts = copter
+    _pilot_takeoff(w, ap)
+    ap.params.set("SIM_RC_FAIL", 1)                                  # the receiver goes silent
+    last = ap.rc.last_frame                                          # the last override's frame
+    _until(w, lambda: ap.radio.active, 5)                            # no more overrides either
     assert 1.0 <= ap.t - last <= 1.1                                 # RC_FS_TIMEOUT
     assert "Radio Failsafe" in texts and ap.flightmode is ap.flightmodes[modes.RTL]
     assert ap.system_status() == A.MAV_STATE_CRITICAL
-    _hold(w, ap, [1500, 1500, 1500, 1500], 0.5)
+    ap.params.set("SIM_RC_FAIL", 0)
+    w.run_for(0.5)
     assert not ap.radio.active and texts[-1] == "Radio Failsafe Cleared"
     assert ap.flightmode is ap.flightmodes[modes.RTL]                # the mode is not restored
 
 
 def test_radio_failsafe_landed_disarms(copter):
     w, ap, texts = copter
-    _hold(w, ap, [1500, 1500, 1000, 1500], 0.3)
+    w.run_for(0.3)                                                   # the receiver: throttle 1000
     assert ap.arm() == A.MAV_RESULT_ACCEPTED
+    ap.params.set("SIM_RC_FAIL", 1)
     _until(w, lambda: not ap.armed, 3)
     assert "Radio Failsafe - Disarming" in texts
 
@@ -196,10 +277,30 @@ def test_sim_rc_fail_2_is_a_throttle_failsafe(copter):
     w, ap, texts = copter
     ap.params.set("SIM_RC_FAIL", 2)
     _until(w, lambda: ap.radio.active, 1)
-    assert ap.rc.channels(4) == [1500, 1500, 950, 1500]
-    ap.params.set("SIM_RC_FAIL", 0)
+    assert ap.rc.channels(9) == [1500, 1500, 950, 1500, 1500, 1500, 1500, 1500, 0]
+    assert any(t.startswith("Radio Failsafe") for t in texts)
+    ap.params.set("SIM_RC_FAIL", 0)                 # the transmitter's sticks again: 1000 is good
     w.run_for(1.0)
-    assert ap.radio.active                # the receiver went silent: no good frame clears it
+    assert not ap.radio.active and texts[-1] == "Radio Failsafe Cleared"
+
+
+def test_the_sticks_follow_a_changed_scaling(copter):
+    w, ap, _ = copter
+    w.run_for(0.1)
+    assert ap.rc.sticks.throttle == 0                       # 1000 is below RC3_MIN (1100)
+    ap.params.set("RC3_MIN", 950)
+    w.run_for(0.1)
+    assert ap.rc.sticks.throttle > 0                         # the same pulse, scaled again
+
+
+def test_receiver_alone_never_triggers_the_radio_failsafe(copter):
+    w, ap, texts = copter
+    w.run_for(0.5)
+    assert ap.arm() == A.MAV_RESULT_ACCEPTED
+    assert ap.set_mode(modes.GUIDED) and ap.command(A.MAV_CMD_NAV_TAKEOFF, [0] * 6 + [5.0]) == A.MAV_RESULT_ACCEPTED
+    w.run_for(10.0)
+    assert not ap.radio.active and ap.armed and ap.pos[2] < -4.0
+    assert not any("Radio Failsafe" in t for t in texts)
 
 
 def test_rover_manual_drives_on_the_sticks():

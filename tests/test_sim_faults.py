@@ -10,13 +10,16 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from common.geo import LATLON_TO_M
+from auto_world import hover_stick
 from test_autopilot_behaviour import A, _fly, _until, _world
 from vehicle import sim_faults
 from vehicle.autopilot import modes
+from vehicle.autopilot.copter_modes.land import LAND_WITH_DELAY_S
 from vehicle.autopilot.ekf_failsafe import copter_over_threshold, rover_over_threshold
 from vehicle.autopilot.params_ardupilot import COPTER_EXTRA
 from vehicle.sensors import Sensors, SensorSpec, vehicle_rngs
-from vehicle.telemetry.ekf_status import GPS_GLITCHING, POS_ABS, EkfTelemetry
+from vehicle.telemetry.ekf_status import (ATTITUDE, CONST_POS, GPS_GLITCHING, POS_ABS, POS_VERT, VEL_VERT,
+                                          EkfTelemetry)
 
 
 # ---------------------------------------------------------------- pure cores
@@ -126,6 +129,7 @@ def _loitering():
     ap = w.vehicles[0].ap
     texts = _texts(w, ap)
     _fly(w, 10.0)
+    hover_stick(ap)
     assert ap.set_mode(modes.LOITER)
     w.run_for(2.0)
     return w, ap, texts, EkfTelemetry(ap)
@@ -134,7 +138,8 @@ def _loitering():
 def test_gps_off_in_loiter_takes_the_ekf_failsafe_to_land():
     """ArduCopter: without GPS the EKF loses its position (EKF_STATUS_REPORT's position flags
     clear), the EKF check fails for 1 s, says "EKF variance" and LOITER (needs position)
-    changes to LAND: "EKF Failsafe: changed to LAND Mode"; LAND descends without GPS."""
+    changes to LAND: "EKF Failsafe: changed to LAND Mode"; LAND (set_mode_land_with_pause)
+    holds its altitude LAND_WITH_DELAY_MS, then descends without GPS."""
     w, ap, texts, health = _loitering()
     _set(ap, SIM_GPS1_ENABLE=0)
     t0 = w.t
@@ -145,8 +150,50 @@ def test_gps_off_in_loiter_takes_the_ekf_failsafe_to_land():
     assert fs is not None and 0.9 <= fs - (t0 + lost) <= 1.3  # 10 failing checks at 10 Hz
     assert _said(texts, "EKF Failsafe: changed to LAND Mode") == fs
     z0 = w.fleets[0][1].pos[0][2]
-    w.run_for(3.0)
+    w.run_for(3.5)
+    assert abs(w.fleets[0][1].pos[0][2] - z0) < 0.5          # the failsafe's pause (4 s)
+    w.run_for(3.5)
     assert w.fleets[0][1].pos[0][2] > z0 + 1.0               # descending without a position
+
+
+def test_gps_off_in_loiter_lands_and_disarms_within_the_descent_time():
+    """After the EKF failsafe's LAND the copter without GPS lands and disarms, as ArduCopter:
+    its filter stops aiding after 15 s and fuses the last known position (EKF3's AID_NONE:
+    EKF_STATUS_REPORT attitude, vertical velocity and position, CONST_POS_MODE, velocity ratio
+    0, a small position ratio) so its velocity estimate stays bounded; the land detector needs
+    no horizontal stillness. Bounds: the failsafe LAND's pause (LAND_WITH_DELAY_MS), the
+    descent at LAND_SPEED from the height LAND started at (below LAND_ALT_LOW, so all at
+    LAND_SPEED), plus LAND_DETECT_TIME, plus 2 s for the
+    vertical loop to reach the descent rate and settle at touch-down. The horizontal drift
+    (LAND flies level on the attitude estimate, with no position) at most what the speed at
+    LAND's start and the AHRS model's RMS tilt error (SensorSpec.ahrs_sigma on each of two
+    axes) held for the whole descent, undamped, would give: v0 T + g tan(sqrt(2) sigma) T^2 / 2."""
+    w, ap, texts, health = _loitering()
+    fleet = w.fleets[0][1]
+    _set(ap, SIM_GPS1_ENABLE=0)
+    _until(w, lambda: ap.mode == modes.LAND, 15)
+    start, v0 = fleet.pos[0].copy(), math.hypot(*fleet.vel[0][:2])
+    height = fleet.ground_z[0] - start[2]
+    assert height < ap.params.get("LAND_ALT_LOW", 1000) / 100
+    bound = (LAND_WITH_DELAY_S + height / (ap.params.get("LAND_SPEED", 50) / 100)
+             + fleet.gains_of(0).land_time + 2.0)
+    top_speed = 0.0
+
+    def disarmed():
+        nonlocal top_speed
+        top_speed = max(top_speed, math.hypot(*fleet.estimate(0).vel[:2]))
+        return not ap.armed
+
+    took = _until(w, disarmed, bound)
+    assert _said(texts, "Disarming motors: landed") is not None
+    assert fleet.pos[0][2] == fleet.ground_z[0] and fleet.landed(0)
+    sigma = fleet.spec.ahrs_sigma * math.sqrt(2.0)          # rad
+    drift = math.hypot(*(fleet.pos[0][:2] - start[:2]))
+    assert drift < v0 * took + 0.5 * 9.80665 * math.tan(sigma) * took ** 2
+    assert top_speed < 1.0                      # dead reckoning alone passed 2 m/s here
+    flags, vel, pos, _, _ = health.status()
+    assert flags == ATTITUDE | VEL_VERT | POS_VERT | CONST_POS
+    assert vel == 0.0 and 0.0 < pos < 0.5
 
 
 def test_gps_glitch_is_seen_and_cleared():

@@ -1,7 +1,8 @@
 """A SITL fault over MAVLink on the real `towerlink sitl`: a GCS turns the GPS off with a PARAM_SET
 of SIM_GPS1_ENABLE (ArduPilot 4.5's name) while the drone loiters. On the wire, as ArduCopter
 would say it: GPS_RAW_INT has no fix, EKF_STATUS_REPORT loses the horizontal position flags,
-then STATUSTEXT "EKF variance" and "EKF Failsafe: changed to LAND Mode", HEARTBEAT in LAND."""
+then STATUSTEXT "EKF variance" and "EKF Failsafe: changed to LAND Mode", HEARTBEAT in LAND; the
+failsafe's LAND holds its altitude 4 s (LAND_WITH_DELAY_MS), then descends."""
 from __future__ import annotations
 
 import pytest
@@ -21,8 +22,10 @@ def test_gps_off_over_mavlink_takes_the_ekf_failsafe(processes, tmp_path):
         mav.MAV_RESULT_ACCEPTED
     assert set_mode(m, "GUIDED") == mav.MAV_RESULT_ACCEPTED
     assert command(m, 400, 1, timeout=10) == mav.MAV_RESULT_ACCEPTED
-    assert command(m, mav.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 8.0) == mav.MAV_RESULT_ACCEPTED
-    recv(m, "GLOBAL_POSITION_INT", 60, cond=lambda p: p.relative_alt > 7500)
+    # high enough that LOITER, sinking on the receiver's low throttle until the failsafe, is
+    # still well up when LAND's pause is watched
+    assert command(m, mav.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 40.0) == mav.MAV_RESULT_ACCEPTED
+    recv(m, "GLOBAL_POSITION_INT", 60, cond=lambda p: p.relative_alt > 39500)
     assert set_mode(m, "LOITER") == mav.MAV_RESULT_ACCEPTED
     assert recv(m, "EKF_STATUS_REPORT", 10).flags & POS_FLAGS == POS_FLAGS
     m.mav.param_set_send(1, 1, b"SIM_GPS1_ENABLE", 0, mav.MAV_PARAM_TYPE_INT8)
@@ -39,4 +42,11 @@ def test_gps_off_over_mavlink_takes_the_ekf_failsafe(processes, tmp_path):
     assert seen.index("position lost") < seen.index("EKF variance") < seen.index("EKF Failsafe: changed to LAND Mode")
     land = m.mode_mapping()["LAND"]
     recv(m, "HEARTBEAT", 10, cond=lambda h: h.get_srcSystem() == 1 and h.custom_mode == land)
+    # (time_boot_ms is sim time) LAND stops LOITER's sink, holds for the rest of 4 s, descends
+    start = recv(m, "GLOBAL_POSITION_INT", 10)
+    stopped = recv(m, "GLOBAL_POSITION_INT", 30, cond=lambda p: p.time_boot_ms - start.time_boot_ms >= 2000)
+    held = recv(m, "GLOBAL_POSITION_INT", 30, cond=lambda p: p.time_boot_ms - start.time_boot_ms >= 3500)
+    assert stopped.relative_alt > 5000 and abs(held.relative_alt - stopped.relative_alt) < 300
+    down = recv(m, "GLOBAL_POSITION_INT", 30, cond=lambda p: p.time_boot_ms - start.time_boot_ms >= 8000)
+    assert down.relative_alt < held.relative_alt - 1000
     sitl.stop()

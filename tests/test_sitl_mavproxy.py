@@ -42,7 +42,7 @@ def test_mavproxy_params_mode_arm(processes, tmp_path):
         ekf = [line for line in lines if " EKF_STATUS_REPORT {" in line][-1]
         assert re.search(r"flags : 831\b", ekf), ekf
         rc = [line for line in lines if " RC_CHANNELS {" in line][-1]
-        assert "chancount : 16" in rc and "chan1_raw : 1500" in rc, rc
+        assert "chancount : 8" in rc and "chan1_raw : 1500" in rc and "chan3_raw : 1000" in rc, rc
         send("mode GUIDED")
         wait_until(lambda: saw("Mode GUIDED"), 20, "GUIDED")
         send("arm throttle")

@@ -11,7 +11,7 @@ import pytest
 
 from support import Processes
 from test_sitl_guided import _take_off
-from test_sitl_support import Sitl, command, connect, mav, recv, set_mode, wait_armable
+from test_sitl_support import Sitl, command, connect, hold_throttle, mav, recv, set_mode, wait_armable
 
 VEL_MASK = 0b110111000111
 
@@ -97,9 +97,10 @@ def test_brake_alt_hold_poshold_in_flight(sitl):
     held = recv(m, "LOCAL_POSITION_NED", 20, cond=lambda p: p.time_boot_ms > stop.time_boot_ms + 8000)
     assert math.hypot(held.x - stop.x, held.y - stop.y) < 1.0 and _speed(held) < 0.2
 
-    # ALT_HOLD: sticks centred, altitude held while it drifts
+    # ALT_HOLD: sticks centred (the throttle raised to mid stick), altitude held while it drifts
     _take_off(m, alt=10.0)
     _cruise(m, 3.0)
+    hold_throttle(m, 1500)
     assert set_mode(m, "ALT_HOLD") == mav.MAV_RESULT_ACCEPTED
     a0 = recv(m, "LOCAL_POSITION_NED", 2)
     a1 = recv(m, "LOCAL_POSITION_NED", 20, cond=lambda p: p.time_boot_ms > a0.time_boot_ms + 10000)
@@ -112,6 +113,7 @@ def test_brake_alt_hold_poshold_in_flight(sitl):
     s = recv(m, "LOCAL_POSITION_NED", 20, cond=lambda p: p.vx < 0.1)
     h = recv(m, "LOCAL_POSITION_NED", 30, cond=lambda p: p.time_boot_ms > s.time_boot_ms + 10000)
     assert math.hypot(h.x - s.x, h.y - s.y) < 1.5 and abs(h.z - s.z) < 0.3
+    hold_throttle(m, 0)                      # back to the receiver's throttle
 
 
 @pytest.mark.timeout(200)

@@ -2,8 +2,9 @@
 RC_CHANNELS_OVERRIDE (MAVProxy's `rc`) and MANUAL_CONTROL (QGroundControl's virtual joystick):
 overrides only from SYSID_MYGCS, RC_CHANNELS and SERVO_OUTPUT_RAW showing them, arming refused
 with the throttle up, ALT_HOLD's pilot takeoff, climb and hold on release, POSHOLD moved by the
-pitch stick and braking to a hold, LOITER flown by MANUAL_CONTROL, the radio failsafe on lost
-overrides and its clearing, a rover driven in MANUAL. Times are the vehicle's (time_boot_ms)."""
+pitch stick and braking to a hold, LOITER flown by MANUAL_CONTROL, lost overrides going back to
+the simulated receiver's sticks (no failsafe), the radio failsafe on lost receiver pulses and its
+clearing, a rover driven in MANUAL. Times are the vehicle's (time_boot_ms)."""
 from __future__ import annotations
 
 import math
@@ -12,7 +13,7 @@ import time
 import pytest
 
 from support import Processes
-from test_sitl_support import Sitl, command, connect, mav, recv, set_mode, wait_armable
+from test_sitl_support import Sitl, command, connect, mav, recv, set_mode, set_param, wait_armable
 
 KEEP = 65535
 CENTRE = (1500, 1500, 1500, 1500)
@@ -51,18 +52,6 @@ class Pilot:
         first = self.hold(sticks, "LOCAL_POSITION_NED", None, timeout)
         end = first.time_boot_ms + sim_s * 1000
         return self.hold(sticks, "LOCAL_POSITION_NED", lambda p: p.time_boot_ms >= end, timeout)
-
-
-def _param(m, name, value, tries=3):
-    """PARAM_SET until its PARAM_VALUE echo comes (re-sent as MAVProxy does: UDP may drop it)."""
-    for i in range(tries):
-        m.mav.param_set_send(m.target_system, m.target_component, name.encode(), float(value),
-                             mav.MAV_PARAM_TYPE_REAL32)
-        try:
-            return recv(m, "PARAM_VALUE", 2, cond=lambda p: p.param_id == name and abs(p.param_value - value) < 1e-6)
-        except AssertionError:
-            if i == tries - 1:
-                raise
 
 
 def _interval(m, msgid, hz=10):
@@ -130,10 +119,10 @@ def test_overrides_only_from_sysid_mygcs_and_rc_channels_shows_them(sitl):
         for _ in range(10):
             other.mav.rc_channels_override_send(1, 1, 1500, 1500, 1900, 1500, *[KEEP] * 4, *[0] * 10)
         rc = recv(drone, "RC_CHANNELS", 5)
-        assert rc.chan3_raw == 1500 and rc.chancount == 16               # still the trim
+        assert rc.chan3_raw == 1000 and rc.chancount == 8                # still the receiver's
         rc = Pilot(drone).hold((1500, 1500, 1234, 1500, KEEP, 1700), "RC_CHANNELS",
                                lambda r: r.chan3_raw == 1234, 10)
-        assert rc.chan6_raw == 1700 and rc.chan7_raw == 1500 and rc.chan16_raw == 1500
+        assert rc.chan6_raw == 1700 and rc.chan7_raw == 1000 and rc.chan16_raw == 0   # the receiver's
     finally:
         other.close()
 
@@ -155,7 +144,7 @@ def test_arming_refused_with_the_throttle_up(sitl):
 def test_alt_hold_pilot_takeoff_climb_and_hold_on_release(sitl):
     _, drone, _ = sitl
     pilot = Pilot(drone)
-    _param(drone, "FS_THR_ENABLE", 0)          # a loaded machine's pause in the sending is no failsafe here
+    set_param(drone, "FS_THR_ENABLE", 0)          # a loaded machine's pause in the sending is no failsafe here
     assert set_mode(drone, "ALT_HOLD") == mav.MAV_RESULT_ACCEPTED
     pilot.hold(CENTRE, "RC_CHANNELS", lambda r: r.chan3_raw == 1500)
     assert command(drone, mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_ACCEPTED
@@ -194,16 +183,36 @@ def test_loiter_flown_by_manual_control(sitl):
 
 
 @pytest.mark.timeout(120)
-def test_radio_failsafe_on_lost_overrides_and_cleared(sitl):
+def test_lost_overrides_go_back_to_the_receiver_and_lost_pulses_are_the_radio_failsafe(sitl):
     _, drone, _ = sitl
     pilot = Pilot(drone)
     assert set_mode(drone, "ALT_HOLD") == mav.MAV_RESULT_ACCEPTED
+    pilot.hold((1500, 1500, 1900, 1500), "LOCAL_POSITION_NED", lambda p: p.z < -10.0, 60)
     pilot.hold_for(CENTRE, 0.5)
-    _param(drone, "FS_THR_ENABLE", 1)
-    # the overrides stop (heartbeats go on): RC_FS_TIMEOUT (1 s) later the radio failsafe, RTL
+    set_param(drone, "FS_THR_ENABLE", 1)
+    # the overrides stop (heartbeats go on): RC_OVERRIDE_TIME (3 s) later the receiver's sticks
+    # again, throttle 1000: ALT_HOLD descends, no radio failsafe (the receiver's frames go on)
+    texts, seen = [], {}
+    while not ("rc" in seen and "down" in seen):
+        msg = recv(drone, ["STATUSTEXT", "RC_CHANNELS", "LOCAL_POSITION_NED", "HEARTBEAT"], 20)
+        kind = msg.get_type()
+        if kind == "STATUSTEXT":
+            texts.append(msg.text)
+        elif kind == "RC_CHANNELS" and msg.chan3_raw == 1000:
+            seen["rc"] = msg
+        elif kind == "LOCAL_POSITION_NED" and "rc" in seen and msg.vz > 1.0:
+            seen["down"] = msg
+        elif kind == "HEARTBEAT" and msg.get_srcSystem() == drone.target_system:
+            assert msg.custom_mode == 2, msg                             # still ALT_HOLD
+    assert not any(t.startswith("Radio Failsafe") for t in texts), texts
+    assert seen["rc"].chancount == 8 and seen["rc"].chan1_raw == 1500
+    pilot.hold(CENTRE, "LOCAL_POSITION_NED", lambda p: abs(p.vz) < 0.3, 30)
+    # the receiver goes silent (SIM_RC_FAIL 1): RC_FS_TIMEOUT (1 s) later the radio failsafe, RTL
+    set_param(drone, "SIM_RC_FAIL", 1)
     _text(drone, "Radio Failsafe", 20)
     recv(drone, "HEARTBEAT", 5, cond=lambda h: h.custom_mode == 6 and h.system_status == mav.MAV_STATE_CRITICAL)
-    _text(drone, "Radio Failsafe Cleared", 10, pilot, CENTRE)
+    set_param(drone, "SIM_RC_FAIL", 0)
+    _text(drone, "Radio Failsafe Cleared", 10)
     recv(drone, "HEARTBEAT", 5, cond=lambda h: h.custom_mode == 6 and h.system_status == mav.MAV_STATE_ACTIVE)
 
 
@@ -211,7 +220,7 @@ def test_radio_failsafe_on_lost_overrides_and_cleared(sitl):
 def test_rover_manual_drives_on_the_sticks(sitl):
     _, _, rover = sitl
     pilot = Pilot(rover)
-    _param(rover, "FS_THR_ENABLE", 0)
+    set_param(rover, "FS_THR_ENABLE", 0)
     wait_armable(rover, 30)
     assert set_mode(rover, "MANUAL") == mav.MAV_RESULT_ACCEPTED
     pilot.hold(CENTRE, "RC_CHANNELS", lambda r: r.chan3_raw == 1500)

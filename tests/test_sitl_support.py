@@ -111,6 +111,29 @@ def set_mode(m, name, timeout=5.0, tries=3):
                    timeout=timeout, tries=tries)
 
 
+def set_param(m, name, value, tries=3):
+    """PARAM_SET until its PARAM_VALUE echo comes (re-sent as MAVProxy does: UDP may drop it)."""
+    for i in range(tries):
+        m.mav.param_set_send(m.target_system, m.target_component, name.encode(), float(value),
+                             mav.MAV_PARAM_TYPE_REAL32)
+        try:
+            return recv(m, "PARAM_VALUE", 2, cond=lambda p: p.param_id == name and abs(p.param_value - value) < 1e-6)
+        except AssertionError:
+            if i == tries - 1:
+                raise
+
+
+def hold_throttle(m, pwm=1500):
+    """The throttle (RC3) held at `pwm` by RC_CHANNELS_OVERRIDE, with RC_OVERRIDE_TIME -1 so it
+    never times out (a script that does not keep re-sending it as MAVProxy's `rc` does), as
+    autotest raises RC3 to 1500 before ALT_HOLD, LOITER or POSHOLD: at the simulated
+    receiver's 1000 they descend. pwm 0 releases it back to the receiver."""
+    set_param(m, "RC_OVERRIDE_TIME", -1)
+    for _ in range(3):                       # UDP: one may be lost
+        m.mav.rc_channels_override_send(m.target_system, m.target_component, 65535, 65535, pwm,
+                                        *[65535] * 5, *[0] * 10)
+
+
 def wait_armable(m, timeout=20.0):
     return recv(m, "SYS_STATUS", timeout,
                 cond=lambda s: s.onboard_control_sensors_health & mav.MAV_SYS_STATUS_PREARM_CHECK)

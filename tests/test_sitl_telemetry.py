@@ -9,7 +9,7 @@ import re
 import pytest
 
 from support import Processes
-from test_sitl_support import Sitl, command, connect, goto_local, mav, recv, set_mode, wait_armable
+from test_sitl_support import Sitl, command, connect, goto_local, mav, recv, set_mode, set_param, wait_armable
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -30,11 +30,6 @@ ARDUPILOT_SET = {"HEARTBEAT", "RAW_IMU", "SCALED_IMU2", "SCALED_IMU3", "SCALED_P
 
 def msgid(name: str) -> int:
     return getattr(C, "MAVLINK_MSG_ID_" + name)
-
-
-def set_param(m, name: str, value: float) -> None:
-    m.mav.param_set_send(m.target_system, m.target_component, name.encode(), value, C.MAV_PARAM_TYPE_REAL32)
-    recv(m, "PARAM_VALUE", 5, cond=lambda p: p.param_id == name and p.param_value == value)
 
 
 def counts_over(m, seconds: int) -> tuple[dict[str, int], float]:
@@ -110,7 +105,7 @@ def test_request_message_answers_with_each(flying):
     assert ekf.flags == 0x33F and 0 < ekf.pos_horiz_variance < 1
     servo = got["SERVO_OUTPUT_RAW"]
     assert all(1300 < getattr(servo, f"servo{k}_raw") < 1900 for k in range(1, 5))     # flying
-    assert got["FENCE_STATUS"].breach_status == 0 and got["RC_CHANNELS"].chan3_raw == 1500
+    assert got["FENCE_STATUS"].breach_status == 0 and got["RC_CHANNELS"].chan3_raw == 1000    # the receiver's
     assert got["POSITION_TARGET_GLOBAL_INT"].coordinate_frame == C.MAV_FRAME_GLOBAL
     assert command(m, C.MAV_CMD_REQUEST_MESSAGE, 12345) == C.MAV_RESULT_FAILED        # no such message
     # the truth against itself, the controllers against their telemetry

@@ -11,6 +11,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from auto_world import Flight, airborne, goto
 from vehicle.autopilot import modes
 from vehicle.link.framing import Framer, layout
+from vehicle.sim_faults import SimFaults
 from vehicle.telemetry import version
 from vehicle.telemetry.ekf_status import CONST_POS, HEALTHY_GPS, POS_ABS, VEL_HORIZ
 from vehicle.telemetry.imu import dipole_field_ned, isa_pressure_pa
@@ -88,8 +89,20 @@ def test_rover_skid_steering_outputs_and_servo_out():
     assert s.servo1_raw > 1500 > s.servo3_raw, (s.servo1_raw, s.servo3_raw)
 
 
-def test_rc_channels_are_the_trims_of_the_centred_sticks():
-    f = Flight("copter", params={"RC2_TRIM": 1520, "RC7_TRIM": 1100})
+@pytest.mark.parametrize("kind, throttle", [("copter", 1000), ("rover", 1500)])
+def test_rc_channels_are_the_simulated_receivers(kind, throttle):
+    """ArduPilot SITL's receiver (AP_RCProtocol_UDP::set_default_pwm_input_values): 8
+    channels, channels 9-16 without a pulse read 0."""
+    f = Flight(kind, params={"RC2_TRIM": 1520, "RC7_TRIM": 1100})
+    f.settle()
+    rc = build(f, "RC_CHANNELS")
+    assert rc.chancount == 8 and rc.rssi == 255
+    assert [getattr(rc, f"chan{n}_raw") for n in range(1, 9)] == [1500, 1500, throttle, 1500, 1800, 1000, 1000, 1800]
+    assert [getattr(rc, f"chan{n}_raw") for n in range(9, 19)] == [0] * 10
+
+
+def test_rc_channels_without_pulses_are_the_trims():
+    f = Flight("copter", params={"SIM_RC_FAIL": 1, "RC2_TRIM": 1520, "RC7_TRIM": 1100})
     f.settle()
     rc = build(f, "RC_CHANNELS")
     assert rc.chancount == 16 and rc.rssi == 255
@@ -111,8 +124,8 @@ def test_ekf_status_is_the_estimators_and_degrades_without_gps():
         f.step(0.1)
         seen.add(round(build(f, "EKF_STATUS_REPORT").pos_horiz_variance, 6))
     assert len(seen) > 5
-    # starve the estimator of GPS: dead reckoning, then timed out, then not aiding
-    n_gps, est.n_gps = est.n_gps, 10**9
+    # starve the estimator of GPS (SIM_GPS1_ENABLE 0): dead reckoning, then timed out, then not aiding
+    f.ap.fleet.set_faults(f.ap.i, SimFaults(gps_enabled=False))
     f.step(6.0)
     assert build(f, "EKF_STATUS_REPORT").flags == HEALTHY_GPS
     f.step(2.0)
@@ -120,9 +133,10 @@ def test_ekf_status_is_the_estimators_and_degrades_without_gps():
     assert not e.flags & (POS_ABS | VEL_HORIZ) and not e.flags & CONST_POS and e.flags & C.EKF_ATTITUDE
     f.step(8.0)
     e = build(f, "EKF_STATUS_REPORT")
-    assert e.flags & CONST_POS and not e.flags & POS_ABS
-    assert e.velocity_variance == 0.0 and e.pos_horiz_variance == 0.0     # EKF3 resets them
-    est.n_gps = n_gps
+    assert e.flags & CONST_POS and not e.flags & POS_ABS and est.no_aiding.active[f.ap.i]
+    # EKF3 resets both when aiding stops; then fuses the last known position, not a velocity
+    assert e.velocity_variance == 0.0 and 0.0 < e.pos_horiz_variance < 0.5
+    f.ap.fleet.set_faults(f.ap.i, SimFaults())
     f.step(0.3)
     assert build(f, "EKF_STATUS_REPORT").flags == HEALTHY_GPS
 

@@ -19,6 +19,10 @@ epochs, scheduled by step counts.
 ``ok`` (estimate_ok): at least ``min_gps`` GPS fixes fused and position variance below
 ``ok_var`` on every axis.
 
+Without GPS for 15 s a filter stops aiding (vehicle.no_aiding, EKF3's AID_NONE): it fuses
+its last known horizontal position with each baro height, so its velocity stays bounded;
+the next fix resets it onto GPS.
+
 Speed (a filter epoch of one vehicle): the filters are filterpy's own predict/update on
 fixed-size matrices, fed from reused buffers (GPS z, the predict's u); the baro height goes
 in as a scalar z (filterpy's form for dim_z 1: its copy of z is free) and its 1x1
@@ -37,6 +41,7 @@ from filterpy.kalman import KalmanFilter
 
 from common.frames.batch import quat_mul, quat_mul_one, rotate, rotate_one
 from vehicle.innovations import InnovationLog
+from vehicle.no_aiding import NoAiding
 
 G = np.array([0.0, 0.0, 9.80665])
 
@@ -185,6 +190,7 @@ class Estimator:
         self.ok = np.zeros(n, dtype=bool)
         self.k = 0
         self.innovations = InnovationLog(n)     # read by EKF_STATUS_REPORT
+        self.no_aiding = NoAiding(n, spec)      # EKF3's AID_NONE after a long GPS loss
 
     def _materialise(self) -> dict[str, np.ndarray]:
         """The array attributes from `rows` (one array, the attributes views of it: numpy's
@@ -271,6 +277,7 @@ class Estimator:
         b = self.bkf
         b.predict(acc_w)
         if gps:
+            self._aiding_batched(b, sensors)
             kept = self.innovations.keep(b, sensors.gps_missing)
             b.update(np.hstack([sensors.gps_pos, sensors.gps_vel]))
             self.innovations.gps_all(b.y, b.S, self.k - 1)
@@ -280,6 +287,10 @@ class Estimator:
             b.update(-sensors.baro_alt[:, None], R=self.R_baro, H=self.H_baro)
             self.innovations.baro_all(b.y, b.S)
             self.innovations.restore(b, kept)
+            na = self.no_aiding
+            for i in np.flatnonzero(na.active):
+                if sensors.baro_missing is None or not sensors.baro_missing[i]:
+                    na.fuse(i, b.x[i], b.P[i], self.innovations)
         self.pos = b.x[:, 0:3].copy()
         self.vel = b.x[:, 3:6].copy()
         self.bias = b.x[:, 6:9].copy()
@@ -289,6 +300,24 @@ class Estimator:
             self.ok = (self.gps_count >= self.min_gps) & np.all(pv < self.ok_var, axis=1)
         self.acc = acc_w - self.bias
 
+    def _aiding_batched(self, b: BatchedKF, sensors) -> None:
+        """At a GPS epoch of BatchedKF: the vehicles without a fix for too long stop aiding,
+        those not aiding that have one resume (vehicle.no_aiding)."""
+        na, missing, log = self.no_aiding, sensors.gps_missing, self.innovations
+        step = self.k - 1
+        for i in np.flatnonzero(na.active):
+            if missing is None or not missing[i]:
+                na.resume(i, b.x[i], b.P[i], np.hstack([sensors.gps_pos[i], sensors.gps_vel[i]]))
+        if missing is not None:
+            for i in np.flatnonzero(missing):
+                if self._aiding_lost(i, step):
+                    na.stop(i, b.x[i], b.P[i], log)
+
+    def _aiding_lost(self, i: int, step: int) -> bool:
+        """Vehicle i, with no GPS fix at estimator step `step`, should stop aiding now."""
+        age = (step - int(self.innovations.gps_step[i])) * self.dt
+        return self.no_aiding.due(i, self.gps_count[i] >= self.min_gps, age)
+
     def _epoch_filters(self, sensors, gps, baro, pos, vel, acc, Q, rates, gyro_err) -> list:
         """Per-vehicle filterpy filters; sensors, AHRS error and rotations on floats (every
         input a list of per-vehicle rows)."""
@@ -296,6 +325,7 @@ class Estimator:
         a, drive, g = self._ahrs_a, self._ahrs_drive, float(G[2])     # a float: rows stay Python floats
         zg, u = self._z_gps, self._u
         log, step = self.innovations, self.k - 1
+        noaid = self.no_aiding.active
         rows = []
         for i, (kf, zi, qt, w, ge, err, f) in enumerate(zip(self.kfs, z, Q, rates, gyro_err,
                                                             self._row_part("ahrs_err"), accel)):
@@ -313,12 +343,18 @@ class Estimator:
             if fix:
                 zg[0:3] = gps_pos[i]
                 zg[3:6] = gps_vel[i]
+                if noaid[i]:
+                    self.no_aiding.resume(i, kf.x, kf.P, zg)
                 kf.update(zg)
                 log.gps(i, kf.y, kf.S, step)
+            elif gps and self._aiding_lost(i, step):
+                self.no_aiding.stop(i, kf.x, kf.P, log)
             if baro and baro_alt[i] is not None:
                 # a scalar z (filterpy takes one for dim_z 1): the same y, and its copy of z is cheap
                 kf.update(-baro_alt[i], R=self.R_baro, H=self.H_baro)
                 log.baro(i, kf.y, kf.S)
+                if noaid[i]:
+                    self.no_aiding.fuse(i, kf.x, kf.P, log)
             x = kf.x.tolist()            # the row: x, then acc, quat, dq, rates, AHRS error
             x += (awx + 0.0 - x[6], awy + 0.0 - x[7], awz + g - x[8], qx, qy, qz, qw, dx, dy, dz, dw,
                   w[0] + ge[0], w[1] + ge[1], w[2] + ge[2], ex, ey, ez)

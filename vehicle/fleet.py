@@ -128,13 +128,33 @@ def _rover_core(ph, est, sp, armed, g, m, dt, xp, air=None, mul=None):
     rphys.step(ph, v, r, m, g, dt, xp, air)
 
 
+LAND_CHECK_ANGLE_ERROR = math.sin(math.radians(30.0) / 2) ** 2   # LAND_CHECK_ANGLE_ERROR_DEG, as att_err
+LAND_DETECTOR_ACCEL_MAX = 1.0       # m/s^2, of the 1 Hz filtered acceleration (ArduCopter config.h)
+LAND_DETECTOR_VEL_Z_MAX = 1.0       # m/s, the descent rate (ArduCopter config.h)
+LAND_DETECTOR_ACCEL_LPF_CUTOFF = 1.0    # Hz
+_ACCEL_RC = 1.0 / (2.0 * math.pi * LAND_DETECTOR_ACCEL_LPF_CUTOFF)   # s: ArduPilot's LowPassFilter RC
+_ACCEL_MAX_SQ = LAND_DETECTOR_ACCEL_MAX * LAND_DETECTOR_ACCEL_MAX
+
+
 @generic
 def _land_detect(c, e, ph, run, armed, landed, timer, g, dt, xp):
-    """ArduPilot-style land detector: armed, low thrust demand, not moving, for
-    LAND_DETECT_TIME. Cleared by a take-off (thrust demand near hover and moving).
-    Disarmed: landed = resting on the ground."""
+    """ArduCopter's land detector (land_detector.cpp update_land_detector), on the estimate e
+    (world NED): armed and, for LAND_DETECT_TIME (LAND_DETECTOR_TRIGGER_SEC), the motors at
+    their lower limit (thrust demand under 0.8 hover) with the attitude controller's thrust
+    error within LAND_CHECK_ANGLE_ERROR_DEG (its throttle-mix-min condition), the 1 Hz filtered
+    acceleration within LAND_DETECTOR_ACCEL_MAX and the descent rate within
+    LAND_DETECTOR_VEL_Z_MAX; no rangefinder is modelled, so none vetoes it. Horizontal speed
+    plays no part (ArduCopter's does not look at it either). Cleared by a take-off (thrust
+    demand near hover and those conditions gone). Disarmed: landed = resting on the ground.
+    Keeps the filtered acceleration in c.lax, c.lay, c.laz every step."""
+    k = dt / (dt + _ACCEL_RC)           # the low-pass coefficient (ArduPilot's LowPassFilter)
+    ax = c.lax = c.lax + (e.ax - c.lax) * k
+    ay = c.lay = c.lay + (e.ay - c.lay) * k
+    az = c.laz = c.laz + (e.az - c.laz) * k
     coll = xp.where(run, c.coll, 0.0)
-    quiet = (coll < 0.8 * g.hover) & (xp.abs(e.vz) < 0.3) & (e.vx * e.vx + e.vy * e.vy < 1.0)
+    low = (coll < 0.8 * g.hover) & (c.att_err <= LAND_CHECK_ANGLE_ERROR)
+    still = ax * ax + ay * ay + az * az <= _ACCEL_MAX_SQ
+    quiet = low & still & (xp.abs(e.vz) < LAND_DETECTOR_VEL_Z_MAX)
     timer = xp.where(armed & quiet, timer + dt, 0.0)
     took_off = run & (c.coll > 0.9 * g.hover) & xp.lnot(quiet)
     landed = xp.where(armed, (landed & xp.lnot(took_off)) | (timer >= g.land_time), ph.ground)
@@ -235,8 +255,9 @@ class CopterFleet(FleetBase):
         return Setpoint(pos=np.array([xy[0], xy[1], np.nan]), vel=np.array([0.0, 0.0, self._gs[i].land_speed]))
 
     def landed(self, i: int) -> bool:
-        """On the ground: land detector when armed (~LAND_DETECT_TIME s of low thrust and
-        no motion), resting on the ground when disarmed."""
+        """On the ground: land detector when armed (~LAND_DETECT_TIME s of low thrust, small
+        attitude error, no acceleration and little climb or descent: _land_detect), resting
+        on the ground when disarmed."""
         return bool(self._landed[i])
 
     @property

@@ -72,11 +72,12 @@ def finite_angle(a) -> float | None:
 class _Est:
     """Component view of estimator arrays for the controller."""
 
-    def __init__(self, pos, vel, quat, rates):
+    def __init__(self, pos, vel, quat, rates, acc):
         self.px, self.py, self.pz = pos[:, 0], pos[:, 1], pos[:, 2]
         self.vx, self.vy, self.vz = vel[:, 0], vel[:, 1], vel[:, 2]
         self.qx, self.qy, self.qz, self.qw = quat[:, 0], quat[:, 1], quat[:, 2], quat[:, 3]
         self.wx, self.wy, self.wz = rates[:, 0], rates[:, 1], rates[:, 2]
+        self.ax, self.ay, self.az = acc[:, 0], acc[:, 1], acc[:, 2]
 
 
 class _ScalarEst:
@@ -397,7 +398,7 @@ class FleetBase:
             e.epoch(self.sensors, self.pos, self.vel, self.acc, self.quat, self.rates, ge)
         else:
             e.output_step(self.quat, self.rates, ge, dt)
-        return _Est(e.pos, e.vel, e.quat, e.rates)
+        return _Est(e.pos, e.vel, e.quat, e.rates, e.acc)
 
     def _sense_and_estimate_scalar(self, dt) -> None:
         """Estimator for the scalar store, on Python floats throughout: truth, gyro error and

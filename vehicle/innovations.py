@@ -7,7 +7,8 @@ Per vehicle, from the last fusion of each sensor (filterpy's `y` = z - Hx and `S
 right after the update): the sum of squared innovations over the sum of their variances, for
 GPS velocity (3 axes), GPS horizontal position (north, east) and baro height -- the form of
 ArduPilot's velTestRatio / posTestRatio / hgtTestRatio before the gate is applied -- and the
-estimator step of the last GPS fusion.
+estimator step of the last GPS fusion. Without aiding (vehicle/no_aiding.py) the position ratio
+comes from the synthetic last-known-position fusion, as EKF3's does.
 """
 from __future__ import annotations
 
@@ -40,6 +41,17 @@ class InnovationLog:
         self.pos[:] = (y2[:, 0] + y2[:, 1]) / (s[:, 0] + s[:, 1])
         self.vel[:] = y2[:, 3:6].sum(axis=1) / s[:, 3:6].sum(axis=1)
         self.gps_step[:] = step
+
+    def position(self, i: int, yn: float, ye: float, sn: float, se: float) -> None:
+        """Vehicle i fused a horizontal position that is not a GPS fix (vehicle.no_aiding's
+        last known position): innovations yn, ye (m) and their variances sn, se (m^2)."""
+        self.pos[i] = (yn * yn + ye * ye) / (sn + se)
+
+    def reset_horizontal(self, i: int) -> None:
+        """Vehicle i stopped aiding: its velocity and position ratios are 0 (EKF3 resets them
+        "to avoid false failing bad fusion tests")."""
+        self.vel[i] = 0.0
+        self.pos[i] = 0.0
 
     def baro(self, i: int, y: np.ndarray, S: np.ndarray) -> None:
         """Vehicle i fused a baro height."""

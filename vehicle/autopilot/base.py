@@ -9,7 +9,8 @@ the Outbox it is given (STATUSTEXT, MISSION_ITEM_REACHED).
 
 Its parts: one Mode object per supported mode (mode.py; copter_modes/, rover_modes/), the
 current one in `flightmode`; `arming` (arming.py), `commands` (commands.py and the vehicle's),
-`failsafe` (failsafe.py and the vehicle's: GCS, battery, fence actions), `speed`
+`failsafe` (failsafe.py and the vehicle's: GCS, battery, fence actions), `crash_check`
+(crash_check.py), `speed`
 (DO_CHANGE_SPEED, speed.py), `fence` (fence.py), `follow` (AP_Follow, follow_mode.py) and the
 SmartRTL path `srtl` (smartrtl.py). Positions are the SITL world's NED (m, z down).
 """
@@ -25,6 +26,7 @@ from common.frames import euler_from_quaternion
 from vehicle.autopilot.arming import Arming
 from vehicle.autopilot.battery import Battery
 from vehicle.autopilot.commands import wire_int
+from vehicle.autopilot.crash_check import CrashCheck
 from vehicle.autopilot.ekf_failsafe import EkfCheck
 from vehicle.autopilot.ekf_origin import EkfOrigin
 from vehicle.autopilot.fence import Fence
@@ -35,7 +37,7 @@ from vehicle.autopilot.mode import Mode
 from vehicle.autopilot.outbox import Outbox
 from vehicle.autopilot.params import ParamStore
 from vehicle.autopilot.radio_failsafe import RadioFailsafe
-from vehicle.autopilot.rc_input import RcInput
+from vehicle.autopilot.rc_input import COPTER_RECEIVER, RcInput
 from vehicle.autopilot.smartrtl import SmartRTLPath
 from vehicle.autopilot.speed import SpeedOverride
 from vehicle.fleet import Setpoint
@@ -61,11 +63,13 @@ class Autopilot:
     mav_type = 0
     mode_classes: tuple[type[Mode], ...] = ()
     initial_mode = GUIDED = AUTO = RTL = SMART_RTL = -1
+    receiver = COPTER_RECEIVER          # the simulated transmitter's resting pulses (rc_input.py)
     arming_class: type = Arming
     commands_class: type = object
     failsafe_class: type = object
     radio_failsafe_class: type = RadioFailsafe
     ekf_check_class: type = EkfCheck
+    crash_check_class: type = CrashCheck
     speed_param: tuple[str, float, float, float] = ("", 1.0, 0.0, 100.0)   # name, per m/s, default, max m/s
 
     def __init__(self, fleet, index: int, params: ParamStore, origin: tuple[float, float, float],
@@ -104,9 +108,10 @@ class Autopilot:
         self.arming = self.arming_class(self)
         self.commands = self.commands_class(self)
         self.failsafe = self.failsafe_class(self)
-        self.rc = RcInput(params)                    # the pilot's sticks (rc_input.py)
+        self.rc = RcInput(params, self.receiver)     # the pilot's sticks (rc_input.py)
         self.radio = self.radio_failsafe_class(self)
         self.ekf_check = self.ekf_check_class(self)      # EKF failsafe, GPS glitch (ekf_failsafe.py)
+        self.crash_check = self.crash_check_class(self)  # disarms a crashed copter (crash_check.py)
         self.flightmodes: dict[int, Mode] = {}
         for cls in self.mode_classes:                # in order: AUTO takes the RTL object
             self.flightmodes[cls.number] = cls(self)
@@ -280,6 +285,7 @@ class Autopilot:
         self.failsafe.update(t, dt)
         self.ekf_check.update(t, dt)
         self.fence.check(t)
+        self.crash_check.update(dt)
         mode = self.flightmode
         mode.read_pilot_input()
         mode.run(dt)

@@ -1,5 +1,6 @@
 """ArduCopter-like autopilot: its modes (copter_modes/), arming (copter_arming.py), commands
-(copter_commands.py) and failsafe actions (copter_failsafe.py) on the shared Autopilot (base.py).
+(copter_commands.py), failsafe actions (copter_failsafe.py) and crash check (crash_check.py) on
+the shared Autopilot (base.py).
 
 Setpoints are world NED, sent to the CopterFleet every autopilot tick by the current mode.
 DISARM_DELAY: disarms after that long landed without a takeoff in progress, as ArduPilot's
@@ -17,8 +18,9 @@ from vehicle.autopilot.copter_arming import CopterArming
 from vehicle.autopilot.copter_commands import CopterCommands
 from vehicle.autopilot.copter_failsafe import CopterFailsafes
 from vehicle.autopilot.copter_modes.copter_mode import UserTakeoff
-from vehicle.autopilot.radio_failsafe import CopterRadioFailsafe
+from vehicle.autopilot.crash_check import CopterCrashCheck
 from vehicle.autopilot.ekf_failsafe import CopterEkfCheck
+from vehicle.autopilot.radio_failsafe import CopterRadioFailsafe
 
 
 class CopterAutopilot(Autopilot):
@@ -32,6 +34,7 @@ class CopterAutopilot(Autopilot):
     failsafe_class = CopterFailsafes
     radio_failsafe_class = CopterRadioFailsafe
     ekf_check_class = CopterEkfCheck
+    crash_check_class = CopterCrashCheck
     speed_param = ("WPNAV_SPEED", 100.0, 500.0, 20.0)      # cm/s; 20 m/s is WPNAV_SPEED's maximum
 
     def __init__(self, *a, **kw) -> None:

@@ -8,6 +8,9 @@ when. Landed with no takeoff under way, every failsafe disarms instead.
   sequence here: RTL or Land), 7 Brake or Land.
 - Fence, FENCE_ACTION: 1 RTL or LAND, 2 LAND, 3 SmartRTL or RTL or LAND, 4 BRAKE or LAND,
   5 SmartRTL or LAND; more than 100 m outside: LAND.
+Every failsafe LAND but the fence's is ArduCopter's set_mode_land_with_pause (land_with_pause
+here, also for the radio and EKF failsafes): LAND holds its altitude LAND_WITH_DELAY_S before
+descending (copter_modes/land.py); a BRAKE that cannot start says "Trying Land Mode" first.
 """
 from __future__ import annotations
 
@@ -38,17 +41,17 @@ class CopterFailsafes(Failsafes):
             ap.disarm(force=True, reason=why)
         elif enable == 5:
             ap.text(SEV_WARNING, "GCS Failsafe On: LAND")
-            ap.set_mode(modes.LAND, why)
+            self.land_with_pause(why)
         elif enable == 3:
             ap.text(SEV_WARNING, "GCS Failsafe On: SmartRTL")
             if not self.smart_rtl_or_rtl(why):
-                ap.set_mode(modes.LAND, why)
+                self.land_with_pause(why)
         elif enable == 4:
             ap.text(SEV_WARNING, "GCS Failsafe On: SmartRTL")
             self.smart_rtl_or_land(why)
         else:
             ap.text(SEV_WARNING, "GCS Failsafe On: RTL")
-            self.first_mode((modes.RTL, modes.LAND), why)
+            self.failsafe_modes((modes.RTL, modes.LAND), why)
 
     def battery_action(self, action: int) -> None:
         ap = self.ap
@@ -60,7 +63,7 @@ class CopterFailsafes(Failsafes):
         if action == TERMINATE:
             ap.disarm(force=True)
             return
-        self.first_mode(BATTERY_CHAINS.get(action, ()), "battery failsafe")
+        self.failsafe_modes(BATTERY_CHAINS.get(action, ()), "battery failsafe")
 
     def fence_action(self, action: int, far_outside: bool) -> None:
         ap = self.ap
@@ -75,7 +78,7 @@ class CopterFailsafes(Failsafes):
         elif action == 4:
             self.first_mode((modes.BRAKE, modes.LAND), why)
         elif action == 5:
-            self.smart_rtl_or_land(why)
+            self.smart_rtl_or_land(why, pause=False)
         else:
             self.first_mode((modes.RTL, modes.LAND), why)
 
@@ -86,9 +89,29 @@ class CopterFailsafes(Failsafes):
         self.ap.text(SEV_WARNING, "SmartRTL Unavailable, Trying RTL Mode")
         return self.ap.set_mode(modes.RTL, reason)
 
-    def smart_rtl_or_land(self, reason: str) -> bool:
-        """ArduCopter's set_mode_SmartRTL_or_land_with_pause: SMART_RTL, else LAND with its text."""
+    def smart_rtl_or_land(self, reason: str, pause: bool = True) -> bool:
+        """ArduCopter's set_mode_SmartRTL_or_land_with_pause: SMART_RTL, else LAND with its text
+        (pause=False: the fence's, a LAND without the pause)."""
         if self.ap.set_mode(modes.SMART_RTL, reason):
             return True
         self.ap.text(SEV_WARNING, "SmartRTL Unavailable, Using Land Mode")
-        return self.ap.set_mode(modes.LAND, reason)
+        return self.land_with_pause(reason) if pause else self.ap.set_mode(modes.LAND, reason)
+
+    def land_with_pause(self, reason: str) -> bool:
+        """ArduCopter's set_mode_land_with_pause: LAND, its descent held for LAND_WITH_DELAY_S
+        after LAND was entered (copter_modes/land.py)."""
+        ok = self.ap.set_mode(modes.LAND, reason)
+        self.ap.flightmodes[modes.LAND].set_land_pause(True)
+        return ok
+
+    def failsafe_modes(self, numbers, reason: str) -> bool:
+        """The first of `numbers` that starts, as first_mode, a LAND with the pause; a BRAKE
+        that does not start says "Trying Land Mode" (set_mode_brake_or_land_with_pause)."""
+        for m in numbers:
+            if m == modes.LAND:
+                return self.land_with_pause(reason)
+            if self.ap.set_mode(m, reason):
+                return True
+            if m == modes.BRAKE:
+                self.ap.text(SEV_WARNING, "Trying Land Mode")
+        return False

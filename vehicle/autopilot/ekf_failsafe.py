@@ -13,7 +13,7 @@ Copter (CopterEkfCheck):
 - it starts counting once it has passed; each failing 10 Hz tick counts up, each passing one
   down; at 10 (1 s): CRITICAL "EKF variance" (at most every 30 s) and the event: nothing
   when disarmed or in a mode that needs no position (unless FS_EKF_ACTION 3); FS_EKF_ACTION
-  2 ALT_HOLD (LAND if that fails), else LAND, then CRITICAL "EKF Failsafe: changed to <MODE>
+  2 ALT_HOLD (LAND if that fails), else LAND (with the failsafe pause), then CRITICAL "EKF Failsafe: changed to <MODE>
   Mode"; back at 0: CRITICAL "EKF Failsafe Cleared" if an action was taken.
 - GPS glitch: the filter's GPS position innovation fails its gate (EKF_STATUS_REPORT's
   EKF_GPS_GLITCHING): CRITICAL "GPS Glitch", then "GPS Glitch cleared" once it has passed for
@@ -185,9 +185,9 @@ class CopterEkfCheck(EkfCheck):
         if action == 2:
             # (ArduCopter lands instead while its radio failsafe is on)
             if ap.radio.active or not ap.set_mode(modes.ALT_HOLD, why):
-                ap.set_mode(modes.LAND, why)
+                ap.failsafe.land_with_pause(why)
         else:
-            ap.set_mode(modes.LAND, why)
+            ap.failsafe.land_with_pause(why)
         self.action_taken = True
         ap.text(CRITICAL, f"EKF Failsafe: changed to {ap.mode_name} Mode")
 

@@ -297,6 +297,7 @@ class ParamStore:
         self._apply()
 
     def _apply(self) -> None:
+        self.changes += 1
         self.values = {n: d.default for n, d in self.defs.items()}
         for source in self.defaults, self.saved:
             for name, value in source.items():
@@ -361,6 +362,7 @@ class ParamStore:
         if why is not None:
             return why
         self.values[name] = self._coerce(name, value)
+        self.changes += 1
         if save:
             self.saved[name] = self.values[name]
             self.dirty = True
@@ -373,6 +375,9 @@ class ParamStore:
     # also saves parameters from a queue, not in the message handler
     deferred = False
     dirty = False
+    # counts the changes of any value (set, reload): what derives from the parameters can tell
+    # it is still current without reading them again (rc_input.py's stick scaling)
+    changes = 0
 
     def flush(self) -> None:
         """Write the saved parameters if a set() changed them since the last write."""

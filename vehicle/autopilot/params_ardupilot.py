@@ -186,7 +186,7 @@ _COPTER_ONLY = [
     ("FS_THR_ENABLE", 1, 0, 7, I8, "", "radio failsafe: 0 off, 1 RTL, 2 RTL (continue in AUTO: FS_OPTIONS), 3 LAND, "
      "4 SmartRTL or RTL, 5 SmartRTL or LAND, 6 DO_LAND_START or RTL, 7 BRAKE or LAND"),
     ("FS_THR_VALUE", 975, 910, 1100, I16, "PWM", "throttle pulse below which the radio failsafe triggers"),
-    ("FS_CRASH_CHECK", 1, 0, 2, I8, "", f"crash check ({NS})"),
+    ("FS_CRASH_CHECK", 1, 0, 1, I8, "", "crash check: 1 disarms a crashed copter (crash_check.py), 0 off"),
     ("FS_VIBE_ENABLE", 1, 0, 1, I8, "", f"vibration failsafe ({NS})"),
     ("MOT_PWM_MIN", 1000, 0, 2000, I16, "PWM", f"motor PWM minimum ({NS})"),
     ("MOT_PWM_MAX", 2000, 0, 2000, I16, "PWM", f"motor PWM maximum ({NS})"),

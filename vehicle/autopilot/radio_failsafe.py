@@ -6,10 +6,10 @@ failsafe_radio_on_event; Rover's FS_ACTION). Sim time throughout.
 Copter (FS_THR_ENABLE != 0):
 - a frame's throttle below FS_THR_VALUE three reads running triggers it; good throttle
   frames count back down and at zero clear it ("Radio Failsafe Cleared", WARNING);
-- no RC frame for RC_FS_TIMEOUT s (at least 0.1) triggers it, armed or once RC input
-  (a receiver or an override) has been seen (has_ever_seen_rc_input). towerlink has no radio
-  receiver unless SIM_RC_FAIL is 2, so before the first RC input nothing can time out (in
-  ArduPilot SITL a receiver is always there: arming with none fails its checks instead).
+- no RC frame for RC_FS_TIMEOUT s (at least 0.1) triggers it once RC input (the simulated
+  receiver or an override) has been seen (has_ever_seen_rc_input): the receiver sends from
+  the first tick, so SIM_RC_FAIL 1 (no pulses) triggers it RC_FS_TIMEOUT s later; with
+  SIM_RC_FAIL 1 from boot there is never a frame and nothing times out.
 - then, in events.cpp's order: should disarm (STABILIZE with the throttle at zero, AUTO not
   auto-armed and landed, any mode landed): "Radio Failsafe - Disarming"; landing under a
   battery failsafe: "Radio + Battery Failsafe - Continuing Landing"; landing with FS_OPTIONS
@@ -75,7 +75,7 @@ class CopterRadioFailsafe(RadioFailsafe):
     def update(self, t: float, new_frame: bool) -> None:
         ap = self.ap
         if ap.rc.last_frame is None:
-            return                     # never any RC input: nothing to lose (the common case)
+            return                     # never any RC frame (SIM_RC_FAIL 1 from boot): nothing to lose
         if new_frame:
             self._throttle_zero(t)
             if not self.enabled():
@@ -147,7 +147,7 @@ class CopterRadioFailsafe(RadioFailsafe):
             ap.text(SEV_WARNING, "SmartRTL Unavailable, Trying RTL Mode" if modes.RTL in chain
                     else "SmartRTL Unavailable, Using Land Mode")
             chain = chain[1:]
-        ap.failsafe.first_mode(chain, why)
+        ap.failsafe.failsafe_modes(chain, why)      # LAND with its pause (copter_failsafe.py)
 
 
 class RoverRadioFailsafe(RadioFailsafe):
@@ -159,7 +159,7 @@ class RoverRadioFailsafe(RadioFailsafe):
     def update(self, t: float, new_frame: bool) -> None:
         ap = self.ap
         if ap.rc.last_frame is None and not self.triggered:
-            return                     # never any RC input: nothing to lose (the common case)
+            return                     # never any RC frame (SIM_RC_FAIL 1 from boot): nothing to lose
         if not self.enabled() or ap.rc.last_frame is None:
             failed = False
         else:

@@ -2,6 +2,16 @@
 no clocks; times are sim seconds passed in).
 
 Where the pulses come from:
+- The simulated receiver, always there as in ArduPilot SITL (AP_RCProtocol_UDP): a frame of 8
+  channels every 20 ms (its 50 Hz) at the transmitter's resting positions
+  (set_default_pwm_input_values): ch1, 2, 4 1500; ch3 1000 (Rover: 1500, its throttle centred
+  for reverse); ch5 1800; ch6, 7 1000; ch8 1800; channels 9-16 read 0. SIM_RC_FAIL 1: no
+  pulses (the radio failsafe's RC_FS_TIMEOUT then runs out); 2: every channel 1500 but ch3
+  (the throttle, "assumed to be on channel 3") at 950. SITL's receiver keeps those pulses until
+  its next RC packet; towerlink's transmitter keeps sending its sticks (as autotest's RC
+  thread streams them to SITL's RC port), so they are back as soon as SIM_RC_FAIL is 0 again.
+  `transmit` moves the sticks: an RC packet as autotest's set_rc sends it (8 or 16 pulses, 0
+  leaves a channel, its length the receiver's channel count).
 - RC_CHANNELS_OVERRIDE (GCS_MAVLINK::handle_rc_channels_override), accepted by the link only
   from SYSID_MYGCS: chan1..8 = 65535 leaves that channel as it is, any other value (0
   included) is set as its override; chan9..18 = 0 or 65535 leave it, 65534 releases it
@@ -9,20 +19,29 @@ Where the pulses come from:
 - MANUAL_CONTROL (the vehicle's handle_manual_control_axes, mapped here by the caller with
   `manual_override`): pwm = RCn_MIN + (RCn_MAX - RCn_MIN) * (value + offset) / scaler, the
   value negated first when reversed; INT16_MAX releases the channel (override 0).
-- A simulated receiver only while SIM_RC_FAIL = 2 (ArduPilot SITL's "All Channels neutral
-  except Throttle is 950us"). towerlink simulates no transmitter otherwise (SIM_RC_FAIL 0 and
-  1 are alike: no pulses), so without a GCS's overrides there is no RC input at all.
 
 An override counts while it is non-zero and younger than RC_OVERRIDE_TIME (s; 0 disables
 overrides, negative never times out) (RC_Channel::has_override). Each tick `read(t)` is
 RC_Channels::read_input: a new frame when a receiver pulse or a new override arrived since
-the last read; then every channel with an override (or the receiver) takes its value as
-radio_in, the others keep the last one. `last_frame` is the sim time of the last frame (the
-radio failsafe's RC_FS_TIMEOUT counts from it).
+the last read; then every channel with an override takes it as radio_in, the others the
+receiver's last pulse (so a released or timed-out override goes back to the receiver's value,
+also once its pulses have stopped); before the receiver's first frame they keep their last
+value. `last_frame` is the sim time of the last
+frame (the radio failsafe's RC_FS_TIMEOUT counts from it).
 
 Sticks (RC_Channel's conversions, RCn_MIN/MAX/TRIM/DZ/REVERSED, channels by RCMAP_*):
 roll, pitch and yaw as norm_input_dz (-1..1: right, nose-up, right), the throttle as
 pwm_to_range (0..1000, dead zone at the bottom) and as norm_input_dz (-1..1, Rover's).
+With the receiver's throttle at 1000 (below RC3_MIN) a copter's pilot modes (ALT_HOLD,
+LOITER, POSHOLD) descend at PILOT_SPEED_DN, as ArduCopter SITL's do: autotest raises RC3 to
+1500 before flying them.
+
+The flight mode switch (FLTMODE_CH / MODE_CH) is not read. ArduCopter reads it from its first
+debounced position (reset_mode_switch starts it at "none"), so ~200 ms after the receiver's
+first frame it sets FLTMODE6 (ch5 at 1800), STABILIZE by default, the mode it booted in: no
+change; after that the switch never moves. towerlink boots as that leaves it. Not modelled:
+a non-default FLTMODE6 (ArduCopter would boot into it) and Rover's MODE6 (MANUAL, where
+towerlink's rover boots in HOLD).
 """
 from __future__ import annotations
 
@@ -36,6 +55,14 @@ INT16_MAX = 32767              # MANUAL_CONTROL: axis not used -> release
 SITL_FAIL_THROTTLE = 950       # SIM_RC_FAIL 2: the throttle's pulse (us)
 SITL_NEUTRAL = 1500
 IGNORE_RECEIVER, IGNORE_OVERRIDES = 1, 2    # RC_OPTIONS bits
+NO_PULSES, THROTTLE_950 = 1, 2              # SIM_RC_FAIL values
+RECEIVER_PERIOD = 0.02         # s between the simulated receiver's frames (50 Hz)
+TICK_SLACK = 1e-6              # s: a tick that float rounding puts just short of a frame still gets it
+RECEIVER_CHANNELS = 8          # what SITL's receiver reports (RC_CHANNELS chancount)
+SITL_CHANCOUNT = 16            # SIM_RC_CHANCOUNT: the count before any receiver frame
+# the transmitter's resting positions, ch1..8 (us)
+COPTER_RECEIVER = (1500, 1500, 1000, 1500, 1800, 1000, 1000, 1800)
+ROVER_RECEIVER = (1500, 1500, 1500, 1500, 1800, 1000, 1000, 1800)
 
 
 @dataclass(frozen=True)
@@ -106,16 +133,23 @@ def manual_pwm(value: int, offset: int, scaler: float, lo: int, hi: int, reverse
 class RcInput:
     """One vehicle's RC input: overrides, the simulated receiver, radio_in per channel."""
 
-    def __init__(self, params: Mapping[str, float]) -> None:
+    def __init__(self, params: Mapping[str, float], receiver: Sequence[int] = COPTER_RECEIVER) -> None:
+        """receiver: the transmitter's resting pulses of channels 1.. (us)."""
         self.params = params
+        self.sent = [int(v) for v in receiver] + [0] * (NUM_CHANNELS - len(receiver))   # the transmitter's
+        self.sent_count = len(receiver)
+        self.frame = self._frame_of(self.sent)     # what the receiver sends of them
         self.override = [0] * NUM_CHANNELS          # us; 0 = none
         self.override_t = [0.0] * NUM_CHANNELS      # sim s it was set
         self.radio_in = [0] * NUM_CHANNELS          # us; 0 = never had a value
         self.new_overrides = False
+        self.next_pulse = 0.0                       # sim s the receiver's next frame is due
         self.last_frame: float | None = None        # sim s of the last RC frame
         self.receiver_seen = False                  # ArduPilot's has_had_rc_receiver
+        self.last_pulses: list[int] | None = None   # the receiver's last frame
         self.override_seen = False                  # has_had_rc_override
         self.sticks: Sticks | None = None           # None until the first frame
+        self._scaled: tuple | None = None           # (radio_in, params.changes) `sticks` came from
 
     # ----- what comes in --------------------------------------------------------------
     def set_override(self, ch: int, value: int, t: float) -> None:
@@ -143,6 +177,18 @@ class RcInput:
         lo, hi = _p(p, channel, "MIN", 1100), _p(p, channel, "MAX", 1900)
         self.set_override(channel - 1, manual_pwm(value, offset, scaler, lo, hi, reversed_), t)
 
+    def transmit(self, pulses: Sequence[int]) -> None:
+        """The transmitter's sticks moved: SITL's RC input packet (read_all_socket_input), 8 or
+        16 pulses (us) of channels 1..; 0 leaves a channel as it was. The receiver sends them
+        from its next frame, and the packet's length is its channel count (chancount)."""
+        if len(pulses) not in (RECEIVER_CHANNELS, NUM_CHANNELS):
+            raise ValueError(f"an RC packet has 8 or 16 channels, not {len(pulses)}")
+        for i, v in enumerate(pulses):
+            if int(v):
+                self.sent[i] = int(v)
+        self.sent_count = len(pulses)
+        self.frame = self._frame_of(self.sent)
+
     def clear_overrides(self) -> None:
         """RC_Channels::clear_overrides (the GCS failsafe drops them)."""
         self.override = [0] * NUM_CHANNELS
@@ -161,43 +207,72 @@ class RcInput:
         return t - self.override_t[ch] < timeout
 
     def receiver_frame(self) -> list[int] | None:
-        """The simulated receiver's pulses this tick (SIM_RC_FAIL 2), else None."""
-        if int(self.params.get("SIM_RC_FAIL", 0)) != 2:
+        """The simulated receiver's pulses of channels 1..16 (SIM_RC_FAIL as the module doc
+        says; channels past its count read 0), None for no pulses."""
+        fail = self.params.get("SIM_RC_FAIL", 0)
+        if not fail:
+            return self.frame
+        if fail == NO_PULSES:
             return None
-        out = [SITL_NEUTRAL] * NUM_CHANNELS
-        thr = channel_numbers(self.params)[2] - 1
-        if 0 <= thr < NUM_CHANNELS:
-            out[thr] = SITL_FAIL_THROTTLE
-        return out
+        return self._frame_of([SITL_NEUTRAL, SITL_NEUTRAL, SITL_FAIL_THROTTLE] + [SITL_NEUTRAL] * (NUM_CHANNELS - 3))
+
+    def _frame_of(self, pulses: list[int]) -> list[int]:
+        """Channels 1..16 of the receiver's frame: `pulses` up to its channel count, 0 past it."""
+        n = self.sent_count
+        return pulses[:n] + [0] * (NUM_CHANNELS - n)
 
     def read(self, t: float) -> bool:
         """RC_Channels::read_input at sim time t: True when a new frame was read (the
-        channels then hold it and `sticks` is updated). RC_OPTIONS bit 0 ignores the
-        receiver, bit 1 the overrides (ignore_receiver, ignore_overrides)."""
-        if not self.new_overrides and self.params.get("SIM_RC_FAIL", 0) != 2:
-            return False               # the common tick: nothing came (no receiver, no override)
+        channels then hold it and `sticks` is updated). The receiver sends a frame every
+        RECEIVER_PERIOD. RC_OPTIONS bit 0 ignores the receiver, bit 1 the overrides
+        (ignore_receiver, ignore_overrides)."""
+        if not self.new_overrides and t < self.next_pulse:
+            return False               # the common tick: no receiver frame due, no new override
+        rx = None
+        if t >= self.next_pulse:
+            self.next_pulse = t + RECEIVER_PERIOD - TICK_SLACK
+            rx = self.receiver_frame()
         options = int(self.params.get("RC_OPTIONS", 32))
-        rx = None if options & IGNORE_RECEIVER else self.receiver_frame()
+        if options & IGNORE_RECEIVER:
+            rx = None
         if options & IGNORE_OVERRIDES:
             self.new_overrides = False
         if rx is not None:
             self.receiver_seen = True
+            self.last_pulses = rx
         elif not self.new_overrides:
             return False
         self.new_overrides = False
+        # a channel without an override reads the receiver's last pulse once it has sent one
+        # (hal.rcin->read keeps it when the pulses stop), else keeps its radio_in
+        src = self.last_pulses if self.receiver_seen and not options & IGNORE_RECEIVER else None
         got = False
-        for ch in range(NUM_CHANNELS):
-            if self.override[ch] and not options & IGNORE_OVERRIDES and self.has_override(ch, t):
-                self.radio_in[ch] = self.override[ch]
-            elif rx is not None:
-                self.radio_in[ch] = rx[ch]
-            else:
-                continue
+        if rx is not None and (options & IGNORE_OVERRIDES or not any(self.override)):
+            self.radio_in[:] = rx      # the receiver alone (the common frame)
             got = True
+        else:
+            for ch in range(NUM_CHANNELS):
+                if self.override[ch] and not options & IGNORE_OVERRIDES and self.has_override(ch, t):
+                    self.radio_in[ch] = self.override[ch]
+                elif src is not None:
+                    self.radio_in[ch] = src[ch]
+                else:
+                    continue
+                got = True
         if got:
             self.last_frame = t
-            self.sticks = self.scale()
+            self._rescale()
         return got
+
+    def _rescale(self) -> None:
+        """`sticks` from radio_in, unless neither it nor the parameters (a ParamStore counts
+        its changes; a plain mapping is read again every time) changed since."""
+        changes = getattr(self.params, "changes", None)
+        if changes is not None and self._scaled is not None and self._scaled[1] == changes \
+                and self._scaled[0] == self.radio_in:
+            return
+        self.sticks = self.scale()
+        self._scaled = (self.radio_in.copy(), changes)
 
     def pwm(self, channel: int) -> int:
         """radio_in of channel number `channel` (1-based; 0 = none yet)."""
@@ -220,8 +295,16 @@ class RcInput:
                       throttle=pwm_to_range(thr_pwm, lo, hi, dz, rev), throttle_norm=norm(thr_ch),
                       throttle_mid=control_mid(lo, hi, dz), throttle_pwm=thr_pwm)
 
+    def channel_count(self) -> int:
+        """RC_CHANNELS chancount (get_valid_channel_count): the receiver's channels (8 unless
+        a 16-channel packet came) once it has sent a frame, SITL's SIM_RC_CHANCOUNT (16) before."""
+        return self.sent_count if self.receiver_seen else SITL_CHANCOUNT
+
     def channels(self, n: int = NUM_CHANNELS) -> list[int]:
-        """radio_in of channels 1..n for RC_CHANNELS: a channel without a value reads as its
-        RCn_TRIM (1500 past the channels with parameters)."""
+        """radio_in of channels 1..n for RC_CHANNELS. Once the receiver has sent a frame that
+        is ArduPilot's radio_in (0 for the channels it has no pulse for); before, a channel
+        without a value reads as its RCn_TRIM (1500 past the channels with parameters)."""
+        if self.receiver_seen:
+            return self.radio_in[:n]
         p = self.params
         return [self.radio_in[i] or _p(p, i + 1, "TRIM", 1500) for i in range(n)]

@@ -14,6 +14,7 @@ from vehicle.autopilot.base import Autopilot
 from vehicle.autopilot.ekf_failsafe import RoverEkfCheck
 from vehicle.autopilot.rover_commands import RoverCommands
 from vehicle.autopilot.radio_failsafe import RoverRadioFailsafe
+from vehicle.autopilot.rc_input import ROVER_RECEIVER
 from vehicle.autopilot.rover_failsafe import RoverFailsafes
 
 DRIVE_V = 11.1            # V: the drive's nominal voltage
@@ -26,6 +27,7 @@ class RoverAutopilot(Autopilot):
     mav_type = mav.MAV_TYPE_GROUND_ROVER
     mode_classes = rover_modes.MODES
     initial_mode = modes.ROVER_HOLD
+    receiver = ROVER_RECEIVER           # its throttle centred (reverse)
     GUIDED, AUTO, RTL, SMART_RTL = modes.ROVER_GUIDED, modes.ROVER_AUTO, modes.ROVER_RTL, modes.ROVER_SMART_RTL
     commands_class = RoverCommands
     failsafe_class = RoverFailsafes

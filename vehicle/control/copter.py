@@ -95,11 +95,16 @@ class CopterCtrlState:
     """Controller memory: shaped reference, yaw reference, integrators, D filters; and what
     the last step asked for, for telemetry: the attitude target (tan_roll_t, tan_pitch_t),
     the body-rate target (rtx, rty, rtz, rad/s FRD) and the vertical acceleration target
-    (atz, m/s^2 NED, down positive)."""
+    (atz, m/s^2 NED, down positive); att_err, sin^2 of half the angle between the target and
+    the estimated thrust axes (ArduPilot's thrust error angle, read by the land detector and
+    the crash check); lax, lay, laz: the land detector's 1 Hz low-passed acceleration (world
+    NED m/s^2, vehicle.fleet._land_detect keeps it); f0..f3: the mixer's four rotor-speed
+    commands (0..1, ArduPilot's motor order; the thrust loss check's)."""
     FIELDS = ("px", "py", "pz", "vx", "vy", "vz", "ax", "ay", "az", "yaw",
               "ivx", "ivy", "ivz", "evx", "evy", "dvx", "dvy",
               "irx", "iry", "irz", "erx", "ery", "erz", "drx", "dry", "drz", "coll",
-              "tan_roll_t", "tan_pitch_t", "rtx", "rty", "rtz", "atz")
+              "tan_roll_t", "tan_pitch_t", "rtx", "rty", "rtz", "atz", "att_err", "lax", "lay", "laz",
+              "f0", "f1", "f2", "f3")
     __slots__ = FIELDS + ("yaw_seen", "yaw_half")
 
     def __init__(self, n: int | None):
@@ -271,7 +276,10 @@ def step(c: CopterCtrlState, est, sp: SetpointArrays, g: CopterGains, dt: float,
     c.coll = coll
     c.tan_roll_t, c.tan_pitch_t = tr, tp      # the attitude target (NAV_CONTROLLER_OUTPUT)
     c.rtx, c.rty, c.rtz, c.atz = rtx, rty, rtz, atz    # rate and climb targets (PID_TUNING)
-    return mix(coll, u_r, u_p, u_y, g.spin_min, xp)
+    c.att_err = ex * ex + ey * ey             # the error rotation's R33 is 1 - 2 att_err
+    out = mix(coll, u_r, u_p, u_y, g.spin_min, xp)
+    c.f0, c.f1, c.f2, c.f3 = out
+    return out
 
 
 @generic

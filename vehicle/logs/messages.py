@@ -79,7 +79,7 @@ ORIGIN_AHRS_HOME = 1
 # arms by MAVLink only, and disarms for the reasons the autopilot gives
 ARM_METHOD_MAVLINK = 1
 ARM_METHOD_UNKNOWN = 100
-DISARM_METHODS = {"": ARM_METHOD_MAVLINK, "flight termination": 5, "battery failsafe": 7, "landed": 13,
+DISARM_METHODS = {"": ARM_METHOD_MAVLINK, "flight termination": 5, "battery failsafe": 7, "crash": 12, "landed": 13,
                   "mission complete": 14, "fence breach": 15, "auto-disarm": 17, "GCS failsafe": 18}
 
 # ModeReason (MODE.Rsn) of the reasons the autopilot gives set_mode

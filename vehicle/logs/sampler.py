@@ -12,8 +12,8 @@ Which state is which (as ArduPilot's): ATT, POS, CTUN.Alt and XKF1 are the estim
 the estimator fuses, ATT's DesRoll / DesPitch / DesYaw the controller's attitude target
 (what NAV_CONTROLLER_OUTPUT says), CTUN's DAlt / DCRt its position target and ThO its
 collective, BAT the battery monitor. RCOU and RCIN are what SERVO_OUTPUT_RAW and
-RC_CHANNELS say (vehicle/telemetry/outputs.py: the motors' PWM; no radio, every stick at its
-trim). Angles are degrees, yaw 0..360.
+RC_CHANNELS say (vehicle/telemetry/outputs.py: the motors' PWM; the simulated receiver's
+channels and the GCS's overrides). Angles are degrees, yaw 0..360.
 
 Not simulated, logged as ArduPilot logs an absent input: CTUN.ThI / ABst 0, no rangefinder
 (DSAlt / SAlt / TAlt 0), ATT.ErrRP / ErrYaw 0, XKF1's gyro bias 0; a rover's ATT.Des* are

@@ -17,7 +17,10 @@ Model
 - Gravity +g along NED z.
 - Ground: z >= ground_z is the ground (NED z = 0 at home ground). When the net force
   presses the vehicle into the ground it sits on it: z clamped, no downward speed,
-  horizontal speed decays with friction, roll/pitch levelled, rates damped.
+  horizontal speed decays with friction, roll/pitch levelled, rates damped. One that comes
+  down leaning more than TIP_OVER_DEG has crashed: it lies as it fell, not levelled
+  (ArduPilot's SITL levels every vehicle on the ground; here a wreck keeps the lean that
+  ArduCopter's crash check looks for).
 - Integration: semi-implicit (symplectic) Euler at a fixed step; the quaternion is
   advanced by the body-rate increment and renormalised every step.
 """
@@ -38,6 +41,9 @@ GRAVITY = 9.80665
 MOTOR_X = (1.0, -1.0, 1.0, -1.0)     # times arm/sqrt(2): forward
 MOTOR_Y = (1.0, -1.0, -1.0, 1.0)     # right
 MOTOR_SPIN = (1.0, 1.0, -1.0, -1.0)  # +1 CCW rotor -> positive yaw reaction torque
+TIP_OVER_DEG = 60.0     # on the ground leaning more than this it has tipped over (not levelled)
+# qx^2 + qy^2 of that lean: cos(lean) = 1 - 2 (qx^2 + qy^2)
+_TIP_OVER_XY2 = 0.5 * (1.0 - math.cos(math.radians(TIP_OVER_DEG)))
 
 
 @dataclass(frozen=True)
@@ -182,12 +188,19 @@ def step(s: QuadState, cmd, af: QuadAirframe, dt: float, ground_z, xp=NumpyOps, 
         fr = math.exp(-af.ground_friction * dt)
         vx_n = xp.where(g, vx_n * fr, vx_n)
         vy_n = xp.where(g, vy_n * fr, vy_n)
-        # level roll/pitch on the ground, keep yaw
+        # level roll/pitch on the ground, keep yaw; tipped over past TIP_OVER_DEG it lies
+        # as it fell (a crash: the attitude it had stays, whatever the motors do)
+        tip = g & (nx * nx + ny * ny > _TIP_OVER_XY2)
+        lv = g
+        if xp.any(tip):                  # (rare: most steps on the ground are level)
+            nx, ny = xp.where(tip, s.qx, nx), xp.where(tip, s.qy, ny)
+            nz, nw = xp.where(tip, s.qz, nz), xp.where(tip, s.qw, nw)
+            lv = g & xp.lnot(tip)
         yaw = yaw_of(nx, ny, nz, nw, xp.atan2)
-        nx = xp.where(g, 0.0, nx)
-        ny = xp.where(g, 0.0, ny)
-        nz = xp.where(g, xp.sin(0.5 * yaw), nz)
-        nw = xp.where(g, xp.cos(0.5 * yaw), nw)
+        nx = xp.where(lv, 0.0, nx)
+        ny = xp.where(lv, 0.0, ny)
+        nz = xp.where(lv, xp.sin(0.5 * yaw), nz)
+        nw = xp.where(lv, xp.cos(0.5 * yaw), nw)
         wx_n = xp.where(g, 0.0, wx_n)
         wy_n = xp.where(g, 0.0, wy_n)
         wz_n = xp.where(g, wz_n * fr, wz_n)

@@ -15,8 +15,10 @@ Flags follow EKF3's filter status from how long GPS has not been fused (AP_NavEK
   velocity, relative and absolute horizontal position, vertical position, and the predicted
   positions (831 = 0x33F);
 - 7 s without GPS: position and velocity timed out, only attitude and the vertical estimate;
-- 15 s (tiltDriftTimeMax_ms): aiding stops, CONST_POS_MODE, and the velocity and position
-  ratios are reset to 0 ("Reset the normalised innovation"), as EKF3 does;
+- 15 s (tiltDriftTimeMax_ms): aiding stops (the estimator's vehicle.no_aiding, EKF3's
+  AID_NONE): CONST_POS_MODE with attitude and the vertical estimate; the velocity ratio is
+  reset to 0 and stays there (no velocity is fused), the position ratio is the synthetic
+  last-known-position fusion's, as EKF3 reports them;
 - the filter is unhealthy (attitude and every estimate flag clear) when all three ratios
   exceed 1;
 - GPS_GLITCHING while the horizontal position ratio exceeds 1 (the GPS position fails the
@@ -37,7 +39,6 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from vehicle.innovations import POS_TIMEOUT_S
 from vehicle.telemetry.wire import e7
 
-AIDING_LOSS_S = 15.0          # EKF3 tiltDriftTimeMax_ms: aiding stops, constant position mode
 GPS_PRESENT_S = 1.0           # GPS still arriving (EKF3's gpsNotAvailable clear)
 
 ATTITUDE, VEL_HORIZ, VEL_VERT = mav.EKF_ATTITUDE, mav.EKF_VELOCITY_HORIZ, mav.EKF_VELOCITY_VERT
@@ -48,13 +49,13 @@ GPS_GLITCHING = mav.EKF_GPS_GLITCHING
 HEALTHY_GPS = ATTITUDE | VEL_HORIZ | VEL_VERT | POS_REL | POS_ABS | POS_VERT | PRED_REL | PRED_ABS
 
 
-def ekf_flags(aligned: bool, gps_age: float, healthy: bool) -> int:
+def ekf_flags(aligned: bool, gps_age: float, healthy: bool, no_aiding: bool = False) -> int:
     """EKF_STATUS_REPORT.flags of an initialised filter: `aligned` its position estimate was
     good at the last GPS fusion, `gps_age` s since then (inf: never), `healthy` not all test
-    ratios over 1."""
+    ratios over 1, `no_aiding` the filter has stopped aiding (vehicle.no_aiding)."""
     if not healthy:
         return 0
-    aiding = aligned and gps_age <= AIDING_LOSS_S
+    aiding = aligned and not no_aiding
     flags = ATTITUDE | VEL_VERT | POS_VERT
     if aiding and gps_age <= POS_TIMEOUT_S:
         flags |= VEL_HORIZ | POS_REL | POS_ABS | PRED_REL | PRED_ABS
@@ -97,9 +98,7 @@ class EkfTelemetry:
         yaw_err = abs(float(est.ahrs_err[i][2]))
         mag = yaw_err / (max(0.01 * p.get("EK3_MAG_I_GATE", 300), 1.0) * est.spec.ahrs_sigma)
         aligned = bool(est.ok[i])
-        flags = ekf_flags(aligned, gps_age, not (vel > 1 and pos > 1 and hgt > 1))
-        if flags & CONST_POS and aligned:
-            vel = pos = 0.0                     # EKF3 resets them when aiding stops
+        flags = ekf_flags(aligned, gps_age, not (vel > 1 and pos > 1 and hgt > 1), est.no_aiding.active[i])
         if flags & POS_ABS and pos > 1.0:
             flags |= GPS_GLITCHING              # the GPS position fails its innovation gate
         return flags, vel, pos, hgt, mag

@@ -21,10 +21,10 @@ towerlink has no per-motor electrics, so the pack is shared evenly); temperature
 tick since boot, wrapping at 65535. A rover sends none (SITL's rover has no ESC telemetry).
 
 RC_CHANNELS reports the RC input (vehicle/autopilot/rc_input.py) as ArduPilot's radio_in:
-a channel the GCS has overridden (RC_CHANNELS_OVERRIDE, MANUAL_CONTROL; the simulated
-receiver of SIM_RC_FAIL 2) at its pulse, which it keeps once the override stops; a channel
-that never had one at its RCn_TRIM (1500 for channels 9-16, which have no parameters here);
-16 channels as SITL's RC input has, RSSI unknown (255). The servo outputs follow what the
+the simulated receiver's 8 channels (chancount 8; channels 9-16 0) or a GCS's override
+(RC_CHANNELS_OVERRIDE, MANUAL_CONTROL) where there is one; with no receiver frame ever
+(SIM_RC_FAIL 1 from boot) a channel keeps its last pulse, one that never had one reads its
+RCn_TRIM, and chancount is SITL's 16; RSSI unknown (255). The servo outputs follow what the
 sticks fly, through the simulated drive.
 """
 from __future__ import annotations
@@ -88,8 +88,9 @@ class OutputsTelemetry:
         return (t_us, 0, *self.servo_outputs())
 
     def rc_channels_fields(self) -> tuple:
-        chans = [wire_clamp(v, *U16) for v in self.ap.rc.channels(RC_CHANNELS_SIM)]
-        return (boot_ms(self.clock()), RC_CHANNELS_SIM, *chans, 0, 0, RSSI_UNKNOWN)
+        rc = self.ap.rc
+        chans = [wire_clamp(v, *U16) for v in rc.channels(RC_CHANNELS_SIM)]
+        return (boot_ms(self.clock()), rc.channel_count(), *chans, 0, 0, RSSI_UNKNOWN)
 
     def rc_channels_scaled_fields(self) -> tuple | None:
         """Rover's SERVO_OUT: the skid-steering outputs x 10000 on channels 1 and 3."""

@@ -160,7 +160,8 @@ class Vehicle:
                         timeout, f"statustext {text!r}")
 
     def set_rc(self, chan, pwm, hold=1.0):
-        """autotest's set_rc, through RC_CHANNELS_OVERRIDE (SITL's RC input here is MAVLink)."""
+        """autotest's set_rc, through RC_CHANNELS_OVERRIDE (towerlink has no SITL RC input port);
+        the override lasts RC_OVERRIDE_TIME (3 s) after the last one, then the receiver's pulse is back."""
         rc = [65535] * 18
         rc[chan - 1] = pwm
         end = time.time() + hold

@@ -2,10 +2,10 @@
 helpers): the hooks ArduCopter adds for a multicopter, the ground handling every mode runs
 first, the user takeoff and the landing descent.
 
-The pilot's sticks come from the RC input (vehicle/autopilot/rc_input.py: a GCS's
-RC_CHANNELS_OVERRIDE or MANUAL_CONTROL); each mode reads them through its PilotControl
-(pilot_control.py). Without RC input every stick reads centred and each mode runs as
-ArduCopter does with the sticks centred. With it, read_pilot_input() keeps ArduCopter's
+The pilot's sticks come from the RC input (vehicle/autopilot/rc_input.py: the simulated
+receiver, a GCS's RC_CHANNELS_OVERRIDE or MANUAL_CONTROL); each mode reads them through its
+PilotControl (pilot_control.py). Before any RC frame every stick reads centred and each mode
+runs as ArduCopter does with the sticks centred. With it, read_pilot_input() keeps ArduCopter's
 auto_armed (update_auto_armed): set once armed with the throttle above zero, cleared in a
 manual-throttle mode when the throttle is back at zero (not in the radio failsafe).
 LAND_REPOSITION lets the sticks move a landing (LAND, RTL's and AUTO's final descent) and
@@ -76,6 +76,11 @@ class CopterMode(Mode):
 
     def is_taking_off(self) -> bool:
         return self.ap.takeoff.running
+
+    def crash_check_enabled(self) -> bool:
+        """The crash check runs in this mode (crash_check.py; ArduCopter's ACRO and FLIP say
+        no, and towerlink has neither)."""
+        return True
 
     def allows_arming_with_throttle_high(self) -> bool:
         """allows_GCS_or_SCR_arming_with_throttle_high: a GCS may arm with the throttle up
@@ -191,13 +196,15 @@ class CopterMode(Mode):
             return hi / 100.0
         return float(p.get("LAND_SPEED", 50)) / 100.0
 
-    def land_run(self, dt: float = 0.0) -> None:
+    def land_run(self, dt: float = 0.0, pause: bool = False) -> None:
         """Descend at descent_speed() over ap.hold_pos's x, y (altitude free); without a
         position estimate level, drifting (ArduCopter's ModeLand::nogps_run). With
         LAND_REPOSITION the roll and pitch sticks move that point at LOITER's pilot velocity
-        (the copter flies it as feed-forward); the yaw stick turns the heading."""
+        (the copter flies it as feed-forward); the yaw stick turns the heading. pause: a climb
+        rate of 0 instead (land_run_vertical_control's pause_descent): the copter stops where
+        its braking takes it and holds that altitude."""
         ap = self.ap
-        speed = self.descent_speed()
+        speed = 0.0 if pause else self.descent_speed()
         if not ap.est_ok:
             ap.setpoint(vel=np.array([0.0, 0.0, speed]), yaw=ap.hold_yaw, level=True)
             return

@@ -7,9 +7,10 @@ z, following it) and then holds the altitude where the copter's vertical speed, 
 moment the slewed climb rate came back to zero, stops it at PILOT_ACCEL_Z. As
 ArduCopter's pilot modes set the position controller's vertical limits to PILOT_SPEED_UP /
 PILOT_SPEED_DN and PILOT_ACCEL_Z, the fleet's WPNAV_SPEED_UP / _DN / WPNAV_ACCEL_Z are those
-while the sticks fly the climb (from the first RC input in the mode until it is left). With no RC input
-(ap.rc.sticks None) or in the radio failsafe every stick reads centred: climb 0, no lean,
-no turn. World NED (m, z down); rates rad/s, speeds m/s.
+while the sticks fly the climb (from the first RC input in the mode until it is left). Before
+any RC frame (ap.rc.sticks None: SIM_RC_FAIL 1 from boot) or in the radio failsafe every
+stick reads centred: climb 0, no lean, no turn. The simulated receiver's throttle rests at
+1000 (rc_input.py), so with no override a pilot mode descends at PILOT_SPEED_DN. World NED (m, z down); rates rad/s, speeds m/s.
 """
 from __future__ import annotations
 

@@ -1,9 +1,9 @@
 """What every rover mode shares (Rover/mode.h `Mode`): the hooks ArduRover's modes answer,
 the stop when disarmed, and the two ways a mode drives (stop; drive to a point).
 
-The pilot's sticks (vehicle/autopilot/rc_input.py: RC_CHANNELS_OVERRIDE or MANUAL_CONTROL
-from the GCS) drive MANUAL, ACRO and STEERING through drive_sticks(); without RC input they
-read neutral and those modes stop. Setpoints are world NED; the RoverFleet ignores z.
+The pilot's sticks (vehicle/autopilot/rc_input.py: the simulated receiver, centred, or
+RC_CHANNELS_OVERRIDE / MANUAL_CONTROL from the GCS) drive MANUAL, ACRO and STEERING through
+drive_sticks(); before any RC frame they read neutral and those modes stop. Setpoints are world NED; the RoverFleet ignores z.
 """
 from __future__ import annotations
 
