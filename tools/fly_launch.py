@@ -22,8 +22,7 @@ from tools.fly_processes import ProcessGroup
 from tools.fly_progress import WAITING, GoalState, ProgressReporter, SpeedupMeter, TowerOutput, goal_text
 from tools.fly_run_folder import write_meta, write_summary
 from tools.fly_van import VanDriver
-from tools.run_data import DRONE
-from tools.run_figures import SCORING_PARAMS
+from tools.run_ids import DRONE, SCORING_PARAMS
 
 os.environ.setdefault("MAVLINK20", "1")     # the children inherit it
 

@@ -26,8 +26,7 @@ from common.mavlink import lockstep as wire
 from common.mavlink.frame_parser import FrameParser, message_table
 from common.mavlink.mavstr import mav_str
 from tools.monitor_lockstep import PushLockstep
-from tools.run_data import DRONE, ROVER
-from tools.run_figures import SCORING_PARAMS
+from tools.run_ids import DRONE, ROVER, SCORING_PARAMS
 
 RCVBUF = 4 << 20            # bytes: headroom for a burst (the kernel caps it at net.core.rmem_max)
 _BOOT_MS = struct.Struct("<I")

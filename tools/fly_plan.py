@@ -14,7 +14,7 @@ from common.mavlink.lockstep import speedup_text
 from common.mavlink.signing import SIGNING_FLAG
 from common.ports import free_udp_ports
 from tools.fly_van import write_van_mission
-from tools.run_data import ROVER
+from tools.run_ids import ROVER
 
 SITL_HOME = (-35.363261, 149.16523, 584.0)     # towerlink sitl's default --home (ArduPilot's CMAC)
 FOLLOW_WITH = ("bridge", "ardupilot", "both")

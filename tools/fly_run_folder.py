@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import json
 import math
+import multiprocessing
 import shlex
+from pathlib import Path
 
 from common.mavlink.lockstep import speedup_text
 from common.mavlink.signing import masked_argv
@@ -43,6 +45,8 @@ def write_summary(plan: FlyPlan, tower_rc: int | None, *, bridge_restarts: int =
     each per direction); `applied`: when each fault took effect and was cleared (written to
     faults.json); `achieved_speedup`: sim s per wall s (None if the sim clock never moved)."""
     from tools.run_summary import format_summary, summarize
+    bridge = _bridge_messages(plan.dir)         # read once: the frame tree and run.mcap share it
+    recording = _start_recording(plan.dir, bridge)  # run.mcap on the other core while this one scores and draws
     if plan.sc.faults or applied:
         (plan.dir / "faults.json").write_text(json.dumps(
             {"faults": [f.as_dict() for f in plan.sc.faults], "applied": applied or []}, indent=2))
@@ -77,7 +81,8 @@ def write_summary(plan: FlyPlan, tower_rc: int | None, *, bridge_restarts: int =
         text = "\n".join([format_family_summary(s), *format_faults(s["faults"])])
     else:
         text = format_summary(s)
-    _draw(plan, data)
+    _draw(plan, data, bridge)
+    recording()
     files = sorted(p.name for p in plan.dir.iterdir())
     text += f"\nrun folder {plan.dir}: {' '.join(files)}"
     (plan.dir / "summary.txt").write_text(text + "\n")
@@ -95,18 +100,46 @@ def _family_faults(plan: FlyPlan, tower: dict, data) -> dict:
     return fault_section(plan.sc.faults, read_applied(plan.dir), data, names, goals, end=max(ends) if ends else None)
 
 
-def _draw(plan: FlyPlan, data) -> None:
-    """tracks.png, the frame tree and run.mcap, each as far as it goes (bridge.tlog read once
-    for the last two)."""
+def _bridge_messages(run_dir: Path) -> list | None:
+    """bridge.tlog's messages; None when it cannot be read (the drawings that need it are left out)."""
+    try:
+        from tools.run_data import read_tlog
+        return list(read_tlog(run_dir / "bridge.tlog"))
+    except Exception:  # noqa: BLE001
+        return None
+
+
+def _record(run_dir: Path, bridge: list | None) -> None:
+    try:
+        from tools.run_mcap import write_run_mcap
+        write_run_mcap(run_dir, bridge)
+    except Exception:  # noqa: BLE001 - the recording must not hide the summary
+        pass
+
+
+def _start_recording(run_dir: Path, bridge: list | None):
+    """Start writing run_dir/run.mcap (from the tlogs, complete once the processes stopped;
+    `bridge`: bridge.tlog's messages, or None to read it) in a forked child, so it overlaps the
+    scoring and the drawings; returns what waits for it. Where fork is not available it is
+    written here and now."""
+    if "fork" not in multiprocessing.get_all_start_methods():
+        _record(run_dir, bridge)
+        return lambda: None
+    child = multiprocessing.get_context("fork").Process(target=_record, args=(run_dir, bridge), name="run.mcap")
+    child.start()
+    return child.join
+
+
+def _draw(plan: FlyPlan, data, bridge: list | None) -> None:
+    """tracks.png and the frame tree (from bridge.tlog's messages), each as far as it goes."""
     try:
         from tools.plot_tracks import plot_run
         plot_run(plan.dir, scenario=plan.scenario, data=data)
     except Exception:  # noqa: BLE001 - a plot failure must not hide the summary
         pass
-    bridge = None
+    if bridge is None:
+        return
     try:
-        from tools.run_data import read_tlog
-        bridge = list(read_tlog(plan.dir / "bridge.tlog"))
         from tools.view_frames import buffer_from_messages, write_drawing
         buf, now = buffer_from_messages(bridge)
         if buf.edge_stats():
@@ -114,11 +147,6 @@ def _draw(plan: FlyPlan, data) -> None:
             write_drawing(buf, plan.dir / "frames.pdf", now=now, title=title)
             write_drawing(buf, plan.dir / "frames.png", now=now, title=title)
     except Exception:  # noqa: BLE001
-        pass
-    try:
-        from tools.run_mcap import write_run_mcap
-        write_run_mcap(plan.dir, bridge)
-    except Exception:  # noqa: BLE001 - the recording must not hide the summary
         pass
 
 

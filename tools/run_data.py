@@ -27,11 +27,10 @@ import numpy as np
 from common.geo import lla_to_ned, ned_to_lla
 from common.mavlink.mavstr import mav_str
 from common.mavlink.modes import mode_name
+from tools.run_ids import DRONE, ROVER  # noqa: F401 (their users import them here too)
 
 os.environ.setdefault("MAVLINK20", "1")
 
-#: the lab's system ids: `towerlink sitl`'s vehicle 0 (the drone) and 1 (the rover)
-DRONE, ROVER = 1, 2
 ARDUPILOT, MAV_TYPE_GCS, ARMED_FLAG = 3, 6, 128     # MAV_AUTOPILOT_ARDUPILOTMEGA, MAV_TYPE_GCS, SAFETY_ARMED
 ROVER_TYPES = (10, 11)                              # MAV_TYPE_GROUND_ROVER, MAV_TYPE_SURFACE_BOAT
 

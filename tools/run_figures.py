@@ -12,11 +12,7 @@ import numpy as np
 
 from common.frames.batch import ground_point
 from tools.run_data import RunData
-
-# ArduPilot Copter defaults, used when the tlog holds no PARAM_VALUE for them.
-PARAM_DEFAULTS = {"WPNAV_SPEED": 500.0, "WPNAV_ACCEL": 250.0, "PSC_JERK_XY": 5.0}
-#: the drone's parameters the minimum times need (asked of it while a run flies)
-SCORING_PARAMS = tuple(PARAM_DEFAULTS)
+from tools.run_ids import PARAM_DEFAULTS, SCORING_PARAMS  # noqa: F401 (their users import them here too)
 
 
 def minimum_time(d: float, v: float, a: float, j: float) -> float:

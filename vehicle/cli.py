@@ -11,6 +11,9 @@ Endpoints (pymavlink connection strings), for vehicle i (drones first, then rove
                                  a correctly signed packet makes a peer
   --out udpout:HOST:PORT          push every vehicle's stream (e.g. 14550 GCS, 14540 MAVSDK)
 so: mavproxy.py --master tcp:127.0.0.1:5760, or mavutil.mavlink_connection('udpout:127.0.0.1:14560').
+While the world loads (about a second) every vehicle already sends a HEARTBEAT once a second
+on its udpout pushes (--out), with system_status MAV_STATE_BOOT, as ArduPilot does during its
+initialisation; not with --lockstep (vehicle/boot_beacon.py).
 
 Networks and the port rule (any number of vehicles, every one reachable):
   A MAVLink network holds 254 vehicles (255 is the GCS's), so vehicle i is in network
@@ -71,7 +74,6 @@ import sys
 from common.collector import tune_for_long_run
 from common.mavlink.lockstep import speedup_type
 from common.mavlink.signing import add_signing_argument, key_from_text as signing_key
-from vehicle.world import World
 from vehicle.world_config import DEFAULT_HOME, DEFAULT_STATE_DIR, PLAN_FILE, WorldConfig
 
 
@@ -86,7 +88,7 @@ def _home(s: str) -> tuple[float, float, float]:
 
 
 def _endpoint(s: str) -> tuple[int, str]:
-    from vehicle.link import parse_endpoint
+    from vehicle.link.endpoints import parse_endpoint
     try:
         i, spec = s.split("=", 1)
         parse_endpoint(spec)
@@ -96,7 +98,7 @@ def _endpoint(s: str) -> tuple[int, str]:
 
 
 def _out(s: str) -> str:
-    from vehicle.link import parse_endpoint
+    from vehicle.link.endpoints import parse_endpoint
     try:
         parse_endpoint(s)
     except ValueError as e:
@@ -242,14 +244,26 @@ def run(args: argparse.Namespace) -> int:
     from vehicle.network_plan import PlanError
     if args.workers > 1:
         return _run_workers(args)
+    cfg = config_from_args(args)
     try:
-        world = World(config_from_args(args))
+        plan = cfg.network_plan()
     except PlanError as e:                      # sysids / ports that cannot work: nothing started
+        print(f"towerlink sitl: refused: {e}", file=sys.stderr)
+        return 2
+    # HEARTBEATs while the world (the autopilots, their estimator's filterpy and scipy) loads
+    from vehicle.boot_beacon import BootBeacon, boot_targets
+    beacon = BootBeacon([] if cfg.lockstep else boot_targets(cfg, plan), cfg.signing_key).start()
+    try:
+        from vehicle.world import World
+        world = World(cfg)
+    except PlanError as e:                      # a saved SYSID_THISMAV that clashes: nothing started
         print(f"towerlink sitl: refused: {e}", file=sys.stderr)
         return 2
     except (OSError, ParamFileError) as e:      # an unreadable --params FILE
         print(f"towerlink sitl: {e}", file=sys.stderr)
         return 1
+    finally:
+        beacon.stop()
     try:
         for path in ([os.path.join(args.state_dir, PLAN_FILE)] if not args.no_save else []) + \
                 ([args.plan_out] if args.plan_out else []):

@@ -33,7 +33,7 @@ import os
 import threading
 import time
 
-from vehicle.autopilot import ParamStore
+from vehicle.autopilot.params import ParamStore
 from vehicle.link.outbox import Outbox
 from vehicle.logs.world_logs import WorldLogs
 from vehicle.physics.wind import WindField, WindParams

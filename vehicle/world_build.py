@@ -8,20 +8,20 @@ it, and starts at `start_position(kind, j)`; a process running a share of the wo
 """
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
 from vehicle import sim_faults
-from vehicle.autopilot import CopterAutopilot, ParamStore, RoverAutopilot
+from vehicle.autopilot.copter import CopterAutopilot
 from vehicle.autopilot.mission_persist import PersistentMissionStore, missions_path
 from vehicle.autopilot.mission_store import MISSION, MissionStore
-from vehicle.autopilot.params import (COPTER_TABLE, ROVER_TABLE, _warn, core_table, file_warnings,
+from vehicle.autopilot.params import (COPTER_TABLE, ROVER_TABLE, ParamStore, _warn, core_table, file_warnings,
                                       read_parm_file)
+from vehicle.autopilot.rover import RoverAutopilot
 from vehicle.fleet import CopterFleet, RoverFleet
-from vehicle.link import VehicleLink
+from vehicle.link.vehicle_link import VehicleLink
 from vehicle.link.link_core import Intake
 from vehicle.link.outbox import DIRECT, Outbox
 from vehicle.logs.world_logs import WorldLogs
@@ -85,8 +85,7 @@ def build(cfg: WorldConfig, plan: NetworkPlan, clock: Callable[[], float], unix_
         for j in js:
             defaults = dict(file_params)
             defaults["SYSID_THISMAV"] = plan.vehicles[first + j].sysid
-            save = (os.path.join(cfg.state_dir, f"{'drone' if kind == 'copter' else 'rover'}{j}.parm")
-                    if cfg.state_dir else None)
+            save = cfg.saved_params_path(kind, j)
             stores.append(ParamStore(core + table, defaults, save, deferred=True))   # the link flushes
             saves.append(save)
         if cfg.params_file:          # once per kind: unknown names / bad values, not fatal

@@ -50,6 +50,13 @@ class WorldConfig:
                           host=self.host, outs=self.outs, endpoints=self.endpoints,
                           sysid_base=self.sysid_base, sysids=self.sysids, group_size=self.group_size)
 
+    def saved_params_path(self, kind: str, j: int) -> str | None:
+        """Where drone<j> / rover<j> (kind "copter" / "rover") keeps its parameters between
+        starts (STATE_DIR/drone<j>.parm, as SITL's eeprom.bin); None without a state dir."""
+        if not self.state_dir:
+            return None
+        return os.path.join(self.state_dir, f"{'drone' if kind == 'copter' else 'rover'}{j}.parm")
+
     def vehicle_endpoints(self, i: int) -> list[str]:
         return list(self.network_plan().vehicles[i].endpoints)
 

@@ -1,5 +1,6 @@
-"""MAVLink endpoints (one asyncio loop for the whole world) and per-vehicle message handling."""
-from vehicle.link.endpoints import make_endpoint, parse_endpoint
-from vehicle.link.vehicle_link import VehicleLink
+"""MAVLink endpoints (one asyncio loop for the whole world) and per-vehicle message handling.
 
-__all__ = ["VehicleLink", "make_endpoint", "parse_endpoint"]
+The link is vehicle.link.vehicle_link.VehicleLink; the endpoints vehicle.link.endpoints
+(make_endpoint, parse_endpoint). This package imports neither, so the command line's check of
+an endpoint does not load the vehicle link and, through it, the autopilots.
+"""
