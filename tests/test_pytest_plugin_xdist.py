@@ -16,7 +16,7 @@ import pytest
 
 from plugin_support import processes_mentioning, run_pytest
 
-pytestmark = pytest.mark.slow       # a pytest -n 2 of its own: one at a time, as the slow pass runs
+pytestmark = pytest.mark.slow       # a pytest -n 2 of its own, with worlds in both workers
 
 USER_TESTS = '''
 import json, os, re, time
@@ -41,12 +41,15 @@ def test_world(k, request):
         g = m.recv_match(type="GLOBAL_POSITION_INT", blocking=True, timeout=10)
         assert g is not None and abs(g.lat / 1e7 - home[0]) < 1e-3 and m.target_system == i + 1
         m.close()
-    # the workers start seconds apart on a loaded machine: each holds its first world until the
-    # other worker has one too, then every world is held a while, so worlds overlap
+    # the workers start seconds apart on a loaded machine: each holds its first and its second
+    # world until the other worker has started as many, then every world is held a while, so at
+    # least two pairs of worlds overlap however slowly the machine starts them
     me = os.environ.get("PYTEST_XDIST_WORKER")
-    open(os.path.join(OUT, f"started-{me}"), "w").close()
+    open(os.path.join(OUT, f"started-{me}-{k}"), "w").close()
+    mine = len([n for n in os.listdir(OUT) if n.startswith(f"started-{me}-")])
     end = time.time() + 60
-    while len([n for n in os.listdir(OUT) if n.startswith("started-")]) < 2 and time.time() < end:
+    while (len([n for n in os.listdir(OUT) if n.startswith("started-") and not n.startswith(f"started-{me}-")])
+           < min(mine, 2) and time.time() < end):
         time.sleep(0.05)  # poll
     time.sleep(0.5)   # hold the worlds open so the two workers' worlds overlap (the point of the test)
     rec = {"k": k, "worker": os.environ.get("PYTEST_XDIST_WORKER"), "ports": ports, "t0": t0, "t1": time.time()}
