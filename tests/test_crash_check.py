@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 from test_autopilot_behaviour import A, _fly, _until, _world
 
@@ -33,6 +33,7 @@ def _quat(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, f
 # ---------------------------------------------------------------- pure parts
 
 @given(lean=st.floats(0.0, math.pi), yaw=st.floats(-3.1, 3.1))
+@example(lean=math.pi, yaw=0.34340289475812025)      # upside down: rounding past -1
 def test_lean_and_error_angles(lean, yaw):
     """lean_cos is cos of the lean from level, whatever the heading; error_angle_deg turns
     the controller's att_err (sin^2 of half the angle) back into degrees."""

@@ -49,7 +49,7 @@ def lean_cos(quat) -> float:
     """cos of the lean from level of an (x, y, z, w) body FRD -> world NED quaternion:
     ArduPilot's cos_roll() * cos_pitch(), the thrust axis' vertical component."""
     qx, qy = float(quat[0]), float(quat[1])
-    return 1.0 - 2.0 * (qx * qx + qy * qy)
+    return max(-1.0, 1.0 - 2.0 * (qx * qx + qy * qy))    # (upside down, rounding can pass -1)
 
 
 def error_angle_deg(att_err: float) -> float:
