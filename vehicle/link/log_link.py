@@ -27,6 +27,7 @@ class LogLink:
         unix_start_us: the unix time of sim t = 0 (the GPS records' clock)."""
         self.core = core
         self.ap = ap
+        self._writer = logs.writer
         # a log opens with ArduPilot's banner (firmware string, system id, frame) of this boot
         self.log = logs.for_vehicle(ap.kind, folder, core.clock, unix_start_us,
                                     lambda: version.banner(ap.kind, ap.sysid), phase=ap.sysid)
@@ -65,4 +66,7 @@ class LogLink:
         self.transfer = LogTransfer(self.log)
 
     def closed(self) -> None:
+        """The link closes: the log is closed and its last bytes are on disk before the link's
+        files close (a temporary root is removed then: the writer thread must be done with it)."""
         self.log.stop(self.ap.params.values)
+        self._writer.flush()
