@@ -7,8 +7,10 @@ packet up to t (the loop handles packets in arrival order). Then, at that barrie
 
 1. the bridge's sim-time upkeep runs (goal retries, the follower's stale check and its
    mode/arm retries) on the barrier's clock, never on the wall clock;
-2. ACK(t) goes to every vehicle link, after everything the bridge sent in reaction;
-3. TICK(t) goes to the tower, if the tower joined (its JOIN/ACK/LEAVE pass through the
+2. ACK(t) goes to every vehicle link, after everything the bridge sent in reaction, each in a
+   datagram of its own (the world reads a TOWERLINK_LOCKSTEP only at a datagram's start);
+3. TICK(t) goes to the tower, if the tower joined, queued behind the tower's telemetry (one
+   datagram with it, written at the end of the loop's pass or the upkeep's) (its JOIN/ACK/LEAVE pass through the
    bridge to the world like any broadcast, on the same socket as its goals, so a goal sent
    before the tower's ACK reaches the vehicle before it).
 
@@ -45,7 +47,7 @@ class LockstepDesk:
         self.tick_wall: dict[str, float] = {}
         self.vehicles = vehicles            # sysid -> VehicleRecord
         self.pack_own = pack_own            # message -> bytes (the bridge's own packet)
-        self.send_tower = send_tower        # bytes -> None
+        self.send_tower = send_tower        # bytes -> None (the tower link's queue: behind its telemetry)
         self.on_barrier = on_barrier        # (t seconds) -> None: the sim-time upkeep
         self.nodes = nodes                  # bridge.node_lockstep.NodeLockstep, or None
         self.released_usec = -1             # the newest barrier ACKed to the world
@@ -61,6 +63,7 @@ class LockstepDesk:
         self.tick_resends_seen = 0          # TICKs the world sent again (answered again)
         self._next_join = 0.0
         self.barriers = 0
+        self._gcs_due = False               # a barrier released or a TICK queued for the tower since gcs_due()
 
     @property
     def sim_now(self) -> float:
@@ -119,9 +122,16 @@ class LockstepDesk:
         if self.nodes is None or not self.nodes.hold(barrier, lambda: self._release(barrier)):
             self._release(barrier)
 
+    def gcs_due(self) -> bool:
+        """True once after each barrier released or TICK queued for the tower: the loop's pass
+        then writes the GCS links (bridge.socket_loop), the telemetry up to it with the TICK."""
+        due, self._gcs_due = self._gcs_due, False
+        return due
+
     def _release(self, barrier: int) -> None:
         """ACK(barrier) to the world on every vehicle link, then TICK the tower."""
         self.released_usec = barrier
+        self._gcs_due = True
         for w in self.vehicles.values():
             w.link.send(self.pack_own(self._message(tl.TOWERLINK_LOCKSTEP_KIND_ACK, barrier, w.sysid)))
         if self.tower_joined:
@@ -141,6 +151,7 @@ class LockstepDesk:
 
     def _tick_tower(self, wall: float) -> None:
         self.tower_tick_wall = wall
+        self._gcs_due = True
         self.send_tower(self.pack_own(tl.MAVLink_towerlink_lockstep_message(
             self.released_usec, 0, tl.TOWERLINK_LOCKSTEP_KIND_TICK, tl.TOWERLINK_LOCKSTEP_PARTICIPANT_WORLD,
             self.period_usec)))

@@ -102,7 +102,7 @@ class Bridge:
         # nodes in lockstep (--nodes) answer the bridge, which answers the world once they settled
         nodes = NodeLockstep(self.node_links[0], self.codec.pack_own, cfg.lockstep_nodes, self.log, clock) \
             if cfg.lockstep and self.node_links else None
-        self.lockstep = LockstepDesk(self.vehicles, self.codec.pack_own, self.tower.send,
+        self.lockstep = LockstepDesk(self.vehicles, self.codec.pack_own, self.tower.queue,
                                      self._at_barrier, self.log, clock, nodes=nodes) if cfg.lockstep else None
         self.behaviour_clock = (lambda: self.lockstep.sim_now) if self.lockstep else clock
         self.clocks = ClockDesk(self.timeline, self.router.command, self.router.send_own,
@@ -125,7 +125,7 @@ class Bridge:
                              self.tree, self.sim_checks, self.lockstep, self.behaviour_clock, clock, self.t0)
         self.loop = PacketLoop(self.router.gcs_links, [v.link for v in self.vehicles.values()],
                                self.gcs_side.on_packet, self.vehicle_side.on_packet, self.upkeep.tick,
-                               clock, self.warn_once)
+                               clock, self.warn_once, self.lockstep.gcs_due if self.lockstep else None)
 
     def _links(self, cfg: BridgeConfig, clock) -> None:
         """The tower, the outs (--out, then --nodes) and one link per vehicle, each vehicle

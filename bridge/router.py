@@ -28,6 +28,7 @@ class Router:
         self.tower = tower
         self.outs = outs                    # GCS-side links besides the tower (--out, --nodes)
         self.gcs_links = [tower, *outs]
+        self._gcs_set = frozenset(self.gcs_links)
         self.vehicles = vehicles            # sysid -> VehicleRecord
         self.links = [*self.gcs_links, *(v.link for v in vehicles.values())]
         self.codec = codec
@@ -44,7 +45,10 @@ class Router:
         sent = False
         for other in self.links:
             if other is not link and (t == 0 or t in other.sysids):
-                other.send(pkt.raw)
+                if other in self._gcs_set:
+                    other.queue(pkt.raw)    # behind the telemetry, in one datagram with it
+                else:                       # a datagram of its own: the world's lockstep reads a
+                    other.send(pkt.raw)     # TOWERLINK_LOCKSTEP (the tower's ACK) only at its start
                 sent = True
         if t and not sent:
             link.stats.unroutable += 1

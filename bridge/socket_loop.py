@@ -4,6 +4,9 @@ Each select serves the GCS links' packets first, then each vehicle link's in bat
 VEHICLE_BATCH with the GCS links flushed and read again between batches (counted over all
 vehicle links), so a tower goal never waits behind a burst of telemetry (1,000 vehicles send
 6,600 datagrams every 100 ms). The upkeep tick runs every TICK wall seconds between selects.
+With lockstep the GCS links are written at the end of a pass only when it released a barrier
+(`gcs_due`): the tower acts at the TICK that comes behind the telemetry anyway, so each barrier
+costs the tower and each out one datagram, and the tower one wake-up, instead of one per pass.
 A packet whose handling raises is counted as malformed on its link and logged; the loop goes on.
 """
 from __future__ import annotations
@@ -55,7 +58,7 @@ class PacketLoop:
 
     def __init__(self, gcs_links: list[Link], vehicle_links: list[Link], on_gcs: OnPacket, on_vehicle: OnPacket,
                  tick: Callable[[], None], clock: Callable[[], float],
-                 warn_once: Callable[[str, str], bool]) -> None:
+                 warn_once: Callable[[str, str], bool], gcs_due: Callable[[], bool] | None = None) -> None:
         self.gcs_links = gcs_links
         self.links = [*gcs_links, *vehicle_links]
         self._gcs_set = set(gcs_links)
@@ -65,6 +68,9 @@ class PacketLoop:
         self.tick = tick                    # the upkeep pass
         self.clock = clock                  # () -> wall s
         self.warn_once = warn_once
+        # with lockstep: whether a pass must write the GCS links' queues (a barrier was released);
+        # else what they queued waits for the barrier's TICK, the next batch or the upkeep
+        self.gcs_due = gcs_due
         self.running = True
         self.sel = LinkSelector()
 
@@ -91,7 +97,8 @@ class PacketLoop:
                     self._service_gcs()
                 if link.drained:
                     break
-        self._flush_gcs()
+        if self.gcs_due is None or self.gcs_due():
+            self._flush_gcs()
 
     def _flush_gcs(self) -> None:
         for link in self.gcs_links:
