@@ -41,7 +41,7 @@ class MsgInfo:
     crc_byte: bytes             # crc_extra as the one byte the checksum ends with
 
 
-def _field_offsets(cls) -> dict[str, int]:
+def field_offsets(cls) -> dict[str, int]:
     """Byte offset of every wire-ordered field of a pymavlink message class."""
     fmt = cls.unpacker.format
     if isinstance(fmt, bytes):
@@ -64,7 +64,7 @@ def message_table(mavlink_map: dict) -> dict[int, MsgInfo]:
     """msgid -> MsgInfo for a pymavlink dialect's ``mavlink_map`` (msgid -> message class)."""
     table = {}
     for msgid, cls in mavlink_map.items():
-        ofs = _field_offsets(cls)
+        ofs = field_offsets(cls)
         table[msgid] = MsgInfo(cls.crc_extra, ofs.get("target_system", -1),
                                ofs.get("target_component", -1), cls.msgname, bytes((cls.crc_extra,)))
     return table

@@ -16,7 +16,8 @@ from common.mavlink import lockstep as ls
 from common.mavlink.ids import TOWER_SYSID
 from gcs.client.connection import open_connection, open_dialect_connection
 from gcs.client.errors import ClientError, ClientTimeout
-from gcs.client.link_signing import LinkSigning
+from gcs.client.lazy_rx import LazyReceiver
+from gcs.client.link_signing import LinkSigning, SigningViews
 from gcs.client.lockstep import JOIN_PERIOD, LOCKSTEP_TIMEOUT, TickClock
 from gcs.client.mav import mavlink
 from gcs.client.state import SystemState, SystemTracker
@@ -30,8 +31,9 @@ from gcs.client.tlog import Tlog
 SIGNING_LINK_ID = 2
 
 
-class Link:
-    """One MAVLink link with state tracking, heartbeats and deadline-bounded waiting."""
+class Link(SigningViews):
+    """One MAVLink link with state tracking, heartbeats and deadline-bounded waiting (its signing
+    facts: gcs.client.link_signing.SigningViews)."""
 
     def __init__(self, master: Any, *, log: Callable[[str], None] | None = None,
                  heartbeat_interval: float = 1.0, tlog: str | None = None,
@@ -62,6 +64,9 @@ class Link:
         if self._tlog is not None:
             self.mav.set_send_callback(self._tlog.on_sent)
         self.bad_packets = 0
+        # telemetry cut into frames and decoded only where read (pymavlink's parser when signed)
+        self._rx = LazyReceiver(master, self._tlog) if LazyReceiver.serves(master, self.signing is not None) \
+            else None
         self.received = 0
         if lockstep:
             self.subscribe("TOWERLINK_LOCKSTEP", self._on_lockstep)
@@ -122,26 +127,6 @@ class Link:
         """The newest TICK handled (sim us); None before the first or without lockstep."""
         return self.ticks.tick_usec
 
-    # -- signing
-
-    @property
-    def signed(self) -> bool:
-        return self.signing is not None
-
-    @property
-    def signing_refused(self) -> dict[str, int]:
-        """Packets dropped by the signature check, by reason (common.mavlink.signing's names)."""
-        return self.signing.refused if self.signing is not None else {}
-
-    @property
-    def refused(self) -> int:
-        """Packets dropped by the signature check (0 without a signing key)."""
-        return sum(self.signing_refused.values())
-
-    def signing_report(self) -> str | None:
-        """'signing: N packet(s) refused (unsigned n, ...)' for a log line; None without a key."""
-        return self.signing.report() if self.signing is not None else None
-
     # -- life
 
     def close(self) -> None:
@@ -196,14 +181,12 @@ class Link:
             self._maybe_heartbeat()
             remaining = end - time.monotonic()
             try:
-                msg = self.master.recv_match(blocking=remaining > 0,
-                                             timeout=min(max(remaining, 0.0), self.heartbeat_interval))
+                got = self._receive(min(max(remaining, 0.0), self.heartbeat_interval))
             except (OSError, ValueError):  # transient socket trouble: keep the deadline
-                msg = None
+                got = False
                 time.sleep(min(0.05, max(remaining, 0.0)))
-            if msg is not None:
+            if got:
                 n += 1
-                self._handle(msg)
                 continue
             if time.monotonic() >= end:
                 return n
@@ -220,6 +203,26 @@ class Link:
                 return None
             self.poll(min(left, 0.05))
 
+    def _receive(self, timeout: float) -> bool:
+        """Handle the next message, waiting at most `timeout` wall s; False when none came."""
+        rx = self._rx
+        if rx is None:
+            msg = self.master.recv_match(blocking=timeout > 0, timeout=timeout)
+            if msg is not None:
+                self._handle(msg)
+            return msg is not None
+        pkt = rx.next(timeout)          # recorded in the tlog; what is no packet counted
+        self.bad_packets += rx.take_bad()
+        if pkt is None:
+            return False
+        mtype = rx.name(pkt)
+        self.received += 1
+        if mtype in SystemTracker.READS or self._subscribers.get(mtype) or self._listeners:
+            self._dispatch(rx.decode(pkt), mtype)
+        elif said := self.tracker.note_time(pkt.sysid, rx.time_boot_ms(pkt)):   # read by no one
+            self.log(said)
+        return True
+
     def _handle(self, msg: Any) -> None:
         mtype = msg.get_type()
         if mtype == "BAD_DATA":
@@ -232,6 +235,13 @@ class Link:
             self.signing.keep_link_id()
         if self._tlog is not None:
             self._tlog.write(msg)
+        self._dispatch(msg, mtype)
+
+    def _dispatch(self, msg: Any | None, mtype: str) -> None:
+        """A message received and recorded: the tracker, then its subscribers and the listeners
+        (None: it did not decode, counted by the receiver)."""
+        if msg is None:
+            return
         said = self.tracker.note(msg, mtype)
         if said:
             self.log(said)
@@ -301,13 +311,12 @@ class Link:
                     time.monotonic() - self._last_tick_wall >= 1.0:
                 self._join()
             try:
-                msg = self.master.recv_match(blocking=True, timeout=0.1)
+                got = self._receive(0.1)
             except (OSError, ValueError):
-                msg = None
+                got = False
                 time.sleep(0.01)
-            if msg is not None:
+            if got:
                 n += 1
-                self._handle(msg)
                 if self.ticks.ack_due is not None:
                     self._last_tick_wall = time.monotonic()
                     return n

@@ -60,3 +60,27 @@ class LinkSigning:
         """'signing: N packet(s) refused (unsigned n, ...)', for a log line."""
         detail = ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in sorted(self.refused.items()))
         return f"signing: {sum(self.refused.values())} packet(s) refused" + (f" ({detail})" if detail else "")
+
+
+class SigningViews:
+    """What a link tells of its signing (gcs.client.link.Link's; `signing`: its LinkSigning or None)."""
+
+    signing: LinkSigning | None
+
+    @property
+    def signed(self) -> bool:
+        return self.signing is not None
+
+    @property
+    def signing_refused(self) -> dict[str, int]:
+        """Packets dropped by the signature check, by reason (common.mavlink.signing's names)."""
+        return self.signing.refused if self.signing is not None else {}
+
+    @property
+    def refused(self) -> int:
+        """Packets dropped by the signature check (0 without a signing key)."""
+        return sum(self.signing_refused.values())
+
+    def signing_report(self) -> str | None:
+        """'signing: N packet(s) refused (unsigned n, ...)' for a log line; None without a key."""
+        return self.signing.report() if self.signing is not None else None

@@ -86,6 +86,9 @@ class SystemState:
 class SystemTracker:
     """Every system a link hears, updated from each decoded message (see the module docstring)."""
 
+    #: the messages :meth:`note` reads beyond time_boot_ms (a client may leave the others undecoded)
+    READS = frozenset(("HEARTBEAT", "LOCAL_POSITION_NED", "EXTENDED_SYS_STATE", "STATUSTEXT"))
+
     def __init__(self, stamp: Callable[[], float]) -> None:
         self.systems: dict[int, SystemState] = {}
         self.text_serial = 0              # STATUSTEXTs received, all systems: each one's serial
@@ -102,16 +105,7 @@ class SystemTracker:
         """Update the sender's state from `msg` (of type `mtype`); a log line when it rebooted."""
         src = msg.get_srcSystem()
         st = self.systems.get(src) or self.system(src)
-        said = None
-        tb = getattr(msg, "time_boot_ms", None)
-        if isinstance(tb, int):
-            if tb > st.time_boot_ms:
-                st.time_boot_ms = tb
-            elif st.time_boot_ms - tb > REBOOT_JUMP_MS:     # its clock restarted
-                said = (f"system {src} rebooted: its clock went back from "
-                        f"{st.time_boot_ms / 1000:.3f} s to {tb / 1000:.3f} s")
-                st.time_boot_ms = tb
-                st.reboots += 1
+        said = self.note_time(src, getattr(msg, "time_boot_ms", None))
         if mtype == "HEARTBEAT":
             if msg.type != mavlink.MAV_TYPE_GCS and msg.autopilot != mavlink.MAV_AUTOPILOT_INVALID:
                 st.mav_type, st.autopilot = msg.type, msg.autopilot
@@ -129,6 +123,22 @@ class SystemTracker:
             self.text_serial += 1
             st.statustexts.append((self.text_serial, msg.severity, mav_str(msg.text)))
         return said
+
+    def note_time(self, src: int, tb: Any) -> str | None:
+        """A message from `src` carrying time_boot_ms `tb` (ms; None or not an int: it has none):
+        its newest vehicle time, or a log line when the clock went back (a reboot)."""
+        if not isinstance(tb, int):
+            return None
+        st = self.systems.get(src) or self.system(src)
+        if tb > st.time_boot_ms:
+            st.time_boot_ms = tb
+        elif st.time_boot_ms - tb > REBOOT_JUMP_MS:     # its clock restarted
+            said = (f"system {src} rebooted: its clock went back from "
+                    f"{st.time_boot_ms / 1000:.3f} s to {tb / 1000:.3f} s")
+            st.time_boot_ms = tb
+            st.reboots += 1
+            return said
+        return None
 
     def statustexts_since(self, serial: int, sysid: int | None = None) -> list[tuple[int, int, str]]:
         """(serial, severity, text) of every STATUSTEXT after `serial`, of `sysid` or of all."""

@@ -19,9 +19,13 @@ class Tlog:
 
     def write(self, msg: Any) -> None:
         """Record one message (received, or sent: see on_sent)."""
+        self.write_raw(msg.get_msgbuf())
+
+    def write_raw(self, data: bytes) -> None:
+        """Record one packet received as bytes (what get_msgbuf() of its message gives)."""
         if self._f is not None:
             usec = int(time.time() * 1.0e6) & ~3
-            self._f.write(_STAMP.pack(usec) + msg.get_msgbuf())
+            self._f.write(_STAMP.pack(usec) + data)
 
     def on_sent(self, msg: Any, *_a: Any, **_k: Any) -> None:
         """pymavlink's send callback (MAVLink.set_send_callback)."""
