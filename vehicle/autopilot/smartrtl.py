@@ -115,15 +115,17 @@ class SmartRTLPath:
         self.active = self.home_saved = True
         self.last_save = self.last_good = t
 
-    def record(self, pos, position_ok: bool, armed: bool, retracing: bool, t: float) -> None:
-        """Every autopilot tick, 3 Hz at least (ArduPilot's ModeSmartRTL::save_position): a
-        new path at every arming, pos saved while armed and not retracing the path."""
+    def record(self, pos, position_ok: bool, armed: bool, retracing: bool, t: float, save: bool = True) -> None:
+        """Every autopilot tick: a new path at every arming (ArduPilot sets it when it arms) or
+        at the first good position. With `save` (ArduPilot's ModeSmartRTL::save_position, a
+        3 Hz scheduler task): pos saved while armed and not retracing the path, and the
+        timeouts checked."""
         if armed and not self.was_armed:
             self.set_home(pos, t)
         self.was_armed = armed
         if position_ok and not self.home_saved:
             self.set_home(pos, t)
-        if not self.active or not armed or retracing:
+        if not save or not self.active or not armed or retracing:
             return
         if not position_ok:
             if t - self.last_good > TIMEOUT:
@@ -136,7 +138,7 @@ class SmartRTLPath:
             self.deactivate("buffer full")
 
     def _add(self, p: np.ndarray) -> bool:
-        # every tick: the distance as norm() computes it, sqrt(d.d), without its checks
+        # the distance as norm() computes it, sqrt(d.d), without its checks
         if self.points and math.sqrt((d := self.points[-1] - p).dot(d)) < self.accuracy:
             return True
         if len(self.points) >= self.points_max:
