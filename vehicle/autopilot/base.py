@@ -40,7 +40,6 @@ from vehicle.autopilot.radio_failsafe import RadioFailsafe
 from vehicle.autopilot.rc_input import COPTER_RECEIVER, RcInput
 from vehicle.autopilot.smartrtl import SmartRTLPath
 from vehicle.autopilot.speed import SpeedOverride
-from vehicle.autopilot.task_rate import TaskRate
 from vehicle.fleet import Setpoint
 
 SEV_INFO, SEV_WARNING = mav.MAV_SEVERITY_INFO, mav.MAV_SEVERITY_WARNING
@@ -72,10 +71,6 @@ class Autopilot:
     ekf_check_class: type = EkfCheck
     crash_check_class: type = CrashCheck
     speed_param: tuple[str, float, float, float] = ("", 1.0, 0.0, 100.0)   # name, per m/s, default, max m/s
-    # scheduler rates (Hz) of the tasks that do not run every tick: the vehicle's own table
-    # (ArduCopter/Copter.cpp, Rover/Rover.cpp scheduler_tasks: ModeSmartRTL::save_position 3)
-    fence_rate = 25.0
-    save_position_rate = 3.0
 
     def __init__(self, fleet, index: int, params: ParamStore, origin: tuple[float, float, float],
                  start_ned, outbox: Outbox | None = None,
@@ -107,8 +102,6 @@ class Autopilot:
         self.missions = missions if missions is not None else MissionStore()
         self.fence = Fence(self)
         self.follow = Follow(params, lambda: self.sysid, origin)     # FOLLOW mode's lead
-        self._fence_task = TaskRate(self.fence_rate)
-        self._save_task = TaskRate(self.save_position_rate)
         self.srtl = SmartRTLPath(float(params.get("SRTL_ACCURACY", 2.0)), int(params.get("SRTL_POINTS", 300)),
                                  text=self.text)
         self.speed = SpeedOverride(params, self.push_params, *self.speed_param)
@@ -291,13 +284,12 @@ class Autopilot:
         self.radio.update(t, self.rc.read(t))
         self.failsafe.update(t, dt)
         self.ekf_check.update(t, dt)
-        if self._fence_task.due(t):
-            self.fence.check(t)
+        self.fence.update(t)
         self.crash_check.update(dt)
         mode = self.flightmode
         mode.read_pilot_input()
         mode.run(dt)
-        self.smart_rtl.save_position(t, self._save_task.due(t))
+        self.smart_rtl.save_position(t)
 
     # ----- what the link and the world call --------------------------------------------
     def command(self, cmd: int, p: list[float], frame: int | None = None,

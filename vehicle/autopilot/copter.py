@@ -36,7 +36,6 @@ class CopterAutopilot(Autopilot):
     ekf_check_class = CopterEkfCheck
     crash_check_class = CopterCrashCheck
     speed_param = ("WPNAV_SPEED", 100.0, 500.0, 20.0)      # cm/s; 20 m/s is WPNAV_SPEED's maximum
-    fence_rate = 25.0               # ArduCopter/Copter.cpp: SCHED_TASK(fence_check, 25, ...)
 
     def __init__(self, *a, **kw) -> None:
         self.takeoff = UserTakeoff()              # ArduCopter's Mode::takeoff, shared by the modes

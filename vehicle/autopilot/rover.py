@@ -34,7 +34,6 @@ class RoverAutopilot(Autopilot):
     radio_failsafe_class = RoverRadioFailsafe
     ekf_check_class = RoverEkfCheck
     speed_param = ("WP_SPEED", 1.0, 0.0, 100.0)     # m/s; WP_SPEED 0 means CRUISE_SPEED to the rover core
-    fence_rate = 10.0               # Rover/Rover.cpp: SCHED_TASK(fence_check, 10, ...)
 
     def electrical_load(self) -> float:
         """The drive's electrical power (W): about 1 A standing plus 2 A per m/s at 11.1 V."""

@@ -18,7 +18,10 @@ from collections.abc import Callable
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
+from vehicle.autopilot.task_rate import TaskRate
+
 TIMEOUT = 15.0           # s: AP_SmartRTL's SMARTRTL_TIMEOUT
+SAVE_RATE = 3.0          # Hz: ModeSmartRTL::save_position's scheduler task (ArduCopter/Copter.cpp, Rover/Rover.cpp)
 
 
 def _seg_dist(p1, p2, p3, p4) -> tuple[float, np.ndarray]:
@@ -104,6 +107,7 @@ class SmartRTLPath:
         self.last_save = 0.0
         self.last_good = 0.0
         self.was_armed = False
+        self._save_task = TaskRate(SAVE_RATE)
         # SRTL_POINTS 0 or SRTL_ACCURACY 0 disables SmartRTL, as AP_SmartRTL::init
         self.enabled = self.points_max > 0 and self.accuracy > 0
 
@@ -115,17 +119,17 @@ class SmartRTLPath:
         self.active = self.home_saved = True
         self.last_save = self.last_good = t
 
-    def record(self, pos, position_ok: bool, armed: bool, retracing: bool, t: float, save: bool = True) -> None:
+    def record(self, pos, position_ok: bool, armed: bool, retracing: bool, t: float) -> None:
         """Every autopilot tick: a new path at every arming (ArduPilot sets it when it arms) or
-        at the first good position. With `save` (ArduPilot's ModeSmartRTL::save_position, a
-        3 Hz scheduler task): pos saved while armed and not retracing the path, and the
+        at the first good position; at SAVE_RATE (ArduPilot's ModeSmartRTL::save_position, a
+        3 Hz scheduler task) pos saved while armed and not retracing the path, and the
         timeouts checked."""
         if armed and not self.was_armed:
             self.set_home(pos, t)
         self.was_armed = armed
         if position_ok and not self.home_saved:
             self.set_home(pos, t)
-        if not save or not self.active or not armed or retracing:
+        if not self._save_task.due(t) or not self.active or not armed or retracing:
             return
         if not position_ok:
             if t - self.last_good > TIMEOUT:
