@@ -337,7 +337,12 @@ class CopterFleet(FleetBase):
 
 class RoverFleet(FleetBase):
     """n skid-steer rovers (see vehicle.physics.rover). Same contract as CopterFleet;
-    setpoint z is ignored and the rover stays at its home z. landed() is always True."""
+    setpoint z is ignored and the rover stays at its home z. landed() is always True.
+
+    loop_every: the controller, sensors and estimator run once every loop_every steps (over
+    that loop's time), the kinematics every step holding the loop's drive command; 1 (the
+    default) runs all of it every step. The world gives its rovers ArduRover's 50 Hz loop
+    (vehicle.world_build.ROVER_LOOP_RATE)."""
     kind = "rover"
     STATE_FIELDS = rphys.RoverState.FIELDS
 
