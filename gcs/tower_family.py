@@ -164,8 +164,9 @@ def run_family(args: argparse.Namespace, sc, *, radius: float, finish: str, fram
     except ClientError as exc:
         log(str(exc))
         return 2
-    c.add_listener(frames.on_message)
-    c.add_listener(watch.on_message)
+    # subscribed to the two messages they read: the link leaves the rest undecoded (gcs.client.lazy_rx)
+    c.subscribe("TOWERLINK_TRANSFORM", frames.on_message)
+    c.subscribe("LOCAL_POSITION_NED", watch.on_message)
 
     def before_takeoff(d) -> Callable[[], None] | None:
         layer = gates.above(d.sysid)

@@ -14,9 +14,9 @@ from collections.abc import Sequence
 class TowerFrames:
     """The bridge's transform stream on the tower link, kept in a Buffer (tf2's TransformListener).
 
-    Fed with every received message (Client.add_listener); answers, for a frame hanging
-    on a moving vehicle, where a goal stamped t lies in world and where a world point
-    lies in that frame now. Frames: world is the fixed frame; positions are m, NED.
+    Fed with the received messages (a Client listener, or subscribed to TOWERLINK_TRANSFORM);
+    answers, for a frame hanging on a moving vehicle, where a goal stamped t lies in world and
+    where a world point lies in that frame now. Frames: world is the fixed frame; positions are m, NED.
     """
 
     def __init__(self, fixed: str = "world", cache_time: float = 30.0) -> None:
