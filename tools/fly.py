@@ -168,6 +168,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
 
 
+def _drawing_worker(out: Path, scenario: str | None):
+    """A started tools.fly_drawings.DrawingWorker (it imports matplotlib while the run flies),
+    or None where fork is not available (the drawings are then made after the scoring)."""
+    from tools.fly_drawings import DrawingWorker
+    if not DrawingWorker.available():
+        return None
+    out.mkdir(parents=True, exist_ok=True)
+    worker = DrawingWorker(out, scenario)
+    worker.start()      # forked before launch.start() starts any thread
+    return worker
+
+
 def run(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else Path("runs") / time.strftime("%Y%m%d-%H%M%S")
     try:
@@ -212,6 +224,17 @@ def run(args: argparse.Namespace) -> int:
         print("towerlink fly: --speedup max without --lockstep: the world runs as fast as the CPU and the "
               "bridge and the tower fall behind it; the figures will depend on the machine", file=sys.stderr)
 
+    drawings = _drawing_worker(out, args.scenario)
+    try:
+        return _fly(args, launch, world, drawings)
+    finally:
+        if drawings is not None:
+            drawings.close()        # also when the run failed or was interrupted: no child left
+
+
+def _fly(args: argparse.Namespace, launch: Launch, world, drawings) -> int:
+    """Start, watch, stop, summarise; the exit status."""
+
     def on_term(signum, frame):  # SIGTERM: same clean stop as Ctrl-C
         raise KeyboardInterrupt
 
@@ -240,7 +263,7 @@ def run(args: argparse.Namespace) -> int:
     if failure:
         print(f"towerlink fly: {failure}; all processes stopped", file=sys.stderr, flush=True)
     try:
-        s = launch.finish_run(rc)
+        s = launch.finish_run(rc, drawings)
         print("\n" + s["text"], flush=True)
     except Exception as exc:  # noqa: BLE001
         print(f"towerlink fly: could not summarise the run: {exc}", file=sys.stderr)

@@ -16,6 +16,7 @@ import sys
 import time
 
 from common.mavlink.signing import SIGNING_FLAG, masked_argv
+from tools.fly_drawings import Drawings
 from tools.fly_monitor import Monitor
 from tools.fly_plan import FlyPlan
 from tools.fly_processes import ProcessGroup
@@ -204,12 +205,14 @@ class Launch:
     def write_meta(self) -> None:
         write_meta(self.plan)
 
-    def finish_run(self, tower_rc: int | None) -> dict:
-        """After stop(): score, plot, draw the frames; returns the summary dict."""
+    def finish_run(self, tower_rc: int | None, drawings: Drawings | None = None) -> dict:
+        """After stop(): score, plot, draw the frames (`drawings`: who draws, e.g. a
+        tools.fly_drawings.DrawingWorker started before the run; default: this process);
+        returns the summary dict."""
         achieved = None
         if self.monitor is not None:
             achieved = self.speedup.overall(self.monitor.snapshot()["sim"])
         proxy = self.proxy.counts() if self.proxy is not None else None
         applied = self.proxy.applied if self.proxy is not None else []
         return write_summary(self.plan, tower_rc, bridge_restarts=self.bridge_restarts, proxy=proxy,
-                             achieved_speedup=achieved, applied=applied)
+                             achieved_speedup=achieved, applied=applied, drawings=drawings)
