@@ -168,16 +168,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
 
 
-def _drawing_worker(out: Path, scenario: str | None):
-    """A started tools.fly_drawings.DrawingWorker (it imports matplotlib while the run flies),
-    or None where fork is not available (the drawings are then made after the scoring)."""
+def _helpers(out: Path, scenario: str | None) -> tuple:
+    """(drawings, recorder): children that draw the run and record run.mcap, started now so they
+    do their part while the run flies (tools.fly_drawings, tools.fly_recorder); (None, None)
+    where fork is not available (then all of it is done after the flight)."""
+    from tools.fly_child import ForkedHelper
     from tools.fly_drawings import DrawingWorker
-    if not DrawingWorker.available():
-        return None
+    from tools.fly_recorder import Recorder
+    if not ForkedHelper.available():
+        return None, None
     out.mkdir(parents=True, exist_ok=True)
-    worker = DrawingWorker(out, scenario)
-    worker.start()      # forked before launch.start() starts any thread
-    return worker
+    drawings, recorder = DrawingWorker(out, scenario), Recorder(out)
+    drawings.start()        # forked before launch.start() starts any thread
+    try:
+        recorder.start()
+    except BaseException:
+        drawings.close()
+        raise
+    return drawings, recorder
 
 
 def run(args: argparse.Namespace) -> int:
@@ -224,15 +232,16 @@ def run(args: argparse.Namespace) -> int:
         print("towerlink fly: --speedup max without --lockstep: the world runs as fast as the CPU and the "
               "bridge and the tower fall behind it; the figures will depend on the machine", file=sys.stderr)
 
-    drawings = _drawing_worker(out, args.scenario)
+    drawings, recorder = _helpers(out, args.scenario)
     try:
-        return _fly(args, launch, world, drawings)
+        return _fly(args, launch, world, drawings, recorder)
     finally:
-        if drawings is not None:
-            drawings.close()        # also when the run failed or was interrupted: no child left
+        for helper in (drawings, recorder):
+            if helper is not None:
+                helper.close()      # also when the run failed or was interrupted: no child left
 
 
-def _fly(args: argparse.Namespace, launch: Launch, world, drawings) -> int:
+def _fly(args: argparse.Namespace, launch: Launch, world, drawings, recorder) -> int:
     """Start, watch, stop, summarise; the exit status."""
 
     def on_term(signum, frame):  # SIGTERM: same clean stop as Ctrl-C
@@ -244,6 +253,8 @@ def _fly(args: argparse.Namespace, launch: Launch, world, drawings) -> int:
     failure = None
     try:
         launch.start()
+        if recorder is not None:
+            recorder.run_started()
         if launch.view is not None:
             print(f"towerlink fly: live view for Foxglove at {launch.view.url} "
                   "(Open connection > Foxglove WebSocket; layout: docs/foxglove_layout.json)", flush=True)
@@ -263,7 +274,7 @@ def _fly(args: argparse.Namespace, launch: Launch, world, drawings) -> int:
     if failure:
         print(f"towerlink fly: {failure}; all processes stopped", file=sys.stderr, flush=True)
     try:
-        s = launch.finish_run(rc, drawings)
+        s = launch.finish_run(rc, drawings, recorder)
         print("\n" + s["text"], flush=True)
     except Exception as exc:  # noqa: BLE001
         print(f"towerlink fly: could not summarise the run: {exc}", file=sys.stderr)

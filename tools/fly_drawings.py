@@ -1,24 +1,18 @@
 """The drawings of a `towerlink fly` run: tracks.png and the frame tree (frames.pdf, frames.png, frames.yaml).
 
 :class:`Drawings` draws them here, after the scoring (where fork is not available, or for a
-Launch driven by a test). :class:`DrawingWorker` is a child forked when the run starts: it
-imports matplotlib (about half a second of CPU) while the run flies, at a lower CPU priority
-so that the lockstep chain keeps the cores; once the flight is over it draws the frame tree
-from bridge.tlog at once and tracks.png as soon as the parent hands it the run's data, both in
-parallel with the parent's scoring. Either draws a picture as far as it goes: a drawing that
-fails is left out and never hides the summary.
+Launch driven by a test). :class:`DrawingWorker` is a child forked when the run starts
+(tools.fly_child): it imports matplotlib (about half a second of CPU) while the run flies;
+once the flight is over it draws the frame tree from bridge.tlog at once and tracks.png as soon
+as the parent hands it the run's data, both in parallel with the parent's scoring. Either
+draws a picture as far as it goes: a drawing that fails is left out and never hides the summary.
 """
 from __future__ import annotations
 
-import multiprocessing
-import os
-import signal
+from functools import partial
 from pathlib import Path
 
-#: the worker's niceness while the run flies: it takes what the lockstep chain leaves idle
-WORKER_NICE = 10
-#: wall s the parent waits for the worker's drawings before it stops it and goes on without them
-WORKER_TIMEOUT = 120.0
+from tools.fly_child import ForkedHelper, Priority
 
 
 def draw_tracks(run_dir: Path, scenario: str | None, data) -> None:
@@ -75,67 +69,30 @@ class DrawingWorker(Drawings):
 
     def __init__(self, run_dir: Path, scenario: str | None) -> None:
         super().__init__(run_dir, scenario)
-        self._conn = None
-        self._child: multiprocessing.Process | None = None
+        self.helper = ForkedHelper("fly-drawings", partial(_worker, self.dir, self.scenario))
 
-    @staticmethod
-    def available() -> bool:
-        return "fork" in multiprocessing.get_all_start_methods()
+    available = staticmethod(ForkedHelper.available)
 
     def start(self) -> None:
-        ctx = multiprocessing.get_context("fork")
-        here, there = ctx.Pipe(duplex=False)
-        from tools.procs import die_with_parent
-        self._child = ctx.Process(target=_worker, args=(here, self.dir, self.scenario, die_with_parent()),
-                                  name="fly-drawings", daemon=True)
-        self._child.start()
-        here.close()
-        self._conn = there
-
-    def _send(self, job) -> None:
-        try:
-            self._conn.send(job)
-        except (OSError, ValueError, AttributeError):     # the child is gone: its pictures are left out
-            pass
+        self.helper.start()
 
     def flight_over(self) -> None:
-        self._send(("frames",))
+        self.helper.send(("frames",))
 
     def tracks(self, data) -> None:
-        self._send(("tracks", data))
-        self._send(None)
+        self.helper.send(("tracks", data))
+        self.helper.send(None)
 
     def wait(self) -> None:
-        if self._child is not None:
-            self._child.join(WORKER_TIMEOUT)
-        self.close()
+        self.helper.wait()
 
     def close(self) -> None:
-        if self._conn is not None:
-            self._conn.close()
-            self._conn = None
-        child, self._child = self._child, None
-        if child is None:
-            return
-        if child.is_alive():
-            child.terminate()
-            child.join(5.0)
-            if child.is_alive():
-                child.kill()
-        child.join()
+        self.helper.close()
 
 
-def _worker(conn, run_dir: Path, scenario: str | None, with_parent) -> None:
-    """The child: prepare at a low priority, then draw what the parent asks for until None.
-    `with_parent`: tools.procs.die_with_parent()'s hook, made in the parent (None: none)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)    # a Ctrl-C is the parent's to handle: it stops us
-    if with_parent is not None:
-        with_parent()       # SIGTERM when the launcher dies outright
-    base = os.getpriority(os.PRIO_PROCESS, 0)
-    try:
-        os.setpriority(os.PRIO_PROCESS, 0, base + WORKER_NICE)
-    except OSError:
-        pass
+def _worker(run_dir: Path, scenario: str | None, conn) -> None:
+    """The child: prepare at a low priority, then draw what the parent asks for until None."""
+    priority = Priority()
     try:
         import matplotlib
         matplotlib.use("Agg")
@@ -151,10 +108,7 @@ def _worker(conn, run_dir: Path, scenario: str | None, with_parent) -> None:
             return
         if job is None:
             return
-        try:    # the drawings are on the run's critical path now: back to the parent's priority
-            os.setpriority(os.PRIO_PROCESS, 0, base)
-        except OSError:     # not allowed to lower our niceness: drawn at the lower priority
-            pass
+        priority.restore()      # the drawings are on the run's critical path now
         if job[0] == "frames":
             draw_frames(run_dir)
         elif job[0] == "tracks":

@@ -17,6 +17,7 @@ import time
 
 from common.mavlink.signing import SIGNING_FLAG, masked_argv
 from tools.fly_drawings import Drawings
+from tools.fly_recorder import Recorder
 from tools.fly_monitor import Monitor
 from tools.fly_plan import FlyPlan
 from tools.fly_processes import ProcessGroup
@@ -205,14 +206,17 @@ class Launch:
     def write_meta(self) -> None:
         write_meta(self.plan)
 
-    def finish_run(self, tower_rc: int | None, drawings: Drawings | None = None) -> dict:
-        """After stop(): score, plot, draw the frames (`drawings`: who draws, e.g. a
-        tools.fly_drawings.DrawingWorker started before the run; default: this process);
-        returns the summary dict."""
+    def finish_run(self, tower_rc: int | None, drawings: Drawings | None = None,
+                   recorder: Recorder | None = None) -> dict:
+        """After stop(): score, plot, draw the frames, record run.mcap; returns the summary dict.
+        `drawings`, `recorder`: children started before the run (tools.fly_drawings.DrawingWorker,
+        tools.fly_recorder.Recorder); default: drawn here after the scoring, recorded in a child
+        forked now."""
         achieved = None
         if self.monitor is not None:
             achieved = self.speedup.overall(self.monitor.snapshot()["sim"])
         proxy = self.proxy.counts() if self.proxy is not None else None
         applied = self.proxy.applied if self.proxy is not None else []
         return write_summary(self.plan, tower_rc, bridge_restarts=self.bridge_restarts, proxy=proxy,
-                             achieved_speedup=achieved, applied=applied, drawings=drawings)
+                             achieved_speedup=achieved, applied=applied, drawings=drawings,
+                             recorder=recorder)

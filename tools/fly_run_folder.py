@@ -19,6 +19,7 @@ from common.mavlink.lockstep import speedup_text
 from common.mavlink.signing import masked_argv
 from tools.fly_drawings import Drawings
 from tools.fly_plan import FlyPlan
+from tools.fly_recorder import Recorder
 
 
 def write_meta(plan: FlyPlan) -> None:
@@ -41,14 +42,20 @@ def _link(plan: FlyPlan) -> dict | None:
 
 def write_summary(plan: FlyPlan, tower_rc: int | None, *, bridge_restarts: int = 0,
                   proxy: dict | None = None, achieved_speedup: float | None = None,
-                  applied: list[dict] | None = None, drawings: Drawings | None = None) -> dict:
+                  applied: list[dict] | None = None, drawings: Drawings | None = None,
+                  recorder: Recorder | None = None) -> dict:
     """Score the run, draw it, record it; returns the summary dict (its text under "text").
 
     `proxy`: the link proxy's frame counts ({"passed", "dropped", "overflow", "duplicated"},
     each per direction); `applied`: when each fault took effect and was cleared (written to
     faults.json); `achieved_speedup`: sim s per wall s (None if the sim clock never moved);
-    `drawings`: who draws tracks.png and the frame tree (default: this process, after the scoring)."""
-    recording = _start_recording(plan.dir)      # run.mcap on the other core while this one scores
+    `drawings`: who draws tracks.png and the frame tree (default: this process, after the scoring);
+    `recorder`: the child recording run.mcap since the run started (default: a child forked now)."""
+    if recorder is not None:
+        recorder.flight_over()                  # it reads the rest and writes run.mcap meanwhile
+        recording = recorder.wait
+    else:
+        recording = _start_recording(plan.dir)  # run.mcap on the other core while this one scores
     drawings = drawings or Drawings(plan.dir, plan.scenario)
     drawings.flight_over()                      # a worker draws the frame tree meanwhile
     from tools.run_summary import format_summary, summarize

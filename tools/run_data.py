@@ -54,9 +54,19 @@ def read_tlog(path: str | os.PathLike, types: Iterable[str] | None = None,
     if frames is None:
         yield from _read_tlog_pymavlink(path, types, sysids)
         return
-    wanted = None if types is None else frozenset(i for i, c in dialect.mavlink_map.items() if c.msgname in set(types))
+    yield from decode_frames(dialect.MAVLink(None), raw, frames, wanted_ids(dialect, types), sysids)
+
+
+def wanted_ids(dialect, types: Iterable[str] | None) -> frozenset[int] | None:
+    """The message ids of `types` (names) in `dialect`; None for every message."""
+    return None if types is None else frozenset(i for i, c in dialect.mavlink_map.items() if c.msgname in set(types))
+
+
+def decode_frames(mav, raw: bytes, frames: Iterable[tuple[int, int, int, int]], wanted: frozenset[int] | None,
+                  sysids: Iterable[int] | None) -> Iterator[Any]:
+    """Decode tlog frames (tlog_frames' rows of `raw`) with the MAVLink object `mav`, those of the
+    `wanted` ids (None: all) and `sysids` (None: all); stamped as read_tlog's."""
     systems = None if sysids is None else frozenset(sysids)
-    mav = dialect.MAVLink(None)
     for tusec, msgid, start, end in frames:
         if wanted is not None and msgid not in wanted:
             continue
@@ -74,14 +84,24 @@ def read_tlog(path: str | os.PathLike, types: Iterable[str] | None = None,
 def tlog_frames(raw: bytes) -> list[tuple[int, int, int, int]] | None:
     """(stamp us, msgid, start, end) of every frame of a tlog's bytes; None unless the whole
     file is stamps and whole MAVLink 1 or 2 frames."""
+    cut = tlog_prefix_frames(raw)
+    return cut[0] if cut is not None and cut[1] == len(raw) else None
+
+
+def tlog_prefix_frames(raw: bytes) -> tuple[list[tuple[int, int, int, int]], int] | None:
+    """(frames, end) of the whole frames a tlog's bytes start with (tlog_frames' rows; `end`:
+    where the first incomplete one begins, len(raw) if none): a tlog still being written ends
+    in a part of a frame. None if the bytes are not stamps and MAVLink 1 or 2 frames."""
     out = []
     i, n = 0, len(raw)
     while i < n:
         j = i + 8
         if j + 8 > n:
-            return None
+            break
         magic = raw[j]
         if magic == 0xFD:
+            if j + 10 > n:      # the header itself is cut
+                break
             end = j + 12 + raw[j + 1] + (13 if raw[j + 2] & 1 else 0)
             msgid = raw[j + 7] | raw[j + 8] << 8 | raw[j + 9] << 16
         elif magic == 0xFE:
@@ -90,10 +110,10 @@ def tlog_frames(raw: bytes) -> list[tuple[int, int, int, int]] | None:
         else:
             return None
         if end > n:
-            return None
+            break
         out.append((int.from_bytes(raw[i:j], "big"), msgid, j, end))
         i = end
-    return out
+    return out, i
 
 
 def _read_tlog_pymavlink(path: str | os.PathLike, types: Iterable[str] | None,
