@@ -191,6 +191,10 @@ class RunData:
 BRIDGE_OWN = ("TOWERLINK_TRANSFORM", "TOWERLINK_STATIC_TRANSFORM", "TOWERLINK_POSITION_TARGET",
               "TOWERLINK_FOLLOW_STATUS", "TOWERLINK_BRIDGE_STATUS", "TOWERLINK_LOCKSTEP")
 
+#: what load_messages folds by name; any other message counts only through its time_boot_ms
+FOLDED = ("SIM_STATE", "LOCAL_POSITION_NED", "GPS_GLOBAL_ORIGIN", "HOME_POSITION", "PARAM_VALUE",
+          "TOWERLINK_FOLLOW_STATUS", "TOWERLINK_TRANSFORM", "STATUSTEXT", "HEARTBEAT", "TOWERLINK_BRIDGE_STATUS")
+
 FOLLOW_FIELDS = ("t", "ref_x", "ref_y", "full_x", "full_y", "yaw_x", "yaw_y", "goal_x", "goal_y",
                  "rover_x", "rover_y", "height", "tilt", "err_full", "err_yaw", "follow_frame", "state")
 
@@ -283,13 +287,24 @@ def _local_origin(origin, home):
     return None
 
 
+def folded_types() -> tuple[str, ...]:
+    """The messages load_messages takes anything from: FOLDED and every message with a
+    time_boot_ms (a sender's sim clock). Decoding only these folds the same RunData."""
+    try:
+        from common.mavlink.dialect import towerlink as dialect
+    except ImportError:  # pragma: no cover
+        from pymavlink.dialects.v20 import ardupilotmega as dialect
+    timed = (c.msgname for c in dialect.mavlink_map.values() if "time_boot_ms" in c.fieldnames)
+    return tuple(sorted({*FOLDED, *timed}))
+
+
 def load_run(run_dir: str | os.PathLike) -> RunData:
     """Read every tlog of a run folder (vehicles, bridge, tower) into one RunData."""
     run_dir = Path(run_dir)
     data = RunData()
     vehicles = run_dir / "vehicles.tlog"
     if vehicles.exists():
-        load_messages(read_tlog(vehicles), data)
+        load_messages(read_tlog(vehicles, folded_types()), data)
     bridge = run_dir / "bridge.tlog"
     if bridge.exists():
         # the bridge's out link repeats the vehicles' traffic: take its own
