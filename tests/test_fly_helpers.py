@@ -71,6 +71,7 @@ def test_the_worker_draws_what_the_launcher_draws(tmp_path):
     worker.start()
     pid = worker.helper._child.pid
     try:
+        worker.flight_begins()
         worker.flight_over()
         worker.tracks(load_run(there))
         worker.wait()
@@ -91,12 +92,34 @@ def test_the_recorder_writes_the_run_mcap_the_launcher_writes(tmp_path):
     recorder.start()
     pid = recorder.helper._child.pid
     try:
-        for name, data in _run_tlogs(120).items():     # this run's tlogs, opened before run_started
+        for name, data in _run_tlogs(120).items():     # this run's tlogs, opened before the flight begins
             (run / name).write_bytes(data)
-        recorder.run_started()
+        recorder.flight_begins()
         recorder.flight_over()
         recorder.wait()
     finally:
         recorder.close()
     assert _gone(pid)
     assert (run / "run.mcap").read_bytes() == (ref / "run.mcap").read_bytes()
+
+
+def test_a_run_that_never_flew_is_still_drawn_and_recorded(tmp_path):
+    """A run that failed in its start-up: the helpers never heard that the flight began."""
+    run = _folder(tmp_path / "b" / "run")
+    ref = _folder(tmp_path / "a" / "run")
+    write_run_mcap(ref)
+    Drawings(ref, None).tracks(load_run(ref))
+    worker, recorder = DrawingWorker(run, None), Recorder(run)
+    worker.start()
+    recorder.start()
+    try:
+        worker.flight_over()
+        recorder.flight_over()
+        worker.tracks(load_run(run))
+        worker.wait()
+        recorder.wait()
+    finally:
+        worker.close()
+        recorder.close()
+    for name in ("tracks.png", "frames.png", "frames.yaml", "run.mcap"):
+        assert (run / name).read_bytes() == (ref / name).read_bytes(), name

@@ -253,12 +253,12 @@ def _fly(args: argparse.Namespace, launch: Launch, world, drawings, recorder) ->
     failure = None
     try:
         launch.start()
-        if recorder is not None:
-            recorder.run_started()
         if launch.view is not None:
             print(f"towerlink fly: live view for Foxglove at {launch.view.url} "
                   "(Open connection > Foxglove WebSocket; layout: docs/foxglove_layout.json)", flush=True)
-        rc = launch.wait(args.timeout, progress=None if args.quiet else 1.0)
+        helpers = [h for h in (drawings, recorder) if h is not None]
+        rc = launch.wait(args.timeout, progress=None if args.quiet else 1.0,
+                         on_flying=lambda: [h.flight_begins() for h in helpers])
         if rc is None:
             failure = f"timed out after {args.timeout:g} s wall"
     except KeyboardInterrupt:

@@ -2,7 +2,9 @@
 
 :class:`Drawings` draws them here, after the scoring (where fork is not available, or for a
 Launch driven by a test). :class:`DrawingWorker` is a child forked when the run starts
-(tools.fly_child): it imports matplotlib (about half a second of CPU) while the run flies;
+(tools.fly_child): it imports matplotlib (about half a second of CPU) once the run flies
+(:meth:`DrawingWorker.flight_begins`: not during the start-up, when the world's imports need
+the cores);
 once the flight is over it draws the frame tree from bridge.tlog at once and tracks.png as soon
 as the parent hands it the run's data, both in parallel with the parent's scoring. Either
 draws a picture as far as it goes: a drawing that fails is left out and never hides the summary.
@@ -45,6 +47,9 @@ class Drawings:
         self.dir = Path(run_dir)
         self.scenario = scenario
 
+    def flight_begins(self) -> None:
+        """The sim clock moved (nothing to prepare here)."""
+
     def flight_over(self) -> None:
         """The tlogs are complete (nothing to do here: both are drawn in :meth:`tracks`)."""
 
@@ -63,7 +68,8 @@ class Drawings:
 class DrawingWorker(Drawings):
     """The drawings in a child forked by :meth:`start`, before the launcher starts any thread.
 
-    The parent calls :meth:`flight_over` once the processes stopped, :meth:`tracks` with the
+    The parent calls :meth:`flight_begins` when the sim clock first moves (the child then imports
+    what it draws with), :meth:`flight_over` once the processes stopped, :meth:`tracks` with the
     run's data, :meth:`wait` for the pictures; :meth:`close` (always, also on failure or Ctrl-C)
     stops the child if it still runs and reaps it."""
 
@@ -75,6 +81,9 @@ class DrawingWorker(Drawings):
 
     def start(self) -> None:
         self.helper.start()
+
+    def flight_begins(self) -> None:
+        self.helper.send(("prepare",))
 
     def flight_over(self) -> None:
         self.helper.send(("frames",))
@@ -93,14 +102,6 @@ class DrawingWorker(Drawings):
 def _worker(run_dir: Path, scenario: str | None, conn) -> None:
     """The child: prepare at a low priority, then draw what the parent asks for until None."""
     priority = Priority()
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot  # noqa: F401 - the import is the point: paid while the run flies
-        import tools.plot_tracks  # noqa: F401
-        import tools.view_frames  # noqa: F401
-    except Exception:  # noqa: BLE001 - the drawings then fail (and are left out) when asked for
-        pass
     while True:
         try:
             job = conn.recv()
@@ -108,8 +109,23 @@ def _worker(run_dir: Path, scenario: str | None, conn) -> None:
             return
         if job is None:
             return
+        if job[0] == "prepare":
+            _prepare()
+            continue
         priority.restore()      # the drawings are on the run's critical path now
         if job[0] == "frames":
             draw_frames(run_dir)
         elif job[0] == "tracks":
             draw_tracks(run_dir, scenario, job[1])
+
+
+def _prepare() -> None:
+    """Import what the drawings need (paid while the run flies, on what the lockstep leaves idle)."""
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot  # noqa: F401
+        import tools.plot_tracks  # noqa: F401
+        import tools.view_frames  # noqa: F401
+    except Exception:  # noqa: BLE001 - the drawings then fail (and are left out) when asked for
+        pass

@@ -14,14 +14,15 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 
 from common.mavlink.signing import SIGNING_FLAG, masked_argv
 from tools.fly_drawings import Drawings
-from tools.fly_recorder import Recorder
 from tools.fly_monitor import Monitor
 from tools.fly_plan import FlyPlan
 from tools.fly_processes import ProcessGroup
 from tools.fly_progress import WAITING, GoalState, ProgressReporter, SpeedupMeter, TowerOutput, goal_text
+from tools.fly_recorder import Recorder
 from tools.fly_run_folder import write_meta, write_summary
 from tools.fly_van import VanDriver
 from tools.run_ids import DRONE, SCORING_PARAMS
@@ -145,9 +146,11 @@ class Launch:
 
     # -- running
 
-    def wait(self, timeout: float, progress: float | None = 1.0, out=sys.stdout) -> int | None:
+    def wait(self, timeout: float, progress: float | None = 1.0, out=sys.stdout,
+             on_flying: Callable[[], object] | None = None) -> int | None:
         """Wait for the tower to finish (its exit status), printing progress lines at most every
-        `progress` wall s (None: none); None on timeout. RuntimeError when the world or a node exits."""
+        `progress` wall s (None: none); None on timeout. RuntimeError when the world or a node exits.
+        `on_flying`: called once, when the sim clock first moves (the start-up is over)."""
         end = time.monotonic() + timeout
         last_params = 0.0
         reporter = ProgressReporter(self.plan.speedup, self.plan.lockstep, progress)
@@ -172,6 +175,9 @@ class Launch:
             # the sim time on every turn (it anchors the summary's speedup figure); the poses,
             # which cost the monitor's lock and decoding, only when a line may be printed
             achieved = self.speedup.update(self.monitor.sim_time() if self.monitor else WAITING["sim"])
+            if on_flying is not None and self.speedup.anchor is not None:
+                on_flying()
+                on_flying = None
             if reporter.due():
                 snap = self.monitor.snapshot() if self.monitor else WAITING
                 line = reporter.line(snap, goal_text(self.tower.goals, family_goals), achieved)
