@@ -123,3 +123,16 @@ def test_a_run_that_never_flew_is_still_drawn_and_recorded(tmp_path):
         recorder.close()
     for name in ("tracks.png", "frames.png", "frames.yaml", "run.mcap"):
         assert (run / name).read_bytes() == (ref / name).read_bytes(), name
+
+
+def test_no_helpers_on_one_cpu(tmp_path):
+    """Pinned to one CPU (a sweep's run under taskset, a one-core bench) the helpers' work during
+    the flight would only slow the lockstep chain: everything is then done after the flight."""
+    import subprocess
+    import sys
+    code = ("import os, sys; from pathlib import Path; from tools.fly import _helpers; "
+            "os.sched_setaffinity(0, {min(os.sched_getaffinity(0))}); "
+            "print(_helpers(Path(sys.argv[1]), None))")
+    out = subprocess.run([sys.executable, "-c", code, str(tmp_path / "run")], capture_output=True, text=True,
+                         check=True, timeout=60).stdout
+    assert out.strip() == "(None, None)"

@@ -171,11 +171,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _helpers(out: Path, scenario: str | None) -> tuple:
     """(drawings, recorder): children that draw the run and record run.mcap, started now so they
     do their part while the run flies (tools.fly_drawings, tools.fly_recorder); (None, None)
-    where fork is not available (then all of it is done after the flight)."""
+    where fork is not available or this process has one CPU (e.g. under taskset: the helpers'
+    work would then only slow the lockstep chain down), and all of it is done after the flight."""
     from tools.fly_child import ForkedHelper
     from tools.fly_drawings import DrawingWorker
     from tools.fly_recorder import Recorder
-    if not ForkedHelper.available():
+    if not ForkedHelper.available() or ForkedHelper.cpus() < 2:
         return None, None
     out.mkdir(parents=True, exist_ok=True)
     drawings, recorder = DrawingWorker(out, scenario), Recorder(out)

@@ -33,6 +33,14 @@ class ForkedHelper:
     def available() -> bool:
         return "fork" in multiprocessing.get_all_start_methods()
 
+    @staticmethod
+    def cpus() -> int:
+        """The CPUs this process may run on (its affinity, where the system says)."""
+        try:
+            return len(os.sched_getaffinity(0))
+        except AttributeError:  # pragma: no cover - no affinity call (not Linux)
+            return os.cpu_count() or 1
+
     def start(self) -> None:
         from tools.procs import die_with_parent
         ctx = multiprocessing.get_context("fork")
