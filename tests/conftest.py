@@ -32,18 +32,46 @@ def processes():
         procs.stop_all()
 
 
-
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line(
         "markers", "alone: a whole system on the wall clock (not lockstep): `make test` runs it with "
                    "nothing beside it, after the parallel pass")
 
 
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+TEST_SECONDS = "towerlink/test_seconds"          # pytest's cache: each test's wall s, its last run
+WORLD_FIXTURES = {"processes", "towerlink_sitl", "sitl", "shared_sitl", "mavproxy"}   # programs or a world
+WORLD_TEST_S, OTHER_TEST_S = 8.0, 0.3               # the guess for a test no run has timed yet
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """Modules in the order `make test` hands them to its workers (it passes xdist's
-    --no-loadscope-reorder): the full-system (slow) ones first, then the others, each half
-    by number of tests, most first (xdist's own reorder); a stable sort, so a module's tests
-    keep their order, and the same on every worker, as xdist requires."""
+    --no-loadscope-reorder): the full-system (slow) ones first, then the others; each half
+    longest first, a module's length the sum of its tests' seconds in their last run
+    (pytest's cache), or, for a test not timed yet (a clean clone), a guess (one that starts
+    programs or a world takes seconds). Longest first, no module of half a minute starts
+    while the other workers are finishing. A stable sort, so a module's tests keep their
+    order, and the same on every worker, as xdist requires."""
+    cache = getattr(config, "cache", None)
+    timed = cache.get(TEST_SECONDS, {}) if cache is not None else {}
     slow = {item.path for item in items if item.get_closest_marker("slow") is not None}
-    count = collections.Counter(item.path for item in items)
-    items.sort(key=lambda item: (item.path not in slow, -count[item.path]))
+    seconds: collections.Counter = collections.Counter()
+    for item in items:
+        guess = WORLD_TEST_S if WORLD_FIXTURES & set(item.fixturenames) else OTHER_TEST_S
+        seconds[item.path] += timed.get(item.nodeid, guess)
+    items.sort(key=lambda item: (item.path not in slow, -seconds[item.path]))
+
+
+_took: collections.Counter = collections.Counter()
+
+
+def pytest_runtest_logreport(report: pytest.TestReport) -> None:
+    _took[report.nodeid] += report.duration        # setup, call and teardown
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    """This run's tests' seconds into pytest's cache, for the next run's order (written by the
+    process that saw every report: the one xdist's workers report to, or a run without them)."""
+    cache = getattr(session.config, "cache", None)
+    if cache is None or hasattr(session.config, "workerinput") or not _took:
+        return
+    cache.set(TEST_SECONDS, {**cache.get(TEST_SECONDS, {}), **{t: round(s, 2) for t, s in _took.items()}})
