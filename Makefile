@@ -50,16 +50,18 @@ mavsdk3: $(MAVSDK3_STAMP)
 demo: $(STAMP)
 	$(BIN)/towerlink fly
 
-# tests/ and examples/pytest (pyproject's testpaths), in two passes (tests/conftest.py says why):
-# everything but the wall-clock whole systems on four workers (a module stays on one worker:
-# loadfile; the conftest hands out the full-system modules first and --no-loadscope-reorder keeps
-# that order), then those marked `alone` one at a time. The suite starts hundreds of Python
-# processes: each compiles every module it imports unless the .pyc files are written once, so
-# bytecode writing is on here even where the environment turns it off.
+# tests/ and examples/pytest (pyproject's testpaths), in three passes (tests/conftest.py says why):
+# the tests that are not full-system on four workers (they mostly wait), the full-system ones that
+# fly in lockstep on two, then those marked `alone` one at a time. A module stays on one worker
+# (loadfile); the conftest hands out the longest modules first and --no-loadscope-reorder keeps
+# that order. The suite starts hundreds of Python processes: each compiles every module it
+# imports unless the .pyc files are written once, so bytecode writing is on here even where the
+# environment turns it off.
 test: export MAVSDK3_PYTHON := $(CURDIR)/$(MAVSDK3)/bin/python
 test: export PYTHONDONTWRITEBYTECODE :=
 test: $(SWEEP_STAMP) $(MAVSDK3_STAMP)
-	$(BIN)/python -m pytest -q -n 4 --dist loadfile --no-loadscope-reorder -m "not alone"
+	$(BIN)/python -m pytest -q -n 4 --dist loadfile --no-loadscope-reorder -m "not slow and not alone"
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder -m "slow and not alone"
 	$(BIN)/python -m pytest -q -m alone
 
 bench: $(STAMP)

@@ -1,16 +1,17 @@
 """pytest fixtures and hooks shared by every test module.
 
-`make test` runs the suite in two passes:
-1. everything not marked `alone`, on four pytest-xdist workers (`-n 4 --dist loadfile
-   --no-loadscope-reorder`: a module's tests stay on one worker, so a module-scoped fixture is
-   built once). Most tests wait on worlds, sockets and timers rather than compute, so four
-   workers keep two cores busy where two workers kept about one. The full-system modules
-   (marked slow) are handed out first (pytest_collection_modifyitems), so the short modules
-   fill in behind them instead of one long module running alone at the end. Their figures do
-   not depend on the other workers' load: they fly in lockstep, or judge on the world's own
-   (sim) clock.
-2. the tests marked `alone`, one at a time: whole systems whose processes react on the wall
-   clock (not in lockstep), so what they judge depends on having the cores to themselves.
+`make test` runs the suite in three passes (pytest-xdist, `--dist loadfile
+--no-loadscope-reorder`: a module's tests stay on one worker, so a module-scoped fixture is
+built once; the modules are handed out longest first, see pytest_collection_modifyitems):
+1. the tests not marked slow or alone, on four workers: most of them wait on worlds, sockets
+   and timers rather than compute, so four workers keep two cores busy where two kept one.
+2. the full-system tests (marked slow) but those marked alone, on two workers: they fly in
+   lockstep or judge on the world's own (sim) clock, so the other worker's load changes none
+   of their figures. They stay apart from pass 1: their flights fill the cores, and the
+   clients of pass 1 (MAVSDK, MAVProxy, pymavlink's mavftp) give up on replies after wall
+   seconds.
+3. the tests marked alone, one at a time: whole systems whose processes react on the wall
+   clock (not in lockstep), and wall-clock figures, which need the cores to themselves.
 `pytest -m slow` / `-m "not slow"` still pick either half.
 """
 from __future__ import annotations
@@ -34,8 +35,8 @@ def processes():
 
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line(
-        "markers", "alone: a whole system on the wall clock (not lockstep): `make test` runs it with "
-                   "nothing beside it, after the parallel pass")
+        "markers", "alone: judged on the wall clock (a whole system not in lockstep, a wall-clock "
+                   "figure): `make test` runs it with nothing beside it, after the parallel passes")
 
 
 TEST_SECONDS = "towerlink/test_seconds"          # pytest's cache: each test's wall s, its last run
@@ -45,8 +46,8 @@ WORLD_TEST_S, OTHER_TEST_S = 8.0, 0.3               # the guess for a test no ru
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """Modules in the order `make test` hands them to its workers (it passes xdist's
-    --no-loadscope-reorder): the full-system (slow) ones first, then the others; each half
-    longest first, a module's length the sum of its tests' seconds in their last run
+    --no-loadscope-reorder): the full-system (slow) ones first, then the others (for a run
+    of both); each half longest first, a module's length the sum of its tests' seconds in their last run
     (pytest's cache), or, for a test not timed yet (a clean clone), a guess (one that starts
     programs or a world takes seconds). Longest first, no module of half a minute starts
     while the other workers are finishing. A stable sort, so a module's tests keep their
