@@ -44,12 +44,16 @@ def fleet_spots(kind: str, f) -> list[tuple[object, str, str]]:
     from vehicle.physics import multicopter as mc
     from vehicle.physics import rover as rp
     cores = {"copter": (fl._copter_core, [(mc.step, "physics"), (cc.step, "control"), (cc.relax, "control")]),
-             "rover": (fl._rover_core, [(rp.step, "physics"), (rc.step, "control")])}[kind]
+             "rover": (fl._rover_drive, [(rc.step, "control")])}[kind]
     caller, callees = cores
     spots = []
     for fn, stage in callees:
         spots.append((sys.modules[fn.__module__], fn.__name__, f"{kind} {stage}"))
         spots += scalar_form_spots(caller, fn, f"{kind} {stage}")
+    if kind == "rover":         # the kinematics: called by the fleet itself, every step
+        spots.append((rp, "step", "rover physics"))
+        if f.scalar:
+            spots.append((f, "_kinematics_form", "rover physics"))
     spots.append((f, "step", f"{kind} fleet bookkeeping"))
     for name in ("_sense_and_estimate_scalar", "_sense_and_estimate_vec"):
         spots.append((f, name, f"{kind} estimator"))

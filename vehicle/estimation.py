@@ -210,9 +210,11 @@ class Estimator:
         sp = self.spec
         self.dt = dt
         self.n_kf = max(1, round(1.0 / (self.kf_rate * dt)))
-        self.n_gps = self.n_kf * max(1, round(self.kf_rate / sp.gps_rate))
-        self.n_baro = self.n_kf * max(1, round(self.kf_rate / sp.baro_rate))
         self.kf_dt = self.n_kf * dt
+        # GPS and baro on the epochs nearest their rates (a loop slower than kf_rate runs its
+        # filter every step: ArduPilot's EKF3 predicts once per loop when the loop is slower)
+        self.n_gps = self.n_kf * max(1, round(1.0 / (sp.gps_rate * self.kf_dt)))
+        self.n_baro = self.n_kf * max(1, round(1.0 / (sp.baro_rate * self.kf_dt)))
         # AHRS error: first-order Gauss-Markov, a = exp(-T/tau), drive sigma sqrt(1 - a^2)
         self._ahrs_a = a = math.exp(-self.kf_dt / sp.ahrs_tau)
         self._ahrs_drive = sp.ahrs_sigma * math.sqrt(1 - a * a)

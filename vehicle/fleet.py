@@ -116,8 +116,9 @@ def _copter_core(ph, c, est, sp, armed, landed, ground_z, g, af, dt, xp, air=Non
 
 
 @generic
-def _rover_core(ph, est, sp, armed, g, m, dt, xp, air=None, mul=None):
-    """Rover controller + kinematics for one step (backend-generic); disarmed: no drive.
+def _rover_drive(est, sp, armed, g, dt, xp, mul=None):
+    """Rover controller for one loop of dt s (backend-generic): the (speed m/s, turn rate
+    rad/s) drive command the kinematics follow until the next loop; disarmed: no drive.
     mul: None, or the (left, right) drive multipliers of a skid-steer rover (SIM_ENGINE_FAIL)."""
     v, r = rcore.step(est, sp, g, dt, xp)
     v = xp.where(armed, v, 0.0)
@@ -125,7 +126,7 @@ def _rover_core(ph, est, sp, armed, g, m, dt, xp, air=None, mul=None):
     sp.v_cmd = xp.where(armed, sp.v_cmd, 0.0)
     if mul is not None:
         v, r = skid_mix(v, r, mul[0], mul[1], g.max_speed, g.max_rate)
-    rphys.step(ph, v, r, m, g, dt, xp, air)
+    return v, r
 
 
 LAND_CHECK_ANGLE_ERROR = math.sin(math.radians(30.0) / 2) ** 2   # LAND_CHECK_ANGLE_ERROR_DEG, as att_err
@@ -336,16 +337,30 @@ class CopterFleet(FleetBase):
 
 class RoverFleet(FleetBase):
     """n skid-steer rovers (see vehicle.physics.rover). Same contract as CopterFleet;
-    setpoint z is ignored and the rover stays at its home z. landed() is always True."""
+    setpoint z is ignored and the rover stays at its home z. landed() is always True.
+
+    loop_every: the controller, sensors and estimator run once every loop_every steps (over
+    that loop's time), the kinematics every step holding the loop's drive command; 1 (the
+    default) runs all of it every step. The world gives its rovers ArduRover's 50 Hz loop
+    (vehicle.world_build.ROVER_LOOP_RATE)."""
     kind = "rover"
     STATE_FIELDS = rphys.RoverState.FIELDS
 
     def __init__(self, n: int, params: Mapping[str, float] | None = None, seed: int | Sequence[int] = 0,
                  home: np.ndarray | None = None, estimator: bool | str = True, model: rphys.RoverModel | None = None,
                  sensor_spec: SensorSpec | None = None, yaw: np.ndarray | float | None = None,
-                 scalar: bool | None = None):
+                 scalar: bool | None = None, loop_every: int = 1):
         self._init_common(n, params, seed, home, estimator, sensor_spec, scalar)
         self.model = model or rphys.RoverModel()
+        # the controller, sensors and estimator run every loop_every steps (the rover's loop
+        # rate), the kinematics every step; the world runs them at ArduRover's 50 Hz
+        self.loop_every = max(1, int(loop_every))
+        self._loop_k = 0                         # steps into the current loop
+        self._cmds = [(0.0, 0.0)] * self.n       # the scalar store's drive commands of the loop
+        self._cmd_vec = None                     # the vector store's: (speed, rate) arrays
+        if self.scalar:     # the cores' scalar forms, called directly (vehicle.physics.scalar_form)
+            self._drive_form = _rover_drive.scalar()
+            self._kinematics_form = rphys.step.scalar()
         self._make_gains()
         yaws = np.broadcast_to(np.asarray(0.0 if yaw is None else yaw, float), (self.n,))
         if self.scalar:
@@ -394,22 +409,37 @@ class RoverFleet(FleetBase):
         return float(self._ss[i].r_cmd if self.scalar else self.sp.r_cmd[i])
 
     def step(self, dt: float) -> None:
-        """Controller (on the estimate) -> kinematics -> sensors -> estimator."""
+        """Controller (on the estimate, at the first step of a loop) -> kinematics (every
+        step) -> sensors -> estimator (at the last step of a loop, over the loop's time)."""
+        k = self._loop_k
+        last = k + 1 >= self.loop_every
+        self._loop_k = 0 if last else k + 1
+        ldt = dt * self.loop_every              # the loop's time (dt itself when every step is one)
+        m = self.model
         if self.scalar:
-            xp, gs, m = ScalarOps, self._gs, self.model
-            ps, ss, ests, armed, air = self._ps, self._ss, self._ests, self._armed_l, self._air_rows
-            muls = self._motor_mul              # None (no motor fault anywhere): nothing built per step
-            core = _rover_core.scalar()         # the scalar form called directly: no dispatch
+            xp, gs, ps, air, cmds = ScalarOps, self._gs, self._ps, self._air_rows, self._cmds
+            if k == 0:
+                drive, ss, ests, armed = self._drive_form, self._ss, self._ests, self._armed_l
+                muls = self._motor_mul          # None (no motor fault anywhere): nothing built per step
+                for i in range(self.n):
+                    mul = None if muls is None or muls[i] is None else (muls[i][0], muls[i][2])   # left, right
+                    cmds[i] = drive(ests[i] or ps[i], ss[i], armed[i], gs[i], ldt, xp, mul)
+            kinematics = self._kinematics_form
             for i in range(self.n):
-                mul = None if muls is None or muls[i] is None else (muls[i][0], muls[i][2])   # left, right
-                core(ps[i], ests[i] or ps[i], ss[i], armed[i], gs[i], m, dt, xp, None if air is None else air[i], mul)
+                v, r = cmds[i]
+                kinematics(ps[i], v, r, m, gs[i], dt, xp, None if air is None else air[i])
             self.sim_time += dt
-            self._sense_and_estimate_scalar(dt)
+            if last:
+                self._sense_and_estimate_scalar(ldt)
             return
-        est = self._est_view if self._est_view is not None else self._phys
-        mul = None
-        if self._motor_mul is not None:      # SIM_ENGINE_FAIL: servo 1 left, servo 3 right
-            mul = tuple(np.array([1.0 if m is None else m[k] for m in self._motor_mul]) for k in (0, 2))
-        _rover_core(self._phys, est, self.sp, self.armed, self.gains, self.model, dt, NumpyOps, self._air_vec(), mul)
+        if k == 0:
+            est = self._est_view if self._est_view is not None else self._phys
+            mul = None
+            if self._motor_mul is not None:      # SIM_ENGINE_FAIL: servo 1 left, servo 3 right
+                mul = tuple(np.array([1.0 if f is None else f[j] for f in self._motor_mul]) for j in (0, 2))
+            self._cmd_vec = _rover_drive(est, self.sp, self.armed, self.gains, ldt, NumpyOps, mul)
+        v, r = self._cmd_vec
+        rphys.step(self._phys, v, r, m, self.gains, dt, NumpyOps, self._air_vec())
         self.sim_time += dt
-        self._est_view = self._sense_and_estimate_vec(dt)
+        if last:
+            self._est_view = self._sense_and_estimate_vec(ldt)

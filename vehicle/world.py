@@ -8,7 +8,8 @@ vehicle changes it. Turbulence is seeded by the world's seed. The fleets get the
 velocity at the autopilot rate.
 
 Time: physics advances in fixed steps of 1/rate sim seconds; autopilots and telemetry run
-every `ap_every` steps (50 Hz). With `speedup` N the world tracks N sim seconds per wall
+every `ap_every` steps (50 Hz), and so do a rover's controller, sensors and estimator
+(ArduRover's 50 Hz loop; a copter's run every step, as ArduCopter's 400 Hz loop). With `speedup` N the world tracks N sim seconds per wall
 second; when the CPU cannot keep up it runs slower (re-anchoring its wall reference), never
 skipping or stretching a step. All MAVLink time fields are this sim time. `speedup`
 inf (`--speedup max`) does not pace at all.

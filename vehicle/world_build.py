@@ -30,6 +30,10 @@ from vehicle.physics.wind import WindParams
 from vehicle.vehicle_root import vehicle_root
 from vehicle.world_config import WorldConfig
 
+# Hz: ArduRover's main loop, where its controllers, AHRS and EKF run (AP_Scheduler's
+# SCHEDULER_DEFAULT_LOOP_RATE for vehicles other than copters); the kinematics step at the world's rate
+ROVER_LOOP_RATE = 50.0
+
 
 @dataclass
 class Vehicle:
@@ -97,7 +101,8 @@ def build(cfg: WorldConfig, plan: NetworkPlan, clock: Callable[[], float], unix_
         base_seed = cfg.seed + (0 if kind == "copter" else 7919)
         # vehicle j's noise is seeded [seed, j] whichever process runs it
         seed = base_seed if len(js) == n else [(base_seed, j) for j in js]
-        fleet = fleet_cls(len(js), fleet_params, seed, starts)
+        loop = {"loop_every": max(1, round(cfg.rate / ROVER_LOOP_RATE))} if kind == "rover" else {}
+        fleet = fleet_cls(len(js), fleet_params, seed, starts, **loop)
         for k in range(1, len(js)):    # each vehicle starts from its own (saved) parameters
             own = {name: stores[k][name] for name in fleet_params if name in stores[k]}
             if any(own[x] != fleet_params[x] for x in own):

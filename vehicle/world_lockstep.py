@@ -51,6 +51,7 @@ class WorldLockstep:
         self.expect = expect
         self.ticked_steps = -1
         self._waiter: asyncio.Future | None = None    # what wait()/start() sleep on; an ACK or JOIN wakes it
+        self._wake_when = None              # the waiter's done(): a TOWERLINK_LOCKSTEP wakes it once true
         self.held: list[tuple[LinkCore, bytes, object]] = []
         self.at_boundary = True
         self.waits = 0
@@ -88,7 +89,9 @@ class WorldLockstep:
             if line:
                 self.world.log(line)
             w = self._waiter
-            if w is not None and not w.done():
+            # wake the waiting world only when what it waits for is there: an ACK that leaves
+            # others owed would cost it a loop turn, a future and a timer for nothing
+            if w is not None and not w.done() and (line or self._wake_when is None or self._wake_when()):
                 w.set_result(None)
         return (link.on_data(rest, channel) if rest else False) or True
 
@@ -134,18 +137,20 @@ class WorldLockstep:
         self.tick_wall = time.monotonic()
 
     async def _until(self, done, stop: asyncio.Event, every=None) -> None:
-        """Until done(): sleep until a TOWERLINK_LOCKSTEP came in or 0.5 s wall passed, then
-        every(). A bare future and a timer, not wait_for on an Event: that made a task and two
-        futures per TICK, a good part of the round trip at --speedup max."""
+        """Until done(): sleep until a TOWERLINK_LOCKSTEP made done() true (or said something
+        worth a log line) or 0.5 s wall passed, then every(). A bare future and a timer, not
+        wait_for on an Event: that made a task and two futures per TICK, a good part of the
+        round trip at --speedup max."""
         loop = asyncio.get_running_loop()
         while not done() and not stop.is_set():
             w = self._waiter = loop.create_future()
+            self._wake_when = done
             timer = loop.call_later(0.5, _wake, w)
             try:
                 await w
             finally:
                 timer.cancel()
-                self._waiter = None
+                self._waiter = self._wake_when = None
             if every is not None:
                 every()
 

@@ -284,7 +284,7 @@ class Autopilot:
         self.radio.update(t, self.rc.read(t))
         self.failsafe.update(t, dt)
         self.ekf_check.update(t, dt)
-        self.fence.check(t)
+        self.fence.update(t)
         self.crash_check.update(dt)
         mode = self.flightmode
         mode.read_pilot_input()

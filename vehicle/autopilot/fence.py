@@ -1,6 +1,7 @@
 """The geofence of one autopilot: parameters, breaches, the breach action, GUIDED destinations.
 
 ArduPilot's AC_Fence and the vehicles' fence_check (learned from their source):
+- checked at the vehicle's fence_check scheduler rate: 25 Hz copter, 10 Hz rover (update);
 - FENCE_ENABLE 0/1 (also MAV_CMD_DO_FENCE_ENABLE); FENCE_TYPE bits: 1 max altitude,
   2 circle around home (FENCE_RADIUS, default 300 m), 4 inclusion/exclusion polygons and
   circles from the FENCE list, 8 min altitude (copter; rover has only 2 and 4). FENCE_ALT_MAX
@@ -33,11 +34,14 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from vehicle.autopilot.fence_geometry import FenceLoadError, FenceZones, load_zones
 from vehicle.autopilot.mission_store import FENCE
+from vehicle.autopilot.task_rate import TaskRate
 
 ALT_MAX, CIRCLE, POLYGON, ALT_MIN = 1, 2, 4, 8
 NAMES = ((ALT_MAX, "Max Alt"), (CIRCLE, "Circle"), (POLYGON, "Polygon"), (ALT_MIN, "Min Alt"))
 BACKUP_M = 20.0
 FORCE_LAND_M = 100.0
+# Hz: the vehicles' fence_check scheduler task (ArduCopter/Copter.cpp 25, Rover/Rover.cpp 10)
+CHECK_RATE = {"copter": 25.0, "rover": 10.0}
 
 
 def fence_names(mask: int) -> str:
@@ -62,6 +66,7 @@ class Fence:
         self._zones: FenceZones | None = None
         self._zones_version = -1
         self._zones_error: str | None = None
+        self._check_task = TaskRate(CHECK_RATE[ap.kind])
 
     # ----- configuration -------------------------------------------------------------
     def enabled(self) -> bool:
@@ -156,6 +161,11 @@ class Fence:
         if b:
             return f"Vehicle breaching {fence_names(b)}"
         return None
+
+    def update(self, t: float) -> None:
+        """Every autopilot tick: check() at the vehicle's fence_check rate (CHECK_RATE)."""
+        if self._check_task.due(t):
+            self.check(t)
 
     def check(self, t: float) -> None:
         """Periodic: record breaches, and act on new ones while armed."""

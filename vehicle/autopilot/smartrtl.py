@@ -18,7 +18,10 @@ from collections.abc import Callable
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
+from vehicle.autopilot.task_rate import TaskRate
+
 TIMEOUT = 15.0           # s: AP_SmartRTL's SMARTRTL_TIMEOUT
+SAVE_RATE = 3.0          # Hz: ModeSmartRTL::save_position's scheduler task (ArduCopter/Copter.cpp, Rover/Rover.cpp)
 
 
 def _seg_dist(p1, p2, p3, p4) -> tuple[float, np.ndarray]:
@@ -104,6 +107,7 @@ class SmartRTLPath:
         self.last_save = 0.0
         self.last_good = 0.0
         self.was_armed = False
+        self._save_task = TaskRate(SAVE_RATE)
         # SRTL_POINTS 0 or SRTL_ACCURACY 0 disables SmartRTL, as AP_SmartRTL::init
         self.enabled = self.points_max > 0 and self.accuracy > 0
 
@@ -116,14 +120,16 @@ class SmartRTLPath:
         self.last_save = self.last_good = t
 
     def record(self, pos, position_ok: bool, armed: bool, retracing: bool, t: float) -> None:
-        """Every autopilot tick, 3 Hz at least (ArduPilot's ModeSmartRTL::save_position): a
-        new path at every arming, pos saved while armed and not retracing the path."""
+        """Every autopilot tick: a new path at every arming (ArduPilot sets it when it arms) or
+        at the first good position; at SAVE_RATE (ArduPilot's ModeSmartRTL::save_position, a
+        3 Hz scheduler task) pos saved while armed and not retracing the path, and the
+        timeouts checked."""
         if armed and not self.was_armed:
             self.set_home(pos, t)
         self.was_armed = armed
         if position_ok and not self.home_saved:
             self.set_home(pos, t)
-        if not self.active or not armed or retracing:
+        if not self._save_task.due(t) or not self.active or not armed or retracing:
             return
         if not position_ok:
             if t - self.last_good > TIMEOUT:
@@ -136,7 +142,7 @@ class SmartRTLPath:
             self.deactivate("buffer full")
 
     def _add(self, p: np.ndarray) -> bool:
-        # every tick: the distance as norm() computes it, sqrt(d.d), without its checks
+        # the distance as norm() computes it, sqrt(d.d), without its checks
         if self.points and math.sqrt((d := self.points[-1] - p).dot(d)) < self.accuracy:
             return True
         if len(self.points) >= self.points_max:

@@ -2,7 +2,7 @@
 
 Retraces the SmartRTL breadcrumbs (smartrtl.py: SRTL_ACCURACY, SRTL_POINTS) at WPNAV_SPEED,
 goes 2 m above the first point (where it armed) and lands there. The path is recorded while
-armed in every other mode (save_position, every tick). Without a usable path the mode refuses
+armed in every other mode (save_position, every tick; the path itself at 3 Hz). Without a usable path the mode refuses
 to start ("Mode change to SMART_RTL failed: init failed"). Leaving it part way puts the point
 it was flying to back on the path (ModeSmartRTL::exit).
 """
@@ -45,7 +45,8 @@ class ModeSmartRTL(ModeRTL):
         self.stage = ""
 
     def save_position(self, t: float) -> None:
-        """Every tick, in any mode: record the path while armed and not retracing it."""
+        """Every tick, in any mode: record the path while armed and not retracing it (at 3 Hz:
+        vehicle.autopilot.smartrtl.SAVE_RATE)."""
         ap = self.ap
         ap.srtl.record(ap.pos, ap.est_ok, ap.armed, ap.flightmode is self, t)
 

@@ -1,7 +1,7 @@
 """SMART_RTL (Rover/mode_smart_rtl.cpp ModeSmartRTL): retraces the way it came.
 
 Follows the SmartRTL breadcrumbs (smartrtl.py: SRTL_ACCURACY, SRTL_POINTS) recorded while armed
-in other modes (save_position, every tick), says "Reached destination" at the first point
+in other modes (save_position, every tick; the path itself at 3 Hz), says "Reached destination" at the first point
 (where it armed) and stops there. Without a usable path the mode refuses to start, as
 ModeSmartRTL::_enter; leaving it part way puts the point it was driving to back on the path.
 """
@@ -37,7 +37,8 @@ class ModeSmartRTL(RoverMode):
         self.dest = None
 
     def save_position(self, t: float) -> None:
-        """Every tick, in any mode: record the path while armed and not retracing it."""
+        """Every tick, in any mode: record the path while armed and not retracing it (at 3 Hz:
+        vehicle.autopilot.smartrtl.SAVE_RATE)."""
         ap = self.ap
         ap.srtl.record(ap.pos, ap.est_ok, ap.armed, ap.flightmode is self, t)
 
