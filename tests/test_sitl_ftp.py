@@ -214,6 +214,7 @@ def mavproxy(sitl, tmp_path_factory):
         procs.stop(mp.proc)
 
 
+@pytest.mark.alone          # its open-to-ACK bound is wall time, read from MAVProxy's tlog
 def test_mavproxy_downloads_parameters_over_mavftp(mavproxy):
     mp, home, count, t0 = mavproxy
     lines, saw = mp.lines, mp.saw
