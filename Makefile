@@ -57,10 +57,13 @@ demo: $(STAMP)
 # that order. The suite starts hundreds of Python processes: each compiles every module it
 # imports unless the .pyc files are written once, so bytecode writing is on here even where the
 # environment turns it off.
+# on a machine other work already loads, MAVSDK's and MAVProxy's wall-clock retries can run out
+# with four workers: `make test FAST_WORKERS=2`
+FAST_WORKERS ?= 4
 test: export MAVSDK3_PYTHON := $(CURDIR)/$(MAVSDK3)/bin/python
 test: export PYTHONDONTWRITEBYTECODE :=
 test: $(SWEEP_STAMP) $(MAVSDK3_STAMP)
-	$(BIN)/python -m pytest -q -n 4 --dist loadfile --no-loadscope-reorder -m "not slow and not alone"
+	$(BIN)/python -m pytest -q -n $(FAST_WORKERS) --dist loadfile --no-loadscope-reorder -m "not slow and not alone"
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder -m "slow and not alone"
 	$(BIN)/python -m pytest -q -m alone
 
