@@ -100,3 +100,33 @@ def test_a_lockstep_monitor_holds_the_world_until_it_has_read_everything_before_
         t = data.truth[sysid].t
         assert t[-1] >= 3.9 and max(b - a for a, b in zip(t, t[1:])) <= 0.1 + 1e-6, \
             f"SIM_STATE of sysid {sysid} has a gap"
+
+
+def test_the_monitors_lockstep_frames_are_pymavlinks_signed_or_not(tmp_path):
+    """Unsigned, the monitor packs JOIN/ACK/LEAVE with the lockstep codec (its TICK chain's
+    share): the very bytes pymavlink packs; signed, pymavlink signs them."""
+    from common.mavlink import lockstep as wire
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rx.bind(("127.0.0.1", 0))
+    rx.settimeout(5)
+    try:
+        for key in (None, b"k" * 32):
+            sub = tmp_path / ("signed" if key else "plain")
+            sub.mkdir()
+            mon = Monitor(sub, dict(zip(("vehicles", "bridge"), free_ports(2))), signing_key=key, lockstep=True)
+            ref = tl.MAVLink(None, srcSystem=255, srcComponent=158)
+            try:
+                for kind, t in ((wire.JOIN, 0), (wire.ACK, 40_000), (wire.ACK, 2**40 + 7), (wire.LEAVE, 0)):
+                    mon._lockstep_send(kind, t, rx.getsockname())
+                    got = rx.recv(300)
+                    m = tl.MAVLink(None).decode(bytearray(got))
+                    assert (m.kind, m.time_usec, m.participant) == (kind, t, wire.OTHER)
+                    if key is None:
+                        assert got == bytes(tl.MAVLink_towerlink_lockstep_message(
+                            t, 0, kind, wire.OTHER, 0).pack(ref))
+                    else:
+                        assert got[2] & 1 and len(got) == 12 + got[1] + 13     # signed
+            finally:
+                mon.stop()
+    finally:
+        rx.close()

@@ -61,7 +61,21 @@ def test_a_world_still_starting_says_it_is_waiting_once():
 
 def test_no_progress_lines_when_quiet():
     r = ProgressReporter(5.0, False, every=None, clock=Clock())
+    assert not r.due()
     assert r.line(WAITING, "goal -/- (preparing)", None) is None
+
+
+def test_a_line_is_due_when_one_may_be_printed():
+    """Launch.wait takes the poses (a snapshot) only when a line is due."""
+    clock = Clock()
+    r = ProgressReporter(5.0, True, every=1.0, clock=clock)
+    assert r.due()
+    assert r.line(FLYING, "goal 1/4 sent", 5.0) is not None
+    assert not r.due()
+    clock.t += 0.99
+    assert not r.due() and r.line({**FLYING, "sim": 20.0}, "goal 1/4 sent", 5.0) is None
+    clock.t += 0.01
+    assert r.due() and r.line({**FLYING, "sim": 20.0}, "goal 1/4 sent", 5.0) is not None
 
 
 def test_launch_wait_prints_one_waiting_line_for_a_world_that_never_moves(tmp_path):

@@ -51,3 +51,24 @@ def test_a_file_that_is_not_stamps_and_frames_goes_to_pymavlink(tmp_path):
     assert tlog_frames(p.read_bytes()) is None
     assert _same(list(read_tlog(p)), list(_read_tlog_pymavlink(p, None, None)))
     assert len(list(read_tlog(p))) == 5
+
+
+def test_load_run_decodes_only_what_it_folds_and_folds_the_same(tmp_path):
+    """load_run skips decoding what load_messages takes nothing from (SYS_STATUS, VFR_HUD, ...),
+    but keeps every message with a time_boot_ms: a STATUSTEXT is stamped with the sender's
+    newest one (here an ATTITUDE's, a message it does not fold)."""
+    import pickle
+
+    from tools.run_data import RunData, folded_types, load_messages, load_run
+    drone = tl.MAVLink(None, srcSystem=1, srcComponent=1)
+    _tlog(tmp_path / "vehicles.tlog", [
+        tl.MAVLink_heartbeat_message(2, 3, 0, 0, 0, 3).pack(drone),
+        tl.MAVLink_attitude_message(2500, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0).pack(drone),
+        tl.MAVLink_sys_status_message(0, 0, 0, 500, 12000, -1, -1, 0, 0, 0, 0, 0, 0).pack(drone),
+        tl.MAVLink_vfr_hud_message(0, 0, 0, 0, 0, 0).pack(drone),
+        tl.MAVLink_statustext_message(6, b"Reached waypoint #1").pack(drone)])
+    assert "ATTITUDE" in folded_types() and "SYS_STATUS" not in folded_types()
+    full = load_messages(read_tlog(tmp_path / "vehicles.tlog"), RunData())
+    got = load_run(tmp_path)
+    assert got.texts[1] == [(2.5, 6, "Reached waypoint #1")]
+    assert pickle.dumps(got) == pickle.dumps(full)

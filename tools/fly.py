@@ -168,6 +168,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
 
 
+def _helpers(out: Path, scenario: str | None) -> tuple:
+    """(drawings, recorder): children that draw the run and record run.mcap, started now so they
+    do their part while the run flies (tools.fly_drawings, tools.fly_recorder); (None, None)
+    where fork is not available or this process has one CPU (e.g. under taskset: the helpers'
+    work would then only slow the lockstep chain down), and all of it is done after the flight."""
+    from tools.fly_child import ForkedHelper
+    from tools.fly_drawings import DrawingWorker
+    from tools.fly_recorder import Recorder
+    if not ForkedHelper.available() or ForkedHelper.cpus() < 2:
+        return None, None
+    out.mkdir(parents=True, exist_ok=True)
+    drawings, recorder = DrawingWorker(out, scenario), Recorder(out)
+    drawings.start()        # forked before launch.start() starts any thread
+    try:
+        recorder.start()
+    except BaseException:
+        drawings.close()
+        raise
+    return drawings, recorder
+
+
 def run(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else Path("runs") / time.strftime("%Y%m%d-%H%M%S")
     try:
@@ -212,6 +233,18 @@ def run(args: argparse.Namespace) -> int:
         print("towerlink fly: --speedup max without --lockstep: the world runs as fast as the CPU and the "
               "bridge and the tower fall behind it; the figures will depend on the machine", file=sys.stderr)
 
+    drawings, recorder = _helpers(out, args.scenario)
+    try:
+        return _fly(args, launch, world, drawings, recorder)
+    finally:
+        for helper in (drawings, recorder):
+            if helper is not None:
+                helper.close()      # also when the run failed or was interrupted: no child left
+
+
+def _fly(args: argparse.Namespace, launch: Launch, world, drawings, recorder) -> int:
+    """Start, watch, stop, summarise; the exit status."""
+
     def on_term(signum, frame):  # SIGTERM: same clean stop as Ctrl-C
         raise KeyboardInterrupt
 
@@ -224,7 +257,9 @@ def run(args: argparse.Namespace) -> int:
         if launch.view is not None:
             print(f"towerlink fly: live view for Foxglove at {launch.view.url} "
                   "(Open connection > Foxglove WebSocket; layout: docs/foxglove_layout.json)", flush=True)
-        rc = launch.wait(args.timeout, progress=None if args.quiet else 1.0)
+        helpers = [h for h in (drawings, recorder) if h is not None]
+        rc = launch.wait(args.timeout, progress=None if args.quiet else 1.0,
+                         on_flying=lambda: [h.flight_begins() for h in helpers])
         if rc is None:
             failure = f"timed out after {args.timeout:g} s wall"
     except KeyboardInterrupt:
@@ -240,7 +275,7 @@ def run(args: argparse.Namespace) -> int:
     if failure:
         print(f"towerlink fly: {failure}; all processes stopped", file=sys.stderr, flush=True)
     try:
-        s = launch.finish_run(rc)
+        s = launch.finish_run(rc, drawings, recorder)
         print("\n" + s["text"], flush=True)
     except Exception as exc:  # noqa: BLE001
         print(f"towerlink fly: could not summarise the run: {exc}", file=sys.stderr)

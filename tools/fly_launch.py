@@ -14,12 +14,15 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 
 from common.mavlink.signing import SIGNING_FLAG, masked_argv
+from tools.fly_drawings import Drawings
 from tools.fly_monitor import Monitor
 from tools.fly_plan import FlyPlan
 from tools.fly_processes import ProcessGroup
 from tools.fly_progress import WAITING, GoalState, ProgressReporter, SpeedupMeter, TowerOutput, goal_text
+from tools.fly_recorder import Recorder
 from tools.fly_run_folder import write_meta, write_summary
 from tools.fly_van import VanDriver
 from tools.run_ids import DRONE, SCORING_PARAMS
@@ -143,9 +146,11 @@ class Launch:
 
     # -- running
 
-    def wait(self, timeout: float, progress: float | None = 1.0, out=sys.stdout) -> int | None:
+    def wait(self, timeout: float, progress: float | None = 1.0, out=sys.stdout,
+             on_flying: Callable[[], object] | None = None) -> int | None:
         """Wait for the tower to finish (its exit status), printing progress lines at most every
-        `progress` wall s (None: none); None on timeout. RuntimeError when the world or a node exits."""
+        `progress` wall s (None: none); None on timeout. RuntimeError when the world or a node exits.
+        `on_flying`: called once, when the sim clock first moves (the start-up is over)."""
         end = time.monotonic() + timeout
         last_params = 0.0
         reporter = ProgressReporter(self.plan.speedup, self.plan.lockstep, progress)
@@ -167,11 +172,17 @@ class Launch:
                 self.monitor.request_params()
             if self.ap_driver is not None:
                 self.ap_driver.tick()
-            snap = self.monitor.snapshot() if self.monitor else WAITING
-            achieved = self.speedup.update(snap["sim"])      # also anchors the summary's figure when quiet
-            line = reporter.line(snap, goal_text(self.tower.goals, family_goals), achieved)
-            if line is not None:
-                print(line, file=out, flush=True)
+            # the sim time on every turn (it anchors the summary's speedup figure); the poses,
+            # which cost the monitor's lock and decoding, only when a line may be printed
+            achieved = self.speedup.update(self.monitor.sim_time() if self.monitor else WAITING["sim"])
+            if on_flying is not None and self.speedup.anchor is not None:
+                on_flying()
+                on_flying = None
+            if reporter.due():
+                snap = self.monitor.snapshot() if self.monitor else WAITING
+                line = reporter.line(snap, goal_text(self.tower.goals, family_goals), achieved)
+                if line is not None:
+                    print(line, file=out, flush=True)
             if now > end:
                 return None
             time.sleep(0.05)
@@ -204,12 +215,17 @@ class Launch:
     def write_meta(self) -> None:
         write_meta(self.plan)
 
-    def finish_run(self, tower_rc: int | None) -> dict:
-        """After stop(): score, plot, draw the frames; returns the summary dict."""
+    def finish_run(self, tower_rc: int | None, drawings: Drawings | None = None,
+                   recorder: Recorder | None = None) -> dict:
+        """After stop(): score, plot, draw the frames, record run.mcap; returns the summary dict.
+        `drawings`, `recorder`: children started before the run (tools.fly_drawings.DrawingWorker,
+        tools.fly_recorder.Recorder); default: drawn here after the scoring, recorded in a child
+        forked now."""
         achieved = None
         if self.monitor is not None:
             achieved = self.speedup.overall(self.monitor.snapshot()["sim"])
         proxy = self.proxy.counts() if self.proxy is not None else None
         applied = self.proxy.applied if self.proxy is not None else []
         return write_summary(self.plan, tower_rc, bridge_restarts=self.bridge_restarts, proxy=proxy,
-                             achieved_speedup=achieved, applied=applied)
+                             achieved_speedup=achieved, applied=applied, drawings=drawings,
+                             recorder=recorder)

@@ -114,6 +114,10 @@ class ProgressReporter:
         self._last_at = -math.inf
         self._last_state: tuple | None = None
 
+    def due(self) -> bool:
+        """May a line be printed now? (the caller then takes a snapshot for :meth:`line`)"""
+        return bool(self.every) and self.clock() - self._last_at >= self.every
+
     def line(self, snap: dict, goal: str, achieved: float | None) -> str | None:
         """The line to print now, or None."""
         if not self.every:

@@ -2,8 +2,10 @@
 
 meta.json (how the run was made, written at the start), then after the run: faults.json (when
 each of the scenario's faults took effect and was cleared, as the link proxy applied them),
-summary.json and summary.txt (the scores), tracks.png, frames.pdf / frames.png (the frame tree), run.mcap. A
-drawing or a recording that fails never hides the summary: it is left out.
+summary.json and summary.txt (the scores), tracks.png, frames.pdf / frames.png (the frame tree,
+tools.fly_drawings), run.mcap. A drawing or a recording that fails never hides the summary: it is
+left out. After the flight the recording (a forked child), the drawings and the scoring run side
+by side.
 """
 from __future__ import annotations
 
@@ -15,7 +17,9 @@ from pathlib import Path
 
 from common.mavlink.lockstep import speedup_text
 from common.mavlink.signing import masked_argv
+from tools.fly_drawings import Drawings
 from tools.fly_plan import FlyPlan
+from tools.fly_recorder import Recorder
 
 
 def write_meta(plan: FlyPlan) -> None:
@@ -38,15 +42,23 @@ def _link(plan: FlyPlan) -> dict | None:
 
 def write_summary(plan: FlyPlan, tower_rc: int | None, *, bridge_restarts: int = 0,
                   proxy: dict | None = None, achieved_speedup: float | None = None,
-                  applied: list[dict] | None = None) -> dict:
+                  applied: list[dict] | None = None, drawings: Drawings | None = None,
+                  recorder: Recorder | None = None) -> dict:
     """Score the run, draw it, record it; returns the summary dict (its text under "text").
 
     `proxy`: the link proxy's frame counts ({"passed", "dropped", "overflow", "duplicated"},
     each per direction); `applied`: when each fault took effect and was cleared (written to
-    faults.json); `achieved_speedup`: sim s per wall s (None if the sim clock never moved)."""
+    faults.json); `achieved_speedup`: sim s per wall s (None if the sim clock never moved);
+    `drawings`: who draws tracks.png and the frame tree (default: this process, after the scoring);
+    `recorder`: the child recording run.mcap since the run started (default: a child forked now)."""
+    if recorder is not None:
+        recorder.flight_over()                  # it reads the rest and writes run.mcap meanwhile
+        recording = recorder.wait
+    else:
+        recording = _start_recording(plan.dir)  # run.mcap on the other core while this one scores
+    drawings = drawings or Drawings(plan.dir, plan.scenario)
+    drawings.flight_over()                      # a worker draws the frame tree meanwhile
     from tools.run_summary import format_summary, summarize
-    bridge = _bridge_messages(plan.dir)         # read once: the frame tree and run.mcap share it
-    recording = _start_recording(plan.dir, bridge)  # run.mcap on the other core while this one scores and draws
     if plan.sc.faults or applied:
         (plan.dir / "faults.json").write_text(json.dumps(
             {"faults": [f.as_dict() for f in plan.sc.faults], "applied": applied or []}, indent=2))
@@ -81,7 +93,8 @@ def write_summary(plan: FlyPlan, tower_rc: int | None, *, bridge_restarts: int =
         text = "\n".join([format_family_summary(s), *format_faults(s["faults"])])
     else:
         text = format_summary(s)
-    _draw(plan, data, bridge)
+    drawings.tracks(data)
+    drawings.wait()
     recording()
     files = sorted(p.name for p in plan.dir.iterdir())
     text += f"\nrun folder {plan.dir}: {' '.join(files)}"
@@ -100,54 +113,24 @@ def _family_faults(plan: FlyPlan, tower: dict, data) -> dict:
     return fault_section(plan.sc.faults, read_applied(plan.dir), data, names, goals, end=max(ends) if ends else None)
 
 
-def _bridge_messages(run_dir: Path) -> list | None:
-    """bridge.tlog's messages; None when it cannot be read (the drawings that need it are left out)."""
-    try:
-        from tools.run_data import read_tlog
-        return list(read_tlog(run_dir / "bridge.tlog"))
-    except Exception:  # noqa: BLE001
-        return None
-
-
-def _record(run_dir: Path, bridge: list | None) -> None:
+def _record(run_dir: Path) -> None:
     try:
         from tools.run_mcap import write_run_mcap
-        write_run_mcap(run_dir, bridge)
+        write_run_mcap(run_dir)
     except Exception:  # noqa: BLE001 - the recording must not hide the summary
         pass
 
 
-def _start_recording(run_dir: Path, bridge: list | None):
-    """Start writing run_dir/run.mcap (from the tlogs, complete once the processes stopped;
-    `bridge`: bridge.tlog's messages, or None to read it) in a forked child, so it overlaps the
-    scoring and the drawings; returns what waits for it. Where fork is not available it is
-    written here and now."""
+def _start_recording(run_dir: Path):
+    """Start writing run_dir/run.mcap (from the tlogs, complete once the processes stopped) in a
+    forked child that reads them itself, so it overlaps the scoring and the drawings; returns
+    what waits for it. Where fork is not available it is written here and now."""
     if "fork" not in multiprocessing.get_all_start_methods():
-        _record(run_dir, bridge)
+        _record(run_dir)
         return lambda: None
-    child = multiprocessing.get_context("fork").Process(target=_record, args=(run_dir, bridge), name="run.mcap")
+    child = multiprocessing.get_context("fork").Process(target=_record, args=(run_dir,), name="run.mcap")
     child.start()
     return child.join
-
-
-def _draw(plan: FlyPlan, data, bridge: list | None) -> None:
-    """tracks.png and the frame tree (from bridge.tlog's messages), each as far as it goes."""
-    try:
-        from tools.plot_tracks import plot_run
-        plot_run(plan.dir, scenario=plan.scenario, data=data)
-    except Exception:  # noqa: BLE001 - a plot failure must not hide the summary
-        pass
-    if bridge is None:
-        return
-    try:
-        from tools.view_frames import buffer_from_messages, write_drawing
-        buf, now = buffer_from_messages(bridge)
-        if buf.edge_stats():
-            title = f"view_frames: {plan.dir.name}"
-            write_drawing(buf, plan.dir / "frames.pdf", now=now, title=title)
-            write_drawing(buf, plan.dir / "frames.png", now=now, title=title)
-    except Exception:  # noqa: BLE001
-        pass
 
 
 def _json_default(o):

@@ -54,9 +54,19 @@ def read_tlog(path: str | os.PathLike, types: Iterable[str] | None = None,
     if frames is None:
         yield from _read_tlog_pymavlink(path, types, sysids)
         return
-    wanted = None if types is None else frozenset(i for i, c in dialect.mavlink_map.items() if c.msgname in set(types))
+    yield from decode_frames(dialect.MAVLink(None), raw, frames, wanted_ids(dialect, types), sysids)
+
+
+def wanted_ids(dialect, types: Iterable[str] | None) -> frozenset[int] | None:
+    """The message ids of `types` (names) in `dialect`; None for every message."""
+    return None if types is None else frozenset(i for i, c in dialect.mavlink_map.items() if c.msgname in set(types))
+
+
+def decode_frames(mav, raw: bytes, frames: Iterable[tuple[int, int, int, int]], wanted: frozenset[int] | None,
+                  sysids: Iterable[int] | None) -> Iterator[Any]:
+    """Decode tlog frames (tlog_frames' rows of `raw`) with the MAVLink object `mav`, those of the
+    `wanted` ids (None: all) and `sysids` (None: all); stamped as read_tlog's."""
     systems = None if sysids is None else frozenset(sysids)
-    mav = dialect.MAVLink(None)
     for tusec, msgid, start, end in frames:
         if wanted is not None and msgid not in wanted:
             continue
@@ -74,14 +84,24 @@ def read_tlog(path: str | os.PathLike, types: Iterable[str] | None = None,
 def tlog_frames(raw: bytes) -> list[tuple[int, int, int, int]] | None:
     """(stamp us, msgid, start, end) of every frame of a tlog's bytes; None unless the whole
     file is stamps and whole MAVLink 1 or 2 frames."""
+    cut = tlog_prefix_frames(raw)
+    return cut[0] if cut is not None and cut[1] == len(raw) else None
+
+
+def tlog_prefix_frames(raw: bytes) -> tuple[list[tuple[int, int, int, int]], int] | None:
+    """(frames, end) of the whole frames a tlog's bytes start with (tlog_frames' rows; `end`:
+    where the first incomplete one begins, len(raw) if none): a tlog still being written ends
+    in a part of a frame. None if the bytes are not stamps and MAVLink 1 or 2 frames."""
     out = []
     i, n = 0, len(raw)
     while i < n:
         j = i + 8
         if j + 8 > n:
-            return None
+            break
         magic = raw[j]
         if magic == 0xFD:
+            if j + 10 > n:      # the header itself is cut
+                break
             end = j + 12 + raw[j + 1] + (13 if raw[j + 2] & 1 else 0)
             msgid = raw[j + 7] | raw[j + 8] << 8 | raw[j + 9] << 16
         elif magic == 0xFE:
@@ -90,10 +110,10 @@ def tlog_frames(raw: bytes) -> list[tuple[int, int, int, int]] | None:
         else:
             return None
         if end > n:
-            return None
+            break
         out.append((int.from_bytes(raw[i:j], "big"), msgid, j, end))
         i = end
-    return out
+    return out, i
 
 
 def _read_tlog_pymavlink(path: str | os.PathLike, types: Iterable[str] | None,
@@ -170,6 +190,10 @@ class RunData:
 #: the towerlink dialect's own messages: what load_run reads of bridge.tlog (the rest repeats vehicles.tlog)
 BRIDGE_OWN = ("TOWERLINK_TRANSFORM", "TOWERLINK_STATIC_TRANSFORM", "TOWERLINK_POSITION_TARGET",
               "TOWERLINK_FOLLOW_STATUS", "TOWERLINK_BRIDGE_STATUS", "TOWERLINK_LOCKSTEP")
+
+#: what load_messages folds by name; any other message counts only through its time_boot_ms
+FOLDED = ("SIM_STATE", "LOCAL_POSITION_NED", "GPS_GLOBAL_ORIGIN", "HOME_POSITION", "PARAM_VALUE",
+          "TOWERLINK_FOLLOW_STATUS", "TOWERLINK_TRANSFORM", "STATUSTEXT", "HEARTBEAT", "TOWERLINK_BRIDGE_STATUS")
 
 FOLLOW_FIELDS = ("t", "ref_x", "ref_y", "full_x", "full_y", "yaw_x", "yaw_y", "goal_x", "goal_y",
                  "rover_x", "rover_y", "height", "tilt", "err_full", "err_yaw", "follow_frame", "state")
@@ -263,13 +287,24 @@ def _local_origin(origin, home):
     return None
 
 
+def folded_types() -> tuple[str, ...]:
+    """The messages load_messages takes anything from: FOLDED and every message with a
+    time_boot_ms (a sender's sim clock). Decoding only these folds the same RunData."""
+    try:
+        from common.mavlink.dialect import towerlink as dialect
+    except ImportError:  # pragma: no cover
+        from pymavlink.dialects.v20 import ardupilotmega as dialect
+    timed = (c.msgname for c in dialect.mavlink_map.values() if "time_boot_ms" in c.fieldnames)
+    return tuple(sorted({*FOLDED, *timed}))
+
+
 def load_run(run_dir: str | os.PathLike) -> RunData:
     """Read every tlog of a run folder (vehicles, bridge, tower) into one RunData."""
     run_dir = Path(run_dir)
     data = RunData()
     vehicles = run_dir / "vehicles.tlog"
     if vehicles.exists():
-        load_messages(read_tlog(vehicles), data)
+        load_messages(read_tlog(vehicles, folded_types()), data)
     bridge = run_dir / "bridge.tlog"
     if bridge.exists():
         # the bridge's out link repeats the vehicles' traffic: take its own

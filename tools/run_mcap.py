@@ -41,9 +41,20 @@ def _tlog_messages(run_dir: Path, bridge: Iterable | None = None) -> Iterator:
 
 def write_mcap(records: Iterable[Record], path: str | os.PathLike) -> int:
     """Write records to an MCAP file atomically, sorted by sim time; returns the count."""
+    return write_encoded([encode(r) for r in records], path)
+
+
+def encode(r: Record) -> tuple[int, str, bytes]:
+    """(sim ns, topic, JSON body): a record as write_encoded takes it."""
+    return r.sim_ns, r.topic, json.dumps(r.body).encode()
+
+
+def write_encoded(recs: list[tuple[int, str, bytes]], path: str | os.PathLike) -> int:
+    """Write encoded records (`encode`'s, in arrival order) to an MCAP file atomically, sorted
+    by sim time; returns the count."""
     from mcap.writer import CompressionType, Writer
 
-    recs = sorted(records, key=lambda r: r.sim_ns)     # stable: arrival order within a stamp
+    recs = sorted(recs, key=lambda r: r[0])     # stable: arrival order within a stamp
     path = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     try:
@@ -59,9 +70,9 @@ def write_mcap(records: Iterable[Record], path: str | os.PathLike) -> int:
                                                       data=json.dumps(schema).encode())
                 channels[topic] = w.register_channel(topic=topic, message_encoding="json",
                                                      schema_id=schemas[name])
-            for seq, r in enumerate(recs):
-                w.add_message(channel_id=channels[r.topic], log_time=r.sim_ns, publish_time=r.sim_ns,
-                              data=json.dumps(r.body).encode(), sequence=seq & 0xFFFFFFFF)
+            for seq, (ns, topic, data) in enumerate(recs):
+                w.add_message(channel_id=channels[topic], log_time=ns, publish_time=ns,
+                              data=data, sequence=seq & 0xFFFFFFFF)
             w.finish()
             f.flush()
             os.fsync(f.fileno())
