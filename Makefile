@@ -50,16 +50,22 @@ mavsdk3: $(MAVSDK3_STAMP)
 demo: $(STAMP)
 	$(BIN)/towerlink fly
 
-# tests/ and examples/pytest (pyproject's testpaths), in two passes: everything not marked slow on
-# two cores (a module stays on one worker: loadfile), then the full-system tests one at a time,
-# as some judge processes that run on the wall clock. The suite starts hundreds of Python
-# processes: each compiles every module it imports unless the .pyc files are written once, so
-# bytecode writing is on here even where the environment turns it off.
+# tests/ and examples/pytest (pyproject's testpaths), in three passes (tests/conftest.py says why):
+# the tests that are not full-system on four workers (they mostly wait), the full-system ones that
+# fly in lockstep on two, then those marked `alone` one at a time. A module stays on one worker
+# (loadfile); the conftest hands out the longest modules first and --no-loadscope-reorder keeps
+# that order. The suite starts hundreds of Python processes: each compiles every module it
+# imports unless the .pyc files are written once, so bytecode writing is on here even where the
+# environment turns it off.
+# on a machine other work already loads, MAVSDK's and MAVProxy's wall-clock retries can run out
+# with four workers: `make test FAST_WORKERS=2`
+FAST_WORKERS ?= 4
 test: export MAVSDK3_PYTHON := $(CURDIR)/$(MAVSDK3)/bin/python
 test: export PYTHONDONTWRITEBYTECODE :=
 test: $(SWEEP_STAMP) $(MAVSDK3_STAMP)
-	$(BIN)/python -m pytest -q -n 2 --dist loadfile -m "not slow"
-	$(BIN)/python -m pytest -q -m slow
+	$(BIN)/python -m pytest -q -n $(FAST_WORKERS) --dist loadfile --no-loadscope-reorder -m "not slow and not alone"
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder -m "slow and not alone"
+	$(BIN)/python -m pytest -q -m alone
 
 bench: $(STAMP)
 	$(QUIET_EDITABLE) $(BIN)/python -m pip install -q -e '.[test,plot,bench]'

@@ -13,7 +13,7 @@ from common.mavlink.dialect import towerlink as tl
 from common.scenario import load_scenario
 from support import free_ports, wait_until
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.alone]     # at --speedup 5 on the wall clock
 
 SPEEDUP = 5.0
 

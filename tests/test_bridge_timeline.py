@@ -164,6 +164,7 @@ def test_router_maps_a_vehicle_on_another_clock():
 
 # ---------------------------------------------------------------------- two real worlds
 @pytest.mark.slow
+@pytest.mark.alone          # two --speedup 1 worlds whose stream stamps are compared
 def test_two_sitl_processes_one_timeline(processes):
     tport, dport, rport, oport = free_ports(4)
     common = ["--speedup", "1", "--no-save", "--udp-base", "0", "--tcp-base", "0"]

@@ -91,6 +91,7 @@ def test_unknown_check_is_refused():
 
 
 @pytest.mark.slow
+@pytest.mark.alone          # a client program against a world on the wall clock
 @pytest.mark.timeout(120)
 def test_runner_tells_behaving_from_differing(tmp_path):
     from tools.client_corpus import run_one

@@ -255,6 +255,7 @@ def test_pyproject_registers_the_plugin_and_runs_the_examples():
     assert "examples/pytest" in proj["tool"]["pytest"]["ini_options"]["testpaths"]
 
 
+@pytest.mark.alone          # a wall-clock figure: measured with the cores to itself
 def test_first_heartbeat_comes_within_half_a_second_of_the_start(tmp_path):
     from pymavlink import mavutil
     best = math.inf

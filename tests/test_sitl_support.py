@@ -13,29 +13,42 @@ from pymavlink import mavutil  # noqa: E402
 from support import free_ports, wait_until  # noqa: E402
 
 mav = mavutil.mavlink
+PORT_TRIES = 3             # worlds started on ports another process took first, before giving up
 
 
 class Sitl:
     """A `towerlink sitl` subprocess; `udp[i]` / `tcp[i]` are vehicle i's ports."""
 
     def __init__(self, processes, tmp_path, drones=1, rovers=1, speedup=10.0, extra=(), state_dir=None):
+        self.processes = processes
+        self.state_dir = str(state_dir or tmp_path / "state")
+        for attempt in range(PORT_TRIES):
+            self._start(drones, rovers, speedup, extra)
+            if self.proc.poll() is None:
+                return
+            # another process took a port between free_ports and the world's bind: a new set
+            if attempt < PORT_TRIES - 1 and "Address already in use" in self.output():
+                continue
+            raise AssertionError(self.output())
+
+    def _start(self, drones, rovers, speedup, extra) -> None:
         n = drones + rovers
         ports = free_ports(n)
         tports = free_ports(n, kind=__import__("socket").SOCK_STREAM)
         self.udp, self.tcp = ports, tports
-        self.state_dir = str(state_dir or tmp_path / "state")
         args = ["towerlink", "sitl", "--drones", str(drones), "--rovers", str(rovers),
                 "--speedup", str(speedup), "--state-dir", self.state_dir]
         for i in range(n):
             args += ["--endpoint", f"{i}=udpin:127.0.0.1:{ports[i]}", "--endpoint", f"{i}=tcpin:127.0.0.1:{tports[i]}"]
         args += list(extra)
-        self.proc = processes.start(args)
-        self.processes = processes
+        self.proc = self.processes.start(args)
         self.lines: list[str] = []
-        threading.Thread(target=self._reader, daemon=True).start()
+        reader = threading.Thread(target=self._reader, daemon=True)
+        reader.start()
         wait_until(lambda: any("vehicle" in l for l in self.lines) and len(self.lines) >= n + 1 or self.proc.poll() is not None,
                    30, "sitl banner")
-        assert self.proc.poll() is None, "".join(self.lines)
+        if self.proc.poll() is not None:
+            reader.join(5)                      # the whole output of a process that ended
 
     def _reader(self) -> None:
         for line in self.proc.stdout:

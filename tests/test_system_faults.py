@@ -15,7 +15,7 @@ import pytest
 from support import wait_until
 from system_support import HOUSE, finish, launched, tower_goals, wait_goal
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.alone]     # not lockstep: on the wall clock
 
 SHORT = [HOUSE, (10.0, -2.0), (10.0, 6.0)]
 
