@@ -11,15 +11,14 @@ import threading
 from support import wait_until
 from tools.procs import die_with_parent
 
-# the body of a parent process the test SIGKILLs; its sleeps are what the two processes do
-# until killed (nothing waits on them)
+# the body of a parent process the test SIGKILLs; both processes pause until a signal ends them
 PARENT = textwrap.dedent("""
-    import subprocess, sys, time
+    import signal, subprocess, sys
     from tools.procs import die_with_parent
-    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"],
+    child = subprocess.Popen([sys.executable, "-c", "import signal; signal.pause()"],
                              start_new_session=True, preexec_fn=die_with_parent())
     print(child.pid, flush=True)
-    time.sleep(60)          # until SIGKILLed by the test
+    signal.pause()          # until SIGKILLed by the test
 """)
 
 

@@ -42,8 +42,9 @@ def test_world(k, request):
         assert g is not None and abs(g.lat / 1e7 - home[0]) < 1e-3 and m.target_system == i + 1
         m.close()
     # the workers start seconds apart on a loaded machine: each holds its first and its second
-    # world until the other worker has started as many, then every world is held a while, so at
-    # least two pairs of worlds overlap however slowly the machine starts them
+    # world until the other worker has started as many. Of each such pair, the world started
+    # first is still open when the other starts, so at least two pairs of worlds overlap
+    # however slowly the machine starts them
     me = os.environ.get("PYTEST_XDIST_WORKER")
     open(os.path.join(OUT, f"started-{me}-{k}"), "w").close()
     mine = len([n for n in os.listdir(OUT) if n.startswith(f"started-{me}-")])
@@ -51,7 +52,6 @@ def test_world(k, request):
     while (len([n for n in os.listdir(OUT) if n.startswith("started-") and not n.startswith(f"started-{me}-")])
            < min(mine, 2) and time.time() < end):
         time.sleep(0.05)  # poll
-    time.sleep(0.5)   # hold the worlds open so the two workers' worlds overlap (the point of the test)
     rec = {"k": k, "worker": os.environ.get("PYTEST_XDIST_WORKER"), "ports": ports, "t0": t0, "t1": time.time()}
     with open(os.path.join(OUT, f"{k}.json"), "w") as f:
         json.dump(rec, f)

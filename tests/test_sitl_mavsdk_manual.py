@@ -33,14 +33,16 @@ def client(port: int) -> int:
     par.set_param_int("SYSID_MYGCS", MAVSDK_SYSID)        # ArduPilot takes sticks from its GCS only
     sticks = [0.0, 0.0, 0.5, 0.0]                           # x fwd, y right, z throttle 0..1, r yaw
     stop = threading.Event()
+    pumped = [0]
 
     def pump():
         while not stop.is_set():
             man.set_manual_control_input(*sticks)
+            pumped[0] += 1
             time.sleep(0.02)           # the joystick's rate: 50 Hz
     threading.Thread(target=pump, daemon=True).start()
     try:
-        time.sleep(0.5)                # inputs flowing before the mode starts, as MAVSDK asks
+        wait(lambda: pumped[0] >= 25, 10, "inputs flowing")   # before the mode starts, as MAVSDK asks
         man.start_altitude_control()
         act.arm()
         wait(lambda: tel.armed(), 10, "armed")

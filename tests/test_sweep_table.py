@@ -153,10 +153,10 @@ def test_stopping_a_run_also_stops_what_it_started_in_sessions_of_its_own(tmp_pa
     # the parent's group does not reach; the parent exits on SIGINT and leaves it behind
     script = tmp_path / "parent.py"
     script.write_text(
-        "import subprocess, sys, time\n"
-        "c = subprocess.Popen([sys.executable, '-c', 'import time; time.sleep(120)'], start_new_session=True)\n"
+        "import signal, subprocess, sys\n"
+        "c = subprocess.Popen([sys.executable, '-c', 'import signal; signal.pause()'], start_new_session=True)\n"
         "print(c.pid, flush=True)\n"
-        "time.sleep(120)\n")
+        "signal.pause()\n")
     p = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True, start_new_session=True)
     child = int(p.stdout.readline())
     try:
