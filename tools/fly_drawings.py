@@ -101,7 +101,7 @@ class DrawingWorker(Drawings):
 
 def _worker(run_dir: Path, scenario: str | None, conn) -> None:
     """The child: prepare at a low priority, then draw what the parent asks for until None."""
-    priority = Priority()
+    priority = None
     while True:
         try:
             job = conn.recv()
@@ -110,9 +110,11 @@ def _worker(run_dir: Path, scenario: str | None, conn) -> None:
         if job is None:
             return
         if job[0] == "prepare":
+            priority = Priority()   # lowered only while the run flies: it may not come back up
             _prepare()
             continue
-        priority.restore()      # the drawings are on the run's critical path now
+        if priority is not None:
+            priority.restore()      # the drawings are on the run's critical path now
         if job[0] == "frames":
             draw_frames(run_dir)
         elif job[0] == "tracks":

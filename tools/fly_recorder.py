@@ -46,11 +46,12 @@ class Recorder:
 
 
 def _record(run_dir: Path, conn) -> None:
-    priority = Priority()
+    priority = None
     rec = None
     try:
         job = conn.recv()
         if job == "start":
+            priority = Priority()       # lowered only while the run flies: it may not come back up
             rec = _recording(run_dir)
             while not conn.poll(POLL_S):    # a read of the tlogs, then wait for more (or the end)
                 rec.poll()
@@ -62,7 +63,8 @@ def _record(run_dir: Path, conn) -> None:
     except Exception:  # noqa: BLE001 - recorded from the finished tlogs below
         if rec is not None:
             rec.broken = True
-    priority.restore()      # run.mcap is on the run's critical path now
+    if priority is not None:
+        priority.restore()      # run.mcap is on the run's critical path now
     try:
         (rec or _recording(run_dir)).finish()
     except Exception:  # noqa: BLE001 - the recording must not hide the summary

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import json
 import math
-import multiprocessing
 import shlex
 from pathlib import Path
 
@@ -51,13 +50,35 @@ def write_summary(plan: FlyPlan, tower_rc: int | None, *, bridge_restarts: int =
     faults.json); `achieved_speedup`: sim s per wall s (None if the sim clock never moved);
     `drawings`: who draws tracks.png and the frame tree (default: this process, after the scoring);
     `recorder`: the child recording run.mcap since the run started (default: a child forked now)."""
-    if recorder is not None:
-        recorder.flight_over()                  # it reads the rest and writes run.mcap meanwhile
-        recording = recorder.wait
-    else:
-        recording = _start_recording(plan.dir)  # run.mcap on the other core while this one scores
-    drawings = drawings or Drawings(plan.dir, plan.scenario)
-    drawings.flight_over()                      # a worker draws the frame tree meanwhile
+    own = recorder is None and Recorder.available()
+    if own:
+        recorder = Recorder(plan.dir)           # run.mcap on the other core while this one scores
+        recorder.start()
+    try:
+        if recorder is not None:
+            recorder.flight_over()              # it reads the rest and writes run.mcap meanwhile
+        else:                                   # no fork here: written now
+            write_run_mcap_quietly(plan.dir)
+        drawings = drawings or Drawings(plan.dir, plan.scenario)
+        drawings.flight_over()                  # a worker draws the frame tree meanwhile
+        s, text, data = _score(plan, tower_rc, bridge_restarts, proxy, achieved_speedup, applied)
+        drawings.tracks(data)
+        drawings.wait()
+        if recorder is not None:
+            recorder.wait()
+    finally:
+        if own:
+            recorder.close()                    # stopped and reaped, also when the scoring failed
+    files = sorted(p.name for p in plan.dir.iterdir())
+    text += f"\nrun folder {plan.dir}: {' '.join(files)}"
+    (plan.dir / "summary.txt").write_text(text + "\n")
+    s["text"] = text
+    return s
+
+
+def _score(plan: FlyPlan, tower_rc: int | None, bridge_restarts: int, proxy: dict | None,
+           achieved_speedup: float | None, applied: list[dict] | None) -> tuple[dict, str, object]:
+    """faults.json and summary.json written; (the summary dict, its text, the run's data)."""
     from tools.run_summary import format_summary, summarize
     if plan.sc.faults or applied:
         (plan.dir / "faults.json").write_text(json.dumps(
@@ -93,14 +114,7 @@ def write_summary(plan: FlyPlan, tower_rc: int | None, *, bridge_restarts: int =
         text = "\n".join([format_family_summary(s), *format_faults(s["faults"])])
     else:
         text = format_summary(s)
-    drawings.tracks(data)
-    drawings.wait()
-    recording()
-    files = sorted(p.name for p in plan.dir.iterdir())
-    text += f"\nrun folder {plan.dir}: {' '.join(files)}"
-    (plan.dir / "summary.txt").write_text(text + "\n")
-    s["text"] = text
-    return s
+    return s, text, data
 
 
 def _family_faults(plan: FlyPlan, tower: dict, data) -> dict:
@@ -113,24 +127,13 @@ def _family_faults(plan: FlyPlan, tower: dict, data) -> dict:
     return fault_section(plan.sc.faults, read_applied(plan.dir), data, names, goals, end=max(ends) if ends else None)
 
 
-def _record(run_dir: Path) -> None:
+def write_run_mcap_quietly(run_dir: Path) -> None:
+    """run_dir/run.mcap from the finished tlogs, here and now; left out if it fails."""
     try:
         from tools.run_mcap import write_run_mcap
         write_run_mcap(run_dir)
     except Exception:  # noqa: BLE001 - the recording must not hide the summary
         pass
-
-
-def _start_recording(run_dir: Path):
-    """Start writing run_dir/run.mcap (from the tlogs, complete once the processes stopped) in a
-    forked child that reads them itself, so it overlaps the scoring and the drawings; returns
-    what waits for it. Where fork is not available it is written here and now."""
-    if "fork" not in multiprocessing.get_all_start_methods():
-        _record(run_dir)
-        return lambda: None
-    child = multiprocessing.get_context("fork").Process(target=_record, args=(run_dir,), name="run.mcap")
-    child.start()
-    return child.join
 
 
 def _json_default(o):
