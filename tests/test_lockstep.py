@@ -22,18 +22,22 @@ from vehicle.world import World, WorldConfig
 
 @given(kind=st.sampled_from([L.JOIN, L.ACK, L.TICK, L.LEAVE]), t=st.integers(0, 2**64 - 1),
        who=st.integers(0, 3), target=st.integers(0, 255), period=st.integers(0, 2**32 - 1),
-       sysid=st.integers(1, 255), compid=st.integers(0, 255), seq=st.integers(0, 255))
-def test_pack_is_the_dialect_bytes_and_unpacks(kind, t, who, target, period, sysid, compid, seq):
+       sysid=st.integers(1, 255), compid=st.integers(0, 255), seq=st.integers(0, 255),
+       lag=st.integers(0, 255))
+def test_pack_is_the_dialect_bytes_and_unpacks(kind, t, who, target, period, sysid, compid, seq, lag):
     mav = tl.MAVLink(None, srcSystem=sysid, srcComponent=compid)
     mav.seq = seq
-    ref = tl.MAVLink_towerlink_lockstep_message(t, target, kind, who, period).pack(mav)
+    ref = tl.MAVLink_towerlink_lockstep_message(t, target, kind, who, period, lag).pack(mav)
     mine = L.pack(kind, t, participant=who, target_system=target, period_usec=period,
-                  sysid=sysid, compid=compid, seq=seq)
+                  sysid=sysid, compid=compid, seq=seq, lag=lag)
     assert mine == ref
     m, rest = L.unpack(ref + b"tail")
     assert rest == b"tail"
-    assert (m.kind, m.time_usec, m.participant, m.target_system, m.period_usec, m.sysid, m.compid) == \
-        (kind, t, who, target, period, sysid, compid)
+    assert (m.kind, m.time_usec, m.participant, m.target_system, m.period_usec, m.sysid, m.compid, m.lag) == \
+        (kind, t, who, target, period, sysid, compid, lag)
+    mav.seq = seq       # lag 0 (the extension trimmed): the bytes of the message without the field
+    assert L.pack(kind, t, participant=who, target_system=target, period_usec=period, sysid=sysid,
+                  compid=compid, seq=seq) == tl.MAVLink_towerlink_lockstep_message(t, target, kind, who, period).pack(mav)
 
 
 def test_crc_extra_and_id_match_the_dialect():

@@ -1,0 +1,170 @@
+"""The pipelined lockstep (`sitl --lockstep-pipeline`): the world sends TICK(t) and steps on at
+once, waits for ACK(t) at t + one period, and a participant's reactions to TICK(t) take effect
+there -- one period later than without it, at a sim time the data fixes (the gate, pure, and a
+world held over UDP; tests/test_lockstep.py has the handshake without pipelining, the
+full-system proof of determinism is tests/test_system_lockstep.py)."""
+from __future__ import annotations
+
+import math
+import socket
+
+import pytest
+
+from common.mavlink import lockstep as L
+from common.mavlink.dialect import towerlink as tl
+from tests.support import free_port, wait_until
+from tests.test_lockstep import Participant, msg
+from vehicle.lockstep import LockstepGate
+from vehicle.world import World, WorldConfig
+
+P = 40000       # the period, sim us
+
+
+# ----------------------------------------------------------------------------- the gate (pure)
+
+
+def test_the_world_waits_at_each_boundary_for_the_acks_of_the_tick_before():
+    assert LockstepGate(1, period_usec=P, lag=1).awaited(3 * P) == 2 * P
+    assert LockstepGate(1, period_usec=P, lag=0).awaited(3 * P) == 3 * P
+    g = LockstepGate(1, period_usec=P, lag=1)
+    g.on_message(msg(L.JOIN), 0, "a", 0.0)
+    assert g.passed(g.awaited(0))               # TICK(0) goes out and the world steps on at once
+    assert not g.passed(g.awaited(P))           # at 40 ms it waits for ACK(0)
+    g.on_message(msg(L.ACK, 0), 0, "a", 0.1)
+    assert g.passed(g.awaited(P)) and not g.passed(g.awaited(2 * P))
+
+
+def test_a_participants_packet_is_due_two_periods_after_its_newest_ack():
+    """Sent after ACK(a): the reaction to TICK(a + period), due at a + 2 periods pipelined
+    (a + 1 without); before any ACK at one period (at 0 without)."""
+    for lag in (0, 1):
+        g = LockstepGate(1, period_usec=P, lag=lag)
+        g.on_message(msg(L.JOIN), 0, "a", 0.0)
+        assert g.due(250, 191, 0) == lag * P
+        g.on_message(msg(L.ACK, 0), 0, "a", 0.1)
+        assert g.due(250, 191, 0) == (1 + lag) * P
+        g.on_message(msg(L.ACK, 5 * P), 0, "a", 0.2)
+        assert g.due(250, 191, 0) == (6 + lag) * P
+        assert g.due(1, 190, 0) is None          # anyone else: on arrival
+    g = LockstepGate(1, period_usec=P, lag=1)
+    g.on_message(msg(L.JOIN), 0, "a", 0.0)
+    g.on_message(msg(L.ACK, 2 * P), 0, "a", 0.1)
+    assert g.holds(250, 191, 0, 3 * P) and not g.holds(250, 191, 0, 4 * P) and g.holds(250, 191, 0, None)
+
+
+def test_another_system_behind_a_participants_address_is_in_order_with_its_acks():
+    """A tf2 node's goal comes through the bridge's socket with the node's ids: pipelined, it is
+    the bridge's (and the tower's: the least ACK on that address); without pipelining, and
+    from an address no participant joined from, it is handled on arrival as before."""
+    tower = dict(sysid=255, compid=190, who=L.TOWER)
+    for lag, want in ((1, 3 * P), (0, None)):
+        g = LockstepGate(1, period_usec=P, lag=lag)
+        g.on_message(msg(L.JOIN), 0, "bridge", 0.0)
+        g.on_message(msg(L.JOIN, **tower), 0, "bridge", 0.0)
+        g.on_message(msg(L.ACK, 2 * P), 0, "bridge", 0.1)
+        g.on_message(msg(L.ACK, P, **tower), 0, "bridge", 0.1)
+        assert g.due(7, 42, 0, "bridge") == want
+        assert g.due(7, 42, 0, "elsewhere") is None
+
+
+def test_a_participant_joining_a_pipelined_world_is_waited_for_from_the_next_tick():
+    g = LockstepGate(vehicles=1, expect=1, period_usec=P, lag=1)
+    g.on_message(msg(L.JOIN), 0, "a", 0.0)
+    g.on_message(msg(L.ACK, 9 * P), 0, "a", 0.1)
+    # the tower joins while TICK(10) is the newest sent: the world at 11 does not wait for it
+    g.on_message(msg(L.JOIN, sysid=255, compid=190, who=L.TOWER), 0, "a", 0.2, now_usec=10 * P)
+    g.on_message(msg(L.ACK, 10 * P), 0, "a", 0.3)
+    assert g.passed(g.awaited(11 * P)) and not g.passed(g.awaited(12 * P))
+    assert g.due(255, 190, 0) == 12 * P
+    g.on_message(msg(L.LEAVE, sysid=255, compid=190, who=L.TOWER), 0, "a", 0.4)
+    assert g.due(255, 190, 0) is None
+
+
+# ----------------------------------------------------------------------------- a world held over UDP
+
+
+def start_world(speedup: float = math.inf, timeout: float = 1.0):
+    port = free_port()
+    w = World(WorldConfig(drones=1, rovers=0, state_dir=None, tcp_base=None, udp_base=None, speedup=speedup,
+                          endpoints={0: [f"udpin:127.0.0.1:{port}"]}, lockstep=1, lockstep_period=0.04,
+                          lockstep_timeout=timeout, lockstep_pipeline=True))
+    w.start_thread()
+    return w, Participant(port)
+
+
+def test_the_world_steps_one_frame_past_a_tick_and_waits_there_for_its_ack():
+    w, p = start_world()
+    try:
+        p.send(L.JOIN)
+        assert p.next_tick() == 0
+        n = w.lockstep.frame_steps
+        wait_until(lambda: w.lockstep.waits >= 1, 5.0, "the world waiting for ACK(0) at 40 ms")
+        assert w.steps == n                     # stepped on after TICK(0), held at the next TICK
+        p.sock.settimeout(0.3)
+        with pytest.raises(socket.timeout):     # TICK(40 ms) only once ACK(0) came
+            p.next_tick()
+        p.sock.settimeout(5.0)
+        for k in range(5):
+            p.send(L.ACK, k * P)
+            assert p.next_tick() == (k + 1) * P
+            wait_until(lambda: w.lockstep.waits >= k + 2, 5.0, f"the world waiting for ACK({k + 1})")
+            assert w.steps == (k + 2) * n       # one frame ahead of the newest ACK, no further
+        assert "pipelined" in w.lockstep.stats_line()
+    finally:
+        p.close()
+        w.stop()
+
+
+def test_a_tick_is_marked_pipelined_and_one_still_owed_is_sent_again():
+    w, p = start_world(timeout=30.0)
+    try:
+        p.send(L.JOIN)
+        m = None
+        while m is None:
+            m, _rest = L.unpack(p.sock.recvfrom(65535)[0])
+        assert (m.kind, m.time_usec, m.lag) == (L.TICK, 0, 1)
+        assert p.next_tick() == 0               # no ACK(0): sent again after half a second
+        assert w.lockstep.tick_resends >= 1 and w.steps == w.lockstep.frame_steps
+        p.send(L.ACK, 0)
+        assert p.next_tick() == P
+    finally:
+        p.close()
+        w.stop()
+
+
+@pytest.mark.parametrize("speedup", [math.inf, 20.0])
+def test_a_participants_reactions_take_effect_one_tick_later(speedup):
+    """Sent after ACK(t - 40 ms), before ACK(t) (the reaction to TICK(t)): handled at t + 40 ms;
+    sent after ACK(t): at t + 80 ms; never in between, whenever the machine delivered it."""
+    w, p = start_world(speedup)
+    try:
+        p.send(L.JOIN)
+        t = p.next_tick()
+        sent_at, msgs = [], []
+        for _ in range(12):
+            p.request_system_time()
+            p.send(L.ACK, t)
+            p.request_system_time()
+            sent_at += [t // 1000 + 40, t // 1000 + 80]
+            before, nxt = p.messages_until_tick()
+            msgs += before
+            assert nxt == t + P
+            t = nxt
+        p.send(L.ACK, t)
+        msgs += p.messages_until_tick()[0]
+        replies = [msgs[i + 1].time_boot_ms for i, m in enumerate(msgs[:-1])
+                   if m.get_type() == "COMMAND_ACK" and m.command == tl.MAV_CMD_REQUEST_MESSAGE]
+        assert replies == sent_at
+    finally:
+        p.close()
+        w.stop()
+
+
+def test_sitl_refuses_a_pipeline_without_lockstep(capsys):
+    from vehicle import cli as sitl_cli
+    import argparse
+    parser = argparse.ArgumentParser()
+    sitl_cli.add_arguments(parser)
+    assert sitl_cli.run(parser.parse_args(["--lockstep-pipeline"])) == 2
+    assert "--lockstep-pipeline needs --lockstep N" in capsys.readouterr().err
+    assert sitl_cli.config_from_args(parser.parse_args(["--lockstep", "2", "--lockstep-pipeline"])).lockstep_pipeline
