@@ -9,7 +9,7 @@ packet up to t (the loop handles packets in arrival order). Then, at that barrie
    mode/arm retries) on the barrier's clock, never on the wall clock;
 2. ACK(t) goes to every vehicle link, after everything the bridge sent in reaction, each in a
    datagram of its own (the world reads a TOWERLINK_LOCKSTEP only at a datagram's start);
-3. TICK(t) goes to the tower, if the tower joined, queued behind the tower's telemetry (one
+3. TICK(t) goes to the tower (with the world's period and lag), if the tower joined, queued behind the tower's telemetry (one
    datagram with it, written at the end of the loop's pass or the upkeep's) (its JOIN/ACK/LEAVE pass through the
    bridge to the world like any broadcast, on the same socket as its goals, so a goal sent
    before the tower's ACK reaches the vehicle before it).
@@ -196,7 +196,7 @@ class LockstepDesk:
         self._gcs_due = True
         self.send_tower(self.pack_own(tl.MAVLink_towerlink_lockstep_message(
             self.released_usec, 0, tl.TOWERLINK_LOCKSTEP_KIND_TICK, tl.TOWERLINK_LOCKSTEP_PARTICIPANT_WORLD,
-            self.period_usec)))
+            self.period_usec, self.lag)))
 
     def on_tower(self, msg) -> None:
         """A TOWERLINK_LOCKSTEP from the tower (routed on to the world by the loop, then tower_done)."""
