@@ -168,3 +168,97 @@ def test_sitl_refuses_a_pipeline_without_lockstep(capsys):
     assert sitl_cli.run(parser.parse_args(["--lockstep-pipeline"])) == 2
     assert "--lockstep-pipeline needs --lockstep N" in capsys.readouterr().err
     assert sitl_cli.config_from_args(parser.parse_args(["--lockstep", "2", "--lockstep-pipeline"])).lockstep_pipeline
+
+
+# ----------------------------------------------------------------------------- the bridge's hold (pure)
+
+
+def _desk(sent, wall):
+    from types import SimpleNamespace
+
+    from bridge.frame_hold import FrameHold
+    from bridge.lockstep_desk import LockstepDesk
+
+    class FakeLink:
+        def __init__(self, name):
+            self.name = name
+
+        def send(self, data):
+            sent.append((self.name, data.kind, data.time_usec))
+
+    vehicles = {1: SimpleNamespace(name="drone", sysid=1, link=FakeLink("drone")),
+                2: SimpleNamespace(name="rover", sysid=2, link=FakeLink("rover"))}
+    handled = []
+    desk = LockstepDesk(vehicles, lambda m: m, lambda m: sent.append(("tower", m.kind, m.time_usec, m.lag)),
+                        lambda t: None, lambda line: sent.append(("log", line)), lambda: wall[0],
+                        on_free=lambda: hold.release())
+    by_link = {v.link: v for v in vehicles.values()}
+
+    def handle(link, pkt):
+        """What VehicleSide.handle does with a TICK; anything else is noted as handled."""
+        if isinstance(pkt, int):
+            desk.on_vehicle(by_link[link], tl.MAVLink_towerlink_lockstep_message(pkt, 0, L.TICK, L.WORLD, P, 1))
+        else:
+            handled.append((link.name, pkt))
+    hold = FrameHold(lambda link: desk.holds(link.name), handle)
+
+    def arrive(v, pkt):                 # VehicleSide.on_packet: held, or handled
+        link = vehicles[v].link
+        if not hold.take(link, pkt):
+            handle(link, pkt)
+    return desk, hold, arrive, handled
+
+
+def test_the_bridge_holds_a_links_next_frame_until_the_tower_acted_on_the_barrier():
+    """Pipelined: the drone's telemetry after TICK(40 ms) waits while the rover's TICK(40 ms)
+    has not come and then until the tower ACKed 40 ms (its goals translated against the tree
+    as it stood at the barrier); then it is handled in order, up to the next TICK."""
+    sent, wall = [], [0.0]
+    desk, hold, arrive, handled = _desk(sent, wall)
+    desk.on_tower(tl.MAVLink_towerlink_lockstep_message(0, 0, L.JOIN, L.TOWER, 0))
+    arrive(1, "d0")
+    arrive(1, P)                        # the drone's TICK(40 ms): its link holds from here
+    arrive(1, "d1")
+    arrive(2, "r0")                     # the rover's frame up to 40 ms goes on
+    arrive(1, 2 * P)                    # (a TICK is held like the rest)
+    arrive(1, "d2")
+    assert handled == [("drone", "d0"), ("rover", "r0")]
+    arrive(2, P)                        # the barrier: ACKs to the world, TICK (lag 1) to the tower
+    assert [m for m in sent if m[0] != "log"] == \
+        [("drone", L.ACK, P), ("rover", L.ACK, P), ("tower", L.TICK, P, 1)]
+    arrive(2, "r1")
+    assert handled == [("drone", "d0"), ("rover", "r0")]       # the tower has not acted yet
+    desk.on_tower(tl.MAVLink_towerlink_lockstep_message(P, 0, L.ACK, L.TOWER, 0))
+    desk.tower_done()
+    assert handled[2:] == [("drone", "d1"), ("rover", "r1")]    # d2 waits behind the drone's TICK(80 ms)
+    assert hold.waiting() == 1 and desk.barrier_usec == P
+    arrive(2, 2 * P)                    # barrier 80 ms, done when the tower ACKs it
+    desk.on_tower(tl.MAVLink_towerlink_lockstep_message(2 * P, 0, L.ACK, L.TOWER, 0))
+    desk.tower_done()
+    assert handled[4:] == [("drone", "d2")] and hold.waiting() == 0 and hold.held == 4
+
+
+def test_without_pipelining_the_bridge_holds_nothing():
+    sent, wall = [], [0.0]
+    desk, hold, arrive, handled = _desk(sent, wall)
+    desk.on_tower(tl.MAVLink_towerlink_lockstep_message(0, 0, L.JOIN, L.TOWER, 0))
+    desk.on_vehicle(desk.vehicles[1], tl.MAVLink_towerlink_lockstep_message(P, 0, L.TICK, L.WORLD, P))
+    arrive(1, "d1")
+    assert handled == [("drone", "d1")] and hold.held == 0
+
+
+def test_a_silent_tower_is_no_longer_waited_for():
+    from bridge.lockstep_desk import TOWER_SILENT
+    sent, wall = [], [0.0]
+    desk, hold, arrive, handled = _desk(sent, wall)
+    desk.on_tower(tl.MAVLink_towerlink_lockstep_message(0, 0, L.JOIN, L.TOWER, 0))
+    arrive(1, P)
+    arrive(2, P)
+    arrive(1, "d1")
+    wall[0] = TOWER_SILENT - 0.1
+    desk.upkeep(wall[0])
+    assert handled == [] and desk.tower_joined
+    wall[0] = TOWER_SILENT + 0.1
+    desk.upkeep(wall[0])
+    assert handled == [("drone", "d1")] and not desk.tower_joined
+    assert any("silent" in m[1] for m in sent if m[0] == "log")
