@@ -552,13 +552,16 @@ def test_bridge_desk_barrier_needs_a_tick_on_every_vehicle_link_then_upkeep_ack_
 # ----------------------------------------------------------------------------- a world in several processes
 
 
-def test_a_world_in_two_worker_processes_steps_as_one_under_one_participant(processes):
+@pytest.mark.parametrize("lag", [0, 1])
+def test_a_world_in_two_worker_processes_steps_as_one_under_one_participant(processes, lag):
     """`sitl --workers 2 --lockstep 1 --speedup max`: a participant that acts as the bridge
     does (ACK t on every link once TICK(t) came on all of them) holds both workers together;
-    a worker whose link is not ACKed stays at its TICK while the other may go one frame on."""
+    a worker whose link is not ACKed stays at its TICK while the other may go one frame on.
+    Pipelined (lag 1) each steps one frame past its newest TICK, and no further."""
     ports = [free_port(), free_port()]
     proc = processes.start(["towerlink", "sitl", "--drones", "1", "--rovers", "1", "--workers", "2",
-                            "--lockstep", "1", "--speedup", "max", "--no-save", "--tcp-base", "0",
+                            "--lockstep", "1", *(["--lockstep-pipeline"] if lag else []),
+                            "--speedup", "max", "--no-save", "--tcp-base", "0",
                             "--udp-base", "0", "--lockstep-timeout", "30",
                             *(a for i, p in enumerate(ports) for a in ("--endpoint", f"{i}=udpin:127.0.0.1:{p}"))])
     links = [Participant(p) for p in ports]
@@ -595,10 +598,10 @@ def test_a_world_in_two_worker_processes_steps_as_one_under_one_participant(proc
         links[1].sock.settimeout(0.5)
         late = []
         with pytest.raises(socket.timeout):
-            while True:                     # worker 1 stays held at t: nothing newer comes
+            while True:                     # worker 1 stays held at t (pipelined t + 40 ms): nothing newer comes
                 data, _ = links[1].sock.recvfrom(65535)
                 late += [m for m in links[1].parser.parse_buffer(data) or []
-                         if getattr(m, "time_boot_ms", 0) > t // 1000]
+                         if getattr(m, "time_boot_ms", 0) > (t + lag * 40000) // 1000]
         assert late == []
         assert proc.poll() is None
     finally:

@@ -132,6 +132,19 @@ def test_a_tick_is_marked_pipelined_and_one_still_owed_is_sent_again():
         w.stop()
 
 
+def test_a_silent_participant_is_dropped_and_the_pipelined_world_goes_on(capsys):
+    w, p = start_world(timeout=1.0)
+    try:
+        p.send(L.JOIN)
+        assert p.next_tick() == 0
+        wait_until(lambda: w.t > 1.0, 10.0, "the world going on without the silent participant")
+        assert w.lockstep.gate.dropped == 1
+        assert "silent for 1 s (wall): dropped, the world goes on" in capsys.readouterr().out
+    finally:
+        p.close()
+        w.stop()
+
+
 @pytest.mark.parametrize("speedup", [math.inf, 20.0])
 def test_a_participants_reactions_take_effect_one_tick_later(speedup):
     """Sent after ACK(t - 40 ms), before ACK(t) (the reaction to TICK(t)): handled at t + 40 ms;
