@@ -207,11 +207,11 @@ class Participant:
                          self.addr)
 
 
-def start_world(speedup: float = math.inf, timeout: float = 1.0):
+def start_world(speedup: float = math.inf, timeout: float = 1.0, pipeline: bool = False):
     port = free_port()
     w = World(WorldConfig(drones=1, rovers=0, state_dir=None, tcp_base=None, udp_base=None, speedup=speedup,
                           endpoints={0: [f"udpin:127.0.0.1:{port}"]}, lockstep=1, lockstep_period=0.04,
-                          lockstep_timeout=timeout))
+                          lockstep_timeout=timeout, lockstep_pipeline=pipeline))
     w.start_thread()
     return w, Participant(port)
 
@@ -306,13 +306,15 @@ def test_a_closing_bridge_leaves_and_the_world_goes_on_at_once(capsys):
         w.stop()
 
 
+@pytest.mark.parametrize("lag", [0, 1])
 @pytest.mark.parametrize("speedup", [math.inf, 20.0])
-def test_a_participants_packets_take_effect_at_a_tick_boundary(speedup):
+def test_a_participants_packets_take_effect_at_a_tick_boundary(speedup, lag):
     """Sent before its ACK(t): handled at t. Sent after it: at the next TICK, t + 40 ms, never
     in between, whenever the machine delivered it (paced at 20x the world sleeps mid-frame).
     (The answer to a packet sent after the ACK may come before or after that next TICK: a
-    participant's reactions go before its ACK, so their answers come before the next TICK.)"""
-    w, p = start_world(speedup)
+    participant's reactions go before its ACK, so their answers come before the next TICK.)
+    Pipelined (lag 1, tests/test_lockstep_pipeline.py) each one TICK later: t + 40 ms, t + 80 ms."""
+    w, p = start_world(speedup, pipeline=bool(lag))
     try:
         p.send(L.JOIN)
         t = p.next_tick()
@@ -321,7 +323,7 @@ def test_a_participants_packets_take_effect_at_a_tick_boundary(speedup):
             p.request_system_time()
             p.send(L.ACK, t)
             p.request_system_time()
-            sent_at += [t // 1000, t // 1000 + 40]
+            sent_at += [t // 1000 + 40 * lag, t // 1000 + 40 + 40 * lag]
             before, nxt = p.messages_until_tick()
             msgs += before
             assert nxt == t + 40000

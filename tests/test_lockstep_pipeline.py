@@ -1,8 +1,9 @@
 """The pipelined lockstep (`sitl --lockstep-pipeline`): the world sends TICK(t) and steps on at
 once, waits for ACK(t) at t + one period, and a participant's reactions to TICK(t) take effect
 there -- one period later than without it, at a sim time the data fixes (the gate, pure, and a
-world held over UDP; tests/test_lockstep.py has the handshake without pipelining, the
-full-system proof of determinism is tests/test_system_lockstep.py)."""
+world held over UDP; tests/test_lockstep.py has the handshake without pipelining, and both for
+when a participant's packets take effect; the full-system proof of determinism is
+tests/test_system_lockstep.py)."""
 from __future__ import annotations
 
 import math
@@ -12,10 +13,9 @@ import pytest
 
 from common.mavlink import lockstep as L
 from common.mavlink.dialect import towerlink as tl
-from tests.support import free_port, wait_until
-from tests.test_lockstep import Participant, msg
+from tests.support import wait_until
+from tests.test_lockstep import msg, start_world as start_lockstep_world
 from vehicle.lockstep import LockstepGate
-from vehicle.world import World, WorldConfig
 
 P = 40000       # the period, sim us
 
@@ -84,12 +84,7 @@ def test_a_participant_joining_a_pipelined_world_is_waited_for_from_the_next_tic
 
 
 def start_world(speedup: float = math.inf, timeout: float = 1.0):
-    port = free_port()
-    w = World(WorldConfig(drones=1, rovers=0, state_dir=None, tcp_base=None, udp_base=None, speedup=speedup,
-                          endpoints={0: [f"udpin:127.0.0.1:{port}"]}, lockstep=1, lockstep_period=0.04,
-                          lockstep_timeout=timeout, lockstep_pipeline=True))
-    w.start_thread()
-    return w, Participant(port)
+    return start_lockstep_world(speedup, timeout, pipeline=True)
 
 
 def test_the_world_steps_one_frame_past_a_tick_and_waits_there_for_its_ack():
@@ -140,34 +135,6 @@ def test_a_silent_participant_is_dropped_and_the_pipelined_world_goes_on(capsys)
         wait_until(lambda: w.t > 1.0, 10.0, "the world going on without the silent participant")
         assert w.lockstep.gate.dropped == 1
         assert "silent for 1 s (wall): dropped, the world goes on" in capsys.readouterr().out
-    finally:
-        p.close()
-        w.stop()
-
-
-@pytest.mark.parametrize("speedup", [math.inf, 20.0])
-def test_a_participants_reactions_take_effect_one_tick_later(speedup):
-    """Sent after ACK(t - 40 ms), before ACK(t) (the reaction to TICK(t)): handled at t + 40 ms;
-    sent after ACK(t): at t + 80 ms; never in between, whenever the machine delivered it."""
-    w, p = start_world(speedup)
-    try:
-        p.send(L.JOIN)
-        t = p.next_tick()
-        sent_at, msgs = [], []
-        for _ in range(12):
-            p.request_system_time()
-            p.send(L.ACK, t)
-            p.request_system_time()
-            sent_at += [t // 1000 + 40, t // 1000 + 80]
-            before, nxt = p.messages_until_tick()
-            msgs += before
-            assert nxt == t + P
-            t = nxt
-        p.send(L.ACK, t)
-        msgs += p.messages_until_tick()[0]
-        replies = [msgs[i + 1].time_boot_ms for i, m in enumerate(msgs[:-1])
-                   if m.get_type() == "COMMAND_ACK" and m.command == tl.MAV_CMD_REQUEST_MESSAGE]
-        assert replies == sent_at
     finally:
         p.close()
         w.stop()
@@ -263,7 +230,7 @@ def test_without_pipelining_the_bridge_holds_nothing():
 def test_a_silent_tower_is_no_longer_waited_for():
     from bridge.lockstep_desk import TOWER_SILENT
     sent, wall = [], [0.0]
-    desk, hold, arrive, handled = _desk(sent, wall)
+    desk, _hold, arrive, handled = _desk(sent, wall)
     desk.on_tower(tl.MAVLink_towerlink_lockstep_message(0, 0, L.JOIN, L.TOWER, 0))
     arrive(1, P)
     arrive(2, P)
