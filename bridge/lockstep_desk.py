@@ -9,10 +9,11 @@ packet up to t (the loop handles packets in arrival order). Then, at that barrie
    mode/arm retries) on the barrier's clock, never on the wall clock;
 2. ACK(t) goes to every vehicle link, after everything the bridge sent in reaction, each in a
    datagram of its own (the world reads a TOWERLINK_LOCKSTEP only at a datagram's start);
-3. TICK(t) goes to the tower (with the world's period and lag), if the tower joined, queued behind the tower's telemetry (one
-   datagram with it, written at the end of the loop's pass or the upkeep's) (its JOIN/ACK/LEAVE pass through the
-   bridge to the world like any broadcast, on the same socket as its goals, so a goal sent
-   before the tower's ACK reaches the vehicle before it).
+3. TICK(t) goes to the tower (with the world's period and lag), if the tower joined, queued
+   behind the tower's telemetry (one datagram with it, written at the end of the loop's pass
+   or the upkeep's) (its JOIN/ACK/LEAVE pass through the bridge to the world like any
+   broadcast, on the same socket as its goals, so a goal sent before the tower's ACK reaches
+   the vehicle before it).
 
 With nodes in lockstep (--nodes with --lockstep, bridge.node_lockstep) `nodes` holds steps 2 and 3
 until the nodes have settled at t; a TICK the world sends again meanwhile is answered with the
