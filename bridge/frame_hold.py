@@ -7,9 +7,9 @@ the tower (or the nodes) not yet done acting on t. Whatever the bridge did with 
 then (the frame tree, the follower, the telemetry translated for the tower, the tower's goals
 translated against that tree) would depend on how fast each process ran. So a link's packets
 after its newest TICK(t) wait here until barrier t is done (bridge.lockstep_desk.holds), and
-are then handled in the order they came, link by link; one of them may be the link's next TICK,
-and the link holds again from there. Pure: the queues only (the predicate and the handler are
-passed in).
+are then handled in the order they came, link by link in the links' order (fixed, not the order
+in which they happened to start holding); one of them may be the link's next TICK, and the link
+holds again from there. Pure: the queues only (the predicate and the handler are passed in).
 """
 from __future__ import annotations
 
@@ -20,20 +20,18 @@ from collections.abc import Callable
 class FrameHold:
     """Packets held per link, in arrival order, handed on in order once their link is free."""
 
-    def __init__(self, holds: Callable[[object], bool], handle: Callable[[object, object], None]) -> None:
+    def __init__(self, links, holds: Callable[[object], bool], handle: Callable[[object, object], None]) -> None:
         self.holds = holds                  # (link) -> True while the link's newest TICK is not done
         self.handle = handle                # (link, packet) -> None: the packet handled
-        self.queues: dict[object, deque] = {}
+        self.queues: dict[object, deque] = {link: deque() for link in links}     # in the links' order
         self.held = 0                       # packets that waited here, in all
         self._busy = False
 
     def take(self, link, pkt) -> bool:
         """True when `pkt` waits here: its link holds, or has packets waiting before it."""
-        q = self.queues.get(link)
+        q = self.queues[link]
         if not q and not self.holds(link):
             return False
-        if q is None:
-            q = self.queues[link] = deque()
         q.append(pkt)
         self.held += 1
         return True

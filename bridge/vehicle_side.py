@@ -53,8 +53,9 @@ class VehicleSide:
         self.warn_once = log.warn_once
         self.tower_drops = 0                # telemetry not sent to the tower: no transform
         # pipelined lockstep: a link's next frame waits until the bridge is done with this one
-        self.hold = FrameHold(lambda link: lockstep.holds(self._owner[link].name), self._handle_held) \
-            if lockstep is not None else None
+        self.hold = FrameHold([v.link for v in vehicles.values()],
+                              lambda link: lockstep.holds(self._owner[link].name),
+                              self._handle_held) if lockstep is not None else None
 
     def on_packet(self, link: Link, pkt: Packet) -> None:
         """One packet from vehicle `link`: held for a barrier not yet done (bridge.frame_hold), or handled."""

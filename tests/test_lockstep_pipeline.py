@@ -180,7 +180,7 @@ def _desk(sent, wall):
             desk.on_vehicle(by_link[link], tl.MAVLink_towerlink_lockstep_message(pkt, 0, L.TICK, L.WORLD, P, 1))
         else:
             handled.append((link.name, pkt))
-    hold = FrameHold(lambda link: desk.holds(link.name), handle)
+    hold = FrameHold([v.link for v in vehicles.values()], lambda link: desk.holds(link.name), handle)
 
     def arrive(v, pkt):                 # VehicleSide.on_packet: held, or handled
         link = vehicles[v].link
