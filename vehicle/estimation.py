@@ -24,11 +24,10 @@ its last known horizontal position with each baro height, so its velocity stays 
 the next fix resets it onto GPS.
 
 Speed (a filter epoch of one vehicle): the filters are filterpy's own predict/update on
-fixed-size matrices, fed from reused buffers (GPS z, the predict's u); the baro height goes
-in as a scalar z (filterpy's form for dim_z 1: its copy of z is free) and its 1x1
-innovation covariance is inverted by one division through filterpy's ``inv`` hook
-(bit-identical to numpy's LU inverse, a seventh of its cost); the GPS update's 6x6 keeps
-numpy's inverse at 10 Hz. Around the filters, per-vehicle epochs run on Python floats
+fixed-size matrices, fed from reused buffers (GPS z, the predict's u). Both measurements
+observe states directly with uncorrelated noise (H rows unit vectors, R diagonal), so the
+update fuses them one scalar at a time as ArduPilot's EKF3 fuses GPS (FuseVelPosNED): a
+division per component, no inverse of the 6x6 S (vehicle.sequential_kf). Around the filters, per-vehicle epochs run on Python floats
 (sensors, AHRS error, rotations), the same operations in the same order as the vectorised
 form, taking truth and handing out the estimate as per-vehicle rows (epoch_rows).
 """
@@ -37,29 +36,20 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from filterpy.kalman import KalmanFilter
 
 from common.frames.batch import quat_mul, quat_mul_one, rotate, rotate_one
 from vehicle.innovations import InnovationLog
 from vehicle.no_aiding import NoAiding
+from vehicle.sequential_kf import SequentialForms, SequentialKalmanFilter, fuse_scalars_batched
 
 G = np.array([0.0, 0.0, 9.80665])
 
 
-def _inv(S: np.ndarray) -> np.ndarray:
-    """The filters' ``inv`` (filterpy's hook for S^-1): a scalar measurement's (baro) 1x1 S
-    by one division, which is what an LU inverse of a 1x1 matrix computes (the same number,
-    without numpy.linalg's ~5 us of checks); larger S by numpy's LU inverse."""
-    if S.shape == (1, 1):
-        return 1.0 / S
-    return np.linalg.inv(S)
-
-
 def make_kf(dt: float, pos0, accel_sigma: float, gps_pos_sigma: float, gps_alt_sigma: float,
-            gps_vel_sigma: float) -> KalmanFilter:
+            gps_vel_sigma: float) -> SequentialKalmanFilter:
     """The 9-state filter [p, v, b] (world NED, m, m/s, m/s^2) for epochs dt s apart, at
     pos0, with white-acceleration process noise and the GPS noise of the sensor spec."""
-    kf = KalmanFilter(dim_x=9, dim_z=6, dim_u=3)
+    kf = SequentialKalmanFilter(dim_x=9, dim_z=6, dim_u=3)
     F = np.eye(9)
     F[0:3, 3:6] = np.eye(3) * dt
     F[0:3, 6:9] = -np.eye(3) * 0.5 * dt * dt
@@ -81,17 +71,17 @@ def make_kf(dt: float, pos0, accel_sigma: float, gps_pos_sigma: float, gps_alt_s
     kf.x = np.zeros(9)
     kf.x[0:3] = pos0
     kf.P = np.diag([25.0] * 3 + [4.0] * 3 + [0.1 ** 2] * 3)
-    kf.inv = _inv
     return kf
 
 
 class BatchedKF:
-    """The same filter as ``make_kf`` for n vehicles at once: filterpy's equations
-    (predict x = Fx + Bu, P = FPF' + Q; update with K = PH' inv(S) and the Joseph form
-    P = (I-KH)P(I-KH)' + KRK'), written over a leading vehicle axis. Used for fleets
-    too big for per-vehicle filterpy objects; tests check it against filterpy."""
+    """The same filter as ``make_kf`` for n vehicles at once: filterpy's predict (x = Fx + Bu,
+    P = FPF' + Q) and the update of vehicle.sequential_kf (the measurement's components fused
+    one after the other as scalars) written over a leading vehicle axis; an update whose H or
+    R has no sequential form takes filterpy's (K = PH' inv(S), Joseph form). Used for fleets
+    too big for per-vehicle filterpy objects; tests check it against them."""
 
-    def __init__(self, template: KalmanFilter, x0: np.ndarray):
+    def __init__(self, template: SequentialKalmanFilter, x0: np.ndarray):
         n = len(x0)
         self.F, self.B, self.Q = template.F.copy(), template.B.copy(), template.Q.copy()
         self.H, self.R = template.H.copy(), template.R.copy()
@@ -99,6 +89,7 @@ class BatchedKF:
         self.x[:, 0:3] = x0
         self.P = np.tile(template.P, (n, 1, 1))
         self._I = np.eye(template.dim_x)
+        self._forms = SequentialForms()
 
     def predict(self, u: np.ndarray) -> None:
         self.x = self.x @ self.F.T + u @ self.B.T
@@ -108,10 +99,15 @@ class BatchedKF:
         R = self.R if R is None else R
         H = self.H if H is None else H
         y = z - self.x @ H.T
+        plan = self._forms.get(H, R)
+        if plan.idx is not None:
+            self.y, self.S = y, self.P[(slice(None),) + plan.ix] + R     # the innovations, as filterpy keeps them
+            self.x, self.P = fuse_scalars_batched(self.x, self.P, plan.idx, z, plan.r)
+            return
         PHT = self.P @ H.T
         S = H @ PHT + R
         K = PHT @ np.linalg.inv(S)
-        self.y, self.S = y, S          # the innovations, as filterpy keeps them
+        self.y, self.S = y, S
         self.x = self.x + np.einsum("nij,nj->ni", K, y)
         I_KH = self._I - K @ H
         self.P = I_KH @ self.P @ I_KH.transpose(0, 2, 1) + K @ R @ K.transpose(0, 2, 1)
