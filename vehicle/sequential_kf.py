@@ -24,6 +24,7 @@ nonzero part of each row instead, keeping filterpy's update() signature and attr
 from __future__ import annotations
 
 import math
+from itertools import compress
 
 import numpy as np
 from filterpy.kalman import KalmanFilter
@@ -79,7 +80,7 @@ def fuse_scalars(x: list, P: list, idx: list, z: list, r: list) -> tuple[set, fl
     of x, may have changed (entries outside every support's block are untouched), and the
     squared Mahalanobis distance y' S^-1 y of the whole measurement, which is the sum of the
     scalar steps' e^2 / s (sequential fusion whitens the innovations)."""
-    n = len(x)
+    states = range(len(x))
     supports = set()
     d2 = 0.0
     for s, zs, rs in zip(idx, z, r):
@@ -87,7 +88,7 @@ def fuse_scalars(x: list, P: list, idx: list, z: list, r: list) -> tuple[set, fl
         c = 1.0 / (row[s] + rs)
         e = zs - x[s]
         d2 += e * e * c
-        nz = tuple([i for i in range(n) if row[i] != 0.0])
+        nz = tuple(compress(states, row))          # the nonzero entries (NaN counts as nonzero)
         supports.add(nz)
         for i in nz:
             ri = row[i]
