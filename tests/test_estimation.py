@@ -317,3 +317,22 @@ def test_no_aiding_stops_after_15_s_and_resumes_on_a_fix():
     assert 0.0 < x[0] < 5.0 and log.pos[0] > 0.0                  # pulled back toward (0, 1)
     na.resume(0, x, P, [10.0, 20.0, -3.0, 1.0, 2.0, 0.0])
     assert na.active == [False] and x[[0, 1, 3, 4]].tolist() == [10.0, 20.0, 1.0, 2.0]
+
+
+@pytest.mark.parametrize("kind", ["filterpy", "batched"])
+def test_baro_is_taken_50_ms_apart_as_ekf3_takes_it(kind):
+    """EKF3 takes a height sample only when it is more than 50 ms after the last one taken
+    (sensorIntervalMin_ms): of a 50 Hz baro, every third sample, 60 ms apart, for the drone's
+    400 Hz steps and the rover's 50 Hz loop alike."""
+    from vehicle.estimation import SENSOR_INTERVAL_MIN_MS
+    for fleet, dt in ((CopterFleet(2, seed=[1, 2], estimator=kind), 0.0025),
+                      (RoverFleet(2, seed=[1, 2], estimator=kind), 0.0025)):
+        fused, last = [], None
+        for k in range(int(1.2 / dt)):
+            fleet.step(dt)
+            hgt = fleet.estimator.innovations.hgt.tolist()
+            if hgt != last:
+                fused.append(k)
+                last = hgt
+        gaps = {round((b - a) * dt * 1000) for a, b in zip(fused, fused[1:])}
+        assert gaps == {60} and 60 > SENSOR_INTERVAL_MIN_MS and len(fused) >= 19

@@ -6,7 +6,8 @@ Position/velocity: one filterpy ``KalmanFilter`` per vehicle (or, for big fleets
 world frame (slowly varying). The filter is predicted at ``kf_rate`` (100 Hz) with the
 IMU specific force rotated to world by the attitude estimate plus gravity, averaged
 sampled at the epoch, and corrected with GPS position + velocity
-(10 Hz) and baro altitude (50 Hz). Between filter epochs the output is dead-reckoned
+(10 Hz) and baro altitude (sampled at 50 Hz; EKF3 takes a height sample only when it is more
+than SENSOR_INTERVAL_MIN_MS after the last one it took, so every third: 16.7 Hz). Between filter epochs the output is dead-reckoned
 with the IMU every step (vectorised) and reset to the filter state at each epoch, like
 the output predictor of ArduPilot's EKF.
 
@@ -43,6 +44,9 @@ from vehicle.no_aiding import NoAiding
 from vehicle.sequential_kf import SequentialForms, SequentialKalmanFilter, fuse_scalars_batched
 
 G = np.array([0.0, 0.0, 9.80665])
+# EKF3's sensorIntervalMin_ms (AP_NavEKF3.cpp): readBaroData takes a new height sample only when
+# it is more than this after the last one taken, which keeps its measurement buffer from filling
+SENSOR_INTERVAL_MIN_MS = 50
 
 
 def make_kf(dt: float, pos0, accel_sigma: float, gps_pos_sigma: float, gps_alt_sigma: float,
@@ -195,6 +199,14 @@ class Estimator:
         self._arrays = {k: buf[:, lo:hi] for k, (lo, hi) in _ROW_SLICES.items()}
         return self._arrays
 
+    def part(self, name: str, i: int) -> list[float]:
+        """Vehicle i's attribute `name` (pos, vel, bias, acc, quat, dq, rates, ahrs_err) as
+        floats, from `rows` while they are current (no arrays built)."""
+        if self._arrays is None:
+            lo, hi = _ROW_SLICES[name]
+            return self.rows[i][lo:hi]
+        return self._arrays[name][i].tolist()
+
     def _row_part(self, name: str) -> list:
         """Attribute `name` as a list of per-vehicle rows, from `rows` while they are current."""
         if self._arrays is None:
@@ -211,6 +223,10 @@ class Estimator:
         # filter every step: ArduPilot's EKF3 predicts once per loop when the loop is slower)
         self.n_gps = self.n_kf * max(1, round(1.0 / (sp.gps_rate * self.kf_dt)))
         self.n_baro = self.n_kf * max(1, round(1.0 / (sp.baro_rate * self.kf_dt)))
+        # a baro sample is fused when at least this many steps after the last one taken
+        self._baro_gap = SENSOR_INTERVAL_MIN_MS * 1000 // round(dt * 1e6) + 1
+        never = -self._baro_gap          # the step of each vehicle's last baro sample taken
+        self._baro_taken = np.full(self.n, never) if self.batched else [never] * self.n
         # AHRS error: first-order Gauss-Markov, a = exp(-T/tau), drive sigma sqrt(1 - a^2)
         self._ahrs_a = a = math.exp(-self.kf_dt / sp.ahrs_tau)
         self._ahrs_drive = sp.ahrs_sigma * math.sqrt(1 - a * a)
@@ -281,14 +297,20 @@ class Estimator:
             self.innovations.gps_all(b.y, b.S, self.k - 1)
             self.innovations.restore(b, kept)
         if baro:
-            kept = self.innovations.keep(b, sensors.baro_missing)
-            b.update(-sensors.baro_alt[:, None], R=self.R_baro, H=self.H_baro)
-            self.innovations.baro_all(b.y, b.S)
-            self.innovations.restore(b, kept)
-            na = self.no_aiding
-            for i in np.flatnonzero(na.active):
-                if sensors.baro_missing is None or not sensors.baro_missing[i]:
-                    na.fuse(i, b.x[i], b.P[i], self.innovations)
+            step = self.k - 1
+            skip = step - self._baro_taken < self._baro_gap
+            if sensors.baro_missing is not None:
+                skip |= sensors.baro_missing
+            if not skip.all():
+                kept = self.innovations.keep(b, skip)
+                b.update(-sensors.baro_alt[:, None], R=self.R_baro, H=self.H_baro)
+                self.innovations.baro_all(b.y, b.S)
+                self.innovations.restore(b, kept)
+                self._baro_taken[~skip] = step
+                na = self.no_aiding
+                for i in np.flatnonzero(na.active):
+                    if not skip[i]:
+                        na.fuse(i, b.x[i], b.P[i], self.innovations)
         self.pos = b.x[:, 0:3].copy()
         self.vel = b.x[:, 3:6].copy()
         self.bias = b.x[:, 6:9].copy()
@@ -324,6 +346,7 @@ class Estimator:
         zg, u = self._z_gps, self._u
         log, step = self.innovations, self.k - 1
         noaid = self.no_aiding.active
+        taken, gap = self._baro_taken, self._baro_gap
         rows = []
         for i, (kf, zi, qt, w, ge, err, f) in enumerate(zip(self.kfs, z, Q, rates, gyro_err,
                                                             self._row_part("ahrs_err"), accel)):
@@ -347,7 +370,8 @@ class Estimator:
                 log.gps(i, kf.y, kf.S, step)
             elif gps and self._aiding_lost(i, step):
                 self.no_aiding.stop(i, kf.x, kf.P, log)
-            if baro and baro_alt[i] is not None:
+            if baro and baro_alt[i] is not None and step - taken[i] >= gap:
+                taken[i] = step
                 # a scalar z (filterpy takes one for dim_z 1): the same y, and its copy of z is cheap
                 kf.update(-baro_alt[i], R=self.R_baro, H=self.H_baro)
                 log.baro(i, kf.y, kf.S)
