@@ -22,8 +22,8 @@ newest barrier already released, never the held one.
 Pipelined (the world's TICKs say lag 1: `sitl --lockstep-pipeline`): the world steps on at once
 after TICK(t), so a link may bring the next frame's packets while the bridge is still at t. The
 barrier t is *done* once it was released and the tower (if it joined) ACKed t, i.e. acted on
-it, its goals translated against the frame tree as it stood at t; until then a link's packets
-after its newest TICK wait (:meth:`holds`, bridge.frame_hold), and `on_free` hands them on. A
+it, its goals translated against the frame tree as it stood at t; until then the next frame's
+packets wait (:meth:`frame_ready`, bridge.frame_hold), and `on_free` hands them on. A
 tower that owes an ACK and says nothing for TOWER_SILENT wall s is no longer waited for (it
 joins again with its next JOIN or ACK).
 
@@ -91,9 +91,9 @@ class LockstepDesk:
         if self.nodes is not None:
             self.nodes.on_message(sysid, compid, msg)
 
-    def holds(self, name: str) -> bool:
-        """Pipelined: must vehicle link `name`'s packets wait (its newest TICK's barrier is not done)?"""
-        return self.lag > 0 and self.ticks.get(name, -1) > self.done_usec
+    def frame_ready(self) -> bool:
+        """Pipelined: is the newest barrier done, so the next frame's packets may be handled?"""
+        return self.done_usec >= self.barrier_usec
 
     def _free(self) -> None:
         """Pipelined: note how far the barriers are done; the held links go on (on_free)."""

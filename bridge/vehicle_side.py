@@ -10,12 +10,13 @@
   and counted, never sent in the wrong frame). The outs and other vehicles get the raw bytes.
 * A system behind a vehicle link other than the configured vehicle (a camera, a companion)
   is routed as that link's vehicle's traffic, undecoded.
-* In a pipelined lockstep a link's packets after its newest TICK(t) wait until the bridge is
-  done with barrier t (bridge.frame_hold), then are handled in order.
+* In a pipelined lockstep the packets wait (bridge.frame_hold) and are handled a whole frame
+  at a time, links in a fixed order, once the bridge is done with the barrier before it.
 """
 from __future__ import annotations
 
 from common.frames import TransformException
+from common.mavlink.dialect import towerlink as tl
 from common.mavlink.frame_parser import Packet
 from bridge import translate
 from bridge.codec import Codec
@@ -53,9 +54,8 @@ class VehicleSide:
         self.warn_once = log.warn_once
         self.tower_drops = 0                # telemetry not sent to the tower: no transform
         # pipelined lockstep: a link's next frame waits until the bridge is done with this one
-        self.hold = FrameHold([v.link for v in vehicles.values()],
-                              lambda link: lockstep.holds(self._owner[link].name),
-                              self._handle_held) if lockstep is not None else None
+        self.hold = FrameHold([v.link for v in vehicles.values()], self._handle_held, self._tick_time,
+                              lambda: lockstep.lag > 0, lockstep.frame_ready) if lockstep is not None else None
 
     def on_packet(self, link: Link, pkt: Packet) -> None:
         """One packet from vehicle `link`: held for a barrier not yet done (bridge.frame_hold), or handled."""
@@ -67,6 +67,13 @@ class VehicleSide:
         """What the links held, handled in order as far as their barriers are done (the lockstep
         desk calls this when one may be)."""
         self.hold.release()
+
+    def _tick_time(self, pkt: Packet) -> int | None:
+        """A TICK's time (us) for the hold, or None."""
+        if pkt.msgid != MSG_TL_LOCKSTEP:
+            return None
+        msg = self.codec.decode(pkt.raw)
+        return msg.time_usec if msg is not None and msg.kind == tl.TOWERLINK_LOCKSTEP_KIND_TICK else None
 
     def _handle_held(self, link: Link, pkt: Packet) -> None:
         try:

@@ -173,56 +173,76 @@ def _desk(sent, wall):
                         lambda t: None, lambda line: sent.append(("log", line)), lambda: wall[0],
                         on_free=lambda: hold.release())
     by_link = {v.link: v for v in vehicles.values()}
+    lag = [1]
 
     def handle(link, pkt):
-        """What VehicleSide.handle does with a TICK; anything else is noted as handled."""
+        """What VehicleSide.handle does with a TICK (an int here); anything else is noted as handled."""
         if isinstance(pkt, int):
-            desk.on_vehicle(by_link[link], tl.MAVLink_towerlink_lockstep_message(pkt, 0, L.TICK, L.WORLD, P, 1))
+            desk.on_vehicle(by_link[link], tl.MAVLink_towerlink_lockstep_message(pkt, 0, L.TICK, L.WORLD, P, lag[0]))
         else:
             handled.append((link.name, pkt))
-    hold = FrameHold([v.link for v in vehicles.values()], lambda link: desk.holds(link.name), handle)
+    hold = FrameHold([v.link for v in vehicles.values()], handle, lambda pkt: pkt if isinstance(pkt, int) else None,
+                     lambda: desk.lag > 0, desk.frame_ready)
 
     def arrive(v, pkt):                 # VehicleSide.on_packet: held, or handled
         link = vehicles[v].link
         if not hold.take(link, pkt):
             handle(link, pkt)
-    return desk, hold, arrive, handled
+    return desk, hold, arrive, handled, lag
 
 
-def test_the_bridge_holds_a_links_next_frame_until_the_tower_acted_on_the_barrier():
-    """Pipelined: the drone's telemetry after TICK(40 ms) waits while the rover's TICK(40 ms)
-    has not come and then until the tower ACKed 40 ms (its goals translated against the tree
-    as it stood at the barrier); then it is handled in order, up to the next TICK."""
+def _ack(t):
+    return tl.MAVLink_towerlink_lockstep_message(t, 0, L.ACK, L.TOWER, 0)
+
+
+def test_the_bridge_handles_a_pipelined_frame_whole_once_the_tower_acted_on_the_one_before():
+    """Pipelined: the packets wait until a frame is complete on both links (each one's TICK in)
+    and the tower ACKed the barrier before it (its goals translated against the tree as it stood
+    there); then the frame is handled link by link (drone, then rover, whatever the order they
+    came in), up to each link's TICK."""
     sent, wall = [], [0.0]
-    desk, hold, arrive, handled = _desk(sent, wall)
+    desk, hold, arrive, handled, _lag = _desk(sent, wall)
     desk.on_tower(tl.MAVLink_towerlink_lockstep_message(0, 0, L.JOIN, L.TOWER, 0))
-    arrive(1, "d0")
-    arrive(1, P)                        # the drone's TICK(40 ms): its link holds from here
+    arrive(1, "d0")                     # before any TICK: handled as it comes
+    arrive(1, P)                        # the first TICK says lag 1: from here on packets wait
+    arrive(2, "r0")
     arrive(1, "d1")
-    arrive(2, "r0")                     # the rover's frame up to 40 ms goes on
-    arrive(1, 2 * P)                    # (a TICK is held like the rest)
+    arrive(1, 2 * P)
     arrive(1, "d2")
+    assert handled == [("drone", "d0")]
+    arrive(2, P)                        # frame 40 ms complete: the rover's part, then the barrier
     assert handled == [("drone", "d0"), ("rover", "r0")]
-    arrive(2, P)                        # the barrier: ACKs to the world, TICK (lag 1) to the tower
     assert [m for m in sent if m[0] != "log"] == \
         [("drone", L.ACK, P), ("rover", L.ACK, P), ("tower", L.TICK, P, 1)]
     arrive(2, "r1")
-    assert handled == [("drone", "d0"), ("rover", "r0")]       # the tower has not acted yet
-    desk.on_tower(tl.MAVLink_towerlink_lockstep_message(P, 0, L.ACK, L.TOWER, 0))
+    desk.on_tower(_ack(P))
     desk.tower_done()
-    assert handled[2:] == [("drone", "d1"), ("rover", "r1")]    # d2 waits behind the drone's TICK(80 ms)
-    assert hold.waiting() == 1 and desk.barrier_usec == P
-    arrive(2, 2 * P)                    # barrier 80 ms, done when the tower ACKs it
-    desk.on_tower(tl.MAVLink_towerlink_lockstep_message(2 * P, 0, L.ACK, L.TOWER, 0))
+    assert handled[2:] == []            # the tower acted, but the rover's frame 80 ms is not complete
+    arrive(2, 2 * P)
+    assert handled[2:] == [("drone", "d1"), ("rover", "r1")] and desk.barrier_usec == 2 * P
+    assert hold.waiting() == 1          # d2, behind the drone's TICK(80 ms), waits for the next frame
+    desk.on_tower(_ack(2 * P))
     desk.tower_done()
-    assert handled[4:] == [("drone", "d2")] and hold.waiting() == 0 and hold.held == 4
+    assert hold.waiting() == 1 and hold.held == 7
+
+
+def test_a_tick_the_world_sends_again_is_answered_at_once():
+    sent, wall = [], [0.0]
+    desk, hold, arrive, handled, _lag = _desk(sent, wall)
+    arrive(1, P)
+    arrive(2, P)
+    arrive(1, "d1")
+    sent.clear()
+    arrive(1, P)                        # TICK(40 ms) again: our ACK was lost
+    assert [m for m in sent if m[0] != "log"] == [("drone", L.ACK, P)] and hold.waiting() == 1
 
 
 def test_without_pipelining_the_bridge_holds_nothing():
     sent, wall = [], [0.0]
-    desk, hold, arrive, handled = _desk(sent, wall)
+    desk, hold, arrive, handled, lag = _desk(sent, wall)
+    lag[0] = 0
     desk.on_tower(tl.MAVLink_towerlink_lockstep_message(0, 0, L.JOIN, L.TOWER, 0))
-    desk.on_vehicle(desk.vehicles[1], tl.MAVLink_towerlink_lockstep_message(P, 0, L.TICK, L.WORLD, P))
+    arrive(1, P)
     arrive(1, "d1")
     assert handled == [("drone", "d1")] and hold.held == 0
 
@@ -230,11 +250,13 @@ def test_without_pipelining_the_bridge_holds_nothing():
 def test_a_silent_tower_is_no_longer_waited_for():
     from bridge.lockstep_desk import TOWER_SILENT
     sent, wall = [], [0.0]
-    desk, _hold, arrive, handled = _desk(sent, wall)
+    desk, _hold, arrive, handled, _lag = _desk(sent, wall)
     desk.on_tower(tl.MAVLink_towerlink_lockstep_message(0, 0, L.JOIN, L.TOWER, 0))
     arrive(1, P)
     arrive(2, P)
     arrive(1, "d1")
+    arrive(1, 2 * P)
+    arrive(2, 2 * P)
     wall[0] = TOWER_SILENT - 0.1
     desk.upkeep(wall[0])
     assert handled == [] and desk.tower_joined
