@@ -9,7 +9,7 @@ takes for itself, and the rest routed on by target_system (bridge.router).
 * TOWERLINK_TRANSFORM: a node's frame (bridge.node_desk), never echoed to the vehicles.
 * TOWERLINK_LOCKSTEP from the tower (--lockstep): the lockstep desk sees it, and it goes on
   to the world like any broadcast, in order after the tower's goals; pipelined, its ACK then
-  lets the vehicle links' held packets go on (bridge.frame_hold). From a node (the node
+  lets the next frame's vehicle packets go on (bridge.frame_hold). From a node (the node
   link): the bridge's own participant (bridge.node_lockstep), never routed.
 
 A packet the link's signature check refused is never routed; a static or a node's transform

@@ -36,8 +36,8 @@ Lockstep (--lockstep, bridge.lockstep_desk)
     The world's TOWERLINK_LOCKSTEP TICKs (never routed on) make a barrier once they came on
     every vehicle link; goal retries and the follower's checks then run at barriers on sim
     time instead of every wall tick, the bridge ACKs, and relays the TICK to the tower. When
-    the world is pipelined, a link's next frame waits until the tower acted on the barrier
-    (bridge.frame_hold).
+    the world is pipelined, each frame is handled whole, links in a fixed order, once the
+    tower acted on the barrier before it (bridge.frame_hold).
 """
 from __future__ import annotations
 
@@ -167,7 +167,7 @@ class Bridge:
         self.sim_checks.at_barrier(t)
 
     def _links_free(self) -> None:
-        # pipelined lockstep: a barrier is done; the vehicle links' held packets go on (in order)
+        # pipelined lockstep: a barrier is done; the next frame's packets may go on
         self.vehicle_side.release_held()
 
     def vehicle_frame(self, sysid: int) -> str:

@@ -29,8 +29,8 @@ def summary(links, vehicles: dict, timeline, node_frames, followers: dict, decod
                      f"tower {'joined' if lockstep.tower_joined else 'not joined'}; "
                      f"TICKs sent to the tower again {lockstep.tick_resends}; "
                      f"the world's TICKs answered again {lockstep.tick_resends_seen}"
-                     + (f"; pipelined: {held_next_frame} packets of the next frame held until the tower "
-                        f"acted" if lockstep.lag else ""))
+                     + (f"; pipelined: {held_next_frame} vehicle packets handled a whole frame at a time"
+                        if lockstep.lag else ""))
         if lockstep.nodes is not None:
             parts.append(lockstep.nodes.summary())
     return "\n".join(parts)
