@@ -18,6 +18,8 @@ from collections.abc import Callable
 HELPER_NICE = 10
 #: wall s the launcher waits for a child's work before it stops it and goes on without it
 HELPER_TIMEOUT = 120.0
+#: wall s between a child's reads of the growing tlogs while the run flies
+POLL_S = 0.25
 
 
 class ForkedHelper:
@@ -44,7 +46,7 @@ class ForkedHelper:
     def start(self) -> None:
         from tools.procs import die_with_parent
         ctx = multiprocessing.get_context("fork")
-        there, here = ctx.Pipe(duplex=False)        # (receiving end, sending end)
+        there, here = ctx.Pipe()            # jobs go there, answers (ask()) come here
         self._child = ctx.Process(target=_child_main, args=(self._main, there, die_with_parent()),
                                   name=self.name, daemon=True)
         self._child.start()
@@ -57,6 +59,17 @@ class ForkedHelper:
             self._conn.send(job)
         except (OSError, ValueError, AttributeError):
             pass
+
+    def ask(self, job, timeout: float = HELPER_TIMEOUT):
+        """Hand the child a job and return its answer (None if it is gone or gives none in
+        `timeout` wall s)."""
+        try:
+            self._conn.send(job)
+            if self._conn.poll(timeout):
+                return self._conn.recv()
+        except (OSError, ValueError, AttributeError, EOFError):
+            pass
+        return None
 
     def wait(self) -> None:
         """Wait for the child to end (at most HELPER_TIMEOUT), then :meth:`close`."""
@@ -85,6 +98,45 @@ def _child_main(main: Callable, conn, with_parent) -> None:
     if with_parent is not None:
         with_parent()       # SIGTERM when the launcher dies outright
     main(conn)
+
+
+class SubHelper:
+    """`main(conn)` in a child of a helper child, forked by it (with os.fork: multiprocessing lets no
+    daemon process have children), sharing what the helper imported; it ends with the helper
+    (tools.procs.die_with_parent) and ignores SIGINT as the helper does. The helper sends it jobs
+    (:meth:`send`) and reaps it (:meth:`wait`)."""
+
+    def __init__(self, main: Callable) -> None:
+        from tools.procs import die_with_parent
+        there, self._conn = multiprocessing.Pipe(duplex=False)
+        with_parent = die_with_parent()
+        self.pid = os.fork()
+        if self.pid == 0:           # the sub-helper: never back into the helper's code
+            code = 1
+            try:
+                self._conn.close()
+                if with_parent is not None:
+                    with_parent()
+                main(there)
+                code = 0
+            finally:
+                os._exit(code)
+        there.close()
+
+    def send(self, job) -> None:
+        """Hand it a job (dropped if it is gone)."""
+        try:
+            self._conn.send(job)
+        except (OSError, ValueError):
+            pass
+
+    def wait(self) -> None:
+        """Close its pipe and wait for it to end."""
+        self._conn.close()
+        try:
+            os.waitpid(self.pid, 0)
+        except ChildProcessError:
+            pass
 
 
 class Priority:

@@ -14,7 +14,8 @@ from __future__ import annotations
 from functools import partial
 from pathlib import Path
 
-from tools.fly_child import ForkedHelper, Priority
+from tools.fly_child import POLL_S, ForkedHelper, Priority, SubHelper
+from tools.fly_frames import draw_frames, live_frames
 
 
 def draw_tracks(run_dir: Path, scenario: str | None, data) -> None:
@@ -23,20 +24,6 @@ def draw_tracks(run_dir: Path, scenario: str | None, data) -> None:
         from tools.plot_tracks import plot_run
         plot_run(run_dir, scenario=scenario, data=data)
     except Exception:  # noqa: BLE001 - a plot failure must not hide the summary
-        pass
-
-
-def draw_frames(run_dir: Path) -> None:
-    """frames.pdf, frames.png and frames.yaml from bridge.tlog's transforms; left out if it fails
-    or the bridge recorded no transform."""
-    try:
-        from tools.view_frames import buffer_from_tlog, write_drawing
-        buf, now = buffer_from_tlog(run_dir / "bridge.tlog")
-        if buf.edge_stats():
-            title = f"view_frames: {run_dir.name}"
-            write_drawing(buf, run_dir / "frames.pdf", now=now, title=title)
-            write_drawing(buf, run_dir / "frames.png", now=now, title=title)
-    except Exception:  # noqa: BLE001
         pass
 
 
@@ -52,6 +39,11 @@ class Drawings:
 
     def flight_over(self) -> None:
         """The tlogs are complete (nothing to do here: both are drawn in :meth:`tracks`)."""
+
+    def run_data(self):
+        """The run's data (tools.run_data.RunData) if they were read while the run flew (tracks.png
+        is then drawn from them without :meth:`tracks`); None here: the caller reads them."""
+        return None
 
     def tracks(self, data) -> None:
         """Draw tracks.png from `data`, then the frame tree."""
@@ -69,8 +61,9 @@ class DrawingWorker(Drawings):
     """The drawings in a child forked by :meth:`start`, before the launcher starts any thread.
 
     The parent calls :meth:`flight_begins` when the sim clock first moves (the child then imports
-    what it draws with), :meth:`flight_over` once the processes stopped, :meth:`tracks` with the
-    run's data, :meth:`wait` for the pictures; :meth:`close` (always, also on failure or Ctrl-C)
+    what it draws with and reads the tlogs as they grow), :meth:`flight_over` once the processes
+    stopped, :meth:`run_data` for the run's data (or, None, :meth:`tracks` with the data it read
+    itself), :meth:`wait` for the pictures; :meth:`close` (always, also on failure or Ctrl-C)
     stops the child if it still runs and reaps it."""
 
     def __init__(self, run_dir: Path, scenario: str | None) -> None:
@@ -88,11 +81,14 @@ class DrawingWorker(Drawings):
     def flight_over(self) -> None:
         self.helper.send(("frames",))
 
+    def run_data(self):
+        return self.helper.ask(("data",))
+
     def tracks(self, data) -> None:
         self.helper.send(("tracks", data))
-        self.helper.send(None)
 
     def wait(self) -> None:
+        self.helper.send(None)
         self.helper.wait()
 
     def close(self) -> None:
@@ -100,25 +96,75 @@ class DrawingWorker(Drawings):
 
 
 def _worker(run_dir: Path, scenario: str | None, conn) -> None:
-    """The child: prepare at a low priority, then draw what the parent asks for until None."""
+    """The child: prepare at a low priority, then do what the parent asks for until None. Once
+    prepared it reads the run's data while the tlogs grow (tools.run_data_tail) and forks a
+    sub-helper (tools.fly_frames.live_frames) that reads bridge.tlog likewise and draws the frame
+    tree, while this one draws tracks.png: after the flight only the last slices are read, and the
+    two drawings are made side by side."""
     priority = None
-    while True:
-        try:
-            job = conn.recv()
-        except (EOFError, OSError):
-            return
-        if job is None:
-            return
-        if job[0] == "prepare":
-            priority = Priority()   # lowered only while the run flies: it may not come back up
-            _prepare()
-            continue
-        if priority is not None:
-            priority.restore()      # the drawings are on the run's critical path now
-        if job[0] == "frames":
-            draw_frames(run_dir)
-        elif job[0] == "tracks":
-            draw_tracks(run_dir, scenario, job[1])
+    frames: SubHelper | None = None
+    live = None
+    try:
+        while True:
+            try:
+                while live is not None and not conn.poll(POLL_S):
+                    live = _poll(live)
+                job = conn.recv()
+            except (EOFError, OSError):
+                return
+            if job is None:
+                return
+            if job[0] == "prepare":
+                priority = Priority()   # lowered only while the run flies: it may not come back up
+                _prepare()
+                frames = SubHelper(partial(live_frames, run_dir, priority))    # shares the imports
+                live = _live_data(run_dir)
+                continue
+            if priority is not None:
+                priority.restore()      # the drawings are on the run's critical path now
+            if job[0] == "frames":
+                if frames is not None:
+                    frames.send("over")
+                else:
+                    draw_frames(run_dir)
+            elif job[0] == "data":
+                data, live = _finish(live), None
+                conn.send(data)         # None: the parent reads the tlogs and sends them (tracks)
+                if data is not None:
+                    draw_tracks(run_dir, scenario, data)
+            elif job[0] == "tracks":
+                draw_tracks(run_dir, scenario, job[1])
+    finally:
+        if frames is not None:
+            frames.wait()       # its drawing done (or, the run given up, left out)
+
+
+def _live_data(run_dir: Path):
+    """The run's data read as the tlogs grow (tools.run_data_tail.LiveRunData); None if that fails."""
+    try:
+        from tools.run_data_tail import LiveRunData
+        return LiveRunData(run_dir)
+    except Exception:  # noqa: BLE001 - the parent then reads the finished tlogs
+        return None
+
+
+def _poll(live):
+    """`live` after a read of what the tlogs gained; None if that failed."""
+    try:
+        live.poll()
+        return live
+    except Exception:  # noqa: BLE001
+        return None
+
+
+def _finish(live):
+    """The run's data from `live` (the tlogs are finished); None without them."""
+    if live is None:
+        return None
+    try:
+        return live.finish()
+    except Exception:  # noqa: BLE001
+        return None
 
 
 def _prepare() -> None:
