@@ -191,8 +191,8 @@ def _helpers(out: Path, scenario: str | None) -> tuple:
 
 def run(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else Path("runs") / time.strftime("%Y%m%d-%H%M%S")
+    from common.scenario import ScenarioError, load_scenario     # (a Ctrl-C here: exit 130, nothing started)
     try:
-        from common.scenario import ScenarioError, load_scenario
         load_scenario(args.scenario)
     except ScenarioError as exc:
         print(f"towerlink fly: {exc}", file=sys.stderr)

@@ -2,12 +2,13 @@
 
 :class:`Drawings` draws them here, after the scoring (where fork is not available, or for a
 Launch driven by a test). :class:`DrawingWorker` is a child forked when the run starts
-(tools.fly_child): it imports matplotlib (about half a second of CPU) once the run flies
-(:meth:`DrawingWorker.flight_begins`: not during the start-up, when the world's imports need
-the cores);
-once the flight is over it draws the frame tree from bridge.tlog at once and tracks.png as soon
-as the parent hands it the run's data, both in parallel with the parent's scoring. Either
-draws a picture as far as it goes: a drawing that fails is left out and never hides the summary.
+(tools.fly_child): once the run flies (:meth:`DrawingWorker.flight_begins`: not during the
+start-up, when the world's imports need the cores) it imports matplotlib (about half a second of
+CPU), forks a sub-helper for the frame tree (tools.fly_frames) and, like it, reads the tlogs as
+they grow. Once the flight is over it hands the launcher the run's data (the launcher's scoring
+needs them: :meth:`DrawingWorker.run_data`) and draws tracks.png at once, while the sub-helper
+draws the frame tree. Either draws a picture as far as it goes: a drawing that fails is left out
+and never hides the summary.
 """
 from __future__ import annotations
 

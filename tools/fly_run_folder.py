@@ -4,8 +4,8 @@ meta.json (how the run was made, written at the start), then after the run: faul
 each of the scenario's faults took effect and was cleared, as the link proxy applied them),
 summary.json and summary.txt (the scores), tracks.png, frames.pdf / frames.png (the frame tree,
 tools.fly_drawings), run.mcap. A drawing or a recording that fails never hides the summary: it is
-left out. After the flight the recording (a forked child), the drawings and the scoring run side
-by side.
+left out. After the flight the recording (a forked child), the drawings (a forked child and its
+sub-helper, which also read the run's data while it flew) and the scoring run side by side.
 """
 from __future__ import annotations
 
