@@ -16,7 +16,7 @@ from functools import partial
 from pathlib import Path
 
 from tools.fly_child import POLL_S, ForkedHelper, Priority, SubHelper
-from tools.fly_frames import draw_frames, live_frames
+from tools.fly_frames import draw_frames, live_frames, prepare_pdf
 
 
 def draw_tracks(run_dir: Path, scenario: str | None, data) -> None:
@@ -176,5 +176,6 @@ def _prepare() -> None:
         import matplotlib.pyplot  # noqa: F401
         import tools.plot_tracks  # noqa: F401
         import tools.view_frames  # noqa: F401
+        prepare_pdf()
     except Exception:  # noqa: BLE001 - the drawings then fail (and are left out) when asked for
         pass
