@@ -166,7 +166,9 @@ class Launch:
                 return rc
             now = time.monotonic()
             if self.tower.over.is_set():     # its last line: the result is written, only its exit is left
-                return self._tower_exit(end - now)
+                # (the others run on until it has gone, as long as they always did: a summary
+                # figure at the last goal may read the truth a little past it)
+                return self.processes.wait("tower", end - now)
             for name in ("sitl", *(f"node-{p.stem}" for p in self.plan.nodes)):
                 status = self.processes.exited(name)
                 if status is not None:
@@ -193,12 +195,6 @@ class Launch:
             if now > end:
                 return None
             self.tower.over.wait(0.05)
-
-    def _tower_exit(self, timeout: float) -> int | None:
-        """The tower has said its last line: the others are told to stop while it exits (its
-        interpreter's teardown); its exit status (None if it is not gone within `timeout` s)."""
-        self._tell_to_stop()
-        return self.processes.wait("tower", timeout)
 
     # -- stopping
 
