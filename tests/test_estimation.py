@@ -5,6 +5,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from sim_support import run
 
 from vehicle.fleet import CopterFleet, RoverFleet, Setpoint
@@ -84,7 +86,8 @@ def test_rover_estimator_tracks():
 
 
 def test_batched_kf_matches_filterpy():
-    """BatchedKF (big fleets) runs filterpy's equations: same numbers as filterpy."""
+    """BatchedKF (big fleets) runs the per-vehicle filters' equations (the sequential GPS and
+    baro updates included): the same numbers to rounding (its predict multiplies in another order)."""
     from vehicle.estimation import BatchedKF, make_kf
     rng = np.random.default_rng(4)
     n = 5
@@ -112,6 +115,8 @@ def test_batched_kf_matches_filterpy():
     for i in range(n):
         np.testing.assert_allclose(b.x[i], kfs[i].x, rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(b.P[i], kfs[i].P, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(b.y[i], kfs[i].y, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(b.S[i], kfs[i].S, rtol=1e-9, atol=1e-12)
 
 
 def test_fleet_filterpy_and_batched_estimators_agree():
@@ -155,17 +160,89 @@ def test_sensor_rows_are_the_vectorised_samples_to_the_bit():
             assert baro_alt is None
 
 
-def test_filter_gain_of_a_scalar_measurement_is_a_division():
-    """The filters' inv: a 1x1 S (baro) by division gives numpy's LU inverse to the bit;
-    any larger S is numpy's inverse."""
-    from vehicle.estimation import _inv, make_kf
-    rng = np.random.default_rng(2)
-    for v in rng.lognormal(0.0, 6.0, size=2000):
-        S = np.array([[v]])
-        assert _inv(S)[0, 0] == np.linalg.inv(S)[0, 0]
-    S = np.cov(rng.normal(size=(6, 20)))
-    assert np.array_equal(_inv(S), np.linalg.inv(S))
-    assert make_kf(0.01, np.zeros(3), 0.08, 0.3, 0.45, 0.1).inv is _inv
+def _joint_update(x, P, z, H, R):
+    """filterpy's joint update (K = PH' inv(S), Joseph form) of x (9,), P (9, 9)."""
+    from filterpy.kalman import KalmanFilter
+    kf = KalmanFilter(dim_x=9, dim_z=len(H))
+    kf.x, kf.P, kf.H, kf.R = x.copy(), P.copy(), H, R
+    kf.update(z)
+    return kf
+
+
+_SEEDS = st.integers(min_value=0, max_value=2 ** 32 - 1)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=_SEEDS, m=st.integers(min_value=1, max_value=6), coupled=st.booleans())
+def test_sequential_update_is_the_joint_kalman_update(seed, m, coupled):
+    """The filters' update fuses a direct observation with diagonal R scalar by scalar (EKF3's
+    sequential fusion, no inverse): the posterior of filterpy's joint update to rounding, for
+    a dense P (every state correlated) or the estimator's per-axis one; y and S are filterpy's."""
+    from vehicle.estimation import make_kf
+    rng = np.random.default_rng(seed)
+    kf = make_kf(0.01, np.zeros(3), 0.08, 0.3, 0.45, 0.1)
+    if coupled:
+        A = rng.normal(size=(9, 9))
+        P = A @ A.T + np.eye(9) * 0.1
+    else:
+        for _ in range(rng.integers(1, 200)):
+            kf.predict(u=rng.normal(size=3))
+        P = kf.P.copy()
+    x = rng.normal(size=9) * 5.0
+    states = rng.choice(9, size=m, replace=False)
+    H = np.zeros((m, 9))
+    H[np.arange(m), states] = 1.0
+    R = np.diag(rng.lognormal(-2.0, 2.0, size=m))
+    z = rng.normal(size=m) * 3.0
+    ref = _joint_update(x, P, z, H, R)
+    kf.x, kf.P = x.copy(), P.copy()
+    kf.update(z, R=R, H=H)
+    np.testing.assert_allclose(kf.x, ref.x, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(kf.P, ref.P, rtol=1e-7, atol=1e-9 * np.abs(P).max())
+    np.testing.assert_array_equal(kf.y, ref.y)
+    np.testing.assert_array_equal(kf.S, ref.S)
+    if np.array_equal(P, P.T):
+        assert np.array_equal(kf.P, kf.P.T)         # the update is exactly symmetric
+    assert kf.K is None and kf.SI is None       # no gain matrix, no inverse
+    assert kf.mahalanobis == pytest.approx(ref.mahalanobis, rel=1e-9)
+    assert kf.log_likelihood == pytest.approx(ref.log_likelihood, rel=1e-9, abs=1e-9)
+
+
+def test_sequential_update_leaves_other_forms_to_filterpy():
+    """A measurement that is not a direct observation (a row of H mixing states) or has
+    correlated noise takes filterpy's joint update unchanged, bit for bit."""
+    from vehicle.estimation import make_kf
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(9, 9))
+    P, x = A @ A.T + np.eye(9), rng.normal(size=9)
+    mixed = np.zeros((2, 9))
+    mixed[0, 0] = mixed[1, 3] = 1.0
+    mixed[1, 4] = 0.5
+    correlated = np.array([[1.0, 0.2], [0.2, 1.0]])
+    direct = np.zeros((2, 9))
+    direct[0, 0] = direct[1, 3] = 1.0
+    for H, R in ((mixed, np.eye(2)), (direct, correlated), (direct * 2.0, np.eye(2))):
+        kf = make_kf(0.01, np.zeros(3), 0.08, 0.3, 0.45, 0.1)
+        kf.x, kf.P = x.copy(), P.copy()
+        kf.update(np.array([1.0, 2.0]), R=R, H=H)
+        ref = _joint_update(x, P, np.array([1.0, 2.0]), H, R)
+        assert np.array_equal(kf.x, ref.x) and np.array_equal(kf.P, ref.P) and kf.K is not None
+
+
+def test_sequential_update_follows_edits_of_H_and_R():
+    """H and R are recognised by their contents: editing the filter's R in place is seen."""
+    from vehicle.estimation import make_kf
+    kf = make_kf(0.01, np.zeros(3), 0.08, 0.3, 0.45, 0.1)
+    kf.update(np.zeros(6))
+    P1 = kf.P.copy()
+    kf.R[0, 0] *= 100.0
+    kf.update(np.zeros(6))
+    ref = make_kf(0.01, np.zeros(3), 0.08, 0.3, 0.45, 0.1)
+    ref.update(np.zeros(6))
+    ref.R[0, 0] *= 100.0
+    ref.update(np.zeros(6))
+    assert np.array_equal(kf.P, ref.P) and not np.array_equal(kf.P, P1)
+    assert kf.S[0, 0] == pytest.approx(P1[0, 0] + kf.R[0, 0])
 
 
 def test_noise_rows_are_the_noise_arrays_across_blocks():
@@ -240,3 +317,22 @@ def test_no_aiding_stops_after_15_s_and_resumes_on_a_fix():
     assert 0.0 < x[0] < 5.0 and log.pos[0] > 0.0                  # pulled back toward (0, 1)
     na.resume(0, x, P, [10.0, 20.0, -3.0, 1.0, 2.0, 0.0])
     assert na.active == [False] and x[[0, 1, 3, 4]].tolist() == [10.0, 20.0, 1.0, 2.0]
+
+
+@pytest.mark.parametrize("kind", ["filterpy", "batched"])
+def test_baro_is_taken_50_ms_apart_as_ekf3_takes_it(kind):
+    """EKF3 takes a height sample only when it is more than 50 ms after the last one taken
+    (sensorIntervalMin_ms): of a 50 Hz baro, every third sample, 60 ms apart, for the drone's
+    400 Hz steps and the rover's 50 Hz loop alike."""
+    from vehicle.estimation import SENSOR_INTERVAL_MIN_MS
+    for fleet, dt in ((CopterFleet(2, seed=[1, 2], estimator=kind), 0.0025),
+                      (RoverFleet(2, seed=[1, 2], estimator=kind), 0.0025)):
+        fused, last = [], None
+        for k in range(int(1.2 / dt)):
+            fleet.step(dt)
+            hgt = fleet.estimator.innovations.hgt.tolist()
+            if hgt != last:
+                fused.append(k)
+                last = hgt
+        gaps = {round((b - a) * dt * 1000) for a, b in zip(fused, fused[1:])}
+        assert gaps == {60} and 60 > SENSOR_INTERVAL_MIN_MS and len(fused) >= 19

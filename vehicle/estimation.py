@@ -6,7 +6,8 @@ Position/velocity: one filterpy ``KalmanFilter`` per vehicle (or, for big fleets
 world frame (slowly varying). The filter is predicted at ``kf_rate`` (100 Hz) with the
 IMU specific force rotated to world by the attitude estimate plus gravity, averaged
 sampled at the epoch, and corrected with GPS position + velocity
-(10 Hz) and baro altitude (50 Hz). Between filter epochs the output is dead-reckoned
+(10 Hz) and baro altitude (sampled at 50 Hz; EKF3 takes a height sample only when it is more
+than SENSOR_INTERVAL_MIN_MS after the last one it took, so every third: 16.7 Hz). Between filter epochs the output is dead-reckoned
 with the IMU every step (vectorised) and reset to the filter state at each epoch, like
 the output predictor of ArduPilot's EKF.
 
@@ -24,11 +25,10 @@ its last known horizontal position with each baro height, so its velocity stays 
 the next fix resets it onto GPS.
 
 Speed (a filter epoch of one vehicle): the filters are filterpy's own predict/update on
-fixed-size matrices, fed from reused buffers (GPS z, the predict's u); the baro height goes
-in as a scalar z (filterpy's form for dim_z 1: its copy of z is free) and its 1x1
-innovation covariance is inverted by one division through filterpy's ``inv`` hook
-(bit-identical to numpy's LU inverse, a seventh of its cost); the GPS update's 6x6 keeps
-numpy's inverse at 10 Hz. Around the filters, per-vehicle epochs run on Python floats
+fixed-size matrices, fed from reused buffers (GPS z, the predict's u). Both measurements
+observe states directly with uncorrelated noise (H rows unit vectors, R diagonal), so the
+update fuses them one scalar at a time as ArduPilot's EKF3 fuses GPS (FuseVelPosNED): a
+division per component, no inverse of the 6x6 S (vehicle.sequential_kf). Around the filters, per-vehicle epochs run on Python floats
 (sensors, AHRS error, rotations), the same operations in the same order as the vectorised
 form, taking truth and handing out the estimate as per-vehicle rows (epoch_rows).
 """
@@ -37,29 +37,23 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from filterpy.kalman import KalmanFilter
 
 from common.frames.batch import quat_mul, quat_mul_one, rotate, rotate_one
 from vehicle.innovations import InnovationLog
 from vehicle.no_aiding import NoAiding
+from vehicle.sequential_kf import SequentialForms, SequentialKalmanFilter, fuse_scalars_batched
 
 G = np.array([0.0, 0.0, 9.80665])
-
-
-def _inv(S: np.ndarray) -> np.ndarray:
-    """The filters' ``inv`` (filterpy's hook for S^-1): a scalar measurement's (baro) 1x1 S
-    by one division, which is what an LU inverse of a 1x1 matrix computes (the same number,
-    without numpy.linalg's ~5 us of checks); larger S by numpy's LU inverse."""
-    if S.shape == (1, 1):
-        return 1.0 / S
-    return np.linalg.inv(S)
+# EKF3's sensorIntervalMin_ms (AP_NavEKF3.cpp): readBaroData takes a new height sample only when
+# it is more than this after the last one taken, which keeps its measurement buffer from filling
+SENSOR_INTERVAL_MIN_MS = 50
 
 
 def make_kf(dt: float, pos0, accel_sigma: float, gps_pos_sigma: float, gps_alt_sigma: float,
-            gps_vel_sigma: float) -> KalmanFilter:
+            gps_vel_sigma: float) -> SequentialKalmanFilter:
     """The 9-state filter [p, v, b] (world NED, m, m/s, m/s^2) for epochs dt s apart, at
     pos0, with white-acceleration process noise and the GPS noise of the sensor spec."""
-    kf = KalmanFilter(dim_x=9, dim_z=6, dim_u=3)
+    kf = SequentialKalmanFilter(dim_x=9, dim_z=6, dim_u=3)
     F = np.eye(9)
     F[0:3, 3:6] = np.eye(3) * dt
     F[0:3, 6:9] = -np.eye(3) * 0.5 * dt * dt
@@ -81,17 +75,17 @@ def make_kf(dt: float, pos0, accel_sigma: float, gps_pos_sigma: float, gps_alt_s
     kf.x = np.zeros(9)
     kf.x[0:3] = pos0
     kf.P = np.diag([25.0] * 3 + [4.0] * 3 + [0.1 ** 2] * 3)
-    kf.inv = _inv
     return kf
 
 
 class BatchedKF:
-    """The same filter as ``make_kf`` for n vehicles at once: filterpy's equations
-    (predict x = Fx + Bu, P = FPF' + Q; update with K = PH' inv(S) and the Joseph form
-    P = (I-KH)P(I-KH)' + KRK'), written over a leading vehicle axis. Used for fleets
-    too big for per-vehicle filterpy objects; tests check it against filterpy."""
+    """The same filter as ``make_kf`` for n vehicles at once: filterpy's predict (x = Fx + Bu,
+    P = FPF' + Q) and the update of vehicle.sequential_kf (the measurement's components fused
+    one after the other as scalars) written over a leading vehicle axis; an update whose H or
+    R has no sequential form takes filterpy's (K = PH' inv(S), Joseph form). Used for fleets
+    too big for per-vehicle filterpy objects; tests check it against them."""
 
-    def __init__(self, template: KalmanFilter, x0: np.ndarray):
+    def __init__(self, template: SequentialKalmanFilter, x0: np.ndarray):
         n = len(x0)
         self.F, self.B, self.Q = template.F.copy(), template.B.copy(), template.Q.copy()
         self.H, self.R = template.H.copy(), template.R.copy()
@@ -99,6 +93,7 @@ class BatchedKF:
         self.x[:, 0:3] = x0
         self.P = np.tile(template.P, (n, 1, 1))
         self._I = np.eye(template.dim_x)
+        self._forms = SequentialForms()
 
     def predict(self, u: np.ndarray) -> None:
         self.x = self.x @ self.F.T + u @ self.B.T
@@ -108,10 +103,15 @@ class BatchedKF:
         R = self.R if R is None else R
         H = self.H if H is None else H
         y = z - self.x @ H.T
+        plan = self._forms.get(H, R)
+        if plan.idx is not None:
+            self.y, self.S = y, self.P[(slice(None),) + plan.ix] + R     # the innovations, as filterpy keeps them
+            self.x, self.P = fuse_scalars_batched(self.x, self.P, plan.idx, z, plan.r)
+            return
         PHT = self.P @ H.T
         S = H @ PHT + R
         K = PHT @ np.linalg.inv(S)
-        self.y, self.S = y, S          # the innovations, as filterpy keeps them
+        self.y, self.S = y, S
         self.x = self.x + np.einsum("nij,nj->ni", K, y)
         I_KH = self._I - K @ H
         self.P = I_KH @ self.P @ I_KH.transpose(0, 2, 1) + K @ R @ K.transpose(0, 2, 1)
@@ -199,6 +199,14 @@ class Estimator:
         self._arrays = {k: buf[:, lo:hi] for k, (lo, hi) in _ROW_SLICES.items()}
         return self._arrays
 
+    def part(self, name: str, i: int) -> list[float]:
+        """Vehicle i's attribute `name` (pos, vel, bias, acc, quat, dq, rates, ahrs_err) as
+        floats, from `rows` while they are current (no arrays built)."""
+        if self._arrays is None:
+            lo, hi = _ROW_SLICES[name]
+            return self.rows[i][lo:hi]
+        return self._arrays[name][i].tolist()
+
     def _row_part(self, name: str) -> list:
         """Attribute `name` as a list of per-vehicle rows, from `rows` while they are current."""
         if self._arrays is None:
@@ -215,6 +223,10 @@ class Estimator:
         # filter every step: ArduPilot's EKF3 predicts once per loop when the loop is slower)
         self.n_gps = self.n_kf * max(1, round(1.0 / (sp.gps_rate * self.kf_dt)))
         self.n_baro = self.n_kf * max(1, round(1.0 / (sp.baro_rate * self.kf_dt)))
+        # a baro sample is fused when at least this many steps after the last one taken
+        self._baro_gap = SENSOR_INTERVAL_MIN_MS * 1000 // round(dt * 1e6) + 1
+        never = -self._baro_gap          # the step of each vehicle's last baro sample taken
+        self._baro_taken = np.full(self.n, never) if self.batched else [never] * self.n
         # AHRS error: first-order Gauss-Markov, a = exp(-T/tau), drive sigma sqrt(1 - a^2)
         self._ahrs_a = a = math.exp(-self.kf_dt / sp.ahrs_tau)
         self._ahrs_drive = sp.ahrs_sigma * math.sqrt(1 - a * a)
@@ -285,14 +297,20 @@ class Estimator:
             self.innovations.gps_all(b.y, b.S, self.k - 1)
             self.innovations.restore(b, kept)
         if baro:
-            kept = self.innovations.keep(b, sensors.baro_missing)
-            b.update(-sensors.baro_alt[:, None], R=self.R_baro, H=self.H_baro)
-            self.innovations.baro_all(b.y, b.S)
-            self.innovations.restore(b, kept)
-            na = self.no_aiding
-            for i in np.flatnonzero(na.active):
-                if sensors.baro_missing is None or not sensors.baro_missing[i]:
-                    na.fuse(i, b.x[i], b.P[i], self.innovations)
+            step = self.k - 1
+            skip = step - self._baro_taken < self._baro_gap
+            if sensors.baro_missing is not None:
+                skip |= sensors.baro_missing
+            if not skip.all():
+                kept = self.innovations.keep(b, skip)
+                b.update(-sensors.baro_alt[:, None], R=self.R_baro, H=self.H_baro)
+                self.innovations.baro_all(b.y, b.S)
+                self.innovations.restore(b, kept)
+                self._baro_taken[~skip] = step
+                na = self.no_aiding
+                for i in np.flatnonzero(na.active):
+                    if not skip[i]:
+                        na.fuse(i, b.x[i], b.P[i], self.innovations)
         self.pos = b.x[:, 0:3].copy()
         self.vel = b.x[:, 3:6].copy()
         self.bias = b.x[:, 6:9].copy()
@@ -328,6 +346,7 @@ class Estimator:
         zg, u = self._z_gps, self._u
         log, step = self.innovations, self.k - 1
         noaid = self.no_aiding.active
+        taken, gap = self._baro_taken, self._baro_gap
         rows = []
         for i, (kf, zi, qt, w, ge, err, f) in enumerate(zip(self.kfs, z, Q, rates, gyro_err,
                                                             self._row_part("ahrs_err"), accel)):
@@ -351,7 +370,8 @@ class Estimator:
                 log.gps(i, kf.y, kf.S, step)
             elif gps and self._aiding_lost(i, step):
                 self.no_aiding.stop(i, kf.x, kf.P, log)
-            if baro and baro_alt[i] is not None:
+            if baro and baro_alt[i] is not None and step - taken[i] >= gap:
+                taken[i] = step
                 # a scalar z (filterpy takes one for dim_z 1): the same y, and its copy of z is cheap
                 kf.update(-baro_alt[i], R=self.R_baro, H=self.H_baro)
                 log.baro(i, kf.y, kf.S)

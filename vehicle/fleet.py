@@ -59,7 +59,7 @@ import numpy as np
 
 from vehicle.control import copter as ccore
 from vehicle.control import rover as rcore
-from vehicle.fleet_base import FleetBase, Setpoint, SoA, finite_angle, vec3
+from vehicle.fleet_base import FleetBase, Setpoint, SoA, finite_angle, finite_or_zero, vec3
 from vehicle.physics import NumpyOps, ScalarOps
 from vehicle.physics import multicopter as mc
 from vehicle.physics import rover as rphys
@@ -223,15 +223,15 @@ class CopterFleet(FleetBase):
         self.setpoints[i] = sp
         pos, vel, acc = vec3(sp.pos), vec3(sp.vel), vec3(sp.acc)
         yaw, yaw_rate = finite_angle(sp.yaw), finite_angle(sp.yaw_rate)
-        vel = np.zeros(3) if vel is None else np.nan_to_num(vel, posinf=0.0, neginf=0.0)
-        acc = np.zeros(3) if acc is None else np.nan_to_num(acc, posinf=0.0, neginf=0.0)
+        vel = [0.0, 0.0, 0.0] if vel is None else finite_or_zero(vel)
+        acc = [0.0, 0.0, 0.0] if acc is None else finite_or_zero(acc)
         if pos is None:
             use_xy = use_z = False
-            pos = np.zeros(3)
+            pos = [0.0, 0.0, 0.0]
         else:
-            use_xy = bool(np.isfinite(pos[0]) and np.isfinite(pos[1]))
-            use_z = bool(np.isfinite(pos[2]))
-            pos = np.where(np.isfinite(pos), pos, 0.0)
+            use_xy = math.isfinite(pos[0]) and math.isfinite(pos[1])
+            use_z = math.isfinite(pos[2])
+            pos = finite_or_zero(pos)
         vals = dict(px=pos[0], py=pos[1], pz=pos[2], vx=vel[0], vy=vel[1], vz=vel[2],
                     ax=acc[0], ay=acc[1], az=acc[2],
                     yaw=0.0 if yaw is None else yaw, yaw_rate=0.0 if yaw_rate is None else yaw_rate)
@@ -378,8 +378,8 @@ class RoverFleet(FleetBase):
     def set_setpoint(self, i: int, sp: Setpoint) -> None:
         self.setpoints[i] = sp
         pos, vel, yaw, yaw_rate = vec3(sp.pos), vec3(sp.vel), finite_angle(sp.yaw), finite_angle(sp.yaw_rate)
-        use_pos = pos is not None and bool(np.all(np.isfinite(pos[:2])))
-        vel = np.zeros(3) if vel is None else np.nan_to_num(vel, posinf=0.0, neginf=0.0)
+        use_pos = pos is not None and math.isfinite(pos[0]) and math.isfinite(pos[1])
+        vel = [0.0, 0.0, 0.0] if vel is None else finite_or_zero(vel)
         vals = dict(px=float(pos[0]) if use_pos else 0.0, py=float(pos[1]) if use_pos else 0.0,
                     vx=float(vel[0]), vy=float(vel[1]), yaw=0.0 if yaw is None else yaw,
                     yaw_rate=0.0 if yaw_rate is None else yaw_rate)

@@ -56,8 +56,15 @@ class VehicleState:
         return euler_from_quaternion(self.quat)
 
 
-def vec3(v) -> np.ndarray | None:
-    return None if v is None else np.asarray(v, dtype=float).reshape(3)
+def vec3(v) -> list[float] | None:
+    """A 3-vector (any array-like of 3 numbers) as 3 Python floats; None stays None."""
+    return None if v is None else np.asarray(v, dtype=float).reshape(3).tolist()
+
+
+def finite_or_zero(v: list[float]) -> list[float]:
+    """v with every NaN or infinity replaced by 0.0 (numpy's nan_to_num with posinf=neginf=0,
+    on floats: a setpoint is given to one vehicle at a time, where numpy calls cost most)."""
+    return [c if math.isfinite(c) else 0.0 for c in v]
 
 
 def finite_angle(a) -> float | None:

@@ -95,7 +95,7 @@ class EkfTelemetry:
         vel = test_ratio(float(log.vel[i]), p.get("EK3_VEL_I_GATE", 500))
         pos = test_ratio(float(log.pos[i]), p.get("EK3_POS_I_GATE", 500))
         hgt = test_ratio(float(log.hgt[i]), p.get("EK3_HGT_I_GATE", 500))
-        yaw_err = abs(float(est.ahrs_err[i][2]))
+        yaw_err = abs(est.part("ahrs_err", i)[2])
         mag = yaw_err / (max(0.01 * p.get("EK3_MAG_I_GATE", 300), 1.0) * est.spec.ahrs_sigma)
         aligned = bool(est.ok[i])
         flags = ekf_flags(aligned, gps_age, not (vel > 1 and pos > 1 and hgt > 1), est.no_aiding.active[i])
@@ -111,7 +111,7 @@ class EkfTelemetry:
         est = self._estimator()
         if est is None or est.kfs is None:
             return (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-        ex, ey, ez = (float(v) for v in est.ahrs_err[self.ap.i])
+        ex, ey, ez = est.part("ahrs_err", self.ap.i)
         return (0.0, 0.0, 0.0, 0.0, 0.0, math.hypot(ex, ey), abs(ez))
 
     def ahrs2_fields(self) -> tuple:
