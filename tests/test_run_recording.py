@@ -53,30 +53,25 @@ def _run_tlogs(n: int = 300) -> dict[str, bytes]:
     return {k: bytes(v) for k, v in out.items()}
 
 
-def write_growing(run_dir, tlogs: dict[str, bytes], seed: int, poll) -> None:
+def _record_growing(run_dir, tlogs: dict[str, bytes], seed: int) -> LiveRecording:
     """Write the tlogs in random pieces (a piece may end inside a frame, or inside a stamp),
-    calling poll() before the first and after each."""
+    polling a LiveRecording after each; then finish it."""
     rng = random.Random(seed)
+    rec = LiveRecording(run_dir)
     pos = dict.fromkeys(tlogs, 0)
     files = {name: open(run_dir / name, "wb") for name in tlogs}
     try:
-        poll()                                  # before the files have anything
+        rec.poll()                              # before the files have anything
         while any(pos[n] < len(b) for n, b in tlogs.items()):
             for name, data in tlogs.items():
                 step = rng.choice((0, 1, 3, 9, 17, 64, 700, 5000))
                 files[name].write(data[pos[name]:pos[name] + step])
                 files[name].flush()
                 pos[name] += step
-            poll()
+            rec.poll()
     finally:
         for f in files.values():
             f.close()
-
-
-def _record_growing(run_dir, tlogs: dict[str, bytes], seed: int) -> LiveRecording:
-    """A LiveRecording polled while the tlogs grow (write_growing), then finished."""
-    rec = LiveRecording(run_dir)
-    write_growing(run_dir, tlogs, seed, rec.poll)
     rec.finish()
     return rec
 

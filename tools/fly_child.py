@@ -18,8 +18,6 @@ from collections.abc import Callable
 HELPER_NICE = 10
 #: wall s the launcher waits for a child's work before it stops it and goes on without it
 HELPER_TIMEOUT = 120.0
-#: wall s between a child's reads of the growing tlogs while the run flies
-POLL_S = 0.25
 
 
 class ForkedHelper:
@@ -46,7 +44,7 @@ class ForkedHelper:
     def start(self) -> None:
         from tools.procs import die_with_parent
         ctx = multiprocessing.get_context("fork")
-        there, here = ctx.Pipe()            # jobs go there, answers (ask()) come here
+        there, here = ctx.Pipe(duplex=False)        # (receiving end, sending end)
         self._child = ctx.Process(target=_child_main, args=(self._main, there, die_with_parent()),
                                   name=self.name, daemon=True)
         self._child.start()
@@ -59,17 +57,6 @@ class ForkedHelper:
             self._conn.send(job)
         except (OSError, ValueError, AttributeError):
             pass
-
-    def ask(self, job, timeout: float = HELPER_TIMEOUT):
-        """Hand the child a job and return its answer (None if it is gone or gives none in
-        `timeout` wall s)."""
-        try:
-            self._conn.send(job)
-            if self._conn.poll(timeout):
-                return self._conn.recv()
-        except (OSError, ValueError, AttributeError, EOFError):
-            pass
-        return None
 
     def wait(self) -> None:
         """Wait for the child to end (at most HELPER_TIMEOUT), then :meth:`close`."""

@@ -2,21 +2,22 @@
 
 :class:`Drawings` draws them here, after the scoring (where fork is not available, or for a
 Launch driven by a test). :class:`DrawingWorker` is a child forked when the run starts
-(tools.fly_child): once the run flies (:meth:`DrawingWorker.flight_begins`: not during the
-start-up, when the world's imports need the cores) it imports matplotlib (about half a second of
-CPU), forks a sub-helper for the frame tree (tools.fly_frames) and, like it, reads the tlogs as
-they grow. Once the flight is over it hands the launcher the run's data (the launcher's scoring
-needs them: :meth:`DrawingWorker.run_data`) and draws tracks.png at once, while the sub-helper
-draws the frame tree. Either draws a picture as far as it goes: a drawing that fails is left out
-and never hides the summary.
+(tools.fly_child): it imports matplotlib (about half a second of CPU) once the run flies
+(:meth:`DrawingWorker.flight_begins`: not during the start-up, when the world's imports need
+the cores) and then forks a sub-helper that shares those imports (tools.fly_frames); once the
+flight is over the sub-helper draws the frame tree from bridge.tlog at once while the child draws
+tracks.png as soon as the parent hands it the run's data: the two side by side, and beside the
+parent's scoring. Nothing is read while the run flies: a helper's CPU then slows the lockstep
+chain down. Either draws a picture as far as it goes: a drawing that fails is left out and never
+hides the summary.
 """
 from __future__ import annotations
 
 from functools import partial
 from pathlib import Path
 
-from tools.fly_child import POLL_S, ForkedHelper, Priority, SubHelper
-from tools.fly_frames import draw_frames, live_frames, prepare_pdf
+from tools.fly_child import ForkedHelper, Priority, SubHelper
+from tools.fly_frames import draw_frames, frames_when_over, prepare_pdf
 
 
 def draw_tracks(run_dir: Path, scenario: str | None, data) -> None:
@@ -41,11 +42,6 @@ class Drawings:
     def flight_over(self) -> None:
         """The tlogs are complete (nothing to do here: both are drawn in :meth:`tracks`)."""
 
-    def run_data(self):
-        """The run's data (tools.run_data.RunData) if they were read while the run flew (tracks.png
-        is then drawn from them without :meth:`tracks`); None here: the caller reads them."""
-        return None
-
     def tracks(self, data) -> None:
         """Draw tracks.png from `data`, then the frame tree."""
         draw_tracks(self.dir, self.scenario, data)
@@ -62,9 +58,8 @@ class DrawingWorker(Drawings):
     """The drawings in a child forked by :meth:`start`, before the launcher starts any thread.
 
     The parent calls :meth:`flight_begins` when the sim clock first moves (the child then imports
-    what it draws with and reads the tlogs as they grow), :meth:`flight_over` once the processes
-    stopped, :meth:`run_data` for the run's data (or, None, :meth:`tracks` with the data it read
-    itself), :meth:`wait` for the pictures; :meth:`close` (always, also on failure or Ctrl-C)
+    what it draws with), :meth:`flight_over` once the processes stopped, :meth:`tracks` with the
+    run's data, :meth:`wait` for the pictures; :meth:`close` (always, also on failure or Ctrl-C)
     stops the child if it still runs and reaps it."""
 
     def __init__(self, run_dir: Path, scenario: str | None) -> None:
@@ -82,14 +77,11 @@ class DrawingWorker(Drawings):
     def flight_over(self) -> None:
         self.helper.send(("frames",))
 
-    def run_data(self):
-        return self.helper.ask(("data",))
-
     def tracks(self, data) -> None:
         self.helper.send(("tracks", data))
+        self.helper.send(None)
 
     def wait(self) -> None:
-        self.helper.send(None)
         self.helper.wait()
 
     def close(self) -> None:
@@ -97,19 +89,13 @@ class DrawingWorker(Drawings):
 
 
 def _worker(run_dir: Path, scenario: str | None, conn) -> None:
-    """The child: prepare at a low priority, then do what the parent asks for until None. Once
-    prepared it reads the run's data while the tlogs grow (tools.run_data_tail) and forks a
-    sub-helper (tools.fly_frames.live_frames) that reads bridge.tlog likewise and draws the frame
-    tree, while this one draws tracks.png: after the flight only the last slices are read, and the
-    two drawings are made side by side."""
+    """The child: prepare at a low priority (and fork the frame tree's sub-helper), then draw what
+    the parent asks for until None."""
     priority = None
     frames: SubHelper | None = None
-    live = None
     try:
         while True:
             try:
-                while live is not None and not conn.poll(POLL_S):
-                    live = _poll(live)
                 job = conn.recv()
             except (EOFError, OSError):
                 return
@@ -118,54 +104,20 @@ def _worker(run_dir: Path, scenario: str | None, conn) -> None:
             if job[0] == "prepare":
                 priority = Priority()   # lowered only while the run flies: it may not come back up
                 _prepare()
-                frames = SubHelper(partial(live_frames, run_dir, priority))    # shares the imports
-                live = _live_data(run_dir)
+                frames = SubHelper(partial(frames_when_over, run_dir, priority))    # shares the imports
                 continue
             if priority is not None:
                 priority.restore()      # the drawings are on the run's critical path now
             if job[0] == "frames":
                 if frames is not None:
-                    frames.send("over")
+                    frames.send("over")     # the sub-helper draws it, beside tracks.png here
                 else:
                     draw_frames(run_dir)
-            elif job[0] == "data":
-                data, live = _finish(live), None
-                conn.send(data)         # None: the parent reads the tlogs and sends them (tracks)
-                if data is not None:
-                    draw_tracks(run_dir, scenario, data)
             elif job[0] == "tracks":
                 draw_tracks(run_dir, scenario, job[1])
     finally:
         if frames is not None:
             frames.wait()       # its drawing done (or, the run given up, left out)
-
-
-def _live_data(run_dir: Path):
-    """The run's data read as the tlogs grow (tools.run_data_tail.LiveRunData); None if that fails."""
-    try:
-        from tools.run_data_tail import LiveRunData
-        return LiveRunData(run_dir)
-    except Exception:  # noqa: BLE001 - the parent then reads the finished tlogs
-        return None
-
-
-def _poll(live):
-    """`live` after a read of what the tlogs gained; None if that failed."""
-    try:
-        live.poll()
-        return live
-    except Exception:  # noqa: BLE001
-        return None
-
-
-def _finish(live):
-    """The run's data from `live` (the tlogs are finished); None without them."""
-    if live is None:
-        return None
-    try:
-        return live.finish()
-    except Exception:  # noqa: BLE001
-        return None
 
 
 def _prepare() -> None:

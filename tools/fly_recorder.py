@@ -11,7 +11,10 @@ from __future__ import annotations
 from functools import partial
 from pathlib import Path
 
-from tools.fly_child import POLL_S, ForkedHelper, Priority
+from tools.fly_child import ForkedHelper, Priority
+
+#: wall s between the child's reads of the growing tlogs
+POLL_S = 0.25
 
 
 class Recorder:

@@ -5,7 +5,7 @@ each of the scenario's faults took effect and was cleared, as the link proxy app
 summary.json and summary.txt (the scores), tracks.png, frames.pdf / frames.png (the frame tree,
 tools.fly_drawings), run.mcap. A drawing or a recording that fails never hides the summary: it is
 left out. After the flight the recording (a forked child), the drawings (a forked child and its
-sub-helper, which also read the run's data while it flew) and the scoring run side by side.
+sub-helper) and the scoring run side by side.
 """
 from __future__ import annotations
 
@@ -77,9 +77,8 @@ def write_summary(plan: FlyPlan, tower_rc: int | None, *, bridge_restarts: int =
 
 def _score(plan: FlyPlan, tower_rc: int | None, bridge_restarts: int, proxy: dict | None,
            achieved_speedup: float | None, applied: list[dict] | None, drawings: Drawings) -> tuple[dict, str]:
-    """faults.json and summary.json written; (the summary dict, its text). The run's data come
-    from `drawings` if it read them while the run flew (and draws tracks.png from them), else
-    from the tlogs here, handed to it before the scoring (tracks.png needs nothing more)."""
+    """faults.json and summary.json written; (the summary dict, its text). The run's data are
+    handed to `drawings` as soon as they are read, before the scoring."""
     from tools.run_summary import format_summary, summarize
     if plan.sc.faults or applied:
         (plan.dir / "faults.json").write_text(json.dumps(
@@ -101,10 +100,8 @@ def _score(plan: FlyPlan, tower_rc: int | None, bridge_restarts: int, proxy: dic
     if achieved_speedup is not None:
         meta["achieved_speedup"] = achieved_speedup
     from tools.run_data import load_run
-    data = drawings.run_data()          # read once: the summary and the plot share it
-    if data is None:
-        data = load_run(plan.dir)
-        drawings.tracks(data)
+    data = load_run(plan.dir)           # read once: the summary and the plot share it
+    drawings.tracks(data)               # tracks.png needs nothing more: drawn while this one scores
     if plan.family:
         from tools.family_summary import format_family_summary, summarize_family
         s = summarize_family(plan.dir, tower=tower, scenario_path=plan.scenario, meta=meta, data=data)

@@ -201,99 +201,79 @@ FOLLOW_FIELDS = ("t", "ref_x", "ref_y", "full_x", "full_y", "yaw_x", "yaw_y", "g
 
 def load_messages(msgs: Iterable[Any], data: RunData | None = None) -> RunData:
     """Fold a message stream (one tlog, or several one after the other) into RunData."""
-    fold = RunFold(data)
-    fold.feed(msgs)
-    return fold.finish()
-
-
-class RunFold:
-    """load_messages in pieces: :meth:`feed` the stream as it comes (a growing tlog), :meth:`finish`
-    once it has ended; the same RunData as one load_messages of the whole stream."""
-
-    def __init__(self, data: RunData | None = None) -> None:
-        self.data = data or RunData()
-        self.last_ms: dict[int, int] = defaultdict(int)
-        self.origin: dict[int, tuple[float, float, float]] = {}
-        self.home: dict[int, tuple[tuple[float, float, float], tuple[float, float, float]]] = {}
-        self.truth_lla: dict[int, list] = defaultdict(list)
-        self.est_rows: dict[int, list] = defaultdict(list)
-        self.follow_rows: list = []
-
-    def feed(self, msgs: Iterable[Any]) -> None:
-        """Fold the next messages of the stream."""
-        data, last_ms, origin, home = self.data, self.last_ms, self.origin, self.home
-        truth_lla, est_rows, follow_rows = self.truth_lla, self.est_rows, self.follow_rows
-        for m in msgs:
-            t = m.get_type()
-            src = m.get_srcSystem()
-            ms = getattr(m, "time_boot_ms", None)
-            if isinstance(ms, int) and t != "SET_POSITION_TARGET_LOCAL_NED" and t != "TOWERLINK_POSITION_TARGET":
-                last_ms[src] = max(last_ms[src], ms) if ms + 5000 > last_ms[src] else ms
-            if t == "SIM_STATE":
-                lat = m.lat_int * 1e-7 if getattr(m, "lat_int", 0) else m.lat
-                lon = m.lon_int * 1e-7 if getattr(m, "lon_int", 0) else m.lon
-                truth_lla[src].append((last_ms[src] / 1000.0, lat, lon, m.alt, m.roll, m.pitch, m.yaw,
-                                       m.vn, m.ve, m.vd))
-            elif t == "LOCAL_POSITION_NED":
-                est_rows[src].append((m.time_boot_ms / 1000.0, m.x, m.y, m.z, m.vx, m.vy, m.vz))
-            elif t == "GPS_GLOBAL_ORIGIN":
-                origin[src] = (m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3)
-            elif t == "HOME_POSITION":
-                home[src] = ((m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3), (m.x, m.y, m.z))
-            elif t == "PARAM_VALUE":
-                data.params.setdefault(src, {})[mav_str(m.param_id)] = float(m.param_value)
-            elif t == "TOWERLINK_FOLLOW_STATUS":
-                follow_rows.append((m.time_usec * 1e-6, m.ref_x, m.ref_y, m.full_x, m.full_y, m.yaw_x,
-                                    m.yaw_y, m.goal_x, m.goal_y, m.rover_x, m.rover_y, m.height, m.tilt,
-                                    m.err_full, m.err_yaw, m.follow_frame, m.state))
-            elif t == "TOWERLINK_TRANSFORM":
-                key = (mav_str(m.frame_id), mav_str(m.child_frame_id))
-                v = tuple(float(x) for x in (*m.translation, *m.rotation))
-                if m.flags & 1:
-                    data.statics[key] = v
-                else:
-                    data.transforms.setdefault(key, []).append((m.time_usec * 1e-6, v))
-            elif t == "STATUSTEXT":
-                data.texts.setdefault(src, []).append((last_ms[src] / 1000.0, int(m.severity), mav_str(m.text)))
-            elif t == "HEARTBEAT" and m.autopilot == ARDUPILOT and m.type != MAV_TYPE_GCS:
-                mode = mode_name("rover" if m.type in ROVER_TYPES else "copter", int(m.custom_mode))
-                armed = bool(m.base_mode & ARMED_FLAG)
-                seen = data.modes.setdefault(src, [])
-                if not seen or seen[-1][1:] != (mode, armed):
-                    seen.append((last_ms[src] / 1000.0, mode, armed))
-            elif t == "TOWERLINK_BRIDGE_STATUS":
-                data.bridge_status[mav_str(m.link)] = {k: int(getattr(m, k)) for k in
-                                                  ("rx_packets", "tx_packets", "malformed", "unroutable",
-                                                   "translated", "deferred")}
-
-    def finish(self) -> RunData:
-        """The stream has ended: the tracks in world NED; returns the RunData."""
-        data, origin, home = self.data, self.origin, self.home
-        truth_lla, est_rows, follow_rows = self.truth_lla, self.est_rows, self.follow_rows
-        # each vehicle's local NED is centred on its own EKF origin; world is the first vehicle's
-        # (the drone's), as the bridge's world is by default
-        local0 = {src: _local_origin(origin.get(src), home.get(src)) for src in set(origin) | set(home)}
-        local0 = {k: v for k, v in local0.items() if v is not None}
-        ref = local0[min(local0)] if local0 else None
-        for src, rows in truth_lla.items():
-            if ref is None or src not in local0:
-                continue
-            out = []
-            for (tt, lat, lon, alt, r, p, y, vn, ve, vd) in rows:
-                n, e, d = lla_to_ned(ref, lat, lon, alt)
-                out.append((tt, n, e, d, r, p, y, vn, ve, vd))
-            data.truth[src] = _track(out, ("roll", "pitch", "yaw", "vn", "ve", "vd"))
-        for src, rows in est_rows.items():
-            if ref is not None and src in local0:
-                off = lla_to_ned(ref, *local0[src])
-                rows = [(tt, x + off[0], y + off[1], z + off[2], *v) for (tt, x, y, z, *v) in rows]
-            data.estimate[src] = _track(rows, ("vx", "vy", "vz"))
-        if follow_rows:
-            a = np.array(follow_rows, dtype=float)
-            a = a[np.argsort(a[:, 0], kind="stable")]
-            data.follow = {k: a[:, i] for i, k in enumerate(FOLLOW_FIELDS)}
-            data.follow_frame = int(a[-1, FOLLOW_FIELDS.index("follow_frame")])
-        return data
+    data = data or RunData()
+    last_ms: dict[int, int] = defaultdict(int)
+    origin: dict[int, tuple[float, float, float]] = {}
+    home: dict[int, tuple[tuple[float, float, float], tuple[float, float, float]]] = {}
+    truth_lla: dict[int, list] = defaultdict(list)
+    est_rows: dict[int, list] = defaultdict(list)
+    follow_rows: list = []
+    for m in msgs:
+        t = m.get_type()
+        src = m.get_srcSystem()
+        ms = getattr(m, "time_boot_ms", None)
+        if isinstance(ms, int) and t != "SET_POSITION_TARGET_LOCAL_NED" and t != "TOWERLINK_POSITION_TARGET":
+            last_ms[src] = max(last_ms[src], ms) if ms + 5000 > last_ms[src] else ms
+        if t == "SIM_STATE":
+            lat = m.lat_int * 1e-7 if getattr(m, "lat_int", 0) else m.lat
+            lon = m.lon_int * 1e-7 if getattr(m, "lon_int", 0) else m.lon
+            truth_lla[src].append((last_ms[src] / 1000.0, lat, lon, m.alt, m.roll, m.pitch, m.yaw,
+                                   m.vn, m.ve, m.vd))
+        elif t == "LOCAL_POSITION_NED":
+            est_rows[src].append((m.time_boot_ms / 1000.0, m.x, m.y, m.z, m.vx, m.vy, m.vz))
+        elif t == "GPS_GLOBAL_ORIGIN":
+            origin[src] = (m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3)
+        elif t == "HOME_POSITION":
+            home[src] = ((m.latitude * 1e-7, m.longitude * 1e-7, m.altitude * 1e-3), (m.x, m.y, m.z))
+        elif t == "PARAM_VALUE":
+            data.params.setdefault(src, {})[mav_str(m.param_id)] = float(m.param_value)
+        elif t == "TOWERLINK_FOLLOW_STATUS":
+            follow_rows.append((m.time_usec * 1e-6, m.ref_x, m.ref_y, m.full_x, m.full_y, m.yaw_x,
+                                m.yaw_y, m.goal_x, m.goal_y, m.rover_x, m.rover_y, m.height, m.tilt,
+                                m.err_full, m.err_yaw, m.follow_frame, m.state))
+        elif t == "TOWERLINK_TRANSFORM":
+            key = (mav_str(m.frame_id), mav_str(m.child_frame_id))
+            v = tuple(float(x) for x in (*m.translation, *m.rotation))
+            if m.flags & 1:
+                data.statics[key] = v
+            else:
+                data.transforms.setdefault(key, []).append((m.time_usec * 1e-6, v))
+        elif t == "STATUSTEXT":
+            data.texts.setdefault(src, []).append((last_ms[src] / 1000.0, int(m.severity), mav_str(m.text)))
+        elif t == "HEARTBEAT" and m.autopilot == ARDUPILOT and m.type != MAV_TYPE_GCS:
+            mode = mode_name("rover" if m.type in ROVER_TYPES else "copter", int(m.custom_mode))
+            armed = bool(m.base_mode & ARMED_FLAG)
+            seen = data.modes.setdefault(src, [])
+            if not seen or seen[-1][1:] != (mode, armed):
+                seen.append((last_ms[src] / 1000.0, mode, armed))
+        elif t == "TOWERLINK_BRIDGE_STATUS":
+            data.bridge_status[mav_str(m.link)] = {k: int(getattr(m, k)) for k in
+                                              ("rx_packets", "tx_packets", "malformed", "unroutable",
+                                               "translated", "deferred")}
+    # each vehicle's local NED is centred on its own EKF origin; world is the first vehicle's
+    # (the drone's), as the bridge's world is by default
+    local0 = {src: _local_origin(origin.get(src), home.get(src)) for src in set(origin) | set(home)}
+    local0 = {k: v for k, v in local0.items() if v is not None}
+    ref = local0[min(local0)] if local0 else None
+    for src, rows in truth_lla.items():
+        if ref is None or src not in local0:
+            continue
+        out = []
+        for (tt, lat, lon, alt, r, p, y, vn, ve, vd) in rows:
+            n, e, d = lla_to_ned(ref, lat, lon, alt)
+            out.append((tt, n, e, d, r, p, y, vn, ve, vd))
+        data.truth[src] = _track(out, ("roll", "pitch", "yaw", "vn", "ve", "vd"))
+    for src, rows in est_rows.items():
+        if ref is not None and src in local0:
+            off = lla_to_ned(ref, *local0[src])
+            rows = [(tt, x + off[0], y + off[1], z + off[2], *v) for (tt, x, y, z, *v) in rows]
+        data.estimate[src] = _track(rows, ("vx", "vy", "vz"))
+    if follow_rows:
+        a = np.array(follow_rows, dtype=float)
+        a = a[np.argsort(a[:, 0], kind="stable")]
+        data.follow = {k: a[:, i] for i, k in enumerate(FOLLOW_FIELDS)}
+        data.follow_frame = int(a[-1, FOLLOW_FIELDS.index("follow_frame")])
+    return data
 
 
 def _local_origin(origin, home):
