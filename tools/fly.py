@@ -198,8 +198,8 @@ def _helpers(out: Path, scenario: str | None) -> tuple:
 
 def run(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else Path("runs") / time.strftime("%Y%m%d-%H%M%S")
+    from common.scenario import ScenarioError, load_scenario     # (a Ctrl-C here: exit 130, nothing started)
     try:
-        from common.scenario import ScenarioError, load_scenario
         load_scenario(args.scenario)
     except ScenarioError as exc:
         print(f"towerlink fly: {exc}", file=sys.stderr)
@@ -235,13 +235,18 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"towerlink fly: {exc}", file=sys.stderr)
         return 2
-    where = f"bridge + tower on 127.0.0.1, {world.describe()}" if world else "world + bridge + tower on 127.0.0.1"
-    print(f"towerlink fly: {where} (ports {launch.ports}); run folder {out}", flush=True)
-    if math.isinf(args.speedup) and not args.lockstep:
-        print("towerlink fly: --speedup max without --lockstep: the world runs as fast as the CPU and the "
-              "bridge and the tower fall behind it; the figures will depend on the machine", file=sys.stderr)
-
-    drawings, recorder = _helpers(out, args.scenario)
+    if world is None or not world.attach:
+        launch.start_world()    # first: its imports (about a second) overlap everything else here
+    try:
+        where = f"bridge + tower on 127.0.0.1, {world.describe()}" if world else "world + bridge + tower on 127.0.0.1"
+        print(f"towerlink fly: {where} (ports {launch.ports}); run folder {out}", flush=True)
+        if math.isinf(args.speedup) and not args.lockstep:
+            print("towerlink fly: --speedup max without --lockstep: the world runs as fast as the CPU and the "
+                  "bridge and the tower fall behind it; the figures will depend on the machine", file=sys.stderr)
+        drawings, recorder = _helpers(out, args.scenario)
+    except BaseException:
+        launch.stop()           # no world left behind
+        raise
     try:
         return _fly(args, launch, world, drawings, recorder)
     finally:

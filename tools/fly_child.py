@@ -87,6 +87,45 @@ def _child_main(main: Callable, conn, with_parent) -> None:
     main(conn)
 
 
+class SubHelper:
+    """`main(conn)` in a child of a helper child, forked by it (with os.fork: multiprocessing lets no
+    daemon process have children), sharing what the helper imported; it ends with the helper
+    (tools.procs.die_with_parent) and ignores SIGINT as the helper does. The helper sends it jobs
+    (:meth:`send`) and reaps it (:meth:`wait`)."""
+
+    def __init__(self, main: Callable) -> None:
+        from tools.procs import die_with_parent
+        there, self._conn = multiprocessing.Pipe(duplex=False)
+        with_parent = die_with_parent()
+        self.pid = os.fork()
+        if self.pid == 0:           # the sub-helper: never back into the helper's code
+            code = 1
+            try:
+                self._conn.close()
+                if with_parent is not None:
+                    with_parent()
+                main(there)
+                code = 0
+            finally:
+                os._exit(code)
+        there.close()
+
+    def send(self, job) -> None:
+        """Hand it a job (dropped if it is gone)."""
+        try:
+            self._conn.send(job)
+        except (OSError, ValueError):
+            pass
+
+    def wait(self) -> None:
+        """Close its pipe and wait for it to end."""
+        self._conn.close()
+        try:
+            os.waitpid(self.pid, 0)
+        except ChildProcessError:
+            pass
+
+
 class Priority:
     """Lower this process's CPU priority while the run flies; back to where it was when it matters."""
 

@@ -4,17 +4,20 @@
 Launch driven by a test). :class:`DrawingWorker` is a child forked when the run starts
 (tools.fly_child): it imports matplotlib (about half a second of CPU) once the run flies
 (:meth:`DrawingWorker.flight_begins`: not during the start-up, when the world's imports need
-the cores);
-once the flight is over it draws the frame tree from bridge.tlog at once and tracks.png as soon
-as the parent hands it the run's data, both in parallel with the parent's scoring. Either
-draws a picture as far as it goes: a drawing that fails is left out and never hides the summary.
+the cores) and then forks a sub-helper that shares those imports (tools.fly_frames); once the
+flight is over the sub-helper draws the frame tree from bridge.tlog at once while the child draws
+tracks.png as soon as the parent hands it the run's data: the two side by side, and beside the
+parent's scoring. Nothing is read while the run flies: a helper's CPU then slows the lockstep
+chain down. Either draws a picture as far as it goes: a drawing that fails is left out and never
+hides the summary.
 """
 from __future__ import annotations
 
 from functools import partial
 from pathlib import Path
 
-from tools.fly_child import ForkedHelper, Priority
+from tools.fly_child import ForkedHelper, Priority, SubHelper
+from tools.fly_frames import draw_frames, frames_when_over, prepare_pdf
 
 
 def draw_tracks(run_dir: Path, scenario: str | None, data) -> None:
@@ -23,20 +26,6 @@ def draw_tracks(run_dir: Path, scenario: str | None, data) -> None:
         from tools.plot_tracks import plot_run
         plot_run(run_dir, scenario=scenario, data=data)
     except Exception:  # noqa: BLE001 - a plot failure must not hide the summary
-        pass
-
-
-def draw_frames(run_dir: Path) -> None:
-    """frames.pdf, frames.png and frames.yaml from bridge.tlog's transforms; left out if it fails
-    or the bridge recorded no transform."""
-    try:
-        from tools.view_frames import buffer_from_tlog, write_drawing
-        buf, now = buffer_from_tlog(run_dir / "bridge.tlog")
-        if buf.edge_stats():
-            title = f"view_frames: {run_dir.name}"
-            write_drawing(buf, run_dir / "frames.pdf", now=now, title=title)
-            write_drawing(buf, run_dir / "frames.png", now=now, title=title)
-    except Exception:  # noqa: BLE001
         pass
 
 
@@ -100,25 +89,35 @@ class DrawingWorker(Drawings):
 
 
 def _worker(run_dir: Path, scenario: str | None, conn) -> None:
-    """The child: prepare at a low priority, then draw what the parent asks for until None."""
+    """The child: prepare at a low priority (and fork the frame tree's sub-helper), then draw what
+    the parent asks for until None."""
     priority = None
-    while True:
-        try:
-            job = conn.recv()
-        except (EOFError, OSError):
-            return
-        if job is None:
-            return
-        if job[0] == "prepare":
-            priority = Priority()   # lowered only while the run flies: it may not come back up
-            _prepare()
-            continue
-        if priority is not None:
-            priority.restore()      # the drawings are on the run's critical path now
-        if job[0] == "frames":
-            draw_frames(run_dir)
-        elif job[0] == "tracks":
-            draw_tracks(run_dir, scenario, job[1])
+    frames: SubHelper | None = None
+    try:
+        while True:
+            try:
+                job = conn.recv()
+            except (EOFError, OSError):
+                return
+            if job is None:
+                return
+            if job[0] == "prepare":
+                priority = Priority()   # lowered only while the run flies: it may not come back up
+                _prepare()
+                frames = SubHelper(partial(frames_when_over, run_dir, priority))    # shares the imports
+                continue
+            if priority is not None:
+                priority.restore()      # the drawings are on the run's critical path now
+            if job[0] == "frames":
+                if frames is not None:
+                    frames.send("over")     # the sub-helper draws it, beside tracks.png here
+                else:
+                    draw_frames(run_dir)
+            elif job[0] == "tracks":
+                draw_tracks(run_dir, scenario, job[1])
+    finally:
+        if frames is not None:
+            frames.wait()       # its drawing done (or, the run given up, left out)
 
 
 def _prepare() -> None:
@@ -129,5 +128,6 @@ def _prepare() -> None:
         import matplotlib.pyplot  # noqa: F401
         import tools.plot_tracks  # noqa: F401
         import tools.view_frames  # noqa: F401
+        prepare_pdf()
     except Exception:  # noqa: BLE001 - the drawings then fail (and are left out) when asked for
         pass

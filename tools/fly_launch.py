@@ -53,6 +53,7 @@ class Launch:
         self.ap_driver = None
         self.van_driver: VanDriver | None = None
         self.bridge_restarts = 0
+        self._world_asked = False
 
     # -- what the tests and the CLI look at
 
@@ -117,7 +118,11 @@ class Launch:
                          timeline=plan.timeline, encode=ParamSetEncoder(plan.key()), sim_time=self.monitor.sim_time)
 
     def start_world(self) -> None:
-        """Start the world, or (attach) print the command that starts it on its host."""
+        """Start the world, or (attach) print the command that starts it on its host; once (its
+        start-up is the run's longest: `towerlink fly` starts it before anything else)."""
+        if self._world_asked:
+            return
+        self._world_asked = True
         plan = self.plan
         if plan.world is not None and plan.world.attach:      # the user starts it there
             hint = f"\n  (put your {SIGNING_FLAG} where *** stands)" if plan.signing_key else ""
@@ -160,6 +165,10 @@ class Launch:
             if rc is not None:
                 return rc
             now = time.monotonic()
+            if self.tower.over.is_set():     # its last line: the result is written, only its exit is left
+                # (the others run on until it has gone, as long as they always did: a summary
+                # figure at the last goal may read the truth a little past it)
+                return self.processes.wait("tower", end - now)
             for name in ("sitl", *(f"node-{p.stem}" for p in self.plan.nodes)):
                 status = self.processes.exited(name)
                 if status is not None:
@@ -185,17 +194,30 @@ class Launch:
                     print(line, file=out, flush=True)
             if now > end:
                 return None
-            time.sleep(0.05)
+            self.tower.over.wait(0.05)
 
     # -- stopping
 
+    def _order(self) -> list[tuple[str, int]]:
+        """Who is stopped with which signal, tower first, world last."""
+        return [("tower", signal.SIGINT), *((f"node-{p.stem}", signal.SIGTERM) for p in self.plan.nodes),
+                ("bridge", signal.SIGTERM), ("sitl", signal.SIGTERM)]
+
+    def _tell_to_stop(self) -> None:
+        """Signal the nodes, the bridge and the world at once, so they stop side by side; not with a
+        van's driver, which must leave the lockstep while the world still runs (see stop())."""
+        if self.van_driver is None:
+            for name, sig in self._order()[1:]:
+                self.processes.tell_to_stop(name, sig)
+
     def stop(self) -> None:
         """Stop everything this launch started (tower first, world last); idempotent."""
-        order = [("tower", signal.SIGINT), *((f"node-{p.stem}", signal.SIGTERM) for p in self.plan.nodes),
-                 ("bridge", signal.SIGTERM), ("sitl", signal.SIGTERM)]
+        order = self._order()
         if self.van_driver is not None:
             self.van_driver.stop()
-        for name, sig in order:
+        self.processes.stop(*order[0])      # the tower: its result written, whatever stopped it
+        self._tell_to_stop()
+        for name, sig in order[1:]:
             if name == "bridge" and self.van_driver is not None:
                 self.van_driver.join(3.0)   # it leaves the lockstep at its next TICK: the world still runs
             self.processes.stop(name, sig)

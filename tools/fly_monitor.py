@@ -69,6 +69,7 @@ class Monitor(threading.Thread):
             from common.mavlink.signing import setup_signing
             setup_signing(self.encoder, signing_key, SIGNING_LINK_ID)
         self._halt = threading.Event()
+        self._wake, self._waker = socket.socketpair()     # stop() ends the select at once
         self.lock = threading.Lock()
         self.sim_ms = 0
         self.origin: dict[int, tuple[float, float, float]] = {}
@@ -83,10 +84,13 @@ class Monitor(threading.Thread):
         sel = selectors.DefaultSelector()
         for name, s in self.socks.items():
             sel.register(s, selectors.EVENT_READ, name)
+        sel.register(self._wake, selectors.EVENT_READ, None)
         try:
             while not self._halt.is_set():
                 for key, _ in sel.select(timeout=0.1):
                     name = key.data
+                    if name is None:        # stop(): the halt is checked next
+                        continue
                     while True:
                         try:
                             data, addr = key.fileobj.recvfrom(65535)
@@ -231,8 +235,14 @@ class Monitor(threading.Thread):
     def stop(self) -> None:
         """Stop listening (LEAVE the lockstep first); close the sockets and the tlogs."""
         self._halt.set()
+        try:
+            self._waker.send(b"\0")
+        except OSError:
+            pass
         if self.is_alive():
             self.join(2.0)
+        self._wake.close()
+        self._waker.close()
         if self.push is not None:
             for addr in self.push.addresses():
                 self._lockstep_send(self.tl.TOWERLINK_LOCKSTEP_KIND_LEAVE, 0, addr)

@@ -7,6 +7,7 @@ which then stops them in order) and ends with the launcher if it is killed outri
 from __future__ import annotations
 
 import os
+import select
 import shlex
 import signal
 import subprocess
@@ -33,6 +34,7 @@ class ProcessGroup:
         self.dir = Path(log_dir)
         self.procs: dict[str, subprocess.Popen] = {}
         self.logs: dict[str, object] = {}
+        self._told: dict[str, subprocess.Popen] = {}     # name -> the process already asked to stop
 
     def start(self, name: str, args: list[str], on_line: Callable[[str], None] | None = None,
               env: dict[str, str] | None = None) -> subprocess.Popen:
@@ -71,6 +73,24 @@ class ProcessGroup:
         p = self.procs.get(name)
         return None if p is None else p.poll()
 
+    def wait(self, name: str, timeout: float) -> int | None:
+        """`name`'s exit status once it ends, None if it runs on for `timeout` s. Told by the
+        kernel the moment it ends (a pidfd) where it can, not found by polling."""
+        p = self.procs[name]
+        try:
+            fd = os.pidfd_open(p.pid)
+        except (AttributeError, OSError):   # not Linux >= 5.3, or already reaped: poll
+            fd = None
+        if fd is not None:
+            try:
+                select.select([fd], [], [], max(0.0, timeout))
+            finally:
+                os.close(fd)
+        try:
+            return p.wait(0.0 if fd is not None else max(0.0, timeout))
+        except subprocess.TimeoutExpired:
+            return None
+
     def kill(self, name: str, sig: int = signal.SIGKILL) -> None:
         """Signal `name`'s session and wait for it (no goodbye with SIGKILL)."""
         p = self.procs.get(name)
@@ -78,12 +98,21 @@ class ProcessGroup:
             signal_group(p, sig)
             p.wait(5)
 
+    def tell_to_stop(self, name: str, sig: int) -> None:
+        """Signal `name`'s session once, without waiting (:meth:`stop` then only waits): a second
+        signal could reach a process past its own handler, in its last steps."""
+        p = self.procs.get(name)
+        if p is None or p.poll() is not None or self._told.get(name) is p:
+            return
+        self._told[name] = p
+        signal_group(p, sig)
+
     def stop(self, name: str, sig: int, timeout: float = 5.0) -> None:
-        """Signal `name`'s session, wait `timeout` s, then kill it."""
+        """Signal `name`'s session (unless :meth:`tell_to_stop` did), wait `timeout` s, then kill it."""
         p = self.procs.get(name)
         if p is None or p.poll() is not None:
             return
-        signal_group(p, sig)
+        self.tell_to_stop(name, sig)
         try:
             p.wait(timeout)
         except subprocess.TimeoutExpired:

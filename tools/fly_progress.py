@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import re
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -15,6 +16,8 @@ from common.mavlink.lockstep import speedup_text
 
 GOAL_EVENT = re.compile(r"goal (\d+)/(\d+) (sent|reached|FAILED)")
 GOAL_SENT = re.compile(r"goal \d+/\d+ sent: \w+ \[([^\]]+)\] at t=([-\d.]+) s")
+#: the tower's last line (gcs.tower, gcs.tower_family): its result is written, only its exit is left
+MISSION_OVER = re.compile(r"\bMISSION (OK|FAILED): ")
 WAITING = {"sim": 0.0, "drone": None, "follow_err": None}     # a snapshot before anything was heard
 
 
@@ -34,11 +37,14 @@ class TowerOutput:
     def __init__(self) -> None:
         self.lines: list[str] = []
         self.goals = GoalState()
+        self.over = threading.Event()      # set by the tower's last line (MISSION OK / FAILED)
 
     def feed(self, line: str) -> tuple[float, tuple[float, float, float]] | None:
         """Take one line (no newline). Returns (sim time s, goal x, y, z in the tower frame, m)
         when the line says a goal was sent, else None."""
         self.lines.append(line)
+        if MISSION_OVER.search(line):
+            self.over.set()
         m = GOAL_EVENT.search(line)
         if m:
             n, total, what = int(m.group(1)), int(m.group(2)), m.group(3)

@@ -4,8 +4,8 @@ meta.json (how the run was made, written at the start), then after the run: faul
 each of the scenario's faults took effect and was cleared, as the link proxy applied them),
 summary.json and summary.txt (the scores), tracks.png, frames.pdf / frames.png (the frame tree,
 tools.fly_drawings), run.mcap. A drawing or a recording that fails never hides the summary: it is
-left out. After the flight the recording (a forked child), the drawings and the scoring run side
-by side.
+left out. After the flight the recording (a forked child), the drawings (a forked child and its
+sub-helper) and the scoring run side by side.
 """
 from __future__ import annotations
 
@@ -61,8 +61,7 @@ def write_summary(plan: FlyPlan, tower_rc: int | None, *, bridge_restarts: int =
             write_run_mcap_quietly(plan.dir)
         drawings = drawings or Drawings(plan.dir, plan.scenario)
         drawings.flight_over()                  # a worker draws the frame tree meanwhile
-        s, text, data = _score(plan, tower_rc, bridge_restarts, proxy, achieved_speedup, applied)
-        drawings.tracks(data)
+        s, text = _score(plan, tower_rc, bridge_restarts, proxy, achieved_speedup, applied, drawings)
         drawings.wait()
         if recorder is not None:
             recorder.wait()
@@ -77,8 +76,9 @@ def write_summary(plan: FlyPlan, tower_rc: int | None, *, bridge_restarts: int =
 
 
 def _score(plan: FlyPlan, tower_rc: int | None, bridge_restarts: int, proxy: dict | None,
-           achieved_speedup: float | None, applied: list[dict] | None) -> tuple[dict, str, object]:
-    """faults.json and summary.json written; (the summary dict, its text, the run's data)."""
+           achieved_speedup: float | None, applied: list[dict] | None, drawings: Drawings) -> tuple[dict, str]:
+    """faults.json and summary.json written; (the summary dict, its text). The run's data are
+    handed to `drawings` as soon as they are read, before the scoring."""
     from tools.run_summary import format_summary, summarize
     if plan.sc.faults or applied:
         (plan.dir / "faults.json").write_text(json.dumps(
@@ -101,6 +101,7 @@ def _score(plan: FlyPlan, tower_rc: int | None, bridge_restarts: int, proxy: dic
         meta["achieved_speedup"] = achieved_speedup
     from tools.run_data import load_run
     data = load_run(plan.dir)           # read once: the summary and the plot share it
+    drawings.tracks(data)               # tracks.png needs nothing more: drawn while this one scores
     if plan.family:
         from tools.family_summary import format_family_summary, summarize_family
         s = summarize_family(plan.dir, tower=tower, scenario_path=plan.scenario, meta=meta, data=data)
@@ -114,7 +115,7 @@ def _score(plan: FlyPlan, tower_rc: int | None, bridge_restarts: int, proxy: dic
         text = "\n".join([format_family_summary(s), *format_faults(s["faults"])])
     else:
         text = format_summary(s)
-    return s, text, data
+    return s, text
 
 
 def _family_faults(plan: FlyPlan, tower: dict, data) -> dict:
