@@ -8,7 +8,8 @@ takes for itself, and the rest routed on by target_system (bridge.router).
 * TOWERLINK_STATIC_TRANSFORM to the bridge (or to all): bridge.static_desk.
 * TOWERLINK_TRANSFORM: a node's frame (bridge.node_desk), never echoed to the vehicles.
 * TOWERLINK_LOCKSTEP from the tower (--lockstep): the lockstep desk sees it, and it goes on
-  to the world like any broadcast, in order after the tower's goals. From a node (the node
+  to the world like any broadcast, in order after the tower's goals; pipelined, its ACK then
+  lets the next frame's vehicle packets go on (bridge.frame_hold). From a node (the node
   link): the bridge's own participant (bridge.node_lockstep), never routed.
 
 A packet the link's signature check refused is never routed; a static or a node's transform
@@ -111,6 +112,9 @@ class GcsSide:
             msg = self.decode(link, pkt)
             if msg is not None:
                 self.lockstep.on_tower(msg)     # and on to the world, in order after its goals
+                self.router.from_gcs(link, pkt)
+                self.lockstep.tower_done()      # pipelined: then the vehicle links may go on
+                return
         self.router.from_gcs(link, pkt)
 
     def goal_stamp(self, msg) -> float | None:

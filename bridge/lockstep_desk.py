@@ -9,14 +9,23 @@ packet up to t (the loop handles packets in arrival order). Then, at that barrie
    mode/arm retries) on the barrier's clock, never on the wall clock;
 2. ACK(t) goes to every vehicle link, after everything the bridge sent in reaction, each in a
    datagram of its own (the world reads a TOWERLINK_LOCKSTEP only at a datagram's start);
-3. TICK(t) goes to the tower, if the tower joined, queued behind the tower's telemetry (one
-   datagram with it, written at the end of the loop's pass or the upkeep's) (its JOIN/ACK/LEAVE pass through the
-   bridge to the world like any broadcast, on the same socket as its goals, so a goal sent
-   before the tower's ACK reaches the vehicle before it).
+3. TICK(t) goes to the tower (with the world's period and lag), if the tower joined, queued
+   behind the tower's telemetry (one datagram with it, written at the end of the loop's pass
+   or the upkeep's) (its JOIN/ACK/LEAVE pass through the bridge to the world like any
+   broadcast, on the same socket as its goals, so a goal sent before the tower's ACK reaches
+   the vehicle before it).
 
 With nodes in lockstep (--nodes with --lockstep, bridge.node_lockstep) `nodes` holds steps 2 and 3
 until the nodes have settled at t; a TICK the world sends again meanwhile is answered with the
 newest barrier already released, never the held one.
+
+Pipelined (the world's TICKs say lag 1: `sitl --lockstep-pipeline`): the world steps on at once
+after TICK(t), so a link may bring the next frame's packets while the bridge is still at t. The
+barrier t is *done* once it was released and the tower (if it joined) ACKed t, i.e. acted on
+it, its goals translated against the frame tree as it stood at t; until then the next frame's
+packets wait (:meth:`frame_ready`, bridge.frame_hold), and `on_free` hands them on. A
+tower that owes an ACK and says nothing for TOWER_SILENT wall s is no longer waited for (it
+joins again with its next JOIN or ACK).
 
 When the bridge closes it sends LEAVE on every vehicle link.
 
@@ -39,10 +48,12 @@ from common.mavlink.dialect import towerlink as tl
 JOIN_PERIOD = 0.1
 REJOIN_AFTER = 1.0              # wall s without a TICK on a link: JOIN again (the world dropped us or restarted)
 TICK_RESEND = 0.5               # wall s without the tower's ACK of its newest TICK: send that TICK again
+TOWER_SILENT = 10.0             # pipelined: wall s of a tower owing an ACK before the links stop waiting for it
 
 
 class LockstepDesk:
-    def __init__(self, vehicles: dict, pack_own, send_tower, on_barrier, log, wall, nodes=None) -> None:
+    def __init__(self, vehicles: dict, pack_own, send_tower, on_barrier, log, wall, nodes=None,
+                 on_free=None) -> None:
         self.wall = wall                    # () -> wall s (only for JOIN resends)
         self.tick_wall: dict[str, float] = {}
         self.vehicles = vehicles            # sysid -> VehicleRecord
@@ -50,6 +61,11 @@ class LockstepDesk:
         self.send_tower = send_tower        # bytes -> None (the tower link's queue: behind its telemetry)
         self.on_barrier = on_barrier        # (t seconds) -> None: the sim-time upkeep
         self.nodes = nodes                  # bridge.node_lockstep.NodeLockstep, or None
+        self.on_free = on_free              # () -> None: a barrier is done, the held links may go on
+        self.lag = 0                        # the world's TICKs: 1 when pipelined
+        self.done_usec = -1                 # pipelined: the newest barrier done (released, the tower acted)
+        self.tower_heard = 0.0              # wall s of the tower's newest TOWERLINK_LOCKSTEP
+        self.tower_owes_since = 0.0         # wall s the newest barrier's TICK first went to the tower
         self.released_usec = -1             # the newest barrier ACKed to the world
         self.log = log
         self.ticks: dict[str, int] = {}     # vehicle link name -> newest TICK, us
@@ -75,9 +91,32 @@ class LockstepDesk:
         if self.nodes is not None:
             self.nodes.on_message(sysid, compid, msg)
 
+    def frame_ready(self) -> bool:
+        """Pipelined: is the newest barrier done, so the next frame's packets may be handled?"""
+        return self.done_usec >= self.barrier_usec
+
+    def _free(self) -> None:
+        """Pipelined: note how far the barriers are done; the held links go on (on_free)."""
+        done = self.released_usec if not self.tower_joined else min(self.released_usec, self.tower_acked)
+        if done > self.done_usec:
+            self.done_usec = done
+            if self.on_free is not None:
+                self.on_free()
+
+    def tower_done(self) -> None:
+        """After a TOWERLINK_LOCKSTEP of the tower went on to the world: its ACK may finish a barrier."""
+        if self.lag:
+            self._free()
+
     def upkeep(self, wall: float) -> None:
         if self.nodes is not None:
             self.nodes.upkeep()
+        if self.lag and self.tower_joined and self.released_usec > self.tower_acked and \
+                wall - max(self.tower_heard, self.tower_owes_since) >= TOWER_SILENT:
+            self.tower_joined = False
+            self.log(f"lockstep: the tower owes ACK({self.released_usec / 1e6:g} s) and was silent for "
+                     f"{TOWER_SILENT:g} s (wall): the vehicle links go on without it")
+            self._free()
         if self.tower_joined and self.released_usec > self.tower_acked and \
                 wall - self.tower_tick_wall > TICK_RESEND:
             self.tick_resends += 1
@@ -109,6 +148,7 @@ class LockstepDesk:
             self._at[new] = self._at.get(new, 0) + 1
         self.tick_wall[v.name] = self.wall()
         self.period_usec = msg.period_usec
+        self.lag = msg.lag
         if len(self.ticks) < len(self.vehicles):
             return
         # min over the few TICK times links stand at (a frame or two apart), not over every
@@ -135,7 +175,10 @@ class LockstepDesk:
         for w in self.vehicles.values():
             w.link.send(self.pack_own(self._message(tl.TOWERLINK_LOCKSTEP_KIND_ACK, barrier, w.sysid)))
         if self.tower_joined:
-            self._tick_tower(self.wall())
+            self.tower_owes_since = self.wall()
+            self._tick_tower(self.tower_owes_since)
+        if self.lag:
+            self._free()
 
     def _again(self, v) -> None:
         """A TICK the barrier has passed came again on v's link: ACK it again there, and TICK
@@ -154,10 +197,11 @@ class LockstepDesk:
         self._gcs_due = True
         self.send_tower(self.pack_own(tl.MAVLink_towerlink_lockstep_message(
             self.released_usec, 0, tl.TOWERLINK_LOCKSTEP_KIND_TICK, tl.TOWERLINK_LOCKSTEP_PARTICIPANT_WORLD,
-            self.period_usec)))
+            self.period_usec, self.lag)))
 
     def on_tower(self, msg) -> None:
-        """A TOWERLINK_LOCKSTEP from the tower (routed on to the world by the loop)."""
+        """A TOWERLINK_LOCKSTEP from the tower (routed on to the world by the loop, then tower_done)."""
+        self.tower_heard = self.wall()
         if msg.kind in (tl.TOWERLINK_LOCKSTEP_KIND_JOIN, tl.TOWERLINK_LOCKSTEP_KIND_ACK):
             if not self.tower_joined:
                 self.log("lockstep: the tower joined; its TICKs follow the world's")

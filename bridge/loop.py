@@ -35,7 +35,9 @@ The rooms, and what a packet meets on its way
 Lockstep (--lockstep, bridge.lockstep_desk)
     The world's TOWERLINK_LOCKSTEP TICKs (never routed on) make a barrier once they came on
     every vehicle link; goal retries and the follower's checks then run at barriers on sim
-    time instead of every wall tick, the bridge ACKs, and relays the TICK to the tower.
+    time instead of every wall tick, the bridge ACKs, and relays the TICK to the tower. When
+    the world is pipelined, each frame is handled whole, links in a fixed order, once the
+    tower acted on the barrier before it (bridge.frame_hold).
 """
 from __future__ import annotations
 
@@ -103,7 +105,8 @@ class Bridge:
         nodes = NodeLockstep(self.node_links[0], self.codec.pack_own, cfg.lockstep_nodes, self.log, clock) \
             if cfg.lockstep and self.node_links else None
         self.lockstep = LockstepDesk(self.vehicles, self.codec.pack_own, self.tower.queue,
-                                     self._at_barrier, self.log, clock, nodes=nodes) if cfg.lockstep else None
+                                     self._at_barrier, self.log, clock, nodes=nodes,
+                                     on_free=self._links_free) if cfg.lockstep else None
         self.behaviour_clock = (lambda: self.lockstep.sim_now) if self.lockstep else clock
         self.clocks = ClockDesk(self.timeline, self.router.command, self.router.send_own,
                                 self.log, self.warn_once, clock)
@@ -163,6 +166,10 @@ class Bridge:
         self.telemetry.ask_origins(t)       # on sim time: the origins come at a TICK the data fixes
         self.sim_checks.at_barrier(t)
 
+    def _links_free(self) -> None:
+        # pipelined lockstep: a barrier is done; the next frame's packets may go on
+        self.vehicle_side.release_held()
+
     def vehicle_frame(self, sysid: int) -> str:
         """The frame vehicle `sysid`'s local NED is in: <name>_origin (world for others)."""
         v = self.vehicles.get(sysid)
@@ -184,7 +191,8 @@ class Bridge:
     def summary(self) -> str:
         """The end-of-run counters (bridge.status)."""
         return summary(self.links, self.vehicles, self.timeline, self.node_desk.frames, self.followers,
-                       self.codec.decode_errors, self.vehicle_side.tower_drops, self.lockstep)
+                       self.codec.decode_errors, self.vehicle_side.tower_drops, self.lockstep,
+                       self.vehicle_side.hold.held if self.vehicle_side.hold is not None else 0)
 
     def close(self) -> None:
         """LEAVE the lockstep (if in it), close every link and the selector."""

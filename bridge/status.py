@@ -4,7 +4,7 @@ from __future__ import annotations
 
 
 def summary(links, vehicles: dict, timeline, node_frames, followers: dict, decode_errors: int,
-            tower_drops: int, lockstep) -> str:
+            tower_drops: int, lockstep, held_next_frame: int = 0) -> str:
     """The bridge's end-of-run counters, one line per link and vehicle."""
     parts = []
     for link in links:
@@ -28,7 +28,9 @@ def summary(links, vehicles: dict, timeline, node_frames, followers: dict, decod
         parts.append(f"lockstep: {lockstep.barriers} barriers, last at {lockstep.sim_now:.3f} s sim; "
                      f"tower {'joined' if lockstep.tower_joined else 'not joined'}; "
                      f"TICKs sent to the tower again {lockstep.tick_resends}; "
-                     f"the world's TICKs answered again {lockstep.tick_resends_seen}")
+                     f"the world's TICKs answered again {lockstep.tick_resends_seen}"
+                     + (f"; pipelined: {held_next_frame} vehicle packets handled a whole frame at a time"
+                        if lockstep.lag else ""))
         if lockstep.nodes is not None:
             parts.append(lockstep.nodes.summary())
     return "\n".join(parts)

@@ -10,14 +10,18 @@
   and counted, never sent in the wrong frame). The outs and other vehicles get the raw bytes.
 * A system behind a vehicle link other than the configured vehicle (a camera, a companion)
   is routed as that link's vehicle's traffic, undecoded.
+* In a pipelined lockstep the packets wait (bridge.frame_hold) and are handled a whole frame
+  at a time, links in a fixed order, once the bridge is done with the barrier before it.
 """
 from __future__ import annotations
 
 from common.frames import TransformException
+from common.mavlink.dialect import towerlink as tl
 from common.mavlink.frame_parser import Packet
 from bridge import translate
 from bridge.codec import Codec
 from bridge.config import VehicleRecord
+from bridge.frame_hold import FrameHold
 from bridge.frame_tree import FrameTree
 from bridge.links import Link
 from bridge.lockstep_desk import LockstepDesk
@@ -49,8 +53,36 @@ class VehicleSide:
         self.router = router
         self.warn_once = log.warn_once
         self.tower_drops = 0                # telemetry not sent to the tower: no transform
+        # pipelined lockstep: a link's next frame waits until the bridge is done with this one
+        self.hold = FrameHold([v.link for v in vehicles.values()], self._handle_held, self._tick_time,
+                              lambda: lockstep.lag > 0, lockstep.frame_ready) if lockstep is not None else None
 
     def on_packet(self, link: Link, pkt: Packet) -> None:
+        """One packet from vehicle `link`: held for a barrier not yet done (bridge.frame_hold), or handled."""
+        if self.hold is not None and self.hold.take(link, pkt):
+            return
+        self.handle(link, pkt)
+
+    def release_held(self) -> None:
+        """What the links held, handled in order as far as their barriers are done (the lockstep
+        desk calls this when one may be)."""
+        self.hold.release()
+
+    def _tick_time(self, pkt: Packet) -> int | None:
+        """A TICK's time (us) for the hold, or None."""
+        if pkt.msgid != MSG_TL_LOCKSTEP:
+            return None
+        msg = self.codec.decode(pkt.raw)
+        return msg.time_usec if msg is not None and msg.kind == tl.TOWERLINK_LOCKSTEP_KIND_TICK else None
+
+    def _handle_held(self, link: Link, pkt: Packet) -> None:
+        try:
+            self.handle(link, pkt)
+        except Exception as exc:  # noqa: BLE001 - as the loop does: never let one packet stop the bridge
+            link.stats.malformed += 1
+            self.warn_once("packet-error", f"packet {pkt.msgid} from {link.name} failed: {exc!r}")
+
+    def handle(self, link: Link, pkt: Packet) -> None:
         """One packet from vehicle `link`: read if it is the bridge's business, and routed."""
         if pkt.refused is not None:             # --vehicle-signing, and this one did not pass
             return

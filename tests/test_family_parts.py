@@ -192,6 +192,11 @@ def test_fly_family_command_lines_give_every_vehicle_its_port_and_the_bridge_eac
     assert "--lockstep" in locked.bridge_cmd() and "--lockstep" in locked.tower_cmd()
     van = FlyPlan(tmp_path / "v", scenario="van", lockstep=True).sitl_cmd()
     assert van[van.index("--lockstep") + 1] == "4"           # bridge, the tower link, the monitor, the van's driver
+    # pipelined by default (the lab too); not when asked, and never without lockstep
+    assert "--lockstep-pipeline" in sitl and "--lockstep-pipeline" in van
+    assert "--lockstep-pipeline" in FlyPlan(tmp_path / "p", lockstep=True).sitl_cmd()
+    assert "--lockstep-pipeline" not in FlyPlan(tmp_path / "s", lockstep=True, lockstep_pipeline=False).sitl_cmd()
+    assert "--lockstep-pipeline" not in FlyPlan(tmp_path / "f", scenario="family").sitl_cmd()
 
 
 def test_fly_van_route_is_a_looped_mission_on_the_van(tmp_path):

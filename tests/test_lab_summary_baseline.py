@@ -2,7 +2,8 @@
 
 tests/data/lab_summary/seed{1,2,3}.json are the summaries `towerlink fly --seed N --speedup max`
 wrote with the previous release (ca7883d), before the in-process stepping was sped up, with the
-figures a documented numerics change moved since (tests/data/lab_summary/CHANGES.md). In
+figures a documented change moved since (a numerics change, or the pipelined lockstep's one
+period of latency: tests/data/lab_summary/CHANGES.md). In
 lockstep a seed fixes every figure, so the same flight now must give the same figures:
 strings, flags and integers exactly, floats within 1e-9 relative (+1e-9 absolute) -- the
 speed-ups keep every operation's order, so they agree to the bit today; the tolerance only

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import socket
 
+import pytest
+
 from support import free_port, wait_until
 from common.link_settings import LinkSettings
 from common.mavlink import lockstep as L
@@ -93,8 +95,8 @@ def test_lockstep_frames_always_pass_uncounted_and_shift_no_other_frame_s_fate()
     assert fates[0] == fates[1]
 
 
-def _tick(t_usec: int) -> bytes:
-    return L.pack(L.TICK, t_usec, period_usec=40000, sysid=250, compid=191)
+def _tick(t_usec: int, lag: int = 0) -> bytes:
+    return L.pack(L.TICK, t_usec, period_usec=40000, sysid=250, compid=191, lag=lag)
 
 
 def _ack(t_usec: int) -> bytes:
@@ -109,10 +111,11 @@ def _recv(sock: socket.socket, expected: bytes) -> bytes:
     return got
 
 
-def test_lockstep_delay_is_counted_in_ticks_and_faults_go_up_before_the_tower_s_ack():
+@pytest.mark.parametrize("lag", [0, 1])
+def test_lockstep_delay_is_counted_in_ticks_and_faults_go_up_before_the_tower_s_ack(lag):
     # down latency 0.1 s sim: a frame sent before TICK(0.04) arrives just before TICK(0.16),
     # however slowly the TICKs come; the drone's fault at t = 0.08 goes up just before the
-    # tower's ACK(0.08), so the world applies it at that TICK
+    # tower's ACK(0.08), so the world applies it at that TICK (pipelined, lag 1: at the next)
     fault = Fault(0, 0.08, "drone", 1, params=(("SIM_BATT_VOLTAGE", 10.0),))
     timeline = FaultTimeline([fault], {"up": LinkSettings(), "down": LinkSettings(latency=0.1)},
                              kinds={1: "copter"}, tables={"copter": {"SIM_BATT_VOLTAGE": _Def()}})
@@ -120,17 +123,17 @@ def test_lockstep_delay_is_counted_in_ticks_and_faults_go_up_before_the_tower_s_
     try:
         e.client.sendto(_ack(0), e.front)              # the client's address, before any TICK
         assert _recv(e.upstream, _ack(0)) == _ack(0)
-        e.upstream.sendto(_tick(0), e.back)
-        assert _recv(e.client, _tick(0)) == _tick(0)
+        e.upstream.sendto(_tick(0, lag), e.back)
+        assert _recv(e.client, _tick(0, lag)) == _tick(0, lag)
         e.upstream.sendto(_frame(1), e.back)           # telemetry of the frame up to 0.04
         for t in (40000, 80000, 120000, 160000):
-            e.upstream.sendto(_tick(t), e.back)
-            down = (_frame(1) if t == 160000 else b"") + _tick(t)
+            e.upstream.sendto(_tick(t, lag), e.back)
+            down = (_frame(1) if t == 160000 else b"") + _tick(t, lag)
             assert _recv(e.client, down) == down, t
             e.client.sendto(_ack(t), e.front)
             up = (_frame(210) if t == 80000 else b"") + _ack(t)
             assert _recv(e.upstream, up) == up, t
-        assert e.proxy.applied == [{"fault": 0, "kind": "apply", "t": 0.08, "at": 0.08}]
+        assert e.proxy.applied == [{"fault": 0, "kind": "apply", "t": 0.08, "at": 0.08 + 0.04 * lag}]
         assert e.proxy.injected == 1
     finally:
         e.close()

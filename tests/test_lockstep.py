@@ -22,18 +22,22 @@ from vehicle.world import World, WorldConfig
 
 @given(kind=st.sampled_from([L.JOIN, L.ACK, L.TICK, L.LEAVE]), t=st.integers(0, 2**64 - 1),
        who=st.integers(0, 3), target=st.integers(0, 255), period=st.integers(0, 2**32 - 1),
-       sysid=st.integers(1, 255), compid=st.integers(0, 255), seq=st.integers(0, 255))
-def test_pack_is_the_dialect_bytes_and_unpacks(kind, t, who, target, period, sysid, compid, seq):
+       sysid=st.integers(1, 255), compid=st.integers(0, 255), seq=st.integers(0, 255),
+       lag=st.integers(0, 255))
+def test_pack_is_the_dialect_bytes_and_unpacks(kind, t, who, target, period, sysid, compid, seq, lag):
     mav = tl.MAVLink(None, srcSystem=sysid, srcComponent=compid)
     mav.seq = seq
-    ref = tl.MAVLink_towerlink_lockstep_message(t, target, kind, who, period).pack(mav)
+    ref = tl.MAVLink_towerlink_lockstep_message(t, target, kind, who, period, lag).pack(mav)
     mine = L.pack(kind, t, participant=who, target_system=target, period_usec=period,
-                  sysid=sysid, compid=compid, seq=seq)
+                  sysid=sysid, compid=compid, seq=seq, lag=lag)
     assert mine == ref
     m, rest = L.unpack(ref + b"tail")
     assert rest == b"tail"
-    assert (m.kind, m.time_usec, m.participant, m.target_system, m.period_usec, m.sysid, m.compid) == \
-        (kind, t, who, target, period, sysid, compid)
+    assert (m.kind, m.time_usec, m.participant, m.target_system, m.period_usec, m.sysid, m.compid, m.lag) == \
+        (kind, t, who, target, period, sysid, compid, lag)
+    mav.seq = seq       # lag 0 (the extension trimmed): the bytes of the message without the field
+    assert L.pack(kind, t, participant=who, target_system=target, period_usec=period, sysid=sysid,
+                  compid=compid, seq=seq) == tl.MAVLink_towerlink_lockstep_message(t, target, kind, who, period).pack(mav)
 
 
 def test_crc_extra_and_id_match_the_dialect():
@@ -203,11 +207,11 @@ class Participant:
                          self.addr)
 
 
-def start_world(speedup: float = math.inf, timeout: float = 1.0):
+def start_world(speedup: float = math.inf, timeout: float = 1.0, pipeline: bool = False):
     port = free_port()
     w = World(WorldConfig(drones=1, rovers=0, state_dir=None, tcp_base=None, udp_base=None, speedup=speedup,
                           endpoints={0: [f"udpin:127.0.0.1:{port}"]}, lockstep=1, lockstep_period=0.04,
-                          lockstep_timeout=timeout))
+                          lockstep_timeout=timeout, lockstep_pipeline=pipeline))
     w.start_thread()
     return w, Participant(port)
 
@@ -302,13 +306,15 @@ def test_a_closing_bridge_leaves_and_the_world_goes_on_at_once(capsys):
         w.stop()
 
 
+@pytest.mark.parametrize("lag", [0, 1])
 @pytest.mark.parametrize("speedup", [math.inf, 20.0])
-def test_a_participants_packets_take_effect_at_a_tick_boundary(speedup):
+def test_a_participants_packets_take_effect_at_a_tick_boundary(speedup, lag):
     """Sent before its ACK(t): handled at t. Sent after it: at the next TICK, t + 40 ms, never
     in between, whenever the machine delivered it (paced at 20x the world sleeps mid-frame).
     (The answer to a packet sent after the ACK may come before or after that next TICK: a
-    participant's reactions go before its ACK, so their answers come before the next TICK.)"""
-    w, p = start_world(speedup)
+    participant's reactions go before its ACK, so their answers come before the next TICK.)
+    Pipelined (lag 1, tests/test_lockstep_pipeline.py) each one TICK later: t + 40 ms, t + 80 ms."""
+    w, p = start_world(speedup, pipeline=bool(lag))
     try:
         p.send(L.JOIN)
         t = p.next_tick()
@@ -317,7 +323,7 @@ def test_a_participants_packets_take_effect_at_a_tick_boundary(speedup):
             p.request_system_time()
             p.send(L.ACK, t)
             p.request_system_time()
-            sent_at += [t // 1000, t // 1000 + 40]
+            sent_at += [t // 1000 + 40 * lag, t // 1000 + 40 + 40 * lag]
             before, nxt = p.messages_until_tick()
             msgs += before
             assert nxt == t + 40000
@@ -548,13 +554,16 @@ def test_bridge_desk_barrier_needs_a_tick_on_every_vehicle_link_then_upkeep_ack_
 # ----------------------------------------------------------------------------- a world in several processes
 
 
-def test_a_world_in_two_worker_processes_steps_as_one_under_one_participant(processes):
+@pytest.mark.parametrize("lag", [0, 1])
+def test_a_world_in_two_worker_processes_steps_as_one_under_one_participant(processes, lag):
     """`sitl --workers 2 --lockstep 1 --speedup max`: a participant that acts as the bridge
     does (ACK t on every link once TICK(t) came on all of them) holds both workers together;
-    a worker whose link is not ACKed stays at its TICK while the other may go one frame on."""
+    a worker whose link is not ACKed stays at its TICK while the other may go one frame on.
+    Pipelined (lag 1) each steps one frame past its newest TICK, and no further."""
     ports = [free_port(), free_port()]
     proc = processes.start(["towerlink", "sitl", "--drones", "1", "--rovers", "1", "--workers", "2",
-                            "--lockstep", "1", "--speedup", "max", "--no-save", "--tcp-base", "0",
+                            "--lockstep", "1", *(["--lockstep-pipeline"] if lag else []),
+                            "--speedup", "max", "--no-save", "--tcp-base", "0",
                             "--udp-base", "0", "--lockstep-timeout", "30",
                             *(a for i, p in enumerate(ports) for a in ("--endpoint", f"{i}=udpin:127.0.0.1:{p}"))])
     links = [Participant(p) for p in ports]
@@ -591,10 +600,10 @@ def test_a_world_in_two_worker_processes_steps_as_one_under_one_participant(proc
         links[1].sock.settimeout(0.5)
         late = []
         with pytest.raises(socket.timeout):
-            while True:                     # worker 1 stays held at t: nothing newer comes
+            while True:                     # worker 1 stays held at t (pipelined t + 40 ms): nothing newer comes
                 data, _ = links[1].sock.recvfrom(65535)
                 late += [m for m in links[1].parser.parse_buffer(data) or []
-                         if getattr(m, "time_boot_ms", 0) > t // 1000]
+                         if getattr(m, "time_boot_ms", 0) > (t + lag * 40000) // 1000]
         assert late == []
         assert proc.poll() is None
     finally:

@@ -22,6 +22,20 @@ def test_writes_wait_for_the_flush_in_order_and_go_at_once_when_not_corked():
     assert out == [1, 2, 3, 4]
 
 
+def test_a_push_writes_what_is_held_and_stays_corked():
+    """A pipelined lockstep TICK: the frame's writes and the TICK go out now, the world steps on corked."""
+    out, box = [], Outbox()
+    box.push()                              # uncorked, nothing held: nothing happens
+    box.cork()
+    box.send(out.append, 1)
+    box.push()
+    assert out == [1]
+    box.send(out.append, 2)
+    assert out == [1]                       # still corked
+    box.flush()
+    assert out == [1, 2]
+
+
 def test_a_write_failing_at_the_flush_does_not_stop_the_others():
     out, box = [], Outbox()
 

@@ -1,8 +1,10 @@
 """Benchmark: the lab in whole-system lockstep at --speedup max, the TICK round trip, start-up.
 
-Each figure is measured for this tree and, side by side, for a peer checkout (the previous
-release: --peer DIR or $TOWERLINK_PEER_TREE, e.g. a worktree of the last release), each in its
-own processes, with the ratio:
+Each figure is measured for this tree, pipelined (the world steps on after each TICK and waits
+for its ACKs at the next: fly's default, sitl --lockstep-pipeline) and not (fly
+--no-lockstep-pipeline), and, side by side, for a peer checkout (the previous release: --peer
+DIR or $TOWERLINK_PEER_TREE, e.g. a worktree of the last release; its default), each in its own
+processes, with the ratio of this tree's default to the peer's:
 
 * the lab run: `towerlink fly --speedup max` (lockstep, seed 1), wall seconds from the command's
   start to its summary (plots and run.mcap written), the speedup the flight achieved, the wait
@@ -11,7 +13,7 @@ own processes, with the ratio:
   (extrapolated: its cores each flying runs one after another, as tools/sweep does);
 * the TICK round trip: `towerlink sitl --lockstep 1` (one drone) and a bare participant that
   ACKs each TICK at once; the world's wait per TICK, from the TICK's send to the ACK handled
-  (its own stats line);
+  (its own stats line; pipelined, the wait left after stepping the next frame);
 * start-up: wall seconds from starting `towerlink sitl` to its first HEARTBEAT (least of 3).
 
 The machine is shared: the load average is printed with the figures.
@@ -36,6 +38,10 @@ from pathlib import Path
 from tools.benchtable import machine, table
 
 WAITS = re.compile(r"lockstep: (\d+) waits for ACKs, ([\d.]+) s wall waiting")
+TICKS = re.compile(r"; (\d+) TICKs")
+#: a lab run's and a world's flags per variant (None: the tree's default, e.g. a peer's)
+FLY_FLAGS = {None: [], True: ["--lockstep-pipeline"], False: ["--no-lockstep-pipeline"]}
+SITL_FLAGS = {None: [], True: ["--lockstep-pipeline"], False: []}
 
 
 def _env(tree: Path) -> dict:
@@ -52,29 +58,38 @@ def _cli(*args: str) -> list[str]:
     return [sys.executable, "-m", "tools.cli", *args]
 
 
-def lab_run(tree: Path, out: Path, one_core: bool = False) -> dict:
+def _wait_per_tick(log: str) -> float | None:
+    """The world's wall s waiting per TICK from its stats line (per wait where it does not count TICKs)."""
+    m = WAITS.search(log)
+    if not m:
+        return None
+    n = TICKS.search(log[m.end():m.end() + 200])
+    count = int(n.group(1)) if n else int(m.group(1))
+    return float(m.group(2)) / count if count else None
+
+
+def lab_run(tree: Path, out: Path, one_core: bool = False, pipelined: bool | None = None) -> dict:
     """One `towerlink fly --speedup max` of the lab in `tree`: wall s, achieved speedup, wait per TICK."""
     shutil.rmtree(out, ignore_errors=True)
-    cmd = _cli("fly", "--speedup", "max", "--seed", "1", "-q", "--out", str(out))
+    cmd = _cli("fly", "--speedup", "max", "--seed", "1", "-q", "--out", str(out), *FLY_FLAGS[pipelined])
     if one_core:
         cmd = ["taskset", "-c", "0", *cmd]
     t0 = time.perf_counter()
     r = subprocess.run(cmd, cwd=tree, env=_env(tree), capture_output=True, text=True, timeout=600)
     wall = time.perf_counter() - t0
     s = json.loads((out / "summary.json").read_text()) if (out / "summary.json").exists() else {}
-    m = WAITS.search((out / "sitl.log").read_text()) if (out / "sitl.log").exists() else None
+    log = (out / "sitl.log").read_text() if (out / "sitl.log").exists() else ""
     return {"wall": wall, "ok": r.returncode == 0 and bool(s.get("ok")),
-            "speedup": s.get("achieved_speedup"),
-            "tick_wait": float(m.group(2)) / int(m.group(1)) if m and int(m.group(1)) else None}
+            "speedup": s.get("achieved_speedup"), "tick_wait": _wait_per_tick(log)}
 
 
-def tick_round_trip(tree: Path, ticks: int = 1500) -> float | None:
+def tick_round_trip(tree: Path, ticks: int = 1500, pipelined: bool | None = None) -> float | None:
     """The world's wait per TICK (s) with one bare participant ACKing each TICK at once."""
     from common.mavlink import lockstep as wire
     port = _free_port()
     proc = subprocess.Popen(_cli("sitl", "--no-save", "--tcp-base", "0", "--udp-base", "0", "--drones", "1",
                                  "--rovers", "0", "--speedup", "max", "--lockstep", "1", "--lockstep-period", "0.02",
-                                 "--endpoint", f"0=udpin:127.0.0.1:{port}"),
+                                 "--endpoint", f"0=udpin:127.0.0.1:{port}", *SITL_FLAGS[pipelined]),
                             cwd=tree, env=_env(tree), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     addr = ("127.0.0.1", port)
     ids = {"participant": wire.OTHER, "sysid": 254, "compid": 7}
@@ -99,8 +114,7 @@ def tick_round_trip(tree: Path, ticks: int = 1500) -> float | None:
     except subprocess.TimeoutExpired:
         proc.kill()
         out = proc.communicate()[0]
-    m = WAITS.search(out)
-    return float(m.group(2)) / int(m.group(1)) if m and int(m.group(1)) else None
+    return _wait_per_tick(out)
 
 
 def first_heartbeat(tree: Path, repeat: int = 3) -> float | None:
@@ -137,13 +151,15 @@ def _has_heartbeat(data: bytes) -> bool:
     return False
 
 
-def measure(tree: Path, runs: int = 1) -> dict:
+def measure(tree: Path, runs: int = 1, pipelined: bool | None = None, heartbeat: bool = True) -> dict:
+    """The figures of `tree`, pipelined or not (None: its default)."""
     work = Path(tempfile.mkdtemp(prefix="bench_lockstep_"))
     try:
-        labs = [lab_run(tree, work / f"lab{i}") for i in range(runs)]
-        one = lab_run(tree, work / "one", one_core=True)
+        labs = [lab_run(tree, work / f"lab{i}", pipelined=pipelined) for i in range(runs)]
+        one = lab_run(tree, work / "one", one_core=True, pipelined=pipelined)
         return {"lab": min(labs, key=lambda r: r["wall"]), "one_core": one,
-                "rtt": tick_round_trip(tree), "heartbeat": first_heartbeat(tree)}
+                "rtt": tick_round_trip(tree, pipelined=pipelined),
+                "heartbeat": first_heartbeat(tree) if heartbeat else None}
     finally:
         shutil.rmtree(work, ignore_errors=True)
 
@@ -158,8 +174,10 @@ def _ratio(new, old, lower_is_better: bool = True) -> str:
     return f"{(old / new if lower_is_better else new / old):.2f}x"
 
 
-def report(this: dict, peer: dict | None, peer_note: str) -> str:
-    p = peer or {"lab": {}, "one_core": {}, "rtt": None, "heartbeat": None}
+def report(this: dict, peer: dict | None, peer_note: str, serial: dict | None = None) -> str:
+    """The table: this tree (pipelined), this tree not pipelined (`serial`), the peer, the ratio."""
+    empty = {"lab": {}, "one_core": {}, "rtt": None, "heartbeat": None}
+    p, q = peer or empty, serial or empty
     cores = os.cpu_count() or 1
 
     def sweep_min(r):       # 100 runs, each core flying one after another
@@ -167,28 +185,24 @@ def report(this: dict, peer: dict | None, peer_note: str) -> str:
 
     def per_min(r):
         return None if not r.get("wall") else 60 / r["wall"]
-    rows = [
-        ["lab run, start to summary (wall s)", _f(this["lab"]["wall"], ".2f"), _f(p["lab"].get("wall"), ".2f"),
-         _ratio(this["lab"]["wall"], p["lab"].get("wall")), "<= 5"],
-        ["lab flight, achieved speedup (x)", _f(this["lab"]["speedup"], ".1f"), _f(p["lab"].get("speedup"), ".1f"),
-         _ratio(this["lab"]["speedup"], p["lab"].get("speedup"), False), ">= 40"],
-        ["lab wait per TICK: bridge, tower, monitor (ms)", _f(_ms(this["lab"]["tick_wait"]), ".3f"),
-         _f(_ms(p["lab"].get("tick_wait")), ".3f"), _ratio(this["lab"]["tick_wait"], p["lab"].get("tick_wait")), ""],
-        ["lab run on one core (wall s)", _f(this["one_core"]["wall"], ".2f"), _f(p["one_core"].get("wall"), ".2f"),
-         _ratio(this["one_core"]["wall"], p["one_core"].get("wall")), ""],
-        ["runs a minute on one core", _f(per_min(this["one_core"]), ".1f"), _f(per_min(p["one_core"]), ".1f"),
-         _ratio(per_min(this["one_core"]), per_min(p["one_core"]), False), ">= 12"],
-        [f"100-run sweep, {cores} cores (min, extrapolated)", _f(sweep_min(this["one_core"]), ".1f"),
-         _f(sweep_min(p["one_core"]), ".1f"), _ratio(sweep_min(this["one_core"]), sweep_min(p["one_core"])), "<= 5"],
-        ["TICK round trip, bare participant (ms)", _f(_ms(this["rtt"]), ".3f"), _f(_ms(p["rtt"]), ".3f"),
-         _ratio(this["rtt"], p["rtt"]), "<= 0.3"],
-        ["sitl start to first HEARTBEAT (s)", _f(this["heartbeat"], ".2f"), _f(p["heartbeat"], ".2f"),
-         _ratio(this["heartbeat"], p["heartbeat"]), "<= 0.5"],
+    figures = [   # label, the figure of one measure(), format, lower is better, target
+        ("lab run, start to summary (wall s)", lambda m: m["lab"].get("wall"), ".2f", True, "<= 5"),
+        ("lab flight, achieved speedup (x)", lambda m: m["lab"].get("speedup"), ".1f", False, ">= 40"),
+        ("lab wait per TICK: bridge, tower, monitor (ms)", lambda m: _ms(m["lab"].get("tick_wait")), ".3f",
+         True, ""),
+        ("lab run on one core (wall s)", lambda m: m["one_core"].get("wall"), ".2f", True, ""),
+        ("runs a minute on one core", lambda m: per_min(m["one_core"]), ".1f", False, ">= 12"),
+        (f"100-run sweep, {cores} cores (min, extrapolated)", lambda m: sweep_min(m["one_core"]), ".1f", True,
+         "<= 5"),
+        ("TICK round trip, bare participant: wait (ms)", lambda m: _ms(m["rtt"]), ".3f", True, "<= 0.3"),
+        ("sitl start to first HEARTBEAT (s)", lambda m: m["heartbeat"], ".2f", True, "<= 0.5"),
     ]
+    rows = [[label, _f(get(this), fmt), _f(get(q), fmt), _f(get(p), fmt), _ratio(get(this), get(p), lower), target]
+            for label, get, fmt, lower, target in figures]
     ok = "" if this["lab"]["ok"] else "  (the lab run did not reach every goal)"
     return table(f"lockstep at --speedup max, start-up (peer: {peer_note}; load average "
                  f"{' '.join(f'{x:.2f}' for x in os.getloadavg())}, a shared machine){ok}",
-                 ["figure", "this tree", "peer", "this/peer", "target"], rows)
+                 ["figure", "pipelined", "not pipelined", "peer", "pipelined/peer", "target"], rows)
 
 
 def _ms(v):
@@ -203,13 +217,14 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     tree = Path(__file__).resolve().parent.parent
     print(machine(), flush=True)
-    this = measure(tree, args.runs)
+    this = measure(tree, args.runs, pipelined=True)
+    serial = measure(tree, args.runs, pipelined=False, heartbeat=False)
     peer, note = None, "none (--peer DIR or TOWERLINK_PEER_TREE)"
     if args.peer and (Path(args.peer) / "vehicle").is_dir():
         rev = subprocess.run(["git", "-C", args.peer, "rev-parse", "--short", "HEAD"], capture_output=True, text=True)
         note = f"{args.peer} at {rev.stdout.strip() or '?'}"
         peer = measure(Path(args.peer), args.runs)
-    print(report(this, peer, note), flush=True)
+    print(report(this, peer, note, serial), flush=True)
     return 0
 
 

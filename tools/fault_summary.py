@@ -3,7 +3,7 @@ failsafes it caused, and what became of the mission (pure data work: no sockets)
 
 Inputs: the scenario's faults (common.scenario_faults.Fault), when the link proxy applied and
 cleared each (faults.json, sim s: in lockstep the first lockstep frame at or after the fault's
-time), the vehicles' STATUSTEXTs and mode changes (tools.run_data: texts, modes; sim s) and the
+time; a vehicle's fault in a pipelined lockstep the frame after it), the vehicles' STATUSTEXTs and mode changes (tools.run_data: texts, modes; sim s) and the
 tower's goals. A failsafe is a vehicle's STATUSTEXT that says so (ArduPilot's words: "GCS
 Failsafe On: RTL", "Battery Failsafe", the monitor's "Battery 1 is low ...", the EKF check's
 "EKF variance" and "EKF Failsafe: changed to LAND Mode"; a "... Cleared" is not one, nor is the
@@ -128,7 +128,7 @@ def format_faults(section: Mapping[str, Any] | None) -> list[str]:
     """The section's lines for summary.txt ([] when the run had no fault and no failsafe)."""
     if not section or not (section.get("faults") or section.get("failsafes")):
         return []
-    lines = ["faults (sim s; in lockstep one takes effect at the first lockstep frame at or after its t):"]
+    lines = ["faults (sim s; in lockstep one takes effect at a lockstep frame at or after its t, at any speed):"]
     for row in section.get("faults", []):
         head = f"  [{row['index']}] t {row['t']:g} {row['target']} {row['what']}"
         if row.get("until") is not None:

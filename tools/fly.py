@@ -126,6 +126,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "the bridge and the tower then lag it by their wall-clock time times the speedup, "
                              "and the figures depend on the machine. Third-party clients see an ordinary "
                              "vehicle either way")
+    parser.add_argument("--lockstep-pipeline", action=argparse.BooleanOptionalAction, default=True,
+                        help="with --lockstep (the default): the world sends each TICK and steps on at once, "
+                             "waiting for its ACKs at the next TICK (sitl --lockstep-pipeline), so it steps "
+                             "while the bridge, the tower and the monitor work; their reactions take effect "
+                             "one lockstep period (40 ms sim) later. Still the same figures at any --speedup "
+                             "and load; --no-lockstep-pipeline: the world waits for every ACK before it steps "
+                             "on (slower; other figures)")
     parser.add_argument("--follow-frame", choices=("drone", "drone_yaw"), default=None,
                         help="frame the rover's goal is written in (default: the scenario's)")
     parser.add_argument("--seed", type=int, default=1, help="the world's noise seed (default 1)")
@@ -222,7 +229,8 @@ def run(args: argparse.Namespace) -> int:
                         finish=args.finish, goal_timeout=args.goal_timeout, tower_loss=args.tower_loss,
                         tower_link=args.tower_link, start_params=start_params,
                         echo=args.verbose, view_port=args.view, nodes=args.nodes,
-                        lockstep=args.lockstep, follow_with=args.follow_with, foll_pos_p=args.foll_pos_p,
+                        lockstep=args.lockstep, lockstep_pipeline=args.lockstep_pipeline,
+                        follow_with=args.follow_with, foll_pos_p=args.foll_pos_p,
                         world=world, sitl_args=sitl_args, signing_key=args.signing_key)
     except ValueError as exc:
         print(f"towerlink fly: {exc}", file=sys.stderr)

@@ -42,7 +42,8 @@ class FlyPlan:
                  tower_link: str | None = None, loss_seed: int | None = None,
                  start_params: dict[str, float] | None = None, sitl_args: tuple[str, ...] = (), bridge_args: tuple[str, ...] = (),
                  tower_args: tuple[str, ...] = (), host: str = "127.0.0.1",
-                 nodes: str | os.PathLike | list | None = None, lockstep: bool = False, follow_with: str = "bridge",
+                 nodes: str | os.PathLike | list | None = None, lockstep: bool = False,
+                 lockstep_pipeline: bool = True, follow_with: str = "bridge",
                  foll_pos_p: float | None = None, world=None, signing_key: str | None = None) -> None:
         from common.scenario import load_scenario, scenario_path
         self.dir = Path(run_dir)
@@ -52,6 +53,7 @@ class FlyPlan:
         self.family = self.sc.is_family
         self.speedup = speedup
         self.lockstep = lockstep
+        self.lockstep_pipeline = lockstep_pipeline      # sitl --lockstep-pipeline (with lockstep)
         self.seed = seed
         self.follow_frame = follow_frame
         self.goals, self.alt, self.radius, self.finish = goals, alt, radius, finish
@@ -153,7 +155,7 @@ class FlyPlan:
         h, out = self.world_binds()
         # the lockstep participants: the bridge, the tower and the monitor on the push link
         # (tools.fly_monitor: it records the truth the summary scores); the world waits for all at t=0
-        lock = ("--lockstep", "3") if self.lockstep else ()
+        lock = ("--lockstep", "3", *self.pipeline_args()) if self.lockstep else ()
         return towerlink_cmd("sitl", "--speedup", speedup_text(self.speedup), "--seed", str(self.seed),
                              "--no-save", "--tcp-base", "0", "--udp-base", "0",
                              "--endpoint", f"0=udpin:{h}:{self.ports['drone']}",
@@ -161,6 +163,10 @@ class FlyPlan:
                              "--out", f"udpout:{out}:{self.ports['vehicles']}", *self.scenario_wind(),
                              *lock, *(("--rovers", "2") if self.follow_with == "both" else ()),
                              *self.signing_args(), *self.sitl_args)
+
+    def pipeline_args(self) -> tuple[str, ...]:
+        """The world's lockstep pipelined (reactions one TICK later), or not."""
+        return ("--lockstep-pipeline",) if self.lockstep_pipeline else ()
 
     def family_sitl_cmd(self) -> list[str]:
         """Every vehicle of the scenario, vehicle i (sysid i+1) on its own udpin port."""
@@ -172,7 +178,7 @@ class FlyPlan:
                             "--out", f"udpout:{out}:{self.ports['vehicles']}", *self.scenario_wind())
         if self.lockstep:
             # the bridge, the family's one tower link (gcs.tower_link), the monitor and the van's driver
-            cmd += ["--lockstep", str(3 + (sc.van is not None))]
+            cmd += ["--lockstep", str(3 + (sc.van is not None)), *self.pipeline_args()]
         for _name, sysid, _kind in sc.vehicles:
             cmd += ["--endpoint", f"{sysid - 1}=udpin:{h}:{self.ports[f'vehicle{sysid}']}"]
         if sc.van is not None:

@@ -22,7 +22,8 @@ traffic, :func:`bridge_wall_paced`). Without lockstep delays are wall seconds.
 A `timeline` (tools.fault_timeline.FaultTimeline) changes the settings over sim time and sends
 its vehicle faults' PARAM_SETs upstream (`encode(ParamSet) -> bytes`): in lockstep just
 before the tower's ACK of the first TICK at or after the fault's time, so the world applies it
-at that TICK whatever the machine's speed; without lockstep when `sim_time()` reaches it.
+at that TICK (pipelined, the TICK saying lag 1: at the next one, like every reaction of the
+tower) whatever the machine's speed; without lockstep when `sim_time()` reaches it.
 `applied` records each apply and clear with the sim time it took effect.
 
 As a command: python -m tools.link_proxy LISTEN_PORT UPSTREAM_PORT [--link loss=0.2,latency=0.1] [--seed 1]
@@ -66,6 +67,7 @@ class LinkProxy(threading.Thread):
         self._log = timeline.cursor() if timeline is not None else None
         self._params = timeline.cursor() if timeline is not None else None
         self.applied: list[dict] = []       # {"fault", "kind", "t", "at"}: when each took effect (sim s)
+        self.reaction_delay = 0.0           # sim s after its TICK a reaction takes effect (the TICK's lag periods)
         self.injected = 0                   # PARAM_SETs sent
         self.upstream = upstream
         self.front = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -128,6 +130,8 @@ class LinkProxy(threading.Thread):
             m = wire.unpack(u.data)[0] if wire.is_lockstep(u.data) else None
             if m is not None:
                 if self.lockstep and m.kind == (wire.TICK if way == "down" else wire.ACK):
+                    if m.kind == wire.TICK:
+                        self.reaction_delay = m.lag * m.period_usec / 1e6
                     out += self._marker(way, m.t)
                 out.append(u)
             elif self.exempt is not None and self.exempt(u):
@@ -149,7 +153,9 @@ class LinkProxy(threading.Thread):
         if self.timeline is None:
             return []
         for e in self._log.advance(t):
-            self.applied.append({"fault": e.fault, "kind": e.kind, "t": e.t, "at": round(t, 6)})
+            # a vehicle's fault is a PARAM_SET the world applies as a reaction to TICK(t); the link's are the proxy's own
+            at = t + self.reaction_delay if e.params else t
+            self.applied.append({"fault": e.fault, "kind": e.kind, "t": e.t, "at": round(at, 6)})
         out: list[Unit] = []
         if inject:
             for e in self._params.advance(t):

@@ -7,7 +7,9 @@ machine the recording, not the flight, then differed from run to run. So in lock
 monitor is a participant like the bridge: it JOINs on each vehicle's push link (at the
 address the vehicle sends from, heard from the HEARTBEAT the world sends there while it waits
 at t = 0), and ACKs each TICK only once it has read everything that came before it. The world
-is then never more than one lockstep frame ahead of the recording.
+is then never more than one lockstep frame ahead of the recording (two when pipelined: it
+steps the next frame while it waits for this ACK; the monitor only records, so what it reads
+after a TICK before ACKing it changes nothing).
 
 :class:`PushLockstep` keeps the bookkeeping per vehicle address (wall times are passed in):
 where to JOIN (no TICK yet, at most every JOIN_PERIOD wall s), which TICK each address is

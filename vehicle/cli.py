@@ -53,6 +53,10 @@ bridge --lockstep, towerlink tower --lockstep through it) and never steps past a
 TICK until each has ACKed it; one silent for --lockstep-timeout wall seconds is dropped. Other
 clients see an ordinary vehicle. --speedup max then runs as fast as the slowest participant allows:
   towerlink sitl --lockstep 2 --speedup max
+With --lockstep-pipeline the world sends TICK(t) and steps on at once, waiting for ACK(t) at the
+next TICK: it steps while the participants work, and their reactions take effect one
+--lockstep-period later (towerlink fly's default):
+  towerlink sitl --lockstep 2 --lockstep-pipeline --speedup max
 With --workers K every worker holds for the same participants at the same TICKs (a bridge ACKs a
 TICK only once it came on all its vehicle links), so the K processes step as one world; a
 participant driving one vehicle on that vehicle's own endpoint names it in its JOIN.
@@ -162,6 +166,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="sim seconds between lockstep TICKs (default 0.04; rounded to the 50 Hz autopilot tick)")
     p.add_argument("--lockstep-timeout", type=float, default=10.0, metavar="S",
                    help="wall seconds a participant may stay silent before it is dropped (default 10)")
+    p.add_argument("--lockstep-pipeline", action="store_true",
+                   help="pipelined lockstep: send TICK(t) and step on at once, waiting for every ACK(t) "
+                        "only at the next TICK, so the world steps while the participants work (faster "
+                        "on 2+ cores). A participant's reactions to TICK(t) then take effect one "
+                        "--lockstep-period later, at t + period instead of t: still fixed by the data "
+                        "(same seed, same figures at any speed and load), but not the figures of a "
+                        "world without it")
     p.add_argument("--rate", type=float, default=400.0, metavar="HZ", help="physics rate (default 400)")
     p.add_argument("--home", type=_home, default=DEFAULT_HOME, metavar="LAT,LON,ALT",
                    help="world origin = home (default %s,%s,%s, ArduPilot SITL's)" % DEFAULT_HOME)
@@ -211,7 +222,8 @@ def config_from_args(a: argparse.Namespace) -> WorldConfig:
                        sysids=dict(a.sysid), group_size=a.group_size,
                        wind=getattr(a, "wind", None),
                        lockstep=a.lockstep, lockstep_period=a.lockstep_period,
-                       lockstep_timeout=a.lockstep_timeout)
+                       lockstep_timeout=a.lockstep_timeout,
+                       lockstep_pipeline=a.lockstep_pipeline)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -224,6 +236,9 @@ def run(args: argparse.Namespace) -> int:
     if args.lockstep < 0 or args.lockstep_period <= 0 or args.lockstep_timeout <= 0:
         print("towerlink sitl: --lockstep must be >= 0, --lockstep-period and --lockstep-timeout > 0",
               file=sys.stderr)
+        return 2
+    if args.lockstep_pipeline and not args.lockstep:
+        print("towerlink sitl: --lockstep-pipeline needs --lockstep N", file=sys.stderr)
         return 2
     n = args.drones + args.rovers
     bad = [i for i, _ in args.mission if i >= n]

@@ -8,12 +8,23 @@ vehicle index whose endpoint it arrived on and the reply channel, and asks it:
   every vehicle, or on the one vehicle their JOIN named (target_system: a driver of one
   vehicle on that vehicle's own link, such as the van's; 0 = every vehicle) (so the run starts at the same sim time whatever the machine), or when
   ``timeout`` wall seconds passed since the first JOIN (then it starts with whoever is there);
+* ``awaited(boundary)``: the TICK whose ACKs the world needs before it leaves a boundary:
+  that boundary's own (``lag`` 0), or the one before it (``lag`` 1, pipelined: the world
+  sends TICK(t) and steps on at once, and waits for ACK(t) at t + one period);
 * ``passed(t_usec)``: has every registered participant acknowledged sim time t on every
   vehicle link it joined on? Per link, because UDP keeps order only per socket pair: a
   reaction sent to vehicle 1 before the ACK is known to have arrived only when the ACK came
   on vehicle 1's endpoint too;
-* ``holds(sysid, compid, vehicle, boundary)``: must this participant's packet wait for the
-  next TICK boundary? (then it takes effect at a sim time the data fixes, not the machine);
+* ``due(sysid, compid, vehicle, channel)``: the TICK boundary at which a packet takes effect,
+  fixed by the data, never by when the machine delivered it: a participant whose newest ACK
+  on that link is a reacted to TICK(a + period), so its packet takes effect at a + (1 + lag)
+  periods (before any ACK: at lag periods), the boundary where the world waits for the ACK
+  that follows it. None for anyone else's (handled on arrival, an ordinary vehicle); with
+  lag 1 a packet from another system on an address a participant joined from (a tf2 node's
+  goal through the bridge) is the participant's, since the world no longer stands still while
+  it comes;
+* ``holds(sysid, compid, vehicle, boundary)``: must this packet wait for a later TICK
+  boundary than the one the world stands at (None: it is between TICKs)?
 * ``drop_silent(wall)``: participants not heard from for ``timeout`` wall seconds, dropped
   (returned, to be logged) so the world goes on.
 
@@ -44,10 +55,13 @@ class Participant:
 
 
 class LockstepGate:
-    def __init__(self, vehicles: int, expect: int = 1, timeout: float = 10.0) -> None:
+    def __init__(self, vehicles: int, expect: int = 1, timeout: float = 10.0,
+                 period_usec: int = 40000, lag: int = 0) -> None:
         self.vehicles = vehicles           # number of vehicles in the world
         self.expect = expect               # participants to wait for before leaving t = 0
         self.timeout = timeout             # wall s of silence before a participant is dropped
+        self.period_usec = period_usec     # sim us between TICKs
+        self.lag = lag                     # TICKs between a TICK and its reactions taking effect (0 or 1)
         self.participants: dict[tuple[int, int], Participant] = {}
         self.first_join: float | None = None
         self.is_started = False
@@ -91,6 +105,10 @@ class LockstepGate:
                 self.is_started = True
         return self.is_started
 
+    def awaited(self, boundary_usec: int) -> int:
+        """The TICK (sim us) every ACK of which the world needs before it leaves `boundary_usec`."""
+        return boundary_usec - self.lag * self.period_usec
+
     def passed(self, t_usec: int) -> bool:
         return all(a >= t_usec for p in self.participants.values() for a in p.acked.values())
 
@@ -105,16 +123,31 @@ class LockstepGate:
             self.dropped += 1
         return gone
 
-    def holds(self, sysid: int, compid: int, vehicle: int, boundary_usec: int | None) -> bool:
-        """Must a packet from (sysid, compid) on `vehicle`'s endpoint wait for the next TICK?
+    def due(self, sysid: int, compid: int, vehicle: int, channel=None) -> int | None:
+        """The TICK boundary (sim us) at which a packet from (sysid, compid), received now on
+        `vehicle`'s endpoint from `channel`, takes effect; None: on arrival (not a participant's)."""
+        p = self.participants.get((sysid, compid))
+        if p is not None:
+            acked = p.acked.get(vehicle, -1)
+        elif self.lag and channel is not None:
+            # another system behind a participant's address: in order with that address's ACKs
+            acks = [q.acked.get(vehicle, -1) for q in self.participants.values() if q.channels.get(vehicle) is channel]
+            if not acks:
+                return None
+            acked = min(acks)
+        else:
+            return None
+        return (acked // self.period_usec + 1 + self.lag) * self.period_usec
+
+    def holds(self, sysid: int, compid: int, vehicle: int, boundary_usec: int | None, channel=None) -> bool:
+        """Must a packet from (sysid, compid) on `vehicle`'s endpoint wait for a later TICK?
 
         Yes for a participant's packet while the world is between TICKs (boundary None), or
-        when it already ACKed the TICK the world stands at (it belongs to the next frame).
-        Packets of anyone else are handled on arrival (an ordinary vehicle)."""
-        p = self.participants.get((sysid, compid))
-        if p is None:
-            return False
-        return boundary_usec is None or p.acked.get(vehicle, -1) >= boundary_usec
+        when it is due after the TICK the world stands at (lag 0: the participant already
+        ACKed that TICK, so the packet belongs to the next frame). Packets of anyone else are
+        handled on arrival (an ordinary vehicle)."""
+        due = self.due(sysid, compid, vehicle, channel)
+        return due is not None and (boundary_usec is None or due > boundary_usec)
 
     def owed(self, t_usec: int) -> list[tuple[int, object]]:
         """(vehicle, channel) of every participant that has not ACKed t there: where a TICK(t)

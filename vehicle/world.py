@@ -18,7 +18,9 @@ Lockstep (`lockstep` N > 0, off by default): the world waits at t = 0 for N
 participants (TOWERLINK_LOCKSTEP JOIN on every vehicle), then at every lockstep frame sends
 TICK(t) after everything it sent up to t and does not step on until every participant ACKed
 t (vehicle/lockstep.py). Participants' packets arriving between TICKs are held to the next
-TICK boundary, so they take effect at a sim time fixed by the data they react to.
+TICK boundary, so they take effect at a sim time fixed by the data they react to. Pipelined
+(`lockstep_pipeline`): TICK(t) goes out and the world steps on at once, waiting for ACK(t) at
+the next TICK; reactions to TICK(t) take effect there, one period later.
 
 Python API (tests, tools):
     w = World(WorldConfig(drones=1, rovers=1, endpoints={0: ["udpin:127.0.0.1:14560"]}))
@@ -66,7 +68,8 @@ class World:
         # one air mass for the world (SIM_WIND_*), turbulence seeded by the world's seed
         self.wind = WindField(cfg.wind, cfg.seed)
         lo, hi = cfg.share_range()
-        self.lockstep = (WorldLockstep(self, hi - lo, cfg.lockstep, cfg.lockstep_period, cfg.lockstep_timeout)
+        self.lockstep = (WorldLockstep(self, hi - lo, cfg.lockstep, cfg.lockstep_period, cfg.lockstep_timeout,
+                                       lag=1 if cfg.lockstep_pipeline else 0)
                          if cfg.lockstep > 0 else None)
         self.logs = WorldLogs()          # the onboard logs' writer thread (vehicle/logs/)
         self.outbox = Outbox()           # the endpoints' writes, held while a chunk is stepped
@@ -281,7 +284,9 @@ class World:
                  f"{self.cfg.home[1]:.6f},{self.cfg.home[2]:.1f}, rate {self.cfg.rate:g} Hz, "
                  f"speedup {self.cfg.speedup:g}, seed {self.cfg.seed}"
                  + (f", {workers} worker processes" if workers > 1 else "")
-                 + (f", lockstep with {self.cfg.lockstep} participant(s)" if self.cfg.lockstep else "")]
+                 + (f", lockstep with {self.cfg.lockstep} participant(s)" if self.cfg.lockstep else "")
+                 + (" pipelined (reactions take effect one TICK later)"
+                    if self.cfg.lockstep and self.cfg.lockstep_pipeline else "")]
         if len(p.groups) > 1 or p.stride != 10:
             lines.append(f"{len(p.groups)} MAVLink network(s) of up to {p.group_size} vehicles, "
                          f"ports every {p.stride}:")

@@ -43,6 +43,9 @@ class WorldConfig:
     lockstep: int = 0
     lockstep_period: float = 0.04     # sim s between TICKs (a multiple of the 50 Hz autopilot tick)
     lockstep_timeout: float = 10.0    # wall s a participant may stay silent before it is dropped
+    # pipelined lockstep: TICK(t) goes out and the world steps on at once, waiting for ACK(t) at
+    # t + lockstep_period; a participant's reactions to TICK(t) take effect one period later
+    lockstep_pipeline: bool = False
 
     def network_plan(self) -> NetworkPlan:
         """Sysids, networks and ports of every vehicle (vehicle/network_plan.py); PlanError."""

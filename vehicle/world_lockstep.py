@@ -6,10 +6,13 @@ each vehicle's link is given `intake(index)`, which sees its datagrams first,
 feeds the gate (vehicle.lockstep), sends the TICKs and waits for the ACKs. The world's
 stepping loop asks :meth:`WorldLockstep.boundary` before every step.
 
-A participant's packets take effect at a TICK boundary: the one the world stands at if the
-participant has not ACKed that TICK yet, else the next (held until then). So each takes
-effect at a sim time fixed by the data it reacts to, never by when the machine delivered
-it. Anyone else's packets are handled on arrival: third-party clients see an ordinary
+A participant's packets take effect at a TICK boundary fixed by its newest ACK on that link
+(vehicle.lockstep.LockstepGate.due): without pipelining the one the world stands at if the
+participant has not ACKed that TICK yet, else the next; pipelined (`lag` 1, sitl
+--lockstep-pipeline) one TICK later, since the world sends TICK(t), steps on at once and waits
+for ACK(t) only at t + one period, before it sends that TICK. A packet due later than the
+boundary the world stands at is held until then. So each takes effect at a sim time fixed by
+the data it reacts to, never by when the machine delivered it. Anyone else's packets are handled on arrival: third-party clients see an ordinary
 vehicle, and never a TOWERLINK_LOCKSTEP (TICKs go only to the addresses participants
 joined from). A TICK still owed an ACK after TICK_RESEND wall s is sent again to whoever
 owes it, so one lost datagram on a vehicle link costs half a second, never the run (a
@@ -39,25 +42,29 @@ def _wake(w: asyncio.Future) -> None:
 
 
 class WorldLockstep:
-    def __init__(self, world, vehicles: int, expect: int, period: float, timeout: float) -> None:
-        """world: its dt, ap_every, steps and (once built) vehicles; vehicles: how many this
-        process runs; expect participants; a TICK every `period` sim s; `timeout` wall s."""
+    def __init__(self, world, vehicles: int, expect: int, period: float, timeout: float, lag: int = 0) -> None:
+        """world: its dt, ap_every, steps, outbox and (once built) vehicles; vehicles: how many
+        this process runs; expect participants; a TICK every `period` sim s; `timeout` wall s;
+        `lag` 1: pipelined (reactions to TICK(t) take effect at t + period), 0: not."""
         self.world = world
         ap_dt = world.dt * world.ap_every
         # TICKs fall on autopilot ticks, so a TICK always follows that tick's telemetry
         self.frame_steps = world.ap_every * max(1, int(round(period / ap_dt)))
         self.period_usec = int(round(self.frame_steps * world.dt * 1e6))    # what each TICK says
-        self.gate = LockstepGate(vehicles, expect, timeout)
+        self.lag = lag
+        self.gate = LockstepGate(vehicles, expect, timeout, self.period_usec, lag)
         self.expect = expect
-        self.ticked_steps = -1
+        self.ticked_steps = -1              # the step of the newest TICK sent
+        self.arrived_steps = -1             # the step of the newest boundary reached
         self._waiter: asyncio.Future | None = None    # what wait()/start() sleep on; an ACK or JOIN wakes it
         self._wake_when = None              # the waiter's done(): a TOWERLINK_LOCKSTEP wakes it once true
-        self.held: list[tuple[LinkCore, bytes, object]] = []
+        self.held: list[tuple[int, LinkCore, bytes, object]] = []     # (due, sim us), in arrival order
         self.at_boundary = True
         self.waits = 0
         self.wait_wall = 0.0
         self.tick_wall = 0.0                # when the newest TICK went out (wall s)
         self.tick_resends = 0
+        self.ticks = 0
 
     def t_usec(self) -> int:
         """The world's sim time in whole microseconds (the TICKs' and ACKs' unit)."""
@@ -70,13 +77,13 @@ class WorldLockstep:
 
     def _take(self, index: int, link: LinkCore, data: bytes, channel) -> bool:
         """A TOWERLINK_LOCKSTEP feeds the gate (the rest of its datagram goes to the link); a
-        participant's other packets wait for the next TICK boundary; anyone else's go on."""
+        participant's other packets wait for the TICK boundary they are due at; anyone else's go on."""
         m, rest = wire.unpack(data)
         if m is None:
             sender = wire.sender(data)
-            boundary = self.t_usec() if self.at_boundary else None
-            if sender is not None and self.gate.holds(*sender, index, boundary):
-                self.held.append((link, data, channel))
+            due = None if sender is None else self.gate.due(*sender, index, channel)
+            if due is not None and (not self.at_boundary or due > self.t_usec()):
+                self.held.append((due, link, data, channel))
                 return True
             return link.on_data(data, channel)
         # with --signing-key a participant must sign (an unsigned one is counted by the link)
@@ -96,24 +103,46 @@ class WorldLockstep:
         return (link.on_data(rest, channel) if rest else False) or True
 
     def boundary(self) -> bool:
-        """Before each step: True when the world stands at a TICK it may not pass yet."""
+        """Before each step: True when the world stands at a TICK it may not pass yet.
+
+        At a boundary t the packets due by t take effect (what came before, in arrival order;
+        what comes while the world stands there, on arrival), then TICK(t) goes out: at once
+        without pipelining, and the world waits for ACK(t); pipelined, once ACK(t - period)
+        came from everyone, and the world steps on at once (the TICK and the frame's telemetry
+        before it are written now, not at the end of the next frame's chunk)."""
         w = self.world
         if w.steps % self.frame_steps:
             return False
         self.at_boundary = True
-        if self.ticked_steps != w.steps:
-            self.ticked_steps = w.steps
-            held, self.held = self.held, []
-            for link, data, channel in held:        # what came between TICKs, in arrival order
-                link.on_data(data, channel)
-            self._send_ticks()
-        if not self.gate.passed(self.t_usec()):
+        t = self.t_usec()
+        if self.arrived_steps != w.steps:
+            self.arrived_steps = w.steps
+            if self.held:
+                self._apply_held(t)
+            if not self.lag:
+                self._send_ticks()
+        if not self.gate.passed(self.gate.awaited(t)):
             return True
+        if self.ticked_steps != w.steps:        # pipelined: TICK(t) now, and on without waiting
+            self._send_ticks()
+            w.outbox.push()
         self.at_boundary = False
         return False
 
+    def _apply_held(self, t: int) -> None:
+        """The held packets due by t take effect, in arrival order; the later ones stay held."""
+        keep = []
+        for item in self.held:
+            if item[0] <= t:
+                item[1].on_data(item[2], item[3])
+            else:
+                keep.append(item)
+        self.held = keep
+
     def _send_ticks(self) -> None:
         """TICK(t) after everything the vehicles sent up to t, to each joined channel."""
+        self.ticked_steps = self.world.steps
+        self.ticks += 1
         t = self.t_usec()
         for v in self.world.vehicles:
             for ch in self.gate.channels(v.index):
@@ -123,7 +152,7 @@ class WorldLockstep:
     def _tick(self, v, channel, t: int) -> None:
         channel.send(wire.pack(wire.TICK, t, participant=wire.WORLD, target_system=0,
                                period_usec=self.period_usec, sysid=v.sysid, compid=1,
-                               signing=v.link.take_signing()))
+                               signing=v.link.take_signing(), lag=self.lag))
 
     def _resend(self, t: int) -> None:
         """TICK(t) again where an ACK is still owed after TICK_RESEND wall s: the TICK or the ACK
@@ -155,8 +184,10 @@ class WorldLockstep:
                 every()
 
     async def wait(self, stop: asyncio.Event) -> None:
-        """Until every participant ACKed the TICK the world stands at (or the silent were dropped)."""
-        gate, t = self.gate, self.t_usec()
+        """Until every participant ACKed the TICK the world awaits at the boundary it stands at
+        (that boundary's own, or pipelined the one before; or until the silent were dropped)."""
+        gate = self.gate
+        t = gate.awaited(self.t_usec())
         w0 = time.monotonic()
         self.waits += 1
 
@@ -203,4 +234,5 @@ class WorldLockstep:
 
     def stats_line(self) -> str:
         return (f"lockstep: {self.waits} waits for ACKs, {self.wait_wall:.2f} s wall waiting; "
-                f"{self.tick_resends} TICK(s) sent again; {self.gate.dropped} participant(s) dropped for silence")
+                f"{self.tick_resends} TICK(s) sent again; {self.gate.dropped} participant(s) dropped for silence; "
+                f"{self.ticks} TICKs{', pipelined' if self.lag else ''}")

@@ -11,10 +11,14 @@ The handshake (docs/ARCHITECTURE.md "Lockstep"):
   sent up to t, to every address a participant joined from, and waits;
 * the participant handles everything before the TICK, sends its reactions, then ACK(t)
   on the same path, so the world receives the reactions before the ACK;
+* the TICK's ``lag`` says when those reactions take effect: 0, at t (the world waits for
+  ACK(t) before it steps on); 1, at t + one period (pipelined: the world steps on at once
+  and waits for ACK(t) at the next TICK);
 * LEAVE (or silence longer than the world's --lockstep-timeout) stops the waiting.
 
 Payload (MAVLink 2 wire order, largest type first): time_usec u64, period_usec u32,
-target_system u8, kind u8, participant u8.
+target_system u8, kind u8, participant u8; then the extension lag u8 (trimmed when 0, so a
+TICK with lag 0 is the same bytes as before the field existed).
 """
 from __future__ import annotations
 
@@ -31,7 +35,7 @@ JOIN, ACK, TICK, LEAVE = 1, 2, 3, 4
 WORLD, BRIDGE, TOWER, OTHER = 0, 1, 2, 3
 KIND_NAMES = {JOIN: "JOIN", ACK: "ACK", TICK: "TICK", LEAVE: "LEAVE"}
 PARTICIPANT_NAMES = {WORLD: "world", BRIDGE: "bridge", TOWER: "tower", OTHER: "other"}
-_PAYLOAD = struct.Struct("<QIBBB")
+_PAYLOAD = struct.Struct("<QIBBBB")
 _STX2 = 0xFD
 
 
@@ -45,6 +49,7 @@ class Lockstep:
     period_usec: int
     sysid: int
     compid: int
+    lag: int = 0        # TICK: frames until a reaction to it takes effect (0 or 1, see the module docstring)
 
     @property
     def t(self) -> float:
@@ -54,13 +59,13 @@ class Lockstep:
 
 def pack(kind: int, time_usec: int, *, participant: int = WORLD, target_system: int = 0,
          period_usec: int = 0, sysid: int = 1, compid: int = 1, seq: int = 0,
-         signing: tuple[bytes, int, int] | None = None) -> bytes:
+         signing: tuple[bytes, int, int] | None = None, lag: int = 0) -> bytes:
     """One MAVLink 2 frame of TOWERLINK_LOCKSTEP (trailing zero bytes trimmed).
 
     signing: (secret key, link_id, timestamp in 10 us units since 2015) signs the frame as
     MAVLink 2 does (common.mavlink.signing checks it); None: unsigned."""
     payload = _PAYLOAD.pack(int(time_usec) & 0xFFFFFFFFFFFFFFFF, int(period_usec) & 0xFFFFFFFF,
-                            target_system & 0xFF, kind & 0xFF, participant & 0xFF)
+                            target_system & 0xFF, kind & 0xFF, participant & 0xFF, lag & 0xFF)
     n = len(payload)
     while n > 1 and payload[n - 1] == 0:
         n -= 1
@@ -107,8 +112,8 @@ def unpack(data: bytes) -> tuple[Lockstep | None, bytes]:
     if crc.crc != struct.unpack_from("<H", data, 10 + n)[0]:
         return None, data
     payload = bytes(data[10:10 + n]) + bytes(_PAYLOAD.size - min(n, _PAYLOAD.size))
-    time_usec, period, target, kind, who = _PAYLOAD.unpack(payload[:_PAYLOAD.size])
-    return Lockstep(time_usec, kind, who, target, period, data[5], data[6]), bytes(data[end:])
+    time_usec, period, target, kind, who, lag = _PAYLOAD.unpack(payload[:_PAYLOAD.size])
+    return Lockstep(time_usec, kind, who, target, period, data[5], data[6], lag), bytes(data[end:])
 
 
 def speedup_arg(text: str) -> float:

@@ -33,10 +33,21 @@ class Outbox:
         else:
             self._held.append((write, args))
 
+    def push(self) -> None:
+        """Write what is held, in order, and go on holding if corked (a pipelined lockstep
+        TICK: the participants work on the frame while the world steps the next)."""
+        if self._held:
+            held, self._held = self._held, []
+            self._write(held)
+
     def flush(self) -> None:
         """Write what was held, in order, and stop holding."""
         held, self._held = self._held, None
-        for write, args in held or ():
+        self._write(held or ())
+
+    @staticmethod
+    def _write(held) -> None:
+        for write, args in held:
             try:
                 write(*args)
             except (OSError, RuntimeError):     # a peer gone meanwhile: as an immediate write would
