@@ -75,8 +75,9 @@ Faults: --tower-loss 0.2 or --tower-link loss=0.1,latency=0.3,down.bandwidth=200
 link lossy, slow, jittery, narrow for the whole run (tools/link_proxy.py); a scenario's [[faults]]
 (common/scenario_faults.py) add a timeline: at sim time t, parameters on a vehicle (SITL's SIM_*
 faults, SIM_BATT_VOLTAGE, ...) or the tower link's settings, cleared at `until`. In lockstep each
-takes effect at the first lockstep frame at or after its t, so a seed gives the same run at any
-speed and load. The summary lists each fault, the failsafes it caused and when (faults.json holds
+takes effect at a lockstep frame fixed by its t (a vehicle's fault, like every reaction to a TICK
+in the pipelined lockstep, one frame after the first at or after its t), so a seed gives the same
+run at any speed and load. The summary lists each fault, the failsafes it caused and when (faults.json holds
 when each took effect):
 
   towerlink fly examples/sweep/faults_lab.toml --param FS_GCS_ENABLE=1 --speedup max
