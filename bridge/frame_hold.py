@@ -11,7 +11,9 @@ links' packets interleave as the machine delivered them, which orders what the b
 frame -- each link's packets up to its TICK(t') -- is handled once it is complete on every
 link and the barrier before it is done (`ready`), link by link in the links' fixed order; the
 last link's TICK(t') then makes barrier t'. A TICK that comes again (one the link already
-brought) is handled at once: the world asks for a lost ACK. Pure: the queues only (what a TICK
+brought) is handled at once when its frame was handed on (the world asks for a lost ACK), and
+dropped while its frame still waits here (the world asked before the bridge was done; the ACK
+follows the frame). Pure: the queues only (what a TICK
 is, when the bridge is ready, and the handler are passed in).
 """
 from __future__ import annotations
@@ -36,11 +38,15 @@ class FrameHold:
         self._busy = False
 
     def take(self, link, pkt) -> bool:
-        """True when `pkt` waits here (pipelined, and not a TICK the link brought before)."""
+        """True when `pkt` waits here (pipelined, and not a TICK the link brought before), or is
+        a TICK brought again while its frame still waits here (dropped)."""
         t = self.tick_time(pkt)
         if t is not None:
             if t <= self.newest[link]:
-                return False                # again: answered at once
+                # again: answered at once once its frame was handled; still queued here, its
+                # frame's ACK comes when the frame is handled (handled now, the TICK would count
+                # for a barrier before the frame's packets were handled)
+                return t in self.ends[link]
             self.newest[link] = t
         if not self.active():
             return False

@@ -237,6 +237,31 @@ def test_a_tick_the_world_sends_again_is_answered_at_once():
     assert [m for m in sent if m[0] != "log"] == [("drone", L.ACK, P)] and hold.waiting() == 1
 
 
+def test_a_tick_sent_again_while_its_frame_still_waits_is_no_barrier():
+    """The bridge did not run for half a second: the world has sent TICK(80 ms) again behind the
+    next frame, and the bridge reads the rover's socket, the TICK sent again included, before
+    the drone's. The TICK sent again counts for nothing: else the rover would count as at 80 ms,
+    and the drone's TICK(80 ms), handled first, would make the barrier and ACK it before the
+    rover's packets of that frame were handled."""
+    sent, wall = [], [0.0]
+    desk, hold, arrive, handled, _lag = _desk(sent, wall)
+    desk.on_tower(tl.MAVLink_towerlink_lockstep_message(0, 0, L.JOIN, L.TOWER, 0))
+    arrive(1, P)
+    arrive(2, P)
+    desk.on_tower(_ack(P))
+    desk.tower_done()
+    sent.clear()
+    for pkt in ("r2", 2 * P, "r3", 2 * P):      # the rover's socket: frame 80 ms, 120 ms, TICK(80 ms) again
+        arrive(2, pkt)
+    assert handled == [] and sent == []
+    arrive(1, "d2")
+    arrive(1, 2 * P)
+    assert handled == [("drone", "d2"), ("rover", "r2")] and desk.barrier_usec == 2 * P
+    assert [m for m in sent if m[0] != "log"] == \
+        [("drone", L.ACK, 2 * P), ("rover", L.ACK, 2 * P), ("tower", L.TICK, 2 * P, 1)]
+    assert hold.waiting() == 1          # r3 waits for the next frame
+
+
 def test_without_pipelining_the_bridge_holds_nothing():
     sent, wall = [], [0.0]
     desk, hold, arrive, handled, lag = _desk(sent, wall)

@@ -77,6 +77,8 @@ class ProcessGroup:
         """`name`'s exit status once it ends, None if it runs on for `timeout` s. Told by the
         kernel the moment it ends (a pidfd) where it can, not found by polling."""
         p = self.procs[name]
+        if p.poll() is not None:            # reaped: its pid may be another process's by now
+            return p.returncode
         try:
             fd = os.pidfd_open(p.pid)
         except (AttributeError, OSError):   # not Linux >= 5.3, or already reaped: poll
