@@ -184,6 +184,8 @@ class LockstepDesk:
         """A TICK the barrier has passed came again on v's link: ACK it again there, and TICK
         the tower again (it ACKs a TICK it already handled again, which passes on to the world)."""
         self.tick_resends_seen += 1
+        if self.released_usec < 0:
+            return              # nothing released yet (TICK(0) held for the nodes): no ACK to repeat
         v.link.send(self.pack_own(self._message(tl.TOWERLINK_LOCKSTEP_KIND_ACK, self.released_usec, v.sysid)))
         if self.released_usec < self.barrier_usec:
             return              # held for the nodes: the tower's TICK comes with the release
