@@ -23,11 +23,16 @@ from tools.fly_plan import FlyPlan
 from tools.fly_processes import ProcessGroup
 from tools.fly_progress import WAITING, GoalState, ProgressReporter, SpeedupMeter, TowerOutput, goal_text
 from tools.fly_recorder import Recorder
-from tools.fly_run_folder import write_meta, write_summary
+from tools.fly_run_folder import tower_end_sim, write_meta, write_summary
 from tools.fly_van import VanDriver
 from tools.run_ids import DRONE, SCORING_PARAMS
 
 os.environ.setdefault("MAVLINK20", "1")     # the children inherit it
+
+# After the tower's end the world runs on until the monitor has recorded this much sim time
+# past it (the truth just after the last goal is read by the summary), for at most TAIL_WALL_S.
+TAIL_SIM_S = 0.2
+TAIL_WALL_S = 2.0
 
 
 class Launch:
@@ -163,12 +168,14 @@ class Launch:
         while True:
             rc = self.processes.exited("tower")
             if rc is not None:
+                self._record_past_the_end()
                 return rc
             now = time.monotonic()
             if self.tower.over.is_set():     # its last line: the result is written, only its exit is left
-                # (the others run on until it has gone, as long as they always did: a summary
-                # figure at the last goal may read the truth a little past it)
-                return self.processes.wait("tower", end - now)
+                rc = self.processes.wait("tower", end - now)
+                if rc is not None:
+                    self._record_past_the_end()
+                return rc
             for name in ("sitl", *(f"node-{p.stem}" for p in self.plan.nodes)):
                 status = self.processes.exited(name)
                 if status is not None:
@@ -195,6 +202,19 @@ class Launch:
             if now > end:
                 return None
             self.tower.over.wait(0.05)
+
+    def _record_past_the_end(self, limit: float = TAIL_WALL_S) -> None:
+        """Hold the stop until the monitor has heard TAIL_SIM_S of sim time past the tower's end
+        (at most `limit` wall s, and not once the world has gone): a summary figure at the last
+        goal reads the first truth sample after it, which must be recorded however quickly the
+        processes are stopped."""
+        end_sim = tower_end_sim(self.dir)
+        if self.monitor is None or end_sim is None:
+            return
+        deadline = time.monotonic() + limit
+        while self.monitor.sim_time() < end_sim + TAIL_SIM_S and time.monotonic() < deadline \
+                and self.processes.exited("sitl") is None:
+            time.sleep(0.002)       # poll: at --speedup max the world is there in a few ms
 
     # -- stopping
 

@@ -118,6 +118,18 @@ def _score(plan: FlyPlan, tower_rc: int | None, bridge_restarts: int, proxy: dic
     return s, text
 
 
+def tower_end_sim(run_dir: Path) -> float | None:
+    """The sim time (s) the tower's run ended at, from RUN/tower.json: a lab run's end_sim, a
+    family's latest drone's; None without a result that says."""
+    try:
+        tower = json.loads((Path(run_dir) / "tower.json").read_text())
+    except (OSError, ValueError):
+        return None
+    ends = [tower.get("end_sim"), *(d.get("end_sim") for d in tower.get("drones", []) if isinstance(d, dict))]
+    ends = [float(e) for e in ends if isinstance(e, (int, float))]
+    return max(ends) if ends else None
+
+
 def _family_faults(plan: FlyPlan, tower: dict, data) -> dict:
     """The fault section of a family run (its tower result holds a goal list per drone)."""
     from tools.fault_summary import fault_section
