@@ -31,7 +31,7 @@ class FrameHold:
         self.tick_time = tick_time          # packet -> a TICK's time (us), or None
         self.active = active                # () -> True when the world is pipelined
         self.ready = ready                  # () -> True when the bridge is done with its newest barrier
-        self.queues: dict[object, deque] = {link: deque() for link in links}     # in the links' order
+        self.queues: dict[object, deque] = {link: deque() for link in links}     # (packet, TICK time or None), links' order
         self.ends: dict[object, deque] = {link: deque() for link in links}       # TICK times queued
         self.newest: dict[object, int] = {link: -1 for link in links}            # newest TICK the link brought
         self.held = 0                       # packets that waited here, in all
@@ -50,7 +50,7 @@ class FrameHold:
             self.newest[link] = t
         if not self.active():
             return False
-        self.queues[link].append(pkt)
+        self.queues[link].append((pkt, t))         # its TICK time kept: decoded once
         self.held += 1
         if t is not None:
             self.ends[link].append(t)
@@ -83,9 +83,9 @@ class FrameHold:
         q, e = self.queues[link], self.ends[link]
         e.popleft()
         while q:
-            pkt = q.popleft()
+            pkt, tick = q.popleft()
             self.handle(link, pkt)
-            if self.tick_time(pkt) == t:
+            if tick == t:
                 return
 
     def waiting(self) -> int:

@@ -33,6 +33,16 @@ BATCH_BYTES = 1400      # a coalesced datagram stays within a 1500-byte Ethernet
 MSG_TABLE: dict[int, MsgInfo] = message_table(_tl.mavlink_map)
 
 
+
+def handle_guarded(on, link: "Link", pkt: Packet, warn_once) -> None:
+    """on(link, pkt), where an exception costs that packet only: counted as malformed on the link
+    and warned about once, never stopping the bridge."""
+    try:
+        on(link, pkt)
+    except Exception as exc:  # noqa: BLE001 - never let one packet stop the bridge
+        link.stats.malformed += 1
+        warn_once("packet-error", f"packet {pkt.msgid} from {link.name} failed: {exc!r}")
+
 def _parser() -> FrameParser:
     return FrameParser(MSG_TABLE)
 

@@ -15,7 +15,7 @@ import selectors
 from collections.abc import Callable
 
 from common.mavlink.frame_parser import Packet
-from bridge.links import Link
+from bridge.links import Link, handle_guarded
 
 TICK = 0.01                     # wall s between upkeep passes
 VEHICLE_BATCH = 32              # vehicle datagrams handled before the GCS links are read again
@@ -115,11 +115,7 @@ class PacketLoop:
 
     def _handle(self, link: Link, pkts: list[Packet], on: OnPacket) -> None:
         for pkt in pkts:
-            try:
-                on(link, pkt)
-            except Exception as exc:  # noqa: BLE001 - never let one packet stop the router
-                link.stats.malformed += 1
-                self.warn_once("packet-error", f"packet {pkt.msgid} from {link.name} failed: {exc!r}")
+            handle_guarded(on, link, pkt, self.warn_once)
 
     def run(self, duration: float | None = None) -> None:
         """Loop until stop() (or `duration` wall s), the upkeep tick every TICK."""

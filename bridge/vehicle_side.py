@@ -23,7 +23,7 @@ from bridge.codec import Codec
 from bridge.config import VehicleRecord
 from bridge.frame_hold import FrameHold
 from bridge.frame_tree import FrameTree
-from bridge.links import Link
+from bridge.links import Link, handle_guarded
 from bridge.lockstep_desk import LockstepDesk
 from bridge.log import BridgeLog
 from bridge.origins import origin_frame
@@ -76,11 +76,7 @@ class VehicleSide:
         return msg.time_usec if msg is not None and msg.kind == tl.TOWERLINK_LOCKSTEP_KIND_TICK else None
 
     def _handle_held(self, link: Link, pkt: Packet) -> None:
-        try:
-            self.handle(link, pkt)
-        except Exception as exc:  # noqa: BLE001 - as the loop does: never let one packet stop the bridge
-            link.stats.malformed += 1
-            self.warn_once("packet-error", f"packet {pkt.msgid} from {link.name} failed: {exc!r}")
+        handle_guarded(self.handle, link, pkt, self.warn_once)      # as the loop handles a packet
 
     def handle(self, link: Link, pkt: Packet) -> None:
         """One packet from vehicle `link`: read if it is the bridge's business, and routed."""

@@ -7,6 +7,7 @@ import subprocess
 import sys
 import time
 
+from support import wait_until
 from tools.fly_processes import ProcessGroup
 from tools.fly_progress import TowerOutput
 
@@ -27,10 +28,8 @@ def _sleeper(group: ProcessGroup, name: str, code: str = "") -> subprocess.Popen
 
 
 def _ready(group: ProcessGroup, name: str) -> None:
-    end = time.monotonic() + 20
-    while "ready" not in (group.dir / f"{name}.log").read_text().splitlines():     # (the command line has it too)
-        assert time.monotonic() < end
-        time.sleep(0.01)  # poll
+    # a line of its own: the command line in the log has the word too
+    wait_until(lambda: "ready" in (group.dir / f"{name}.log").read_text().splitlines(), 20, f"{name} ready")
 
 
 def test_a_process_told_to_stop_is_signalled_once_and_stop_then_waits(tmp_path):
