@@ -1,0 +1,128 @@
+"""pymavlink messages to and from bytes without pymavlink's per-message overhead (pure).
+
+pymavlink's ``MAVLink.decode`` and ``MAVLink_message.pack`` do, for every message, work that
+depends only on the message's type (field order, array lengths, which fields are strings) and
+build helper objects (a header object, a CRC object) on the way. :class:`MessageCodec` works
+that out once per type from a dialect's ``mavlink_map`` and gives the same results:
+
+* :meth:`MessageCodec.decode` returns the message pymavlink's decoder (without a signing key)
+  returns for one whole frame: the same fields, header, CRC, buffer and payload; a frame it
+  would refuse (bad length or CRC, unknown id) raises ValueError;
+* :meth:`MessageCodec.pack` returns the bytes ``msg.pack(mav)`` returns for an encoder with
+  that seq, sysid and compid and no signing (MAVLink 2, trailing zeros trimmed; or MAVLink 1).
+  Signing stays pymavlink's (common.mavlink.signing): this packs unsigned frames only.
+
+tests/test_message_codec.py checks both against pymavlink for every message of the dialect.
+"""
+from __future__ import annotations
+
+import struct
+from typing import Any
+
+from common.mavlink.crc import x25crc
+
+_V2 = struct.Struct("<BBBBBBBHB")
+_V1 = struct.Struct("<BBBBBB")
+_CRC = struct.Struct("<H")
+MAGIC_V1, MAGIC_V2 = 0xFE, 0xFD
+SIGNATURE_LEN = 13
+
+
+class _Type:
+    """What decode and pack need of one message class, worked out once."""
+
+    __slots__ = ("cls", "crc_extra", "crc_byte", "unpacker", "size", "order", "arrays", "strings",
+                 "pack_fields", "msgid")
+
+    def __init__(self, cls) -> None:
+        self.cls = cls
+        self.msgid = cls.id
+        self.crc_extra = cls.crc_extra
+        self.crc_byte = bytes((cls.crc_extra,))
+        self.unpacker = cls.unpacker
+        self.size = cls.unpacker.size
+        n = len(cls.fieldnames)
+        types = dict(zip(cls.fieldnames, cls.fieldtypes))
+        lengths = list(cls.lengths)
+        if sum(lengths) == len(lengths):        # no arrays: argument i is item orders[i]
+            self.order = tuple(cls.orders[:n])
+            self.arrays = None
+        else:                                   # (first item, count) of argument i
+            self.order = None
+            self.arrays = tuple((sum(lengths[:o]), lengths[o]) for o in cls.orders[:n])
+        self.strings = tuple(i for i, f in enumerate(cls.fieldnames) if types[f] == "char")
+        # what pack() hands the unpacker, in wire order: (attribute, count or 0 for one value)
+        self.pack_fields = tuple(
+            (f"_{f}_raw" if types[f] == "char" else f, 0 if types[f] == "char" or not alen else alen)
+            for f, alen in zip(cls.ordered_fieldnames, cls.array_lengths))
+
+
+class MessageCodec:
+    """Decode and pack one dialect's messages as pymavlink does (see the module docstring)."""
+
+    def __init__(self, module: Any) -> None:
+        """`module`: a generated pymavlink dialect (its ``mavlink_map`` and ``MAVLink_header``)."""
+        self._header = module.MAVLink_header
+        self._types = {msgid: _Type(cls) for msgid, cls in module.mavlink_map.items()}
+        self._by_class = {t.cls: t for t in self._types.values()}
+
+    def decode(self, raw) -> Any:
+        """The message in one whole frame `raw` (bytes-like); ValueError when pymavlink's decoder
+        would refuse it."""
+        if raw[0] == MAGIC_V1:
+            hl, incompat, compat = 6, 0, 0
+            mlen, seq, sysid, compid, msgid = raw[1], raw[2], raw[3], raw[4], raw[5]
+        elif raw[0] == MAGIC_V2 and len(raw) >= 10:
+            hl, incompat, compat = 10, raw[2], raw[3]
+            mlen, seq, sysid, compid = raw[1], raw[4], raw[5], raw[6]
+            msgid = raw[7] | raw[8] << 8 | raw[9] << 16
+        else:
+            raise ValueError("not a MAVLink frame")
+        end = len(raw) - 2 - (SIGNATURE_LEN if incompat & 1 else 0)
+        if mlen != end - hl:
+            raise ValueError("bad length")
+        t = self._types.get(msgid)
+        if t is None:
+            raise ValueError(f"unknown message id {msgid}")
+        crc = raw[end] | raw[end + 1] << 8
+        if x25crc(t.crc_byte, x25crc(memoryview(raw)[1:end])) != crc:
+            raise ValueError("bad CRC")
+        payload = bytes(raw[hl:end])
+        if mlen < t.size:
+            payload += bytes(t.size - mlen)
+        items = t.unpacker.unpack(payload if mlen == t.size else payload[:t.size])
+        if t.order is not None:
+            args = [items[i] for i in t.order]
+        else:
+            args = [items[tip] if n == 1 or isinstance(items[tip], bytes) else list(items[tip:tip + n])
+                    for tip, n in t.arrays]
+        for i in t.strings:
+            args[i] = args[i].rstrip(b"\x00")
+        m = t.cls(*args)
+        buf = bytearray(raw)
+        m._msgbuf = buf
+        m._payload = buf[6:end]           # sic: pymavlink's offset, whatever the version
+        m._crc = crc
+        m._header = self._header(msgid, incompat, compat, mlen, seq, sysid, compid)
+        return m
+
+    def pack(self, msg, seq: int, sysid: int, compid: int, v2: bool = True) -> bytes:
+        """The unsigned frame pymavlink packs for `msg` from an encoder at (seq, sysid, compid)."""
+        t = self._by_class[type(msg)]
+        vals = []
+        for name, n in t.pack_fields:
+            v = getattr(msg, name)
+            if n:
+                vals.extend(v[i] for i in range(n))
+            else:
+                vals.append(v)
+        payload = t.unpacker.pack(*vals)
+        if v2:
+            n = len(payload)
+            while n > 1 and payload[n - 1] == 0:
+                n -= 1
+            head = _V2.pack(MAGIC_V2, n, 0, 0, seq, sysid, compid, t.msgid & 0xFFFF, t.msgid >> 16)
+            body = head + payload[:n]
+        else:
+            body = _V1.pack(MAGIC_V1, len(payload), seq, sysid, compid, t.msgid) + payload
+        return body + _CRC.pack(x25crc(t.crc_byte, x25crc(memoryview(body)[1:])))
