@@ -17,6 +17,7 @@ tests/test_message_codec.py checks both against pymavlink for every message of t
 from __future__ import annotations
 
 import struct
+from operator import attrgetter
 from typing import Any
 
 from common.mavlink.crc import x25crc
@@ -32,7 +33,7 @@ class _Type:
     """What decode and pack need of one message class, worked out once."""
 
     __slots__ = ("cls", "crc_extra", "crc_byte", "unpacker", "size", "order", "arrays", "strings",
-                 "pack_fields", "msgid")
+                 "values", "counts", "msgid", "names", "base")
 
     def __init__(self, cls) -> None:
         self.cls = cls
@@ -51,10 +52,19 @@ class _Type:
             self.order = None
             self.arrays = tuple((sum(lengths[:o]), lengths[o]) for o in cls.orders[:n])
         self.strings = tuple(i for i, f in enumerate(cls.fieldnames) if types[f] == "char")
-        # what pack() hands the unpacker, in wire order: (attribute, count or 0 for one value)
-        self.pack_fields = tuple(
-            (f"_{f}_raw" if types[f] == "char" else f, 0 if types[f] == "char" or not alen else alen)
-            for f, alen in zip(cls.ordered_fieldnames, cls.array_lengths))
+        # without strings, the generated __init__ only stores its arguments after the base
+        # class's attributes: a decoded message is built from these directly
+        self.names = tuple(cls.fieldnames)
+        self.base = None if self.strings else {
+            "_fieldnames": cls.fieldnames, "_type": cls.msgname, "_signed": False, "_link_id": None,
+            "_instances": None, "_instance_field": cls.instance_field, "_instance_offset": cls.instance_offset}
+        # what pack() hands the unpacker, in wire order: the attributes (a string's raw bytes),
+        # and how many items each array gives (None: no arrays, every attribute is one item)
+        names = [f"_{f}_raw" if types[f] == "char" else f for f in cls.ordered_fieldnames]
+        get = attrgetter(*names)
+        self.values = get if len(names) > 1 else (lambda msg: (get(msg),))
+        counts = tuple(0 if types[f] == "char" else alen for f, alen in zip(cls.ordered_fieldnames, cls.array_lengths))
+        self.counts = counts if any(counts) else None
 
 
 class MessageCodec:
@@ -85,7 +95,7 @@ class MessageCodec:
         if t is None:
             raise ValueError(f"unknown message id {msgid}")
         crc = raw[end] | raw[end + 1] << 8
-        if x25crc(t.crc_byte, x25crc(memoryview(raw)[1:end])) != crc:
+        if x25crc(bytes(raw[1:end]) + t.crc_byte) != crc:
             raise ValueError("bad CRC")
         payload = bytes(raw[hl:end])
         if mlen < t.size:
@@ -96,26 +106,36 @@ class MessageCodec:
         else:
             args = [items[tip] if n == 1 or isinstance(items[tip], bytes) else list(items[tip:tip + n])
                     for tip, n in t.arrays]
-        for i in t.strings:
-            args[i] = args[i].rstrip(b"\x00")
-        m = t.cls(*args)
         buf = bytearray(raw)
-        m._msgbuf = buf
-        m._payload = buf[6:end]           # sic: pymavlink's offset, whatever the version
-        m._crc = crc
-        m._header = self._header(msgid, incompat, compat, mlen, seq, sysid, compid)
+        header = self._header(msgid, incompat, compat, mlen, seq, sysid, compid)
+        if t.base is not None:
+            m = object.__new__(t.cls)
+            d = m.__dict__
+            d.update(t.base)
+            d.update(zip(t.names, args))
+        else:
+            for i in t.strings:
+                args[i] = args[i].rstrip(b"\x00")
+            m = t.cls(*args)
+            d = m.__dict__
+        d["_msgbuf"] = buf
+        d["_payload"] = buf[6:end]        # sic: pymavlink's offset, whatever the version
+        d["_crc"] = crc
+        d["_header"] = header
         return m
 
     def pack(self, msg, seq: int, sysid: int, compid: int, v2: bool = True) -> bytes:
         """The unsigned frame pymavlink packs for `msg` from an encoder at (seq, sysid, compid)."""
         t = self._by_class[type(msg)]
-        vals = []
-        for name, n in t.pack_fields:
-            v = getattr(msg, name)
-            if n:
-                vals.extend(v[i] for i in range(n))
-            else:
-                vals.append(v)
+        vals = t.values(msg)
+        if t.counts is not None:
+            flat: list = []
+            for v, n in zip(vals, t.counts):
+                if n:
+                    flat.extend(v[:n])
+                else:
+                    flat.append(v)
+            vals = flat
         payload = t.unpacker.pack(*vals)
         if v2:
             n = len(payload)
@@ -125,4 +145,4 @@ class MessageCodec:
             body = head + payload[:n]
         else:
             body = _V1.pack(MAGIC_V1, len(payload), seq, sysid, compid, t.msgid) + payload
-        return body + _CRC.pack(x25crc(t.crc_byte, x25crc(memoryview(body)[1:])))
+        return body + _CRC.pack(x25crc(body[1:] + t.crc_byte))
