@@ -26,8 +26,6 @@ class Codec:
     def __init__(self, sysid: int, compid: int, signing_key: bytes | None = None) -> None:
         self.enc = encoder(sysid, compid)       # the bridge's own messages
         self.reenc = encoder(0, 0)              # re-encoding others' messages
-        self.dec = tl.MAVLink(None)
-        self.dec.robust_parsing = True
         self.decode_errors = 0
         self.signed = bool(signing_key)
         if signing_key:
@@ -54,10 +52,6 @@ class Codec:
         """The message in `raw`, or None (counted in decode_errors)."""
         try:
             return _CODEC.decode(raw)
-        except Exception:       # what it refuses, pymavlink's decoder says (e.g. an unknown id)
-            pass
-        try:
-            return self.dec.decode(bytearray(raw))
         except Exception:
             self.decode_errors += 1
             return None

@@ -6,8 +6,9 @@ build helper objects (a header object, a CRC object) on the way. :class:`Message
 that out once per type from a dialect's ``mavlink_map`` and gives the same results:
 
 * :meth:`MessageCodec.decode` returns the message pymavlink's decoder (without a signing key)
-  returns for one whole frame: the same fields, header, CRC, buffer and payload; a frame it
-  would refuse (bad length or CRC, unknown id) raises ValueError;
+  returns for one whole frame: the same fields, header, CRC, buffer and payload; a frame off
+  the common path (bad length or CRC, unknown id) goes to pymavlink's decoder itself, so it
+  is refused (or read) exactly as pymavlink does;
 * :meth:`MessageCodec.pack` returns the bytes ``msg.pack(mav)`` returns for an encoder with
   that seq, sysid and compid and no signing (MAVLink 2, trailing zeros trimmed; or MAVLink 1).
   Signing stays pymavlink's (common.mavlink.signing): this packs unsigned frames only.
@@ -73,12 +74,26 @@ class MessageCodec:
     def __init__(self, module: Any) -> None:
         """`module`: a generated pymavlink dialect (its ``mavlink_map`` and ``MAVLink_header``)."""
         self._header = module.MAVLink_header
-        self._types = {msgid: _Type(cls) for msgid, cls in module.mavlink_map.items()}
-        self._by_class = {t.cls: t for t in self._types.values()}
+        self._pymavlink = module.MAVLink(None)
+        self._map = module.mavlink_map
+        self._types: dict[int, _Type] = {}          # worked out on first use (a process meets few)
+        self._by_class: dict[type, _Type] = {}
+
+    def _learn(self, cls) -> _Type | None:
+        if cls is None:
+            return None
+        t = self._types[cls.id] = self._by_class[cls] = _Type(cls)
+        return t
 
     def decode(self, raw) -> Any:
-        """The message in one whole frame `raw` (bytes-like); ValueError when pymavlink's decoder
-        would refuse it."""
+        """The message in one whole frame `raw` (bytes-like), as pymavlink's decoder gives it
+        (raising what it raises)."""
+        try:
+            return self._decode(raw)
+        except (ValueError, IndexError):
+            return self._pymavlink.decode(bytearray(raw))
+
+    def _decode(self, raw) -> Any:
         if raw[0] == MAGIC_V1:
             hl, incompat, compat = 6, 0, 0
             mlen, seq, sysid, compid, msgid = raw[1], raw[2], raw[3], raw[4], raw[5]
@@ -91,7 +106,7 @@ class MessageCodec:
         end = len(raw) - 2 - (SIGNATURE_LEN if incompat & 1 else 0)
         if mlen != end - hl:
             raise ValueError("bad length")
-        t = self._types.get(msgid)
+        t = self._types.get(msgid) or self._learn(self._map.get(msgid))
         if t is None:
             raise ValueError(f"unknown message id {msgid}")
         crc = raw[end] | raw[end + 1] << 8
@@ -126,7 +141,7 @@ class MessageCodec:
 
     def pack(self, msg, seq: int, sysid: int, compid: int, v2: bool = True) -> bytes:
         """The unsigned frame pymavlink packs for `msg` from an encoder at (seq, sysid, compid)."""
-        t = self._by_class[type(msg)]
+        t = self._by_class.get(type(msg)) or self._learn(type(msg))
         vals = t.values(msg)
         if t.counts is not None:
             flat: list = []
