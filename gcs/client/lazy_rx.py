@@ -81,8 +81,7 @@ class LazyReceiver:
                 self.master.auto_mavlink_version(data)
             pkts = self.parser.feed(data, datagram=True)
             if self.tlog is not None:
-                for p in pkts:
-                    self.tlog.write_raw(p.raw)
+                self.tlog.write_packets(pkts)
             self._pending.extend(pkts)
 
     def take_bad(self) -> int:
