@@ -207,6 +207,7 @@ class World:
         min_sleep = 0.004              # fewer, larger sleeps: steps bunch up, sim time does not care
         max_lag = max(0.1 * speedup, 4 * dt) if paced else math.inf
         lock = self.lockstep
+        frame = 0 if lock is None else lock.frame_steps
         if lock is not None:
             await lock.start(self._stop)
         wall0, sim0 = time.monotonic(), self.t
@@ -229,7 +230,8 @@ class World:
             blocked = False
             self.outbox.cork()                  # written below, before any wait (vehicle/link/outbox.py)
             while self.t + 0.5 * dt <= target:
-                if lock is not None and lock.boundary():
+                # (between TICK boundaries there is nothing to ask the lockstep)
+                if frame and self.steps % frame == 0 and lock.boundary():
                     blocked = True              # at a TICK not every participant ACKed yet
                     break
                 self.step()
