@@ -26,16 +26,17 @@ RUN_MCAP = "run.mcap"
 
 def _tlog_messages(run_dir: Path, bridge: Iterable | None = None) -> Iterator:
     """bridge.tlog (frames, follow, vehicles; `bridge`: its messages already read) and the
-    tower's own sends from tower.tlog, merged in arrival order (the tlogs' wall stamps)."""
-    from tools.run_data import read_tlog
+    tower's own sends from tower.tlog, merged in arrival order (the tlogs' wall stamps); decoded
+    as far as SceneFeed reads them (tools.scene_messages)."""
+    from tools.scene_messages import scene_messages
 
     streams = []
     if bridge is not None:
         streams.append(iter(bridge))
     elif (run_dir / "bridge.tlog").exists():
-        streams.append(read_tlog(run_dir / "bridge.tlog"))
+        streams.append(scene_messages(run_dir / "bridge.tlog"))
     if (run_dir / "tower.tlog").exists():
-        streams.append(read_tlog(run_dir / "tower.tlog", sysids=(TOWER_SYSID,)))
+        streams.append(scene_messages(run_dir / "tower.tlog", sysids=(TOWER_SYSID,)))
     return heapq.merge(*streams, key=lambda m: getattr(m, "_timestamp", 0.0))
 
 

@@ -46,6 +46,9 @@ TRACK_STEP_M = 0.25          # a track point every quarter metre: a 1 km flight 
 SCENE_PERIOD_S = 0.1         # scene updates at 10 Hz of sim time (transforms go at full rate)
 TRACK_SEGMENT = 200          # a track is sent in segments: only the growing one each update,
 TRACK_RESEND_S = 10.0        # and all of them every 10 s, so a viewer that joins late sees it all
+#: the messages whose fields SceneFeed reads; any other counts only through its sim time
+#: (time_boot_ms, or a TOWERLINK_ message's time_usec), and one with neither makes no record
+FED_TYPES = ("TOWERLINK_TRANSFORM", "SET_POSITION_TARGET_LOCAL_NED", "TOWERLINK_FOLLOW_STATUS")
 
 
 @dataclass(frozen=True)
