@@ -298,15 +298,21 @@ def folded_types() -> tuple[str, ...]:
     return tuple(sorted({*FOLDED, *timed}))
 
 
-def load_run(run_dir: str | os.PathLike) -> RunData:
-    """Read every tlog of a run folder (vehicles, bridge, tower) into one RunData."""
+def load_run(run_dir: str | os.PathLike, bridge: Iterable[Any] | None = None) -> RunData:
+    """Read every tlog of a run folder (vehicles, bridge, tower) into one RunData. `bridge`:
+    bridge.tlog's messages already read by the caller, those of BRIDGE_OWN among them decoded
+    (tools.scene_messages.scene_messages(..., also=BRIDGE_OWN)); the others are passed over."""
     run_dir = Path(run_dir)
     data = RunData()
     vehicles = run_dir / "vehicles.tlog"
     if vehicles.exists():
         load_messages(read_tlog(vehicles, folded_types()), data)
-    bridge = run_dir / "bridge.tlog"
-    if bridge.exists():
+        if bridge is not None:
+            # the bridge's out link repeats the vehicles' traffic: take its own
+            load_messages((m for m in bridge if m.get_type() in BRIDGE_OWN), data)
+            return data
+    bridge_tlog = run_dir / "bridge.tlog"
+    if bridge_tlog.exists():
         # the bridge's out link repeats the vehicles' traffic: take its own
-        load_messages(read_tlog(bridge, BRIDGE_OWN if vehicles.exists() else None), data)
+        load_messages(read_tlog(bridge_tlog, BRIDGE_OWN if vehicles.exists() else None), data)
     return data

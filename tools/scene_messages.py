@@ -97,9 +97,10 @@ class SceneDecoder:
             yield Stamped(t.name, sysid, got.get("time_usec"), got.get("time_boot_ms"), tusec)
 
 
-def scene_messages(path, sysids: Iterable[int] | None = None) -> Iterator[Any]:
-    """A finished tlog's messages as SceneFeed needs them; a file that is not whole stamped frames
-    is read whole by read_tlog's robust reader (every message decoded)."""
+def scene_messages(path, sysids: Iterable[int] | None = None, also: Iterable[str] = ()) -> Iterator[Any]:
+    """A finished tlog's messages as SceneFeed needs them (and those named in `also` decoded too);
+    a file that is not whole stamped frames is read whole by read_tlog's robust reader (every
+    message decoded)."""
     from pathlib import Path
 
     from tools.run_data import read_tlog, tlog_frames
@@ -109,4 +110,4 @@ def scene_messages(path, sysids: Iterable[int] | None = None) -> Iterator[Any]:
     if frames is None:
         yield from read_tlog(path, sysids=sysids)
         return
-    yield from SceneDecoder(FED_TYPES).decode(raw, frames, sysids)
+    yield from SceneDecoder((*FED_TYPES, *also)).decode(raw, frames, sysids)
