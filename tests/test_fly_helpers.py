@@ -158,3 +158,17 @@ def test_one_read_of_bridge_tlog_gives_what_each_reader_reads_for_itself(tmp_pat
     for name in ("run.mcap", "tracks.png", "frames.png", "frames.yaml"):
         assert (there / name).read_bytes() == (here / name).read_bytes(), name
     assert read_bridge(tmp_path) is None            # no bridge.tlog: each reads for itself
+
+
+def test_no_helpers_forks_none_and_helpers_forks_them_on_any_machine(tmp_path):
+    """fly --no-helpers (what a sweep passes): no child; --helpers: both, even with one CPU."""
+    from tools.fly import _helpers
+    assert _helpers(tmp_path / "a", None, False) == (None, None)
+    drawings, recorder = _helpers(tmp_path / "b", None, True)
+    try:
+        assert isinstance(drawings, DrawingWorker) and isinstance(recorder, Recorder)
+        pids = [drawings.helper._child.pid, recorder.helper._child.pid]
+    finally:
+        drawings.close()
+        recorder.close()
+    assert all(_gone(pid) for pid in pids)

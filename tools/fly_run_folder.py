@@ -44,16 +44,17 @@ def _link(plan: FlyPlan) -> dict | None:
 def write_summary(plan: FlyPlan, tower_rc: int | None, *, bridge_restarts: int = 0,
                   proxy: dict | None = None, achieved_speedup: float | None = None,
                   applied: list[dict] | None = None, drawings: Drawings | None = None,
-                  recorder: Recorder | None = None) -> dict:
+                  recorder: Recorder | None = None, fork: bool | None = None) -> dict:
     """Score the run, draw it, record it; returns the summary dict (its text under "text").
 
     `proxy`: the link proxy's frame counts ({"passed", "dropped", "overflow", "duplicated"},
     each per direction); `applied`: when each fault took effect and was cleared (written to
     faults.json); `achieved_speedup`: sim s per wall s (None if the sim clock never moved);
     `drawings`: who draws tracks.png and the frame tree (default: this process, after the scoring);
-    `recorder`: the child recording run.mcap since the run started (default: a child forked now)."""
+    `recorder`: the child recording run.mcap since the run started (default: a child forked now,
+    unless `fork` is False, or None and this process has one CPU: then written here)."""
     bridge = None
-    own = recorder is None and Recorder.available() and ForkedHelper.cpus() >= 2
+    own = recorder is None and Recorder.available() and (fork if fork is not None else ForkedHelper.cpus() >= 2)
     if recorder is None and drawings is None and not own:
         bridge = read_bridge(plan.dir)          # one CPU: read once, for run.mcap, the scores and the frames
     if own:
