@@ -166,12 +166,12 @@ def test_the_merge_in_pieces_is_heapq_merge_of_the_whole_streams():
 
 
 def test_scene_messages_make_the_records_of_every_message_decoded(tmp_path):
-    """tools.scene_messages decodes only what SceneFeed reads: the records are those of every
+    """tools.run_mcap.scene_messages decodes only what SceneFeed reads: the records are those of every
     message decoded by read_tlog, also with signed frames, MAVLink 1, zero-trimmed payloads, a
     bad checksum, messages without a time and unknown ids in the tlog."""
     from common.mavlink.signing import setup_signing
     from tools.scene_feed import SceneFeed, records_of
-    from tools.scene_messages import scene_messages
+    from tools.run_mcap import scene_messages
     data = bytearray(_run_tlogs(80)["bridge.tlog"])
     drone = tl.MAVLink(None, srcSystem=DRONE, srcComponent=1)
     signed = tl.MAVLink(None, srcSystem=DRONE, srcComponent=1)

@@ -150,10 +150,10 @@ def _family_faults(plan: FlyPlan, tower: dict, data) -> dict:
 
 def read_bridge(run_dir: Path) -> list | None:
     """bridge.tlog's messages, decoded as far as run.mcap, the scores and the frame tree need them
-    (tools.scene_messages); None without a readable bridge.tlog (each then reads for itself)."""
+    (tools.tlog_stamped); None without a readable bridge.tlog (each then reads for itself)."""
     try:
         from tools.run_data import BRIDGE_OWN
-        from tools.scene_messages import scene_messages
+        from tools.run_mcap import scene_messages
         return list(scene_messages(run_dir / "bridge.tlog", also=BRIDGE_OWN))
     except Exception:  # noqa: BLE001 - missing or unreadable: each reader then tries for itself
         return None

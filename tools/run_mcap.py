@@ -19,7 +19,7 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from common.mavlink.ids import TOWER_SYSID
-from tools.scene_feed import TOPICS, Record, SceneFeed, records_of, schema_of
+from tools.scene_feed import FED_TYPES, TOPICS, Record, SceneFeed, records_of, schema_of
 
 RUN_MCAP = "run.mcap"
 
@@ -27,9 +27,7 @@ RUN_MCAP = "run.mcap"
 def _tlog_messages(run_dir: Path, bridge: Iterable | None = None) -> Iterator:
     """bridge.tlog (frames, follow, vehicles; `bridge`: its messages already read) and the
     tower's own sends from tower.tlog, merged in arrival order (the tlogs' wall stamps); decoded
-    as far as SceneFeed reads them (tools.scene_messages)."""
-    from tools.scene_messages import scene_messages
-
+    as far as SceneFeed reads them (scene_messages)."""
     streams = []
     if bridge is not None:
         streams.append(iter(bridge))
@@ -38,6 +36,14 @@ def _tlog_messages(run_dir: Path, bridge: Iterable | None = None) -> Iterator:
     if (run_dir / "tower.tlog").exists():
         streams.append(scene_messages(run_dir / "tower.tlog", sysids=(TOWER_SYSID,)))
     return heapq.merge(*streams, key=lambda m: getattr(m, "_timestamp", 0.0))
+
+
+def scene_messages(path: str | os.PathLike, sysids: Iterable[int] | None = None,
+                   also: Iterable[str] = ()) -> Iterator:
+    """A finished tlog's messages as SceneFeed needs them (tools.tlog_stamped; those named in
+    `also` decoded too)."""
+    from tools.run_data import read_stamped
+    return read_stamped(path, (*FED_TYPES, *also), sysids)
 
 
 def write_mcap(records: Iterable[Record], path: str | os.PathLike) -> int:

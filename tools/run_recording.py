@@ -14,7 +14,7 @@ from pathlib import Path
 from common.mavlink.ids import TOWER_SYSID
 from tools.run_mcap import RUN_MCAP, encode, write_encoded, write_run_mcap
 from tools.scene_feed import FED_TYPES, SceneFeed
-from tools.scene_messages import SceneDecoder
+from tools.tlog_stamped import StampedDecoder
 from tools.tlog_tail import NotATlog, TlogTail
 
 
@@ -55,7 +55,7 @@ class LiveRecording:
 
     def __init__(self, run_dir: str | Path) -> None:
         self.dir = Path(run_dir)
-        scene = SceneDecoder(FED_TYPES)       # decoded as far as the feed reads them, as write_run_mcap's
+        scene = StampedDecoder(FED_TYPES)      # decoded as far as the feed reads them, as write_run_mcap's
         self.tails = (TlogTail(self.dir / "bridge.tlog", scene=scene),
                       TlogTail(self.dir / "tower.tlog", sysids=(TOWER_SYSID,), scene=scene))
         self.merge = StableMerge()

@@ -20,8 +20,8 @@ class NotATlog(ValueError):
 
 class TlogTail:
     """The messages of `path` (those of `types` by name, from `sysids`; None: all), read as
-    they come. The file need not exist yet. With `scene` (a tools.scene_messages.SceneDecoder)
-    they are decoded as far as SceneFeed reads them (`types` is then not used)."""
+    they come. The file need not exist yet. With `scene` (a tools.tlog_stamped.StampedDecoder)
+    they are decoded as far as its reader reads them (`types` is then not used)."""
 
     def __init__(self, path: str | Path, types: Iterable[str] | None = None,
                  sysids: Iterable[int] | None = None, scene=None) -> None:

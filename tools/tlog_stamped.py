@@ -1,12 +1,13 @@
-"""A tlog's messages as tools.scene_feed.SceneFeed needs them: most of them only for their sim time.
+"""A tlog's frames decoded as far as their reader needs: the messages it reads decoded, the others as their sim time.
 
-SceneFeed reads the fields of a few messages (scene_feed.FED_TYPES); every other one counts only
-through its sim time (time_boot_ms, or a TOWERLINK_ message's time_usec), and one with neither
-never makes a record. So only the fed messages are decoded (pymavlink); a message with a time
-field is a :class:`Stamped` (its name, sender, time fields and tlog stamp, read straight from
-the frame after the same checksum pymavlink checks), and one without is left out: run.mcap is
-the same, byte for byte, for a fraction of the decoding (a lab run's bridge.tlog is some 20,000
-frames, 5,000 of them fed).
+A reader such as tools.scene_feed.SceneFeed (its FED_TYPES) or tools.run_data.load_messages (its
+FOLDED) reads the fields of a few messages; every other one counts only through its sim time
+(time_boot_ms, or time_usec), and one with neither not at all. :class:`StampedDecoder` decodes the
+named messages (pymavlink, as :func:`decode_frames`); a message with a time field becomes a
+:class:`Stamped` (its name, sender, time fields and tlog stamp, read straight from the frame after
+the checksum pymavlink checks), and one without is left out: the reader makes the same of them for
+a fraction of the decoding (a lab run's bridge.tlog is some 20,000 frames, 5,000 of them the
+scene's).
 """
 from __future__ import annotations
 
@@ -22,7 +23,7 @@ _TIME_FIELDS = {"time_usec": "<Q", "time_boot_ms": "<I"}
 
 
 class Stamped:
-    """A message read only for its time: what SceneFeed and the merge by tlog stamp ask of it."""
+    """A message read only for its time: what its reader and a merge by tlog stamp ask of it."""
 
     __slots__ = ("_link", "_name", "_sysid", "_timestamp", "time_boot_ms", "time_usec")
 
@@ -51,8 +52,29 @@ class _Timed:
     fields: tuple[tuple[str, int, struct.Struct], ...]    # (name, offset, codec)
 
 
-class SceneDecoder:
-    """Turns tlog frames into the messages SceneFeed needs (see the module's docstring)."""
+def decode_frames(mav, raw: bytes, frames: Iterable[tuple[int, int, int, int]], wanted: frozenset[int] | None,
+                  sysids: Iterable[int] | None) -> Iterator[Any]:
+    """Decode tlog frames (tools.run_data.tlog_frames' rows of `raw`) with the MAVLink object `mav`,
+    those of the `wanted` ids (None: all) and `sysids` (None: all); each message has ``_timestamp``
+    (s) and ``_link`` as pymavlink's log reader gives them."""
+    systems = None if sysids is None else frozenset(sysids)
+    for tusec, msgid, start, end in frames:
+        if wanted is not None and msgid not in wanted:
+            continue
+        if systems is not None and raw[start + (5 if raw[start] == 0xFD else 3)] not in systems:
+            continue
+        try:
+            m = mav.decode(bytearray(raw[start:end]))
+        except Exception:  # noqa: BLE001 - pymavlink's reader gives BAD_DATA, which is skipped
+            continue
+        m._timestamp = tusec * 1e-6
+        m._link = tusec & 0x3
+        yield m
+
+
+class StampedDecoder:
+    """Turns tlog frames into the messages a reader of the `fed` messages needs (see the module's
+    docstring)."""
 
     def __init__(self, fed: Iterable[str]) -> None:
         from common.mavlink.dialect import towerlink as dialect
@@ -71,9 +93,8 @@ class SceneDecoder:
     def decode(self, raw: bytes, frames: Iterable[tuple[int, int, int, int]],
                sysids: Iterable[int] | None = None) -> Iterator[Any]:
         """The messages of tlog frames (tools.run_data.tlog_frames' rows of `raw`), from `sysids`
-        (None: all), in their order: fed ones decoded as read_tlog decodes them, the others with a
-        time field as Stamped, the rest (and what pymavlink would refuse) left out."""
-        from tools.run_data import decode_frames
+        (None: all), in their order: fed ones decoded as decode_frames decodes them, the others
+        with a time field as Stamped, the rest (and what pymavlink would refuse) left out."""
         systems = None if sysids is None else frozenset(sysids)
         full, timed, mav = self.full, self.timed, self.mav
         for row in frames:
@@ -96,18 +117,3 @@ class SceneDecoder:
             got = {name: codec.unpack_from(payload, ofs)[0] for name, ofs, codec in t.fields}
             yield Stamped(t.name, sysid, got.get("time_usec"), got.get("time_boot_ms"), tusec)
 
-
-def scene_messages(path, sysids: Iterable[int] | None = None, also: Iterable[str] = ()) -> Iterator[Any]:
-    """A finished tlog's messages as SceneFeed needs them (and those named in `also` decoded too);
-    a file that is not whole stamped frames is read whole by read_tlog's robust reader (every
-    message decoded)."""
-    from pathlib import Path
-
-    from tools.run_data import read_tlog, tlog_frames
-    from tools.scene_feed import FED_TYPES
-    raw = Path(path).read_bytes()
-    frames = tlog_frames(raw)
-    if frames is None:
-        yield from read_tlog(path, sysids=sysids)
-        return
-    yield from SceneDecoder((*FED_TYPES, *also)).decode(raw, frames, sysids)
