@@ -82,7 +82,11 @@ class MessageCodec:
     def _learn(self, cls) -> _Type | None:
         if cls is None:
             return None
-        t = self._types[cls.id] = self._by_class[cls] = _Type(cls)
+        t = self._by_class[cls] = _Type(cls)
+        # only the dialect's own class decodes its id: packing another class with the same id
+        # (another dialect's, a subclass) must not change what decode() returns
+        if self._map.get(cls.id) is cls:
+            self._types[cls.id] = t
         return t
 
     def decode(self, raw) -> Any:
