@@ -19,7 +19,9 @@ from typing import Any
 from common.mavlink.crc import x25crc
 from common.mavlink.frame_parser import field_offsets
 
-_TIME_FIELDS = {"time_usec": "<Q", "time_boot_ms": "<I"}
+_TIME_FIELDS = ("time_usec", "time_boot_ms")
+#: a time field's wire type -> its struct format (SERVO_OUTPUT_RAW's time_usec is 32 bits)
+_FORMATS = {"uint64_t": "<Q", "uint32_t": "<I"}
 
 
 class Stamped:
@@ -86,7 +88,8 @@ class StampedDecoder:
             if i in self.full:
                 continue
             ofs = field_offsets(cls)
-            fields = tuple((f, ofs[f], struct.Struct(fmt)) for f, fmt in _TIME_FIELDS.items() if f in ofs)
+            types = dict(zip(cls.fieldnames, cls.fieldtypes))
+            fields = tuple((f, ofs[f], struct.Struct(_FORMATS[types[f]])) for f in _TIME_FIELDS if f in ofs)
             if fields:
                 self.timed[i] = _Timed(cls.msgname, cls.crc_extra, cls.unpacker.size, fields)
 
