@@ -92,3 +92,38 @@ def test_what_is_not_a_frame_is_counted_once_per_run_and_skipped():
     assert p.feed(ok + ok1[:-3], datagram=True)[0].raw == ok and p.malformed == 1 and not p.buf
     p = FrameParser(TABLE)
     assert p.feed(ok1[:-3]) == [] and p.malformed == 0 and bytes(p.buf) == ok1[:-3]   # a stream waits
+
+
+# ------------------------------------------------------ a whole datagram cut straight from its bytes
+
+from hypothesis import HealthCheck, given, settings, strategies as st  # noqa: E402
+
+_TABLE = message_table(tl.mavlink_map)
+
+
+def _valid_frames():
+    enc = tl.MAVLink(None, srcSystem=7, srcComponent=1)
+    hb = tl.MAVLink_heartbeat_message(2, 3, 0, 0, 4, 3)
+    return [hb.pack(enc), hb.pack(enc, force_mavlink1=True),
+            tl.MAVLink_local_position_ned_message(1234, 1.0, -2.0, 3.5, 0.0, 0.0, 0.0).pack(enc)]
+
+
+_PIECES = st.lists(st.one_of(st.sampled_from(_valid_frames()), st.binary(max_size=20),
+                             st.sampled_from([b"\xfd", b"\xfe", b"\xfd\x09\x00\x00"])), max_size=6)
+
+
+def _seen(parser: FrameParser, datagrams, kind) -> tuple:
+    pkts = [[(p.raw, p.msgid, p.sysid, p.compid, p.seq, p.target_system, p.target_component, p.v2)
+             for p in parser.feed(kind(d), datagram=True)] for d in datagrams]
+    return pkts, parser.malformed, parser.packets, parser._skipping, bytes(parser.buf)
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(_PIECES.map(b"".join), min_size=1, max_size=4), st.binary(max_size=8))
+def test_a_datagram_of_bytes_is_cut_as_the_same_datagram_copied(datagrams, stream_tail):
+    # the direct path (bytes, nothing pending) and the copying one (a bytearray) agree on every
+    # datagram, also after a stream's partial frame was left pending
+    for lead in (b"", stream_tail):
+        a, b = FrameParser(_TABLE), FrameParser(_TABLE)
+        a.feed(lead), b.feed(bytearray(lead))
+        assert _seen(a, datagrams, bytes) == _seen(b, datagrams, bytearray)
