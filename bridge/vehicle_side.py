@@ -69,8 +69,9 @@ class VehicleSide:
         self.hold.release()
 
     def _tick_time(self, pkt: Packet) -> int | None:
-        """A TICK's time (us) for the hold, or None."""
-        if pkt.msgid != MSG_TL_LOCKSTEP:
+        """A TICK's time (us) for the hold, or None (also for one the link's signature check
+        refused: a forged TICK is no frame end; handle() drops it like any refused packet)."""
+        if pkt.msgid != MSG_TL_LOCKSTEP or pkt.refused is not None:
             return None
         msg = lockstep_wire.read_checked(pkt.raw)
         return msg.time_usec if msg is not None and msg.kind == lockstep_wire.TICK else None

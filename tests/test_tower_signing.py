@@ -9,6 +9,7 @@ import math
 import shlex
 import socket
 import sys
+import time
 
 import pytest
 
@@ -311,3 +312,37 @@ def test_a_world_on_another_host_gets_the_key_and_no_record_shows_it(tmp_path, c
     attach.start_world()
     out = capsys.readouterr().out
     assert secret not in out and "--signing-key '***'" in out and "put your --signing-key where *** stands" in out
+
+
+def test_with_vehicle_signing_a_forged_tick_does_not_cut_the_vehicles_frames():
+    """Pipelined lockstep: an unsigned TICK far ahead on a signed vehicle link is refused, and is
+    no frame end for the bridge's hold either: the next frame's packets are handled at its real
+    TICK, not held until the forged time."""
+    from common.mavlink import lockstep as L
+    period = 40000
+    with bridge_with_fakes(rover=False, signing_key=KEY, vehicle_signing=True, lockstep=True, heartbeats=False,
+                           tower_heartbeat=False) as w:
+        bridge, drone = w["bridge"], w["drone"]
+        setup_signing(drone.mav, KEY, 0)
+        sig = drone.mav.signing
+
+        def tick(t: int, signed: bool = True) -> bytes:
+            signing = None
+            if signed:
+                signing, sig.timestamp = (KEY, sig.link_id, sig.timestamp), sig.timestamp + 1
+            return L.pack(L.TICK, t, period_usec=period, sysid=1, compid=1, signing=signing, lag=1)
+
+        def acked(t: int) -> None:
+            drone.wait("TOWERLINK_LOCKSTEP", lambda m: m.kind == L.ACK and m.time_usec == t, what=f"ACK({t})")
+
+        drone.send_bytes(tick(period))
+        acked(period)
+        drone.send_bytes(tick(10**12, signed=False))            # forged: refused by the signature check
+        wait_until(lambda: bridge.vehicles[1].link.stats.unsigned >= 1, 5, "the forged TICK refused")
+        drone.heartbeat()           # signed: the bridge, once it handles it, asks for the origin
+        drone.send_bytes(tick(2 * period))
+        acked(2 * period)
+        time.sleep(0.3)             # the origin, the answer, arrives in the frame ending at 3t
+        drone.send_bytes(tick(3 * period))
+        acked(3 * period)
+        wait_until(lambda: bridge.origins.known("drone"), 5, "the drone's origin handled at its frame's TICK")
