@@ -19,6 +19,7 @@ built once; the modules are handed out longest first, see pytest_collection_modi
 from __future__ import annotations
 
 import collections
+import signal
 
 import pytest
 
@@ -36,6 +37,12 @@ def processes():
 
 
 def pytest_configure(config: pytest.Config) -> None:
+    # a run started in the background of a non-interactive shell (`make test &`, a script's
+    # `cmd &`) has SIGINT ignored, and so would every program the tests start (an ignored signal
+    # stays ignored across exec): the tests and the tools stop programs as Ctrl-C does, SIGINT
+    # and then SIGKILL after a grace, and would wait out every grace (20 s for a sweep's run)
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     config.addinivalue_line(
         "markers", "alone: judged on the wall clock (a whole system not in lockstep, a wall-clock "
                    "figure): `make test` runs it one at a time, beside only the slow pass at a "
