@@ -39,6 +39,7 @@ import time
 from vehicle.autopilot.params import ParamStore
 from vehicle.link.outbox import Outbox
 from vehicle.logs.world_logs import WorldLogs
+from vehicle.loop_cpu import LoopCpu
 from vehicle.physics.wind import WindField, WindParams
 from vehicle.world_build import Vehicle, build, start_position
 from vehicle.world_config import DEFAULT_HOME, WorldConfig
@@ -73,6 +74,7 @@ class World:
                          if cfg.lockstep > 0 else None)
         self.logs = WorldLogs()          # the onboard logs' writer thread (vehicle/logs/)
         self.outbox = Outbox()           # the endpoints' writes, held while a chunk is stepped
+        self.loop_cpu = LoopCpu()         # the stepping loop's CPU, for the stats (vehicle/loop_cpu.py)
         built = build(cfg, self.plan, self.clock, self.unix_start_us, self._wind_set,
                       self.lockstep.intake if self.lockstep is not None else lambda index: None, self.logs,
                       self.outbox)
@@ -201,12 +203,8 @@ class World:
             await asyncio.sleep(0)      # closed connections end while the loop still runs
 
     async def _lockstep(self) -> None:
-        speedup, dt = self.cfg.speedup, self.dt
-        paced = math.isfinite(speedup)     # --speedup max: as fast as the CPU (and the gate) allow
-        chunk = 0.02                   # wall seconds of stepping before yielding to I/O
-        min_sleep = 0.004              # fewer, larger sleeps: steps bunch up, sim time does not care
-        max_lag = max(0.1 * speedup, 4 * dt) if paced else math.inf
         lock = self.lockstep
+        frame = 0 if lock is None else lock.frame_steps
         if lock is not None:
             await lock.start(self._stop)
         wall0, sim0 = time.monotonic(), self.t
@@ -215,6 +213,21 @@ class World:
             # a shared start: every worker's sim t = 0 is the same wall instant
             wall0 += self.cfg.start_at - time.time()
             await asyncio.sleep(max(0.0, wall0 - time.monotonic()))
+        self.loop_cpu.start(self.steps)
+        try:
+            await self._step_until_stopped(lock, frame, wall0, sim0)
+        finally:
+            self.loop_cpu.stop(self.steps)
+
+    async def _step_until_stopped(self, lock, frame: int, wall0: float, sim0: float) -> None:
+        """Step in chunks (paced, or as fast as the CPU and the lockstep allow), serving I/O
+        between them, until request_stop()."""
+        speedup, dt = self.cfg.speedup, self.dt
+        cpu, clock = self.loop_cpu, time.thread_time
+        paced = math.isfinite(speedup)     # --speedup max: as fast as the CPU (and the gate) allow
+        chunk = 0.02                   # wall seconds of stepping before yielding to I/O
+        min_sleep = 0.004              # fewer, larger sleeps: steps bunch up, sim time does not care
+        max_lag = max(0.1 * speedup, 4 * dt) if paced else math.inf
         while not self._stop.is_set():
             now = time.monotonic()
             target = sim0 + speedup * (now - wall0) if paced else math.inf
@@ -228,14 +241,20 @@ class World:
             n = 0
             blocked = False
             self.outbox.cork()                  # written below, before any wait (vehicle/link/outbox.py)
+            c0 = clock()
             while self.t + 0.5 * dt <= target:
-                if lock is not None and lock.boundary():
-                    blocked = True              # at a TICK not every participant ACKed yet
-                    break
+                # (between TICK boundaries there is nothing to ask the lockstep)
+                if frame and self.steps % frame == 0:
+                    b0 = clock()
+                    blocked = lock.boundary()   # at a TICK not every participant ACKed yet
+                    c0 += clock() - b0          # (the boundary's TICKs are not stepping)
+                    if blocked:
+                        break
                 self.step()
                 n += 1
                 if (n & 3) == 0 and time.monotonic() > deadline:
                     break
+            cpu.stepping += clock() - c0
             self.outbox.flush()                 # the chunk's telemetry, then its TICKs, in order
             if blocked:
                 await lock.wait(self._stop)
@@ -315,4 +334,6 @@ class World:
         line = "stats: " + "; ".join(parts)
         if self.lockstep is not None:
             line += "\n" + self.lockstep.stats_line()
+        if self.loop_cpu.steps:
+            line += "\n" + self.loop_cpu.line()
         return line

@@ -145,14 +145,21 @@ class WorldLockstep:
         self.ticks += 1
         t = self.t_usec()
         for v in self.world.vehicles:
+            frame = None
             for ch in self.gate.channels(v.index):
-                self._tick(v, ch, t)
+                # unsigned, a vehicle's TICK is the same bytes on each channel: packed once
+                if frame is None or v.link.signing_key:
+                    frame = self._tick_frame(v, t)
+                ch.send(frame)
         self.tick_wall = time.monotonic()
 
+    def _tick_frame(self, v, t: int) -> bytes:
+        """Vehicle v's TICK(t), signed with its link's next signing timestamp when it signs."""
+        return wire.pack(wire.TICK, t, participant=wire.WORLD, target_system=0, period_usec=self.period_usec,
+                         sysid=v.sysid, compid=1, signing=v.link.take_signing(), lag=self.lag)
+
     def _tick(self, v, channel, t: int) -> None:
-        channel.send(wire.pack(wire.TICK, t, participant=wire.WORLD, target_system=0,
-                               period_usec=self.period_usec, sysid=v.sysid, compid=1,
-                               signing=v.link.take_signing(), lag=self.lag))
+        channel.send(self._tick_frame(v, t))
 
     def _resend(self, t: int) -> None:
         """TICK(t) again where an ACK is still owed after TICK_RESEND wall s: the TICK or the ACK
