@@ -60,31 +60,22 @@ test-env:
 	@$(MAKE) --no-print-directory -j2 $(SWEEP_STAMP) $(MAVSDK3_STAMP)
 
 # tests/ and examples/pytest (pyproject's testpaths), in three passes (tests/conftest.py says why):
-# the tests that are not full-system on four workers (they mostly wait); then the full-system ones
-# that fly in lockstep on two workers at a lower CPU priority (nice), and beside them, one at a
-# time, those marked `alone`, whose processes so get the cores whenever they want them (the alone
-# tests' output is shown when both are done). A module stays on one worker (loadfile); the
-# conftest hands out the longest modules first and --no-loadscope-reorder keeps that order. The
-# suite starts hundreds of Python processes: each compiles every module it imports unless the
-# .pyc files are written once, so bytecode writing is on here even where the environment turns
-# it off, and the project's own modules are compiled first, once.
+# the tests that are not full-system on four workers (they mostly wait), the full-system ones that
+# fly in lockstep on two, then those marked `alone` one at a time. A module stays on one worker
+# (loadfile); the conftest hands out the longest modules first and --no-loadscope-reorder keeps
+# that order. The suite starts hundreds of Python processes: each compiles every module it
+# imports unless the .pyc files are written once, so bytecode writing is on here even where the
+# environment turns it off, and the project's own modules are compiled first, once.
 # on a machine other work already loads, MAVSDK's and MAVProxy's wall-clock retries can run out
 # with four workers: `make test FAST_WORKERS=2`
 FAST_WORKERS ?= 4
-PYTEST := $(BIN)/python -m pytest -q
 test: export MAVSDK3_PYTHON := $(CURDIR)/$(MAVSDK3)/bin/python
 test: export PYTHONDONTWRITEBYTECODE :=
 test: test-env
 	$(BIN)/python -m compileall -q -j 0 common vehicle gcs bridge tools
-	$(PYTEST) -n $(FAST_WORKERS) --dist loadfile --no-loadscope-reorder -m "not slow and not alone"
-	@alone_log=$$(mktemp); \
-	$(PYTEST) -m alone > $$alone_log 2>&1 & alone=$$!; \
-	echo '$(PYTEST) -m alone  (beside the next pass; its output follows it)'; \
-	echo 'nice $(PYTEST) -n 2 --dist loadfile --no-loadscope-reorder -m "slow and not alone"'; \
-	nice -n 10 $(PYTEST) -n 2 --dist loadfile --no-loadscope-reorder -m "slow and not alone"; slow=$$?; \
-	wait $$alone; rc=$$?; \
-	echo '---- the tests marked alone:'; cat $$alone_log; rm -f $$alone_log; \
-	test $$slow -eq 0 && test $$rc -eq 0
+	$(BIN)/python -m pytest -q -n $(FAST_WORKERS) --dist loadfile --no-loadscope-reorder -m "not slow and not alone"
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder -m "slow and not alone"
+	$(BIN)/python -m pytest -q -m alone
 
 bench: $(STAMP)
 	$(QUIET_EDITABLE) $(BIN)/python -m pip install -q -e '.[test,plot,bench]'

@@ -5,15 +5,14 @@
 built once; the modules are handed out longest first, see pytest_collection_modifyitems):
 1. the tests not marked slow or alone, on four workers: most of them wait on worlds, sockets
    and timers rather than compute, so four workers keep two cores busy where two kept one.
-2. the full-system tests (marked slow) but those marked alone, on two workers at a lower CPU
-   priority (nice): they fly in lockstep or judge on the world's own (sim) clock, so the other
-   worker's load, and the CPU they yield, change none of their figures. They stay apart from
-   pass 1: their flights fill the cores, and the clients of pass 1 (MAVSDK, MAVProxy,
-   pymavlink's mavftp) give up on replies after wall seconds.
-3. beside pass 2, the tests marked alone, one at a time: whole systems whose processes react
-   on the wall clock (not in lockstep), and wall-clock figures. They need about half a core and
-   get it at once whenever they want it, pass 2 running niced; no other test at their priority
-   runs beside them.
+2. the full-system tests (marked slow) but those marked alone, on two workers: they fly in
+   lockstep or judge on the world's own (sim) clock, so the other worker's load changes none
+   of their figures. They stay apart from pass 1: their flights fill the cores, and the
+   clients of pass 1 (MAVSDK, MAVProxy, pymavlink's mavftp) give up on replies after wall
+   seconds.
+3. the tests marked alone, one at a time: whole systems whose processes react on the wall
+   clock (not in lockstep), and wall-clock figures, which need the cores to themselves (beside
+   pass 2 even at a lower CPU priority, MAVSDK's mission upload timed out twice in two runs).
 `pytest -m slow` / `-m "not slow"` still pick either half.
 """
 from __future__ import annotations
@@ -45,8 +44,7 @@ def pytest_configure(config: pytest.Config) -> None:
         signal.signal(signal.SIGINT, signal.default_int_handler)
     config.addinivalue_line(
         "markers", "alone: judged on the wall clock (a whole system not in lockstep, a wall-clock "
-                   "figure): `make test` runs it one at a time, beside only the slow pass at a "
-                   "lower CPU priority")
+                   "figure): `make test` runs it with nothing beside it, after the parallel passes")
 
 
 TEST_SECONDS = "towerlink/test_seconds"          # pytest's cache: each test's wall s, its last run
