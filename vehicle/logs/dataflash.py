@@ -124,8 +124,8 @@ class Encoder:
             scale = FORMAT_CHARS[c][1]
             if c in "fd":
                 exprs.append(a)
-            elif scale == 1.0:
-                exprs.append(f"_round({a})")
+            elif scale == 1.0:              # an int as it is (round() gives it back), else rounded
+                exprs.append(f"({a} if {a}.__class__ is _int else _round({a}))")
             else:
                 exprs.append(f"_round({a} * {scale!r})")
         return exprs
@@ -172,7 +172,7 @@ def run_packer(encoders: Sequence[Encoder]) -> Callable[..., bytes]:
            f"        return _pack({', '.join(exprs)})\n"
            f"    except (ValueError, OverflowError, TypeError, struct.error):\n"
            f"        return _checked(({', '.join(args)},))\n")
-    scope = {"_round": round, "_pack": struct.Struct(fmt).pack, "_checked": checked, "struct": struct}
+    scope = {"_round": round, "_int": int, "_pack": struct.Struct(fmt).pack, "_checked": checked, "struct": struct}
     exec(src, scope)            # noqa: S102 - generated from the format strings above, no input
     return scope["pack"]
 
