@@ -68,6 +68,7 @@ class Link:
         self.name = name
         self.url = url
         self.kind, self.host, self.port = parse_url(url)
+        self._datagrams = self.kind in ("udpin", "udpout")     # queue() coalesces; streams send at once
         self.clock = clock
         self.stats = LinkStats()
         self._pending: list[bytes] = []       # queued packets (queue/flush)
@@ -143,10 +144,14 @@ class Link:
 
     def _check(self, pkts: list[Packet], addr=None) -> bool:
         """Mark the packets `verify` refuses (counted); True if any passed."""
+        if self.verify is None:
+            for p in pkts:
+                p.addr = addr
+            return bool(pkts)
         ok = False
         for p in pkts:
             p.addr = addr
-            why = self.verify(p) if self.verify is not None else None
+            why = self.verify(p)
             if why is None:
                 ok = True
             else:
@@ -237,13 +242,15 @@ class Link:
         """Send one packet with the next ones in one datagram (UDP; up to BATCH_BYTES), written
         by flush() or before the next send(), so order is kept. Forwarded telemetry goes this
         way: one sendto costs about 10 us on loopback, as much as the rest of the forwarding."""
-        if self.kind not in ("udpin", "udpout"):
+        if not self._datagrams:
             self.send(data)
             return
-        if self._pending_bytes + len(data) > BATCH_BYTES:
+        n = self._pending_bytes + len(data)
+        if n > BATCH_BYTES:
             self.flush()
+            n = len(data)
         self._pending.append(data)
-        self._pending_bytes += len(data)
+        self._pending_bytes = n
 
     def flush(self) -> None:
         """Write the queued packets now (one datagram)."""

@@ -16,7 +16,7 @@
 from __future__ import annotations
 
 from common.frames import TransformException
-from common.mavlink.dialect import towerlink as tl
+from common.mavlink import lockstep as lockstep_wire
 from common.mavlink.frame_parser import Packet
 from bridge import translate
 from bridge.codec import Codec
@@ -72,8 +72,8 @@ class VehicleSide:
         """A TICK's time (us) for the hold, or None."""
         if pkt.msgid != MSG_TL_LOCKSTEP:
             return None
-        msg = self.codec.decode(pkt.raw)
-        return msg.time_usec if msg is not None and msg.kind == tl.TOWERLINK_LOCKSTEP_KIND_TICK else None
+        msg = lockstep_wire.read_checked(pkt.raw)
+        return msg.time_usec if msg is not None and msg.kind == lockstep_wire.TICK else None
 
     def _handle_held(self, link: Link, pkt: Packet) -> None:
         handle_guarded(self.handle, link, pkt, self.warn_once)      # as the loop handles a packet
@@ -91,7 +91,7 @@ class VehicleSide:
             return
         mid = pkt.msgid
         if mid == MSG_TL_LOCKSTEP:              # the world's TICK: ours, never routed raw
-            msg = self.codec.decode(pkt.raw)
+            msg = lockstep_wire.read_checked(pkt.raw)       # the frame parser checked its CRC
             if msg is None:
                 link.stats.malformed += 1
             elif self.lockstep is not None:

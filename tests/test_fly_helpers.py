@@ -136,3 +136,39 @@ def test_no_helpers_on_one_cpu(tmp_path):
     out = subprocess.run([sys.executable, "-c", code, str(tmp_path / "run")], capture_output=True, text=True,
                          check=True, timeout=60).stdout
     assert out.strip() == "(None, None)"
+
+
+def test_one_read_of_bridge_tlog_gives_what_each_reader_reads_for_itself(tmp_path):
+    """With one CPU the launcher reads bridge.tlog once (tools.fly_run_folder.read_bridge) for
+    run.mcap, the scores and the frame tree: the same files and data as each reading for itself."""
+    import pickle
+
+    from tools.fly_run_folder import read_bridge, write_run_mcap_quietly
+    here, there = _folder(tmp_path / "a" / "run"), _folder(tmp_path / "b" / "run")
+    (here / "vehicles.tlog").write_bytes((here / "bridge.tlog").read_bytes())    # the bridge's own: from bridge.tlog
+    (there / "vehicles.tlog").write_bytes((there / "bridge.tlog").read_bytes())
+    write_run_mcap(here)
+    Drawings(here, None).tracks(load_run(here))
+    bridge = read_bridge(there)
+    assert bridge is not None and any(m.get_type() == "TOWERLINK_FOLLOW_STATUS" for m in bridge)
+    write_run_mcap_quietly(there, bridge)
+    data = load_run(there, bridge)
+    Drawings(there, None, bridge).tracks(data)
+    assert pickle.dumps(data) == pickle.dumps(load_run(here))
+    for name in ("run.mcap", "tracks.png", "frames.png", "frames.yaml"):
+        assert (there / name).read_bytes() == (here / name).read_bytes(), name
+    assert read_bridge(tmp_path) is None            # no bridge.tlog: each reads for itself
+
+
+def test_no_helpers_forks_none_and_helpers_forks_them_on_any_machine(tmp_path):
+    """fly --no-helpers (what a sweep passes): no child; --helpers: both, even with one CPU."""
+    from tools.fly import _helpers
+    assert _helpers(tmp_path / "a", None, False) == (None, None)
+    drawings, recorder = _helpers(tmp_path / "b", None, True)
+    try:
+        assert isinstance(drawings, DrawingWorker) and isinstance(recorder, Recorder)
+        pids = [drawings.helper._child.pid, recorder.helper._child.pid]
+    finally:
+        drawings.close()
+        recorder.close()
+    assert all(_gone(pid) for pid in pids)

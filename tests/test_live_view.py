@@ -225,3 +225,19 @@ def test_bridge_view_serves_its_frame_tree_to_a_foxglove_client(processes):
         client.stop()
     processes.stop(bridge)
     assert bridge.returncode is not None
+
+
+def test_run_mcap_encodes_every_record_as_json_dumps_does():
+    """tools.run_mcap.encode takes each track's points as the feed wrote them (TrackPoints.json):
+    the bytes json.dumps makes of the whole body, over several segments and their resends."""
+    import json
+
+    from tools.run_mcap import encode
+    from tools.scene_feed import TRACK_SEGMENT, TrackPoints
+    recs = list(records_of(flight(1500)))
+    tracks = [ln["points"] for r in recs if r.topic == "/vehicles" for e in r.body["entities"]
+              for ln in e.get("lines", [])]
+    assert tracks and all(isinstance(p, TrackPoints) for p in tracks)
+    assert max(len(p) for p in tracks) == TRACK_SEGMENT + 1 and len({id(p) for p in tracks}) == len(tracks)
+    for r in recs:
+        assert encode(r) == (r.sim_ns, r.topic, json.dumps(r.body).encode())

@@ -35,6 +35,7 @@ def test_pack_is_the_dialect_bytes_and_unpacks(kind, t, who, target, period, sys
     assert rest == b"tail"
     assert (m.kind, m.time_usec, m.participant, m.target_system, m.period_usec, m.sysid, m.compid, m.lag) == \
         (kind, t, who, target, period, sysid, compid, lag)
+    assert L.read_checked(ref) == m     # a frame already cut and checked: read without the CRC
     mav.seq = seq       # lag 0 (the extension trimmed): the bytes of the message without the field
     assert L.pack(kind, t, participant=who, target_system=target, period_usec=period, sysid=sysid,
                   compid=compid, seq=seq) == tl.MAVLink_towerlink_lockstep_message(t, target, kind, who, period).pack(mav)
@@ -50,6 +51,7 @@ def test_crc_extra_and_id_match_the_dialect():
 def test_other_packets_and_damaged_frames_pass_through_untouched():
     hb = tl.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3).pack(tl.MAVLink(None, 255, 190))
     assert L.unpack(hb) == (None, hb)
+    assert L.read_checked(hb) is None
     good = L.pack(L.ACK, 40000, sysid=250, compid=191)
     bad = good[:-1] + bytes([good[-1] ^ 0xFF])
     assert L.unpack(bad) == (None, bad)

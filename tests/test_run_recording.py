@@ -163,3 +163,41 @@ def test_the_merge_in_pieces_is_heapq_merge_of_the_whole_streams():
             got += merge.take()
         got += merge.take(final=True)
         assert [(m.k, m.i) for m in got] == [(m.k, m.i) for m in want]
+
+
+def test_scene_messages_make_the_records_of_every_message_decoded(tmp_path):
+    """tools.run_mcap.scene_messages decodes only what SceneFeed reads: the records are those of every
+    message decoded by read_tlog, also with signed frames, MAVLink 1, zero-trimmed payloads, a
+    bad checksum, messages without a time and unknown ids in the tlog."""
+    from common.mavlink.signing import setup_signing
+    from tools.scene_feed import SceneFeed, records_of
+    from tools.run_mcap import scene_messages
+    data = bytearray(_run_tlogs(80)["bridge.tlog"])
+    drone = tl.MAVLink(None, srcSystem=DRONE, srcComponent=1)
+    signed = tl.MAVLink(None, srcSystem=DRONE, srcComponent=1)
+    setup_signing(signed, b"k" * 32, 1)
+    v1 = tl.MAVLink(None, srcSystem=DRONE, srcComponent=1)
+    v1.WIRE_PROTOCOL_VERSION = "1.0"
+    frames = [
+        tl.MAVLink_local_position_ned_message(9000, 1.0, 2.0, 3.0, 0, 0, 0).pack(signed),
+        tl.MAVLink_attitude_message(9100, 0.1, 0.2, 0.3, 0, 0, 0).pack(drone),
+        tl.MAVLink_attitude_message(0, 0.0, 0.0, 0.0, 0, 0, 0).pack(drone),        # all zero: trimmed to 1 byte
+        tl.MAVLink_sim_state_message(*([0.5] * 21)).pack(drone),                   # no time field
+        tl.MAVLink_system_time_message(123456789, 9300).pack(drone),               # time_boot_ms after a u64
+        tl.MAVLink_heartbeat_message(2, 3, 0, 0, 0, 3).pack(v1),
+        tl.MAVLink_attitude_message(9400, 0.1, 0.2, 0.3, 0, 0, 0).pack(v1),
+        _transform(9.5, "drone", (1.0, 2.0, 3.0)).pack(drone),
+    ]
+    bad = bytearray(tl.MAVLink_attitude_message(9999, 0.1, 0.2, 0.3, 0, 0, 0).pack(drone))
+    bad[-1] ^= 0xFF                                                                 # a bad checksum
+    unknown = bytearray(tl.MAVLink_attitude_message(9200, 0.1, 0.2, 0.3, 0, 0, 0).pack(drone))
+    unknown[7:10] = (60000).to_bytes(3, "little")                                  # an id not in the dialect
+    for k, f in enumerate([*frames[:3], bad, unknown, *frames[3:]]):
+        data += struct.pack(">Q", T0 + 10_000_000 + k) + bytes(f)
+    p = tmp_path / "bridge.tlog"
+    p.write_bytes(bytes(data))
+    full = list(records_of(read_tlog(p), SceneFeed()))
+    assert [r for r in records_of(scene_messages(p), SceneFeed())] == full
+    assert any(r.sim_ns == 9_400_000_000 for r in full), "the added frames made records"
+    stamps = [m._timestamp for m in scene_messages(p)]
+    assert stamps == sorted(stamps)

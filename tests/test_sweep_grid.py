@@ -166,8 +166,8 @@ def test_fly_parses_what_the_sweep_passes():
     fly.add_arguments(p)
     a = p.parse_args(g.fly_args({"seed": 2, "tower_loss": 0.1, "WPNAV_SPEED": 300.0}, "/s.toml", "/o",
                                 timeout=60, goal_timeout=30)[1:])
-    assert (a.scenario, a.lockstep, math.isinf(a.speedup), a.seed, a.tower_loss, a.param, a.goal_timeout) == \
-        ("/s.toml", True, True, 2, 0.1, ["WPNAV_SPEED=300"], 30.0)
+    assert (a.scenario, a.lockstep, math.isinf(a.speedup), a.seed, a.tower_loss, a.param, a.goal_timeout, a.helpers) == \
+        ("/s.toml", True, True, 2, 0.1, ["WPNAV_SPEED=300"], 30.0, False)
 
 
 toml_values = st.recursive(

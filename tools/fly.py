@@ -174,17 +174,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     from tools import hosts
     hosts.add_arguments(parser)
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    parser.add_argument("--helpers", action=argparse.BooleanOptionalAction, default=None,
+                        help="draw the pictures and record run.mcap in children forked at the start, busy beside "
+                             "the flight and each other (default: when this process may use two or more CPUs); "
+                             "--no-helpers: all of it here after the flight, from one read of the tlogs (less "
+                             "CPU in all: what a sweep wants, whose other runs use the other cores)")
 
 
-def _helpers(out: Path, scenario: str | None) -> tuple:
+def _helpers(out: Path, scenario: str | None, wanted: bool | None = None) -> tuple:
     """(drawings, recorder): children that draw the run and record run.mcap, started now so they
     do their part while the run flies (tools.fly_drawings, tools.fly_recorder); (None, None)
-    where fork is not available or this process has one CPU (e.g. under taskset: the helpers'
-    work would then only slow the lockstep chain down), and all of it is done after the flight."""
+    where fork is not available, `wanted` is False, or (`wanted` None) this process has one CPU
+    (e.g. under taskset: the helpers' work would then only slow the lockstep chain down), and all
+    of it is done after the flight."""
     from tools.fly_child import ForkedHelper
     from tools.fly_drawings import DrawingWorker
     from tools.fly_recorder import Recorder
-    if not ForkedHelper.available() or ForkedHelper.cpus() < 2:
+    if not ForkedHelper.available() or wanted is False or (wanted is None and ForkedHelper.cpus() < 2):
         return None, None
     out.mkdir(parents=True, exist_ok=True)
     drawings, recorder = DrawingWorker(out, scenario), Recorder(out)
@@ -244,7 +250,7 @@ def run(args: argparse.Namespace) -> int:
         if math.isinf(args.speedup) and not args.lockstep:
             print("towerlink fly: --speedup max without --lockstep: the world runs as fast as the CPU and the "
                   "bridge and the tower fall behind it; the figures will depend on the machine", file=sys.stderr)
-        drawings, recorder = _helpers(out, args.scenario)
+        drawings, recorder = _helpers(out, args.scenario, args.helpers)
     except BaseException:
         launch.stop()           # no world left behind
         raise
@@ -289,7 +295,7 @@ def _fly(args: argparse.Namespace, launch: Launch, world, drawings, recorder) ->
     if failure:
         print(f"towerlink fly: {failure}; all processes stopped", file=sys.stderr, flush=True)
     try:
-        s = launch.finish_run(rc, drawings, recorder)
+        s = launch.finish_run(rc, drawings, recorder, fork=args.helpers)
         print("\n" + s["text"], flush=True)
     except Exception as exc:  # noqa: BLE001
         print(f"towerlink fly: could not summarise the run: {exc}", file=sys.stderr)

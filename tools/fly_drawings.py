@@ -30,11 +30,13 @@ def draw_tracks(run_dir: Path, scenario: str | None, data) -> None:
 
 
 class Drawings:
-    """Both drawings in this process, once the run's data are in (:meth:`tracks`)."""
+    """Both drawings in this process, once the run's data are in (:meth:`tracks`); `bridge`:
+    bridge.tlog's messages, already read (tools.fly_frames.draw_frames)."""
 
-    def __init__(self, run_dir: Path, scenario: str | None) -> None:
+    def __init__(self, run_dir: Path, scenario: str | None, bridge: list | None = None) -> None:
         self.dir = Path(run_dir)
         self.scenario = scenario
+        self.bridge = bridge
 
     def flight_begins(self) -> None:
         """The sim clock moved (nothing to prepare here)."""
@@ -45,7 +47,7 @@ class Drawings:
     def tracks(self, data) -> None:
         """Draw tracks.png from `data`, then the frame tree."""
         draw_tracks(self.dir, self.scenario, data)
-        draw_frames(self.dir)
+        draw_frames(self.dir, self.bridge)
 
     def wait(self) -> None:
         """Both drawings are written (or left out)."""

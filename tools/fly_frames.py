@@ -6,17 +6,22 @@ drawing that fails is left out and never hides the summary.
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
 
 from tools.fly_child import Priority
 
 
-def draw_frames(run_dir: Path) -> None:
-    """frames.pdf, frames.png and frames.yaml from bridge.tlog's transforms; left out if it fails
-    or the bridge recorded no transform."""
+def draw_frames(run_dir: Path, bridge: Iterable | None = None) -> None:
+    """frames.pdf, frames.png and frames.yaml from bridge.tlog's transforms (`bridge`: its messages,
+    the transforms among them decoded, already read); left out if it fails or the bridge
+    recorded no transform."""
     try:
-        from tools.view_frames import buffer_from_tlog, write_drawing
-        buf, now = buffer_from_tlog(run_dir / "bridge.tlog")
+        from tools.view_frames import buffer_from_messages, buffer_from_tlog, write_drawing
+        if bridge is None:
+            buf, now = buffer_from_tlog(run_dir / "bridge.tlog")
+        else:
+            buf, now = buffer_from_messages(m for m in bridge if m.get_type() == "TOWERLINK_TRANSFORM")
         if buf.edge_stats():
             title = f"view_frames: {run_dir.name}"
             write_drawing(buf, run_dir / "frames.pdf", now=now, title=title)

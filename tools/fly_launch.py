@@ -258,11 +258,11 @@ class Launch:
         write_meta(self.plan)
 
     def finish_run(self, tower_rc: int | None, drawings: Drawings | None = None,
-                   recorder: Recorder | None = None) -> dict:
+                   recorder: Recorder | None = None, fork: bool | None = None) -> dict:
         """After stop(): score, plot, draw the frames, record run.mcap; returns the summary dict.
         `drawings`, `recorder`: children started before the run (tools.fly_drawings.DrawingWorker,
         tools.fly_recorder.Recorder); default: drawn here after the scoring, recorded in a child
-        forked now."""
+        forked now (`fork` False, or None with one CPU: here too)."""
         achieved = None
         if self.monitor is not None:
             achieved = self.speedup.overall(self.monitor.snapshot()["sim"])
@@ -270,4 +270,4 @@ class Launch:
         applied = self.proxy.applied if self.proxy is not None else []
         return write_summary(self.plan, tower_rc, bridge_restarts=self.bridge_restarts, proxy=proxy,
                              achieved_speedup=achieved, applied=applied, drawings=drawings,
-                             recorder=recorder)
+                             recorder=recorder, fork=fork)

@@ -5,7 +5,8 @@ each of the scenario's faults took effect and was cleared, as the link proxy app
 summary.json and summary.txt (the scores), tracks.png, frames.pdf / frames.png (the frame tree,
 tools.fly_drawings), run.mcap. A drawing or a recording that fails never hides the summary: it is
 left out. After the flight the recording (a forked child), the drawings (a forked child and its
-sub-helper) and the scoring run side by side.
+sub-helper) and the scoring run side by side; with one CPU all of it is done here, one after the
+other, from one read of bridge.tlog.
 """
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from pathlib import Path
 
 from common.mavlink.lockstep import speedup_text
 from common.mavlink.signing import masked_argv
+from tools.fly_child import ForkedHelper
 from tools.fly_drawings import Drawings
 from tools.fly_plan import FlyPlan
 from tools.fly_recorder import Recorder
@@ -42,15 +44,19 @@ def _link(plan: FlyPlan) -> dict | None:
 def write_summary(plan: FlyPlan, tower_rc: int | None, *, bridge_restarts: int = 0,
                   proxy: dict | None = None, achieved_speedup: float | None = None,
                   applied: list[dict] | None = None, drawings: Drawings | None = None,
-                  recorder: Recorder | None = None) -> dict:
+                  recorder: Recorder | None = None, fork: bool | None = None) -> dict:
     """Score the run, draw it, record it; returns the summary dict (its text under "text").
 
     `proxy`: the link proxy's frame counts ({"passed", "dropped", "overflow", "duplicated"},
     each per direction); `applied`: when each fault took effect and was cleared (written to
     faults.json); `achieved_speedup`: sim s per wall s (None if the sim clock never moved);
     `drawings`: who draws tracks.png and the frame tree (default: this process, after the scoring);
-    `recorder`: the child recording run.mcap since the run started (default: a child forked now)."""
-    own = recorder is None and Recorder.available()
+    `recorder`: the child recording run.mcap since the run started (default: a child forked now,
+    unless `fork` is False, or None and this process has one CPU: then written here)."""
+    bridge = None
+    own = recorder is None and Recorder.available() and (fork if fork is not None else ForkedHelper.cpus() >= 2)
+    if recorder is None and drawings is None and not own:
+        bridge = read_bridge(plan.dir)          # one CPU: read once, for run.mcap, the scores and the frames
     if own:
         recorder = Recorder(plan.dir)           # run.mcap on the other core while this one scores
         recorder.start()
@@ -58,10 +64,10 @@ def write_summary(plan: FlyPlan, tower_rc: int | None, *, bridge_restarts: int =
         if recorder is not None:
             recorder.flight_over()              # it reads the rest and writes run.mcap meanwhile
         else:                                   # no fork here: written now
-            write_run_mcap_quietly(plan.dir)
-        drawings = drawings or Drawings(plan.dir, plan.scenario)
+            write_run_mcap_quietly(plan.dir, bridge)
+        drawings = drawings or Drawings(plan.dir, plan.scenario, bridge)
         drawings.flight_over()                  # a worker draws the frame tree meanwhile
-        s, text = _score(plan, tower_rc, bridge_restarts, proxy, achieved_speedup, applied, drawings)
+        s, text = _score(plan, tower_rc, bridge_restarts, proxy, achieved_speedup, applied, drawings, bridge)
         drawings.wait()
         if recorder is not None:
             recorder.wait()
@@ -76,9 +82,11 @@ def write_summary(plan: FlyPlan, tower_rc: int | None, *, bridge_restarts: int =
 
 
 def _score(plan: FlyPlan, tower_rc: int | None, bridge_restarts: int, proxy: dict | None,
-           achieved_speedup: float | None, applied: list[dict] | None, drawings: Drawings) -> tuple[dict, str]:
+           achieved_speedup: float | None, applied: list[dict] | None, drawings: Drawings,
+           bridge: list | None = None) -> tuple[dict, str]:
     """faults.json and summary.json written; (the summary dict, its text). The run's data are
-    handed to `drawings` as soon as they are read, before the scoring."""
+    handed to `drawings` as soon as they are read, before the scoring (`bridge`: bridge.tlog's
+    messages, already read by read_bridge)."""
     from tools.run_summary import format_summary, summarize
     if plan.sc.faults or applied:
         (plan.dir / "faults.json").write_text(json.dumps(
@@ -100,7 +108,7 @@ def _score(plan: FlyPlan, tower_rc: int | None, bridge_restarts: int, proxy: dic
     if achieved_speedup is not None:
         meta["achieved_speedup"] = achieved_speedup
     from tools.run_data import load_run
-    data = load_run(plan.dir)           # read once: the summary and the plot share it
+    data = load_run(plan.dir, bridge)   # read once: the summary and the plot share it
     drawings.tracks(data)               # tracks.png needs nothing more: drawn while this one scores
     if plan.family:
         from tools.family_summary import format_family_summary, summarize_family
@@ -140,11 +148,23 @@ def _family_faults(plan: FlyPlan, tower: dict, data) -> dict:
     return fault_section(plan.sc.faults, read_applied(plan.dir), data, names, goals, end=max(ends) if ends else None)
 
 
-def write_run_mcap_quietly(run_dir: Path) -> None:
-    """run_dir/run.mcap from the finished tlogs, here and now; left out if it fails."""
+def read_bridge(run_dir: Path) -> list | None:
+    """bridge.tlog's messages, decoded as far as run.mcap, the scores and the frame tree need them
+    (tools.tlog_stamped); None without a readable bridge.tlog (each then reads for itself)."""
+    try:
+        from tools.run_data import BRIDGE_OWN
+        from tools.run_mcap import scene_messages
+        return list(scene_messages(run_dir / "bridge.tlog", also=BRIDGE_OWN))
+    except Exception:  # noqa: BLE001 - missing or unreadable: each reader then tries for itself
+        return None
+
+
+def write_run_mcap_quietly(run_dir: Path, bridge: list | None = None) -> None:
+    """run_dir/run.mcap from the finished tlogs (`bridge`: bridge.tlog's messages, already read),
+    here and now; left out if it fails."""
     try:
         from tools.run_mcap import write_run_mcap
-        write_run_mcap(run_dir)
+        write_run_mcap(run_dir, bridge)
     except Exception:  # noqa: BLE001 - the recording must not hide the summary
         pass
 

@@ -28,6 +28,7 @@ from common.geo import lla_to_ned, ned_to_lla
 from common.mavlink.mavstr import mav_str
 from common.mavlink.modes import mode_name
 from tools.run_ids import DRONE, ROVER  # noqa: F401 (their users import them here too)
+from tools.tlog_stamped import StampedDecoder, decode_frames
 
 os.environ.setdefault("MAVLINK20", "1")
 
@@ -57,28 +58,22 @@ def read_tlog(path: str | os.PathLike, types: Iterable[str] | None = None,
     yield from decode_frames(dialect.MAVLink(None), raw, frames, wanted_ids(dialect, types), sysids)
 
 
+def read_stamped(path: str | os.PathLike, fed: Iterable[str], sysids: Iterable[int] | None = None) -> Iterator[Any]:
+    """A tlog's messages as a reader of the `fed` messages needs them (tools.tlog_stamped): those
+    decoded, the others with a sim time as Stamped. A file that is not whole stamped frames is read
+    by pymavlink's robust reader (every message with a time, and the fed ones, decoded)."""
+    raw = Path(path).read_bytes()
+    frames = tlog_frames(raw)
+    decoder = StampedDecoder(fed)
+    if frames is None:
+        yield from _read_tlog_pymavlink(path, (*fed, *(t.name for t in decoder.timed.values())), sysids)
+        return
+    yield from decoder.decode(raw, frames, sysids)
+
+
 def wanted_ids(dialect, types: Iterable[str] | None) -> frozenset[int] | None:
     """The message ids of `types` (names) in `dialect`; None for every message."""
     return None if types is None else frozenset(i for i, c in dialect.mavlink_map.items() if c.msgname in set(types))
-
-
-def decode_frames(mav, raw: bytes, frames: Iterable[tuple[int, int, int, int]], wanted: frozenset[int] | None,
-                  sysids: Iterable[int] | None) -> Iterator[Any]:
-    """Decode tlog frames (tlog_frames' rows of `raw`) with the MAVLink object `mav`, those of the
-    `wanted` ids (None: all) and `sysids` (None: all); stamped as read_tlog's."""
-    systems = None if sysids is None else frozenset(sysids)
-    for tusec, msgid, start, end in frames:
-        if wanted is not None and msgid not in wanted:
-            continue
-        if systems is not None and raw[start + (5 if raw[start] == 0xFD else 3)] not in systems:
-            continue
-        try:
-            m = mav.decode(bytearray(raw[start:end]))
-        except Exception:  # noqa: BLE001 - pymavlink's reader gives BAD_DATA, which is skipped
-            continue
-        m._timestamp = tusec * 1e-6
-        m._link = tusec & 0x3
-        yield m
 
 
 def tlog_frames(raw: bytes) -> list[tuple[int, int, int, int]] | None:
@@ -298,15 +293,21 @@ def folded_types() -> tuple[str, ...]:
     return tuple(sorted({*FOLDED, *timed}))
 
 
-def load_run(run_dir: str | os.PathLike) -> RunData:
-    """Read every tlog of a run folder (vehicles, bridge, tower) into one RunData."""
+def load_run(run_dir: str | os.PathLike, bridge: Iterable[Any] | None = None) -> RunData:
+    """Read every tlog of a run folder (vehicles, bridge, tower) into one RunData. `bridge`:
+    bridge.tlog's messages already read by the caller, those of BRIDGE_OWN among them decoded
+    (tools.run_mcap.scene_messages(..., also=BRIDGE_OWN)); the others are passed over."""
     run_dir = Path(run_dir)
     data = RunData()
     vehicles = run_dir / "vehicles.tlog"
     if vehicles.exists():
-        load_messages(read_tlog(vehicles, folded_types()), data)
-    bridge = run_dir / "bridge.tlog"
-    if bridge.exists():
+        load_messages(read_stamped(vehicles, FOLDED), data)
+        if bridge is not None:
+            # the bridge's out link repeats the vehicles' traffic: take its own
+            load_messages((m for m in bridge if m.get_type() in BRIDGE_OWN), data)
+            return data
+    bridge_tlog = run_dir / "bridge.tlog"
+    if bridge_tlog.exists():
         # the bridge's out link repeats the vehicles' traffic: take its own
-        load_messages(read_tlog(bridge, BRIDGE_OWN if vehicles.exists() else None), data)
+        load_messages(read_tlog(bridge_tlog, BRIDGE_OWN if vehicles.exists() else None), data)
     return data

@@ -14,29 +14,37 @@ import heapq
 import json
 import math
 import os
+import re
 import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from common.mavlink.ids import TOWER_SYSID
-from tools.scene_feed import TOPICS, Record, SceneFeed, records_of, schema_of
+from tools.scene_feed import FED_TYPES, TOPICS, Record, SceneFeed, TrackPoints, records_of, schema_of
 
 RUN_MCAP = "run.mcap"
 
 
 def _tlog_messages(run_dir: Path, bridge: Iterable | None = None) -> Iterator:
     """bridge.tlog (frames, follow, vehicles; `bridge`: its messages already read) and the
-    tower's own sends from tower.tlog, merged in arrival order (the tlogs' wall stamps)."""
-    from tools.run_data import read_tlog
-
+    tower's own sends from tower.tlog, merged in arrival order (the tlogs' wall stamps); decoded
+    as far as SceneFeed reads them (scene_messages)."""
     streams = []
     if bridge is not None:
         streams.append(iter(bridge))
     elif (run_dir / "bridge.tlog").exists():
-        streams.append(read_tlog(run_dir / "bridge.tlog"))
+        streams.append(scene_messages(run_dir / "bridge.tlog"))
     if (run_dir / "tower.tlog").exists():
-        streams.append(read_tlog(run_dir / "tower.tlog", sysids=(TOWER_SYSID,)))
+        streams.append(scene_messages(run_dir / "tower.tlog", sysids=(TOWER_SYSID,)))
     return heapq.merge(*streams, key=lambda m: getattr(m, "_timestamp", 0.0))
+
+
+def scene_messages(path: str | os.PathLike, sysids: Iterable[int] | None = None,
+                   also: Iterable[str] = ()) -> Iterator:
+    """A finished tlog's messages as SceneFeed needs them (tools.tlog_stamped; those named in
+    `also` decoded too)."""
+    from tools.run_data import read_stamped
+    return read_stamped(path, (*FED_TYPES, *also), sysids)
 
 
 def write_mcap(records: Iterable[Record], path: str | os.PathLike) -> int:
@@ -46,7 +54,30 @@ def write_mcap(records: Iterable[Record], path: str | os.PathLike) -> int:
 
 def encode(r: Record) -> tuple[int, str, bytes]:
     """(sim ns, topic, JSON body): a record as write_encoded takes it."""
-    return r.sim_ns, r.topic, json.dumps(r.body).encode()
+    return r.sim_ns, r.topic, dumps(r.body).encode()
+
+
+_HELD = re.compile(r'"\\u0000(\d+)"')      # a placeholder as json.dumps writes it
+
+
+def dumps(body: dict) -> str:
+    """json.dumps(body), byte for byte, with the text of each track's points (scene_feed.TrackPoints
+    in an entity's lines) taken as the feed made it rather than encoded again."""
+    held: list[str] = []
+
+    def line(ln: dict) -> dict:
+        pts = ln.get("points")
+        if not isinstance(pts, TrackPoints):
+            return ln
+        held.append(pts.json)
+        return {**ln, "points": f"\0{len(held) - 1}"}     # a key keeps its place when set again
+
+    ents = body.get("entities")
+    if isinstance(ents, list):
+        body = {**body, "entities": [{**e, "lines": [line(ln) for ln in e["lines"]]} if e.get("lines") else e
+                                     for e in ents]}
+    text = json.dumps(body)
+    return _HELD.sub(lambda m: held[int(m.group(1))], text) if held else text
 
 
 def write_encoded(recs: list[tuple[int, str, bytes]], path: str | os.PathLike) -> int:

@@ -13,7 +13,8 @@ from pathlib import Path
 
 from common.mavlink.ids import TOWER_SYSID
 from tools.run_mcap import RUN_MCAP, encode, write_encoded, write_run_mcap
-from tools.scene_feed import SceneFeed
+from tools.scene_feed import FED_TYPES, SceneFeed
+from tools.tlog_stamped import StampedDecoder
 from tools.tlog_tail import NotATlog, TlogTail
 
 
@@ -54,7 +55,9 @@ class LiveRecording:
 
     def __init__(self, run_dir: str | Path) -> None:
         self.dir = Path(run_dir)
-        self.tails = (TlogTail(self.dir / "bridge.tlog"), TlogTail(self.dir / "tower.tlog", sysids=(TOWER_SYSID,)))
+        scene = StampedDecoder(FED_TYPES)      # decoded as far as the feed reads them, as write_run_mcap's
+        self.tails = (TlogTail(self.dir / "bridge.tlog", scene=scene),
+                      TlogTail(self.dir / "tower.tlog", sysids=(TOWER_SYSID,), scene=scene))
         self.merge = StableMerge()
         self.feed = SceneFeed()
         self.records: list[tuple[int, str, bytes]] = []

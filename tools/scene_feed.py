@@ -31,6 +31,7 @@ Encoding: JSON with Foxglove's schema names, so the Foxglove app recognises the 
 """
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
@@ -46,6 +47,17 @@ TRACK_STEP_M = 0.25          # a track point every quarter metre: a 1 km flight 
 SCENE_PERIOD_S = 0.1         # scene updates at 10 Hz of sim time (transforms go at full rate)
 TRACK_SEGMENT = 200          # a track is sent in segments: only the growing one each update,
 TRACK_RESEND_S = 10.0        # and all of them every 10 s, so a viewer that joins late sees it all
+#: the messages whose fields SceneFeed reads; any other counts only through its sim time
+#: (time_boot_ms, or a TOWERLINK_ message's time_usec), and one with neither makes no record
+FED_TYPES = ("TOWERLINK_TRANSFORM", "SET_POSITION_TARGET_LOCAL_NED", "TOWERLINK_FOLLOW_STATUS")
+
+
+class TrackPoints(list):
+    """A track segment's points ({"x", "y", "z"} each, m) with their JSON text in `json`: exactly
+    what json.dumps makes of the list, joined from each point's text, encoded once when the point
+    joined the track (tools.run_mcap.encode takes it as it is: a track is sent again and again)."""
+
+    __slots__ = ("json",)
 
 
 @dataclass(frozen=True)
@@ -180,6 +192,7 @@ class SceneFeed:
     sim_ns: int = 0
     _boot_ns: dict[int, int] = field(default_factory=dict)
     _tracks: dict[str, list[tuple[float, float, float]]] = field(default_factory=dict)
+    _track_texts: dict[str, list[str]] = field(default_factory=dict)     # each point's JSON
     _last_scene: int = -10**18
     _last_resend: float = -1e9
     _last_display: int = -10**18
@@ -242,6 +255,7 @@ class SceneFeed:
             p = (float(tr[0]) + off[0], float(tr[1]) + off[1], float(tr[2]) + off[2])
             if not track or math.dist(track[-1], p) >= self.track_step:
                 track.append(p)
+                self._track_texts.setdefault(child, []).append(json.dumps(_track_points((p,))[0]))
         return recs
 
     def _goal(self, m, ns: int) -> list[Record]:
@@ -275,10 +289,12 @@ class SceneFeed:
         for frame, track in self._tracks.items():
             ents.append(entity(ns, frame, frame, **vehicle_body(frame)))
             last = (len(track) - 1) // TRACK_SEGMENT
+            texts = self._track_texts[frame]
             for k in range(0 if resend else last, last + 1):
-                seg = track[k * TRACK_SEGMENT:(k + 1) * TRACK_SEGMENT + 1]   # segments share an end point
+                part = slice(k * TRACK_SEGMENT, (k + 1) * TRACK_SEGMENT + 1)   # segments share an end point
+                seg = track[part]
                 if len(seg) >= 2:
-                    ents.append(self._track_entity(ns, frame, k, seg))
+                    ents.append(self._track_entity(ns, frame, k, seg, texts[part]))
         recs = [Record("/vehicles", ns, {"deletions": [], "entities": ents})] if ents else []
         if self._follow is not None:
             fx, fy, yx, yy, gx, gy = (float(v) for v in self._follow)
@@ -295,11 +311,13 @@ class SceneFeed:
         return recs
 
     @staticmethod
-    def _track_entity(ns: int, frame: str, k: int, seg) -> dict:
+    def _track_entity(ns: int, frame: str, k: int, seg, texts: list[str]) -> dict:
         rgba = FRAME_COLORS.get(frame, (0.8, 0.8, 0.8, 1.0))
+        points = TrackPoints(_track_points(seg))
+        points.json = f"[{', '.join(texts)}]"
         return entity(ns, "world", f"track_{frame}_{k}", lines=[{
             "type": 0, "pose": _pose(), "thickness": 0.08, "scale_invariant": False,
-            "points": _track_points(seg), "color": _color(rgba), "colors": [], "indices": []}])
+            "points": points, "color": _color(rgba), "colors": [], "indices": []}])
 
 
 def _track_points(seg) -> list[dict]:

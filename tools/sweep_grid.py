@@ -440,8 +440,9 @@ def scenario_copy(scenario_data: Mapping[str, Any], factors: Mapping[str, Any]) 
 
 def fly_args(factors: Mapping[str, Any], scenario: str | None, run_dir: str, *,
              timeout: float, goal_timeout: float | None = None) -> list[str]:
-    """`towerlink fly` arguments for one run (lockstep, speedup max, quiet); `scenario` is the
-    file the run flies (its own copy when it changes scenario values)."""
+    """`towerlink fly` arguments for one run (lockstep, speedup max, quiet, no helper children: the
+    sweep's other runs use the other cores); `scenario` is the file the run flies (its own copy
+    when it changes scenario values)."""
     args = ["fly", *([scenario] if scenario else []), "--lockstep", "--speedup", "max", "--quiet",
             "--seed", str(factors.get("seed", 1)), "--out", run_dir, "--timeout", f"{timeout:g}"]
     if goal_timeout is not None:
@@ -458,7 +459,7 @@ def fly_args(factors: Mapping[str, Any], scenario: str | None, run_dir: str, *,
     for k, v in factors.items():
         if PARAM_NAME.match(k):
             args += ["--param", f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"]
-    return args
+    return [*args, "--no-helpers"]
 
 
 # ----------------------------------------------------------------------------- TOML out

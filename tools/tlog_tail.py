@@ -20,12 +20,14 @@ class NotATlog(ValueError):
 
 class TlogTail:
     """The messages of `path` (those of `types` by name, from `sysids`; None: all), read as
-    they come. The file need not exist yet."""
+    they come. The file need not exist yet. With `scene` (a tools.tlog_stamped.StampedDecoder)
+    they are decoded as far as its reader reads them (`types` is then not used)."""
 
     def __init__(self, path: str | Path, types: Iterable[str] | None = None,
-                 sysids: Iterable[int] | None = None) -> None:
+                 sysids: Iterable[int] | None = None, scene=None) -> None:
         from common.mavlink.dialect import towerlink as dialect
         self.path = Path(path)
+        self._scene = scene
         self._mav = dialect.MAVLink(None)
         self._wanted = wanted_ids(dialect, types)
         self._sysids = None if sysids is None else frozenset(sysids)
@@ -45,6 +47,8 @@ class TlogTail:
             raise NotATlog(f"{self.path} is not a tlog")
         frames, end = cut
         self._rest = raw[end:]
+        if self._scene is not None:
+            return list(self._scene.decode(raw, frames, self._sysids))
         return list(decode_frames(self._mav, raw, frames, self._wanted, self._sysids))
 
     @property

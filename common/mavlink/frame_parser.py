@@ -109,7 +109,12 @@ class FrameParser:
         its end is truncated input (counted), not something to wait for.
         """
         buf = self.buf
-        buf += data
+        # a whole datagram with nothing pending is cut straight from its bytes (no copy)
+        direct = datagram and not buf and type(data) is bytes
+        if direct:
+            buf = data
+        else:
+            buf += data
         out: list[Packet] = []
         i, n = 0, len(buf)
         table = self.table
@@ -150,6 +155,12 @@ class FrameParser:
                               ts, tc, magic == MAGIC_V2))
             i += total
             self._skipping = False
+        if direct:
+            if i < n:
+                self._bad()
+            self._skipping = False
+            self.packets += len(out)
+            return out
         del buf[:i]
         if datagram and buf:
             self._bad()

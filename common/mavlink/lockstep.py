@@ -116,6 +116,17 @@ def unpack(data: bytes) -> tuple[Lockstep | None, bytes]:
     return Lockstep(time_usec, kind, who, target, period, data[5], data[6], lag), bytes(data[end:])
 
 
+def read_checked(raw: bytes) -> Lockstep | None:
+    """One whole TOWERLINK_LOCKSTEP frame whose CRC was already checked (a
+    common.mavlink.frame_parser Packet's ``raw``), read without checking it again; None when
+    it is another message."""
+    if not is_lockstep(raw):        # (MAVLink 1 cannot carry its id)
+        return None
+    payload = bytes(raw[10:10 + min(raw[1], _PAYLOAD.size)])
+    time_usec, period, target, kind, who, lag = _PAYLOAD.unpack(payload + bytes(_PAYLOAD.size - len(payload)))
+    return Lockstep(time_usec, kind, who, target, period, raw[5], raw[6], lag)
+
+
 def speedup_arg(text: str) -> float:
     """--speedup: a number > 0 (at most N times real time) or ``max`` (as fast as the slowest
     lockstep participant and the CPU allow): float('inf'). Raises ValueError."""

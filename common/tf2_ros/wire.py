@@ -31,12 +31,19 @@ def _usec(stamp: float) -> int:
     return int(round(s * 1e6))
 
 
+def _numbers(tr) -> tuple[list[float], list[float]]:
+    """(translation, rotation) of a transform as lists of floats (a Transform's own tuples: the
+    bridge sends about three a frame)."""
+    if type(tr) is Transform:
+        return list(tr.xyz), list(tr.xyzw)
+    return [float(v) for v in tr.translation], [float(v) for v in tr.rotation]
+
+
 def transform_message(ts: TransformStamped, static: bool = False):
     """TOWERLINK_TRANSFORM message object for one stamped transform."""
-    tr = ts.transform
+    translation, rotation = _numbers(ts.transform)
     return tl.MAVLink_towerlink_transform_message(
-        _usec(ts.stamp), frame_bytes(ts.frame_id), frame_bytes(ts.child_frame_id),
-        [float(v) for v in tr.translation], [float(v) for v in tr.rotation],
+        _usec(ts.stamp), frame_bytes(ts.frame_id), frame_bytes(ts.child_frame_id), translation, rotation,
         STATIC_FLAG if static else 0)
 
 
@@ -54,7 +61,6 @@ def transform_from_message(msg) -> tuple[TransformStamped, bool]:
 
 def static_transform_message(ts: TransformStamped, target_system: int = 0):
     """TOWERLINK_STATIC_TRANSFORM asking a bridge to add `ts` to its buffer."""
-    tr = ts.transform
+    translation, rotation = _numbers(ts.transform)
     return tl.MAVLink_towerlink_static_transform_message(
-        target_system, 0, frame_bytes(ts.frame_id), frame_bytes(ts.child_frame_id),
-        [float(v) for v in tr.translation], [float(v) for v in tr.rotation])
+        target_system, 0, frame_bytes(ts.frame_id), frame_bytes(ts.child_frame_id), translation, rotation)

@@ -18,13 +18,15 @@ from collections import deque
 from typing import Any
 
 from common.mavlink.frame_parser import FrameParser, MsgInfo, Packet, field_offsets, message_table
+from common.mavlink.message_codec import MessageCodec
 from gcs.client.tlog import Tlog
 
-_TABLES: dict[str, tuple[dict[int, MsgInfo], dict[int, int]]] = {}
+_TABLES: dict[str, tuple[dict[int, MsgInfo], dict[int, int], MessageCodec]] = {}
 
 
-def _tables(module: Any) -> tuple[dict[int, MsgInfo], dict[int, int]]:
-    """A dialect's frame table and, per message id with a time_boot_ms field, its payload offset."""
+def _tables(module: Any) -> tuple[dict[int, MsgInfo], dict[int, int], MessageCodec]:
+    """A dialect's frame table, per message id with a time_boot_ms field its payload offset, and
+    its decoder."""
     name = module.__name__
     if name not in _TABLES:
         offsets = {}
@@ -32,7 +34,7 @@ def _tables(module: Any) -> tuple[dict[int, MsgInfo], dict[int, int]]:
             ofs = field_offsets(cls).get("time_boot_ms")
             if ofs is not None:
                 offsets[msgid] = ofs
-        _TABLES[name] = (message_table(module.mavlink_map), offsets)
+        _TABLES[name] = (message_table(module.mavlink_map), offsets, MessageCodec(module))
     return _TABLES[name]
 
 
@@ -43,8 +45,7 @@ class LazyReceiver:
         """`master`: a pymavlink udpout connection (see :meth:`serves`); `tlog`: where every
         packet received is recorded as it came."""
         module = sys.modules[type(master.mav).__module__]
-        self.table, self._boot_ofs = _tables(module)
-        self._decoder = module.MAVLink(None)
+        self.table, self._boot_ofs, self._decoder = _tables(module)
         self.master = master
         self.tlog = tlog
         self._undecoded = 0
@@ -80,8 +81,7 @@ class LazyReceiver:
                 self.master.auto_mavlink_version(data)
             pkts = self.parser.feed(data, datagram=True)
             if self.tlog is not None:
-                for p in pkts:
-                    self.tlog.write_raw(p.raw)
+                self.tlog.write_packets(pkts)
             self._pending.extend(pkts)
 
     def take_bad(self) -> int:
@@ -98,7 +98,7 @@ class LazyReceiver:
     def decode(self, pkt: Packet) -> Any | None:
         """The pymavlink message in `pkt`, or None when it does not decode."""
         try:
-            return self._decoder.decode(bytearray(pkt.raw))
+            return self._decoder.decode(pkt.raw)
         except Exception:  # noqa: BLE001 - pymavlink raises its own error types
             self._undecoded += 1
             return None

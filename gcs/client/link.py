@@ -299,16 +299,18 @@ class Link(SigningViews):
             self._lockstep_send(ls.ACK, due)
 
     def _poll_tick(self) -> int:
-        self._maybe_heartbeat()                 # before the ACK: it belongs to this TICK
+        # the heartbeat is due on the TICKs' clock, which stands still until the next TICK ends
+        # this poll: one look here, before the ACK (it belongs to this TICK), serves the whole poll
+        self._maybe_heartbeat()
         self._send_due_ack()
         end = time.monotonic() + self.lockstep_timeout
         n = 0
         while True:
-            self._maybe_heartbeat()
             # JOIN until the first TICK, and again after a second without one (a restarted
             # bridge does not know us; the world may have dropped us)
-            if time.monotonic() - self._last_join >= (JOIN_PERIOD if self.ticks.tick_usec is None else 1.0) and \
-                    time.monotonic() - self._last_tick_wall >= 1.0:
+            wall = time.monotonic()
+            if wall - self._last_join >= (JOIN_PERIOD if self.ticks.tick_usec is None else 1.0) and \
+                    wall - self._last_tick_wall >= 1.0:
                 self._join()
             try:
                 got = self._receive(0.1)

@@ -27,6 +27,13 @@ class Tlog:
             usec = int(time.time() * 1.0e6) & ~3
             self._f.write(_STAMP.pack(usec) + data)
 
+    def write_packets(self, packets) -> None:
+        """Record the packets of one datagram received (each with its bytes in ``raw``), all
+        with the one stamp of their arrival, in one write."""
+        if self._f is not None and packets:
+            stamp = _STAMP.pack(int(time.time() * 1.0e6) & ~3)
+            self._f.write(b"".join(stamp + p.raw for p in packets))
+
     def on_sent(self, msg: Any, *_a: Any, **_k: Any) -> None:
         """pymavlink's send callback (MAVLink.set_send_callback)."""
         self.write(msg)
