@@ -5,7 +5,8 @@ that change).
 
 The scenario: the default world (one drone, one rover), start time fixed, every SR0_* stream
 group at 10 Hz, PID_TUNING on every axis, ATTITUDE_TARGET asked for; both vehicles armed in
-GUIDED, the drone takes off and flies to a point, the rover drives to it, the drone lands and
+GUIDED, the drone takes off and flies to a point, the rover drives to it (tools/bench_default_world.py's
+flight), then the drone lands and
 disarms (ARM / EV / MODE / MSG records) while the rover goes on. Each vehicle's telemetry
 (every datagram its udpout endpoint sends) and each log file are hashed.
 
@@ -41,6 +42,7 @@ def run_scenario(state_dir: str) -> dict[str, str]:
     """{"<vehicle> telemetry" / "<vehicle> log <name>": sha256 hex} of the scenario (module doc)."""
     from pymavlink.dialects.v20 import ardupilotmega as mav
 
+    from tools.bench_default_world import _fly as fly
     from vehicle.autopilot import modes
     from vehicle.world import World, WorldConfig
     w = World(WorldConfig(drones=1, rovers=1, seed=7, state_dir=state_dir, tcp_base=None, udp_base=None,
@@ -58,18 +60,8 @@ def run_scenario(state_dir: str) -> dict[str, str]:
         ps.set("GCS_PID_MASK", 15 if v.kind == "copter" else 3, save=False)
         v.link.streams.rebuild()
         v.link.streams._set_interval(mav.MAVLINK_MSG_ID_ATTITUDE_TARGET, 100_000)
-    drone, rover = (v.ap for v in w.vehicles)
-    while not all(v.ap.est_ok and v.ap.home is not None for v in w.vehicles):
-        w.run_for(0.1)
-    drone.set_mode(modes.GUIDED)
-    rover.set_mode(modes.ROVER_GUIDED)
-    for ap in (drone, rover):
-        assert ap.arm() == mav.MAV_RESULT_ACCEPTED, ap.prearm_failures()
-    drone.command(mav.MAV_CMD_NAV_TAKEOFF, [0, 0, 0, 0, 0, 0, 10.0])
-    w.run_for(6.0)
-    pos_only = 0b110111111000
-    drone.position_target_local(mav.MAV_FRAME_LOCAL_NED, pos_only, (20.0, 5.0, -10.0), (0, 0, 0), (0, 0, 0), 0, 0)
-    rover.position_target_local(mav.MAV_FRAME_LOCAL_NED, pos_only, (20.0, 5.0, 0.0), (0, 0, 0), (0, 0, 0), 0, 0)
+    fly(w)                              # both armed in GUIDED, on their way to a point 20 m off
+    drone = w.vehicles[0].ap
     w.run_for(8.0)
     drone.set_mode(modes.LAND)
     w.run_for(12.0)
