@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 
-.PHONY: demo test bench sweep clients venv mavsdk3 clean help
+.PHONY: demo test test-env bench sweep clients venv mavsdk3 clean help
 
 help:
 	@echo "make demo   - fly the default tower -> bridge -> drone -> rover scenario"
@@ -19,20 +19,24 @@ help:
 # editable install that is the point, so the first command a person runs stays quiet
 QUIET_EDITABLE := PYTHONWARNINGS='ignore:Editable installation'
 
-$(STAMP): pyproject.toml
+# the venv itself, with a current pip (its resolver and installs are faster than the one
+# python3.11's venv bundles)
+$(VENV)/pyvenv.cfg:
 	$(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
+
+$(STAMP): pyproject.toml | $(VENV)/pyvenv.cfg
 	$(QUIET_EDITABLE) $(BIN)/python -m pip install -q -e '.[test,plot]'
 	rm -f $(VENV)/.installed-*
 	touch $@
 
 # the test suite also runs the Ray sweep tests: test and sweep add the sweep extra (Ray, pyarrow, tqdm);
-# make demo does not need it
+# make demo does not need it. One pip call installs all of it (and so also makes STAMP's install)
 SWEEP_STAMP := $(VENV)/.installed-sweep-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
-$(SWEEP_STAMP): $(STAMP)
+$(SWEEP_STAMP): pyproject.toml | $(VENV)/pyvenv.cfg
 	$(QUIET_EDITABLE) $(BIN)/python -m pip install -q -e '.[test,plot,sweep]'
-	rm -f $(VENV)/.installed-sweep-*
-	touch $@
+	rm -f $(VENV)/.installed-*
+	touch $(STAMP) $@
 
 venv: $(STAMP)
 
@@ -40,7 +44,7 @@ venv: $(STAMP)
 # the test venv keeps 4.x, and examples/pytest/test_mavsdk3.py flies 3.x under MAVSDK3_PYTHON
 MAVSDK3 := $(VENV)/mavsdk3
 MAVSDK3_STAMP := $(MAVSDK3)/.installed
-$(MAVSDK3_STAMP): | $(STAMP)
+$(MAVSDK3_STAMP): | $(VENV)/pyvenv.cfg
 	$(PY) -m venv $(MAVSDK3)
 	$(MAVSDK3)/bin/python -m pip install -q 'mavsdk<4' pytest
 	touch $@
@@ -50,19 +54,25 @@ mavsdk3: $(MAVSDK3_STAMP)
 demo: $(STAMP)
 	$(BIN)/towerlink fly
 
+# what the suite needs: the project with its extras, and MAVSDK 3's environment built beside it
+# (two jobs: pip spends most of its time on one core)
+test-env:
+	@$(MAKE) --no-print-directory -j2 $(SWEEP_STAMP) $(MAVSDK3_STAMP)
+
 # tests/ and examples/pytest (pyproject's testpaths), in three passes (tests/conftest.py says why):
 # the tests that are not full-system on four workers (they mostly wait), the full-system ones that
 # fly in lockstep on two, then those marked `alone` one at a time. A module stays on one worker
 # (loadfile); the conftest hands out the longest modules first and --no-loadscope-reorder keeps
 # that order. The suite starts hundreds of Python processes: each compiles every module it
 # imports unless the .pyc files are written once, so bytecode writing is on here even where the
-# environment turns it off.
+# environment turns it off, and the project's own modules are compiled first, once.
 # on a machine other work already loads, MAVSDK's and MAVProxy's wall-clock retries can run out
 # with four workers: `make test FAST_WORKERS=2`
 FAST_WORKERS ?= 4
 test: export MAVSDK3_PYTHON := $(CURDIR)/$(MAVSDK3)/bin/python
 test: export PYTHONDONTWRITEBYTECODE :=
-test: $(SWEEP_STAMP) $(MAVSDK3_STAMP)
+test: test-env
+	$(BIN)/python -m compileall -q -j 0 common vehicle gcs bridge tools
 	$(BIN)/python -m pytest -q -n $(FAST_WORKERS) --dist loadfile --no-loadscope-reorder -m "not slow and not alone"
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder -m "slow and not alone"
 	$(BIN)/python -m pytest -q -m alone

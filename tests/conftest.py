@@ -11,12 +11,14 @@ built once; the modules are handed out longest first, see pytest_collection_modi
    clients of pass 1 (MAVSDK, MAVProxy, pymavlink's mavftp) give up on replies after wall
    seconds.
 3. the tests marked alone, one at a time: whole systems whose processes react on the wall
-   clock (not in lockstep), and wall-clock figures, which need the cores to themselves.
+   clock (not in lockstep), and wall-clock figures, which need the cores to themselves (beside
+   pass 2 even at a lower CPU priority, MAVSDK's mission upload timed out twice in two runs).
 `pytest -m slow` / `-m "not slow"` still pick either half.
 """
 from __future__ import annotations
 
 import collections
+import signal
 
 import pytest
 
@@ -34,6 +36,12 @@ def processes():
 
 
 def pytest_configure(config: pytest.Config) -> None:
+    # a run started in the background of a non-interactive shell (`make test &`, a script's
+    # `cmd &`) has SIGINT ignored, and so would every program the tests start (an ignored signal
+    # stays ignored across exec): the tests and the tools stop programs as Ctrl-C does, SIGINT
+    # and then SIGKILL after a grace, and would wait out every grace (20 s for a sweep's run)
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     config.addinivalue_line(
         "markers", "alone: judged on the wall clock (a whole system not in lockstep, a wall-clock "
                    "figure): `make test` runs it with nothing beside it, after the parallel passes")

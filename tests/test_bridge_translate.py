@@ -101,7 +101,8 @@ def test_named_frame_goal_waits_for_transform_then_goes(world):
     # 5 m along the drone's heading (north + 90 deg = east), level whatever its pitch
     np.testing.assert_allclose((m.x, m.y, m.z), (1, 2 + 5, -9), atol=1e-4)
     assert m.coordinate_frame == tl.MAV_FRAME_LOCAL_NED and (m.get_srcSystem(), m.get_srcComponent()) == (255, 190)
-    assert 1 not in bridge.goals.pending
+    # the bridge's thread sends the goal, then takes it off its list
+    wait_until(lambda: 1 not in bridge.goals.pending, 5, "the sent goal off the pending list")
 
 
 def test_stale_dynamic_transform_never_used(world):

@@ -5,6 +5,7 @@ Rover), MAV_CMD_DO_SEND_BANNER's texts and AUTOPILOT_VERSION's git-hash bytes.""
 from __future__ import annotations
 
 import re
+import time
 
 import pytest
 
@@ -95,6 +96,18 @@ def test_set_message_interval_sends_each_message_at_its_interval(flying):
         assert command(m, C.MAV_CMD_SET_MESSAGE_INTERVAL, msgid(name), 0) == C.MAV_RESULT_ACCEPTED
 
 
+def same_burst(m, first: str, then: str, timeout: float):
+    """The next `first` that `then` follows directly: two messages of one stream group (SR0_EXTRA1
+    sends ATTITUDE, then SIMSTATE), built in one tick of the world, so one instant."""
+    deadline, prev = time.monotonic() + timeout, None
+    while time.monotonic() < deadline:
+        msg = m.recv_match(type=[first, then], blocking=True, timeout=0.5)
+        if msg is not None and msg.get_type() == then and prev is not None:
+            return prev, msg
+        prev = msg if msg is not None and msg.get_type() == first else None
+    raise AssertionError(f"no {first} followed by {then} in {timeout} s")
+
+
 def test_request_message_answers_with_each(flying):
     m = flying
     got = {}
@@ -108,8 +121,10 @@ def test_request_message_answers_with_each(flying):
     assert got["FENCE_STATUS"].breach_status == 0 and got["RC_CHANNELS"].chan3_raw == 1000    # the receiver's
     assert got["POSITION_TARGET_GLOBAL_INT"].coordinate_frame == C.MAV_FRAME_GLOBAL
     assert command(m, C.MAV_CMD_REQUEST_MESSAGE, 12345) == C.MAV_RESULT_FAILED        # no such message
-    # the truth against itself, the controllers against their telemetry
-    s, att = got["SIMSTATE"], recv(m, "ATTITUDE", 5)
+    # the truth against itself, the controllers against their telemetry: an ATTITUDE and the
+    # SIMSTATE of the same instant (the requested SIMSTATE left a few messages ago, mid-leg)
+    assert -11 < got["SIMSTATE"].zacc < -8
+    att, s = same_burst(m, "ATTITUDE", "SIMSTATE", 5)
     assert abs(s.roll - att.roll) < 0.05 and abs(s.pitch - att.pitch) < 0.05 and -11 < s.zacc < -8
     assert got["PID_TUNING"].axis == C.PID_TUNING_ROLL and abs(got["PID_TUNING"].achieved - att.rollspeed) < 0.3
     assert got["WIND"].speed == 0.0 and all(2000 < r < 12000 for r in got["ESC_TELEMETRY_1_TO_4"].rpm)

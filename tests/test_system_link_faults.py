@@ -5,7 +5,7 @@ latency, reordering, duplicates, 12 kB/s down: below the telemetry's rate, so th
 queue fills and drops), with a battery sag on the drone at t = 2 s and
 a 2 s outage of the tower link at t = 14 s, and a 3 s GPS glitch on the drone at t = 6 s (SIM_GPS1_GLTCH_X:
 5.6 m north: "GPS Glitch" without an EKF failsafe). The mission still completes, and the
-summary says which failsafe the sag caused and when. Flown twice, at --speedup 2 beside a CPU-burning
+summary says which failsafe the sag caused and when. Flown twice, at --speedup 4 beside a CPU-burning
 process and at --speedup max: every figure of the two summaries is equal, the faults' times,
 the failsafes and the link's frame counts included (system_support.WALL_FIELDS aside).
 """
@@ -18,7 +18,7 @@ import sys
 import pytest
 
 from common.scenario import DEFAULT_SCENARIO
-from system_support import HOUSE, figures, finish, launched, tower_goals
+from system_support import HOUSE, PACED, assert_paced, figures, finish, launched, tower_goals
 from tools.run_data import load_run
 
 pytestmark = pytest.mark.slow
@@ -61,17 +61,18 @@ def fly(run_dir, scenario, speedup: float) -> dict:
     return json.loads((run_dir / "summary.json").read_text())
 
 
-def test_a_fault_timeline_gives_the_same_summary_at_2x_under_load_and_at_max(tmp_path):
+def test_a_fault_timeline_gives_the_same_summary_at_4x_under_load_and_at_max(tmp_path):
     scenario = tmp_path / "faults.toml"
     scenario.write_text(DEFAULT_SCENARIO.read_text() + FAULTS)
     burner = subprocess.Popen([sys.executable, "-c", "while True: pass"])
     try:
-        slow = fly(tmp_path / "x2_loaded", scenario, 2.0)
+        slow = fly(tmp_path / "x4_loaded", scenario, PACED)
     finally:
         burner.kill()
         burner.wait(5)
     fast = fly(tmp_path / "max", scenario, float("inf"))
     assert slow["ok"] and fast["ok"], slow.get("text")
+    assert_paced(slow, PACED)
     f = fast["faults"]
     link, battery, outage, glitch = f["faults"]
     # the link's faults are the proxy's own, at their TICK; a vehicle's is a PARAM_SET the world applies
@@ -79,7 +80,7 @@ def test_a_fault_timeline_gives_the_same_summary_at_2x_under_load_and_at_max(tmp
     assert (link["applied"], battery["applied"], outage["applied"], outage["cleared"]) == (0.0, 2.04, 14.0, 16.0)
     assert (glitch["applied"], glitch["cleared"]) == (6.04, 9.04)
     assert glitch["failsafes"] == []                                  # a small step: no EKF failsafe,
-    for run in ("x2_loaded", "max"):                                  # but the glitch check's warning
+    for run in ("x4_loaded", "max"):                                  # but the glitch check's warning
         said = [(round(t, 2), text) for t, _, text in load_run(tmp_path / run).texts[1] if "Glitch" in text]
         assert said and said[0] == (6.16, "GPS Glitch") and said[1][1] == "GPS Glitch cleared", said
     level, action = battery["failsafes"]                              # the monitor's level, the vehicle's words
@@ -96,4 +97,4 @@ def test_a_fault_timeline_gives_the_same_summary_at_2x_under_load_and_at_max(tmp
     a, b = figures(slow), figures(fast)
     assert len(a) > 60 and "faults.faults[1].failsafes[1].t" in a and "proxy.dropped.down" in a
     diff = {k: (a.get(k), b.get(k)) for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)}
-    assert diff == {}, f"figures that differ between 2x (loaded) and max: {diff}"
+    assert diff == {}, f"figures that differ between 4x (loaded) and max: {diff}"
