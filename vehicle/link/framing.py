@@ -14,34 +14,28 @@ Why: at 1,000 vehicles and ~70 messages per vehicle per second, building a pymav
 object per message (its attribute churn, packing and framing in Python) cost more than the rest
 of the vehicle's tick. (pymavlink's own CRC is already C when fastcrc is installed, as here.)
 
-The CRC is CRC-16/MCRF4XX (reflected 0x1021, init 0xFFFF). binascii.crc_hqx computes the
-unreflected CRC-16/XMODEM in C; reflecting the input bytes and the result turns one into the
-other (a reflected CRC of the data is the mirror of the unreflected CRC of the mirrored data,
-with the mirrored initial value, and 0xFFFF mirrors to itself).
+The CRC is CRC-16/MCRF4XX (common/mavlink/crc.py: fastcrc's C when installed) over the
+header after the magic byte, the payload and CRC_EXTRA.
 """
 from __future__ import annotations
 
 import inspect
 import struct
-from binascii import crc_hqx
 from collections.abc import Sequence
 from operator import itemgetter
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
+from common.mavlink.crc import x25crc
 from common.mavlink.signing import signature
+
+__all__ = ["Framer", "MessageLayout", "layout", "x25crc"]
 
 MAGIC_V2 = 253
 IFLAG_SIGNED = 0x01
-_HEADER = struct.Struct("<BBBBBBBHB")
-
-_MIRROR = bytes(int(f"{b:08b}"[::-1], 2) for b in range(256))
-
-
-def x25crc(data: bytes) -> int:
-    """MAVLink's X.25 CRC (CRC-16/MCRF4XX, initial 0xFFFF) of `data`."""
-    c = crc_hqx(data.translate(_MIRROR), 0xFFFF)
-    return (_MIRROR[c & 0xFF] << 8) | _MIRROR[c >> 8]
+_MAGIC = bytes((MAGIC_V2,))
+_HEADER_REST = struct.Struct("<BBBBBBHB")      # the header after the magic byte (the CRC's start)
+_CRC = struct.Struct("<H")
 
 
 class MessageLayout:
@@ -115,10 +109,9 @@ class Framer:
         signing = m.signing
         signed = signing.sign_outgoing
         msgid = lay.msgid
-        buf = _HEADER.pack(MAGIC_V2, len(trimmed), IFLAG_SIGNED if signed else 0, 0, m.seq,
-                           m.srcSystem, m.srcComponent, msgid & 0xFFFF, msgid >> 16) + trimmed
-        crc = x25crc(buf[1:] + lay.crc_byte)
-        buf += bytes((crc & 0xFF, crc >> 8))
+        body = _HEADER_REST.pack(len(trimmed), IFLAG_SIGNED if signed else 0, 0, m.seq,
+                                 m.srcSystem, m.srcComponent, msgid & 0xFFFF, msgid >> 16) + trimmed
+        buf = _MAGIC + body + _CRC.pack(x25crc(body + lay.crc_byte))
         if signed:
             buf += signature(signing.secret_key, buf, signing.link_id, signing.timestamp)
             signing.timestamp += 1

@@ -111,31 +111,24 @@ class Encoder:
         self.pack = self._fast_packer()
 
     def _fast_packer(self) -> Callable[..., bytes]:
-        """pack() for the common case, generated as one function per message (as dataclasses
-        generate __init__): each field scaled and rounded inline, no per-field call. A value
-        it cannot store as is (NaN, infinite, out of its type's range, a string) raises inside
-        and the record is packed again by the careful path (`_pack_checked`)."""
-        d = self.d
-        args = [f"v{i}" for i in range(len(d.fmt))]
-        exprs = []
-        for i, c in enumerate(d.fmt):
+        """pack() for the common case (`run_packer` of this one message)."""
+        if any(c in "nNZa" for c in self.d.fmt):
+            return self._pack_checked              # strings and arrays: the careful path
+        return run_packer([self])
+
+    def field_exprs(self, args: Sequence[str]) -> list[str]:
+        """Python expressions of the struct values of this record's fields (header first) from
+        the field values named `args`: each scaled and rounded inline, as `pack` stores them."""
+        exprs = [str(b) for b in self._head]
+        for a, c in zip(args, self.d.fmt):
             scale = FORMAT_CHARS[c][1]
             if c in "fd":
-                exprs.append(args[i])
-            elif c in "nNZa":
-                return self._pack_checked              # strings and arrays: the careful path
-            elif scale == 1.0:
-                exprs.append(f"_round({args[i]})")
+                exprs.append(a)
+            elif scale == 1.0:              # an int as it is (round() gives it back), else rounded
+                exprs.append(f"({a} if {a}.__class__ is _int else _round({a}))")
             else:
-                exprs.append(f"_round({args[i]} * {scale!r})")
-        src = (f"def pack({', '.join(args)}):\n"
-               f"    try:\n"
-               f"        return _pack({self._head[0]}, {self._head[1]}, {self._head[2]}, {', '.join(exprs)})\n"
-               f"    except (ValueError, OverflowError, TypeError, struct.error):\n"
-               f"        return _checked({', '.join(args)})\n")
-        scope = {"_round": round, "_pack": self.struct.pack, "_checked": self._pack_checked, "struct": struct}
-        exec(src, scope)            # noqa: S102 - generated from the format string above, no input
-        return scope["pack"]
+                exprs.append(f"_round({a} * {scale!r})")
+        return exprs
 
     def _pack_checked(self, *values) -> bytes:
         """One record from the field values (as DFReader reads them back, see the module)."""
@@ -150,6 +143,38 @@ class Encoder:
                 flat.extend(x) if i in self._array else flat.append(x)
             v = flat
         return self.struct.pack(*self._head, *v)
+
+
+def run_packer(encoders: Sequence[Encoder]) -> Callable[..., bytes]:
+    """pack(*values) of several records in a row (the values of each record after the one
+    before's): their bytes as the encoders' `pack` give them, joined, from one struct call.
+    Generated as one function (as dataclasses generate __init__): each field scaled and
+    rounded inline, no per-field or per-record call. A value a record cannot store as is
+    (NaN, infinite, out of its type's range) raises inside, and each record is packed again
+    by its encoder's careful path, so the bytes are the same either way. No strings or
+    arrays (they take the careful path always)."""
+    args: list[str] = []
+    exprs: list[str] = []
+    slices = []
+    for e in encoders:
+        if any(c in "nNZa" for c in e.d.fmt):
+            raise ValueError(f"{e.d.name}: strings and arrays are packed by the careful path")
+        mine = [f"v{len(args) + i}" for i in range(len(e.d.fmt))]
+        slices.append((e._pack_checked, len(args), len(args) + len(mine)))
+        args += mine
+        exprs += e.field_exprs(mine)
+    fmt = "<" + "".join(e.struct.format.lstrip("<") for e in encoders)
+
+    def checked(values: tuple) -> bytes:
+        return b"".join(pack(*values[lo:hi]) for pack, lo, hi in slices)
+    src = (f"def pack({', '.join(args)}):\n"
+           f"    try:\n"
+           f"        return _pack({', '.join(exprs)})\n"
+           f"    except (ValueError, OverflowError, TypeError, struct.error):\n"
+           f"        return _checked(({', '.join(args)},))\n")
+    scope = {"_round": round, "_int": int, "_pack": struct.Struct(fmt).pack, "_checked": checked, "struct": struct}
+    exec(src, scope)            # noqa: S102 - generated from the format strings above, no input
+    return scope["pack"]
 
 
 # FMT, UNIT, FMTU and MULT as LOG_COMMON_STRUCTURES declares them
@@ -168,6 +193,7 @@ class Schema:
         self.units = list(units)
         self.mults = list(mults)
         self.encoders: dict[str, Encoder] = {"FMT": Encoder(FMT_TYPE, FMT)}
+        self._runs: dict[tuple[str, ...], Callable[..., bytes]] = {}
         next_id = first_id
         for d in (UNIT, FMTU, MULT, *defs):
             if d.name in self.encoders:
@@ -186,6 +212,13 @@ class Schema:
 
     def __getitem__(self, name: str) -> Encoder:
         return self.encoders[name]
+
+    def packer(self, *names: str) -> Callable[..., bytes]:
+        """`run_packer` of these messages in this order (built once per schema and order)."""
+        run = self._runs.get(names)
+        if run is None:
+            run = self._runs[names] = run_packer([self.encoders[n] for n in names])
+        return run
 
     def fmt_record(self, e: Encoder) -> bytes:
         d = e.d

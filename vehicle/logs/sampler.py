@@ -50,7 +50,12 @@ def _deg360(rad: float) -> float:
 class Sampler:
     """Builds one vehicle's periodic records (`sample`) from its autopilot (`ap`: the
     estimate, home, EKF origin, battery, parameters, and its fleet's `controller_of` /
-    `drive_outputs` / `gps_fix` for vehicle `ap.i`)."""
+    `drive_outputs` / `gps_fix` for vehicle `ap.i`).
+
+    A sample's records are packed by one generated function (dataflash.run_packer) from the
+    floats the autopilot already holds: no per-record call, no numpy arithmetic. Integer
+    fields take the raw values (RC pulses, servo outputs): packing rounds and clamps them
+    exactly as the telemetry's wire_clamp does, so the bytes are the same."""
 
     def __init__(self, kind: str, schema: Schema, clock: Callable[[], float], phase: int = 0,
                  ap_rate: float = 50.0) -> None:
@@ -59,16 +64,24 @@ class Sampler:
         self.every = max(1, round(ap_rate / LOG_RATE))
         self.phase = phase % self.every
         self.ap_rate = ap_rate
-        s = schema
-        self.att, self.pos, self.xkf1, self.gps = s["ATT"].pack, s["POS"].pack, s["XKF1"].pack, s["GPS"].pack
-        self.bat, self.rcin, self.rcou = s["BAT"].pack, s["RCIN"].pack, s["RCOU"].pack
-        self.tune = s["CTUN"].pack if kind == "copter" else s["THR"].pack
+        rows = ("ATT", "CTUN" if kind == "copter" else "THR", "RCOU", "RCIN", "POS", "XKF1")
+        # (GPS fix, battery monitor) -> the records of a sample with or without them
+        self._packers = {(g, b): schema.packer(*rows, *(("GPS",) if g else ()), *(("BAT",) if b else ()))
+                         for g in (False, True) for b in (False, True)}
         self._outputs: OutputsTelemetry | None = None
+        self._origin: tuple = (None, None, (0.0, 0.0, 0.0))   # (EkfOrigin, its lla, its offset as floats)
 
     def due(self, t: float) -> bool:
         """True when the autopilot tick at sim time t is one this vehicle logs on (the
         world's tick count, so samples fall on the same instants whenever a log opened)."""
         return round(t * self.ap_rate) % self.every == self.phase
+
+    def _offset(self, lo, lla) -> tuple[float, float, float]:
+        """The EKF origin's world NED offset as floats (read once per origin)."""
+        o = self._origin
+        if o[0] is not lo or o[1] is not lla:
+            o = self._origin = (lo, lla, tuple(lo.offset.tolist()))
+        return o[2]
 
     def sample(self, ap, time_us: int, unix_us: int) -> bytes:
         """The records of one 10 Hz sample of vehicle `ap` at `time_us` (since boot)."""
@@ -77,54 +90,54 @@ class Sampler:
         vn, ve, vd = ap.vel.tolist()
         origin = ap.ekf_origin()
         if origin is not None:
-            pn, pe, pd = ap.local_origin.to_local(ap.pos).tolist()
+            ox, oy, oz = self._offset(ap.local_origin, origin)
+            px, py, pz = ap.pos.tolist()
+            pn, pe, pd = px - ox, py - oy, pz - oz           # local_origin.to_local, in floats
             oalt = origin[2]
         else:
             pn = pe = pd = 0.0
             oalt = alt
         p = ap.params.values
-        roll_d, pitch_d, yaw_d = roll * R2D, pitch * R2D, _deg360(yaw)
+        roll_d, pitch_d, yaw_d = roll * R2D, pitch * R2D, (yaw * R2D) % 360.0
         if self.kind == "copter":
-            out = self._copter(ap, p, time_us, yaw, alt, oalt, vd, roll_d, pitch_d, yaw_d)
+            tune = self._copter(ap, p, time_us, alt, oalt, vd, roll_d, pitch_d, yaw_d)
         else:
-            out = self._rover(ap, time_us, roll_d, pitch_d, yaw_d)
+            tune = self._rover(ap, time_us, roll_d, pitch_d, yaw_d)
         outputs = self._outputs
         if outputs is None or outputs.ap is not ap:
             outputs = self._outputs = OutputsTelemetry(ap, self.clock)
-        out.append(self.rcou(time_us, *outputs.servo_outputs()[:14]))
-        out.append(self.rcin(time_us, *outputs.rc_channels_fields()[2:16]))
-        out.append(self.pos(time_us, lat, lon, alt, alt - ap.home_lla()[2], alt - oalt))
-        out.append(self.xkf1(time_us, 0, roll_d, pitch_d, yaw_d, vn, ve, vd, vd, pn, pe, pd, 0.0, 0.0, 0.0, oalt))
+        rows = (*tune, time_us, *outputs.servo_outputs()[:14], time_us, *ap.rc.channels(14),
+                time_us, lat, lon, alt, alt - ap.home_lla()[2], alt - oalt,
+                time_us, 0, roll_d, pitch_d, yaw_d, vn, ve, vd, vd, pn, pe, pd, 0.0, 0.0, 0.0, oalt)
         fix = ap.fleet.gps_fix(ap.i)
         if fix is not None:
             glat, glon, galt = geo.ned_to_lla(ap.origin, fix[0:3])
             gvn, gve, gvd = fix[3:6]
             week, week_ms = gps_time(unix_us)
             spd = math.hypot(gvn, gve)
-            out.append(self.gps(time_us, 0, GPS_FIX_3D, week_ms, week, 10, 1.21, glat, glon, galt, spd,
-                                _deg360(math.atan2(gve, gvn)) if spd > 0.2 else 0.0, gvd, 0.0, 1))
-        b = ap.battery
-        if p.get("BATT_MONITOR", 4):
-            out.append(self.bat(time_us, 0, b.voltage, b.resting_voltage, b.current, b.consumed_mah,
-                                b.consumed_wh, 0.0, 0.0))
-        return b"".join(out)
+            rows += (time_us, 0, GPS_FIX_3D, week_ms, week, 10, 1.21, glat, glon, galt, spd,
+                     _deg360(math.atan2(gve, gvn)) if spd > 0.2 else 0.0, gvd, 0.0, 1)
+        bat = bool(p.get("BATT_MONITOR", 4))
+        if bat:
+            b = ap.battery
+            rows += (time_us, 0, b.voltage, b.resting_voltage, b.current, b.consumed_mah, b.consumed_wh, 0.0, 0.0)
+        return self._packers[fix is not None, bat](*rows)
 
-    def _copter(self, ap, p, time_us, yaw, alt, oalt, vd, roll_d, pitch_d, yaw_d) -> list[bytes]:
-        """ATT with the attitude target, CTUN with the position target (altitudes above the
-        EKF origin in m, climb rates up in cm/s) and the collective."""
+    def _copter(self, ap, p, time_us, alt, oalt, vd, roll_d, pitch_d, yaw_d) -> tuple:
+        """ATT's values with the attitude target, then CTUN's with the position target
+        (altitudes above the EKF origin in m, climb rates up in cm/s) and the collective."""
         c = ap.fleet.controller_of(ap.i)
         des_yaw = math.atan2(math.sin(c.yaw), math.cos(c.yaw))
-        att = self.att(time_us, math.atan(c.tan_roll_t) * R2D, roll_d, math.atan(c.tan_pitch_t) * R2D, pitch_d,
-                       _deg360(des_yaw), yaw_d, 0, 0, AEKF_EKF3)
-        ctun = self.tune(time_us, 0.0, 0.0, c.coll, p.get("MOT_THST_HOVER", 0.45), ap.origin[2] - c.pz - oalt,
-                         alt - oalt, alt - oalt, 0.0, 0.0, 0.0, -c.vz * 100.0, -vd * 100.0)
-        return [att, ctun]
+        return (time_us, math.atan(c.tan_roll_t) * R2D, roll_d, math.atan(c.tan_pitch_t) * R2D, pitch_d,
+                _deg360(des_yaw), yaw_d, 0, 0, AEKF_EKF3,
+                time_us, 0.0, 0.0, c.coll, p.get("MOT_THST_HOVER", 0.45), ap.origin[2] - c.pz - oalt,
+                alt - oalt, alt - oalt, 0.0, 0.0, 0.0, -c.vz * 100.0, -vd * 100.0)
 
-    def _rover(self, ap, time_us, roll_d, pitch_d, yaw_d) -> list[bytes]:
-        """ATT (no attitude target: the attitude), THR: the speed command against the
-        speed, throttle as the command's share of the top speed (%), lateral acceleration."""
+    def _rover(self, ap, time_us, roll_d, pitch_d, yaw_d) -> tuple:
+        """ATT's values (no attitude target: the attitude), then THR's: the speed command
+        against the speed, throttle as the command's share of the top speed (%), lateral
+        acceleration."""
         v_cmd, speed, rate = ap.fleet.drive_outputs(ap.i)
         top = ap.fleet.gains_of(ap.i).max_speed or 1.0
-        att = self.att(time_us, roll_d, roll_d, pitch_d, pitch_d, yaw_d, yaw_d, 0, 0, AEKF_EKF3)
-        thr = self.tune(time_us, 0, max(-100.0, min(100.0, 100.0 * v_cmd / top)), v_cmd, speed, speed * rate)
-        return [att, thr]
+        return (time_us, roll_d, roll_d, pitch_d, pitch_d, yaw_d, yaw_d, 0, 0, AEKF_EKF3,
+                time_us, 0, max(-100.0, min(100.0, 100.0 * v_cmd / top)), v_cmd, speed, speed * rate)

@@ -61,6 +61,7 @@ class VehicleLog:
         self._rotate = False              # LOG_FILE_DSRMROT: close at the next disarmed tick
         self.catalog = LogCatalog(self.store, writer)
         self._next_check = 0.0
+        self._params_seen = -1            # ap.params.changes when the LOG_* parameters were last read
         self._events: list[tuple] = []    # (us, "arm" | "mode" | "text", value, extra) since the last tick
 
     def set_unix_start(self, unix_start_us: int) -> None:
@@ -91,9 +92,18 @@ class VehicleLog:
         since the last tick (in the order it happened) and the periodic samples."""
         armed = bool(ap.armed)
         s = self.session
-        if not self._events and armed == self._armed and s is None and t < self._next_check:
-            return                     # idle (most vehicles of a big world): one look a second
+        if not self._events and armed == self._armed:
+            if s is None:
+                if t < self._next_check:
+                    return             # idle (most vehicles of a big world): one look a second
+            elif self._writes and not self._rotate and ap.params.changes == self._params_seen:
+                # steady (a log open and written, nothing happened, the LOG_* parameters
+                # as they were): what the full pass below would do, without reading them again
+                self._next_check = t + CHECK_PERIOD
+                self._record(ap, s, t)
+                return
         self._next_check = t + CHECK_PERIOD
+        self._params_seen = ap.params.changes
         p = ap.params.values
         backend = int(p.get("LOG_BACKEND_TYPE", 1)) & 1
         disarmed_logging = int(p.get("LOG_DISARMED", 0)) != 0
@@ -112,10 +122,17 @@ class VehicleLog:
         if s is None:
             return
         if writes:
-            self._mission_progress(ap, s, self._us(t))
-            if self.sampler.due(t):
-                us = self._us(t)
-                s.add(self.sampler.sample(ap, us, self.unix_start_us + us))
+            self._record(ap, s, t)
+        else:
+            s.tick(t)
+
+    def _record(self, ap, s: LogSession, t: float) -> None:
+        """An autopilot tick of an open log taking records: CMD when AUTO moved on, the
+        periodic sample when due, the hand-over to the writer when due."""
+        self._mission_progress(ap, s, t)
+        if self.sampler.due(t):
+            us = self._us(t)
+            s.add(self.sampler.sample(ap, us, self.unix_start_us + us))
         s.tick(t)
 
     def _happened(self, ap, armed: bool, backend: int, disarmed_logging: bool, p, t: float) -> None:
@@ -159,13 +176,13 @@ class VehicleLog:
         self._mode = number
         self.session.write("MODE", us, number, number, reason)
 
-    def _mission_progress(self, ap, s: LogSession, us: int) -> None:
+    def _mission_progress(self, ap, s: LogSession, t: float) -> None:
         """CMD when AUTO moves on to a mission item."""
         seq = ap.mission_current()[0] if ap.mode_name == "AUTO" else None
         if seq != self._cmd_seq:
             self._cmd_seq = seq
             if seq is not None:
-                self._write_cmd(ap, s, us, seq)
+                self._write_cmd(ap, s, self._us(t), seq)
 
     def _write_cmd(self, ap, s: LogSession, us: int, seq: int) -> None:
         item = ap.missions.get(seq, MISSION)
