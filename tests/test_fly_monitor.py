@@ -130,3 +130,50 @@ def test_the_monitors_lockstep_frames_are_pymavlinks_signed_or_not(tmp_path):
                 mon.stop()
     finally:
         rx.close()
+
+
+def test_signed_acks_and_parameter_requests_from_two_threads_are_never_a_replay(tmp_path):
+    """The monitor's thread sends ACKs while the launcher's asks for parameters, both through one
+    signing stream: every frame must leave in the order it was signed, or the vehicle refuses
+    the older one as a replay (seen as a vehicle's bad_signature count in a signed lab run)."""
+    import sys
+    import threading
+
+    from common.mavlink import lockstep as wire
+    from common.mavlink.signing import SignatureCheck
+
+    key = b"s" * 32
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rx.bind(("127.0.0.1", 0))
+    rx.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 22)
+    addr = rx.getsockname()
+    mon = Monitor(tmp_path, dict(zip(("vehicles", "bridge"), free_ports(2))), signing_key=key, lockstep=True)
+    mon.addr_of[("vehicles", DRONE)] = addr
+    n = 3000
+    request = tl.MAVLink_param_request_read_message(DRONE, 1, b"WPNAV_SPEED", -1)
+    switch = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)         # threads swap as often as they can: the race shows at once
+    try:
+        acks = threading.Thread(target=lambda: [mon._lockstep_send(wire.ACK, i, addr) for i in range(n)])
+        acks.start()
+        for _ in range(n):
+            assert mon.send_to_vehicle(DRONE, request)
+        acks.join(30)
+    finally:
+        sys.setswitchinterval(switch)
+        mon.stop()
+    check, refused, got = SignatureCheck(key), [], 0
+    rx.settimeout(0.5)
+    try:
+        while True:
+            frame = rx.recv(300)
+            got += 1
+            why = check.check(frame, 255, 158)
+            if why is not None:
+                refused.append(why)
+    except socket.timeout:
+        pass
+    finally:
+        rx.close()
+    assert got == 2 * n
+    assert refused == []

@@ -71,6 +71,10 @@ class Monitor(threading.Thread):
         self._halt = threading.Event()
         self._wake, self._waker = socket.socketpair()     # stop() ends the select at once
         self.lock = threading.Lock()
+        # the monitor's thread (ACKs) and the launcher's (parameter requests, the follow driver)
+        # send through one signing stream: a frame must leave in the order it was signed, or the
+        # vehicle refuses the older one as a replay
+        self._send_lock = threading.Lock()
         self.sim_ms = 0
         self.origin: dict[int, tuple[float, float, float]] = {}
         self._newest: dict[tuple[int, int], bytes] = {}   # (sysid, msgid) -> newest frame (pose)
@@ -107,16 +111,28 @@ class Monitor(threading.Thread):
 
     def _lockstep_send(self, kind: int, t_usec: int, addr) -> None:
         if self.encoder.signing.sign_outgoing:
-            frame = self.tl.MAVLink_towerlink_lockstep_message(
-                t_usec, 0, kind, self.tl.TOWERLINK_LOCKSTEP_PARTICIPANT_OTHER, 0).pack(self.encoder)
-        else:   # an ACK is on the world's TICK chain: the lockstep codec packs the same bytes in half the time
-            enc = self.encoder
-            frame = wire.pack(kind, t_usec, participant=wire.OTHER, sysid=enc.srcSystem, compid=enc.srcComponent,
-                              seq=enc.seq)
+            self._send(self.tl.MAVLink_towerlink_lockstep_message(
+                t_usec, 0, kind, self.tl.TOWERLINK_LOCKSTEP_PARTICIPANT_OTHER, 0), addr)
+            return
+        # unsigned, an ACK is on the world's TICK chain: the lockstep codec packs the same bytes
+        # in half the time
+        enc = self.encoder
+        frame = wire.pack(kind, t_usec, participant=wire.OTHER, sysid=enc.srcSystem, compid=enc.srcComponent,
+                          seq=enc.seq)
         try:
             self.socks["vehicles"].sendto(frame, addr)
         except OSError:
             pass
+
+    def _send(self, msg, addr) -> bool:
+        """`msg` packed with the monitor's encoder and sent to `addr` under the send lock (see
+        __init__); False if the socket refused it."""
+        try:
+            with self._send_lock:
+                self.socks["vehicles"].sendto(msg.pack(self.encoder), addr)
+        except OSError:
+            return False
+        return True
 
     def _datagram(self, name: str, data: bytes, addr=None) -> None:
         if self.push is not None and name == "vehicles":
@@ -206,11 +222,7 @@ class Monitor(threading.Thread):
         addr = self.addr_of.get(("vehicles", sysid))
         if addr is None:
             return False
-        try:
-            self.socks["vehicles"].sendto(msg.pack(self.encoder), addr)
-        except OSError:
-            return False
-        return True
+        return self._send(msg, addr)
 
     def request_params(self, names: tuple[str, ...] = SCORING_PARAMS) -> None:
         """Ask the drone (through the world's push link, at the address the drone sends from:
