@@ -83,6 +83,10 @@ class WorldLockstep:
             sender = wire.sender(data)
             due = None if sender is None else self.gate.due(*sender, index, channel)
             if due is not None and (not self.at_boundary or due > self.t_usec()):
+                if link.signing_key:        # judged now, in arrival order with the sender's ACKs
+                    data = link.drop_refused_now(data)
+                    if not data:
+                        return True
                 self.held.append((due, link, data, channel))
                 return True
             return link.on_data(data, channel)
@@ -134,7 +138,7 @@ class WorldLockstep:
         keep = []
         for item in self.held:
             if item[0] <= t:
-                item[1].on_data(item[2], item[3])
+                item[1].on_data(item[2], item[3], signed_checked=True)
             else:
                 keep.append(item)
         self.held = keep

@@ -48,7 +48,7 @@ from vehicle.link.endpoints import Channel, Endpoint, make_endpoint, parse_endpo
 from vehicle.link.framing import Framer
 from vehicle.link.outbox import DIRECT, Outbox
 from vehicle.link.paced_queue import PacedQueue
-from vehicle.link.parsing import ChunkParser, NullFile, rejected
+from vehicle.link.parsing import ChunkParser, NullFile, rejected, split_frames
 
 COMP_ID = mav.MAV_COMP_ID_AUTOPILOT1
 
@@ -302,15 +302,16 @@ class LinkCore:
                 ep.send(buf)
 
     # ----- receiving -------------------------------------------------------------------------
-    def on_data(self, data: bytes, channel: Channel) -> bool:
-        """Parse and handle one received chunk; True if a packet in it passed the checks."""
+    def on_data(self, data: bytes, channel: Channel, signed_checked: bool = False) -> bool:
+        """Parse and handle one received chunk; True if a packet in it passed the checks.
+        signed_checked: its signatures were judged on arrival (:meth:`drop_refused_now`)."""
         msgs = self.parser.parse(data, channel)
         ok = False
         self._once, self._texts = {}, 0
         try:
             for m in msgs:
                 try:
-                    ok = self._classify_and_handle(m, channel) or ok
+                    ok = self._classify_and_handle(m, channel, signed_checked) or ok
                 except Exception:  # a handler bug must not kill the vehicle: count it, say where
                     self.stats["handler_error"] += 1
                     traceback.print_exc()
@@ -320,11 +321,11 @@ class LinkCore:
                 self.send(build())
         return ok
 
-    def _classify_and_handle(self, m, channel: Channel) -> bool:
+    def _classify_and_handle(self, m, channel: Channel, signed_checked: bool = False) -> bool:
         """Count or route one parsed message; True if it passed the checks (a real peer)."""
         if rejected(m, self.stats):
             return False
-        if self.signing_key and not self.signature_ok(m.get_msgbuf(), m.get_srcSystem(), m.get_srcComponent()):
+        if self.signing_key and not signed_checked and not self.signature_ok(m.get_msgbuf(), m.get_srcSystem(), m.get_srcComponent()):
             return False
         self.stats["rx"] += 1
         if m.get_srcSystem() == self.sysid and m.get_srcComponent() == COMP_ID:
@@ -342,6 +343,16 @@ class LinkCore:
         if handler is not None:
             handler(m, channel)
         return True
+
+    def drop_refused_now(self, data: bytes) -> bytes:
+        """`data` without the frames whose signature this link refuses, judged now (and
+        counted): for a datagram handled later (the world holds a lockstep participant's
+        packets to a TICK boundary) while its sender's ACKs are judged on arrival. Judged
+        later, a frame is older than the newest of its stream: a replay. Hand what is left to
+        :meth:`on_data` with signed_checked."""
+        frames, rest = split_frames(data)
+        kept = [f for f, sysid, compid in frames if self.signature_ok(f, sysid, compid)]
+        return b"".join(kept) + rest
 
     def signature_ok(self, buf: bytes, sysid: int, compid: int) -> bool:
         """MAVLink 2 signing (common.mavlink.signing) of one raw frame (also the world's

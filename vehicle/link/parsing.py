@@ -75,3 +75,25 @@ class ChunkParser:
             parser.buf_index = 0
             parser.expected_length = mav.HEADER_LEN_V1 + 2
         return msgs
+
+
+def split_frames(data: bytes) -> tuple[list[tuple[bytes, int, int]], bytes]:
+    """The whole MAVLink frames at the start of `data` by their headers alone, each as (bytes,
+    sysid, compid), and what follows the last (from the first byte that starts no frame, or a
+    frame cut short); nothing is decoded or checked."""
+    frames, i, n = [], 0, len(data)
+    while i < n:
+        magic = data[i]
+        if magic == 0xFD and i + 10 <= n:
+            total = 12 + data[i + 1] + (13 if data[i + 2] & 1 else 0)
+            sysid, compid = data[i + 5], data[i + 6]
+        elif magic == 0xFE and i + 6 <= n:
+            total = 8 + data[i + 1]
+            sysid, compid = data[i + 3], data[i + 4]
+        else:
+            break
+        if i + total > n:
+            break
+        frames.append((data[i:i + total], sysid, compid))
+        i += total
+    return frames, data[i:]
