@@ -9,6 +9,7 @@ import math
 import shlex
 import socket
 import sys
+import threading
 import time
 
 import pytest
@@ -339,10 +340,16 @@ def test_with_vehicle_signing_a_forged_tick_does_not_cut_the_vehicles_frames():
         acked(period)
         drone.send_bytes(tick(10**12, signed=False))            # forged: refused by the signature check
         wait_until(lambda: bridge.vehicles[1].link.stats.unsigned >= 1, 5, "the forged TICK refused")
+        answered = threading.Event()    # set after the fake's own handler has sent the origin
+
+        def on_message(_ep, m) -> None:
+            if m.get_type() == "COMMAND_LONG" and m.command == tl.MAV_CMD_REQUEST_MESSAGE and int(m.param1) == 49:
+                answered.set()
+        drone.handlers.append(on_message)
         drone.heartbeat()           # signed: the bridge, once it handles it, asks for the origin
         drone.send_bytes(tick(2 * period))
         acked(2 * period)
-        time.sleep(0.3)             # the origin, the answer, arrives in the frame ending at 3t
+        wait_until(answered.is_set, 5, "the origin asked for and sent")   # in the frame ending at 3t
         drone.send_bytes(tick(3 * period))
         acked(3 * period)
         wait_until(lambda: bridge.origins.known("drone"), 5, "the drone's origin handled at its frame's TICK")
